@@ -1,0 +1,36 @@
+#pragma once
+// Named stages of a frame and the time each took (like Box2D's b2Profile).
+#include <array>
+#include <cstdint>
+#include <string_view>
+
+namespace haustra {
+
+enum class Stage : std::uint8_t {
+  loads,           // gravity + external loads → node forces
+  free_base,       // rigid drag of free bases
+  backward_sweep,  // node forces → generalized forces R
+  jacobian,        // Newton: assemble and factor the block-tridiagonal system
+  solve,           // lagged: prefactored M and the strain law; Newton: the block solve, with attachments
+  constraints,     // lagged: attachments, implicit through the Schur complement
+  forward_sweep,   // strains → node poses
+  filter,          // inertia filter
+  guard,           // finite values and bounds
+  count
+};
+
+inline constexpr std::size_t kStageCount = static_cast<std::size_t>(Stage::count);
+
+[[nodiscard]] std::string_view stage_name(Stage s) noexcept;
+
+struct FrameProfile {
+  std::array<double, kStageCount> seconds{};  // wall time per stage in this frame
+  std::array<std::uint32_t, kStageCount> calls{};
+  double frame_seconds = 0.0;
+  int substeps = 1;
+  int iterations = 0;  // fixed-point iterations run, summed over substeps
+  int retries = 0;     // frames redone by the robust mode
+  bool newton = false; // the frame that was kept ran Newton iterations
+};
+
+}  // namespace haustra

@@ -1,0 +1,103 @@
+#pragma once
+// A world: an immutable model (built once from a WorldDesc) and its per-frame state, stepped
+// frame by frame. Buffers are structure-of-arrays, contiguous across all segments; a segment is an
+// offset+count range into them. Views returned here stay valid until the next call to step().
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+
+#include "haustra/error.hpp"
+#include "haustra/kernels/pose.hpp"
+#include "haustra/kernels/spans.hpp"
+#include "haustra/profile.hpp"
+#include "haustra/world_desc.hpp"
+
+namespace haustra {
+
+struct Range {
+  std::size_t offset = 0;
+  std::size_t count = 0;
+};
+
+// What the model builder derived for one segment: stiffnesses, masses, and how well the rest
+// shape reproduces its source.
+struct SegmentInfo {
+  std::string name;
+  Range nodes;
+  double length = 0.0;                  // m, rest
+  double bending_stiffness = 0.0;       // B = π E R³ h_w, N·m²
+  double torsion_stiffness = 0.0;       // T = 2π G R³ h_w, N·m²
+  double axial_stiffness = 0.0;         // EA, A = 2π R h_w, N
+  std::array<double, 4> viscosity{};    // η per component, zero for elastic ones
+  double linear_density = 0.0;          // kg/m
+  double zeta = 0.0;                    // inertia filter regulator, 1/N
+  // Rest shape from a centreline: largest distance of the rod's interpolation nodes from the
+  // resampled polyline (reproduction error of the construction itself), and of the source
+  // polyline's vertices from the rod's curve (includes the resampling to N+1 nodes). Metres.
+  double rest_node_deviation = 0.0;
+  double rest_polyline_deviation = 0.0;
+};
+
+struct Event {
+  enum class Kind : std::uint8_t { recovered, unstable };
+  Kind kind = Kind::recovered;
+  std::uint64_t frame = 0;
+  std::size_t segment = 0;
+  std::size_t node = 0;
+  Stage stage = Stage::guard;
+  int substeps = 1;
+  std::string message;
+};
+
+class World {
+ public:
+  // Builds the model and the initial state. Throws haustra::Error naming the segment and field.
+  static std::unique_ptr<World> create(const WorldDesc& desc);
+  ~World();
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  // One frame of dt. On an instability the state stays at the last good frame and, once the
+  // robust mode (if enabled) cannot recover, Error{unstable} is thrown naming segment, node, stage.
+  void step();
+
+  [[nodiscard]] std::size_t segment_count() const;
+  [[nodiscard]] std::size_t node_count() const;  // all segments
+  [[nodiscard]] const SegmentInfo& segment(std::size_t index) const;
+  [[nodiscard]] double dt() const;
+  [[nodiscard]] std::uint64_t frame() const;
+  [[nodiscard]] double time() const;
+
+  [[nodiscard]] kernels::Vec3View<const double> node_positions() const;
+  [[nodiscard]] kernels::RotationView<const double> node_rotations() const;
+  [[nodiscard]] kernels::StrainView<const double> strains() const;
+  [[nodiscard]] kernels::StrainView<const double> rest_strains() const;
+  [[nodiscard]] std::span<const double> section_lengths() const;  // per node: section k at node k
+  [[nodiscard]] kernels::Pose base_pose(std::size_t segment) const;
+
+  // External load on one node (global node index), world frame, held until changed.
+  void set_external_load(std::size_t node, const Eigen::Vector3d& force,
+                         const Eigen::Vector3d& moment);
+  // Attachments are numbered per segment in the order of SegmentDesc::attachments.
+  void set_attachment_target(std::size_t segment, std::size_t attachment,
+                             const Eigen::Vector3d& position);
+  void set_attachment_target_rotation(std::size_t segment, std::size_t attachment,
+                                      const Eigen::Quaterniond& rotation);
+  void set_attachment_active(std::size_t segment, std::size_t attachment, bool active);
+  // Force (and moment) the attachment exerted on the rod in the last frame, world frame.
+  [[nodiscard]] Eigen::Vector3d attachment_force(std::size_t segment, std::size_t attachment) const;
+  [[nodiscard]] Eigen::Vector3d attachment_moment(std::size_t segment, std::size_t attachment) const;
+
+  [[nodiscard]] const FrameProfile& last_profile() const;
+  [[nodiscard]] std::span<const Event> events() const;
+  [[nodiscard]] int threads() const;
+
+  struct Impl;
+
+ private:
+  explicit World(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace haustra

@@ -1,0 +1,129 @@
+#pragma once
+// What a world is made of: plain, copyable descriptions filled by a scene file or by a host.
+// Units are SI throughout (m, kg, s, N, Pa). Defaults are the paper's (Chang et al. 2011) where it
+// gives one; docs/decisions/ explains the others.
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace haustra {
+
+// Index of a strain component in every 4-vector of strains.
+enum StrainComponent : std::uint8_t { kappa1 = 0, kappa2 = 1, torsion = 2, axial = 3 };
+
+enum class StrainLaw : std::uint8_t {
+  elastic,       // k M (q − q̂) = R
+  viscous,       // η M q̇ = R           (the paper's choice for bending and torsion)
+  kelvin_voigt,  // k M (q − q̂) + η M q̇ = R
+};
+
+enum class BaseMode : std::uint8_t {
+  clamped,  // node 0's pose is prescribed
+  free,     // node 0 moves rigidly against a viscous drag of the whole rod
+};
+
+enum class InstabilityPolicy : std::uint8_t {
+  stop,     // keep the last good frame and report the cause
+  recover,  // redo the frame with Newton, then with more substeps, then stop
+};
+
+enum class SolverMode : std::uint8_t {
+  lagged,  // the paper: R from the previous configuration, one tridiagonal solve. Fastest;
+           // diverges when load stiffness dominates (tension, large loads, soft rods).
+  newton,  // the implicit law solved by Newton on the block-tridiagonal mixed system, O(N).
+};
+
+struct MaterialDesc {
+  double youngs_modulus = 33.2e3;  // Pa, the paper's fit to Rosen et al.
+  double poisson_ratio = 0.35;     // the paper's
+  double density = 1050.0;         // kg/m³, soft tissue
+};
+
+struct CrossSectionDesc {
+  double radius = 0.02;           // m, centreline to the wall
+  double wall_thickness = 0.003;  // m
+};
+
+enum class RestShapeKind : std::uint8_t {
+  straight,         // a straight rod of `length` along the base tangent
+  constant_strain,  // a circular arc or helix: constant (κ1, κ2, τ) over `length`
+  centreline,       // a measured polyline (e.g. from CT), resampled to the nodes
+};
+
+struct RestShapeDesc {
+  RestShapeKind kind = RestShapeKind::straight;
+  double length = 1.66;                                     // m (straight, constant_strain)
+  Eigen::Vector3d curvature_torsion = Eigen::Vector3d::Zero();  // (κ1, κ2, τ), 1/m
+  std::vector<Eigen::Vector3d> centreline;                  // m (centreline)
+  std::string centreline_source;                            // where it came from, for messages
+};
+
+struct AttachmentDesc {
+  int node = -1;           // negative counts from the tip: −1 is the tip
+  bool hold_frame = false; // also hold the node's orientation (a clamp rather than a pin)
+  std::optional<Eigen::Vector3d> target;  // m; default: the node's initial position
+  bool active = true;
+};
+
+struct PointLoadDesc {
+  int node = -1;  // negative counts from the tip
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();   // N, world frame, constant direction
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();  // N·m, world frame
+};
+
+struct SegmentDesc {
+  std::string name = "segment";
+  int nodes = 167;  // N+1; the paper's count
+  RestShapeDesc rest;
+  Eigen::Vector3d base_position = Eigen::Vector3d::Zero();  // node 0 (straight, constant_strain)
+  Eigen::Vector3d base_tangent = Eigen::Vector3d::UnitX();  // d3 at node 0
+  Eigen::Vector3d base_normal = Eigen::Vector3d::UnitZ();   // hint for d1 at node 0
+  MaterialDesc material;
+  CrossSectionDesc cross_section;
+  std::optional<double> linear_density;  // kg/m; default: density × wall cross-section
+  // Law per component (κ1, κ2, τ, ε); the paper: viscous bending and torsion, elastic axial.
+  std::array<StrainLaw, 4> law = {StrainLaw::viscous, StrainLaw::viscous, StrainLaw::viscous,
+                                  StrainLaw::elastic};
+  double relaxation_time = 1.0;  // s; η_c = k_c × relaxation_time (the paper uses 1 s)
+  BaseMode base = BaseMode::clamped;
+  // N·s/m²: viscous drag of the surrounding medium per metre of rod (f = −c v on every node).
+  // It is what moves a free base; default 4 for a free base (a 0.4 kg/m rod falls at ~1 m/s),
+  // 0 for a clamped one.
+  std::optional<double> drag;
+  std::vector<AttachmentDesc> attachments;
+  std::vector<PointLoadDesc> loads;
+};
+
+struct SolverDesc {
+  SolverMode mode = SolverMode::newton;
+  int iterations = 1;        // per substep: fixed-point (lagged) or Newton iterations
+  int substeps = 1;          // per frame
+  double relaxation = 1.0;   // ω in (0, 1]: q ← q + ω (q* − q)
+  double tolerance = 0.0;    // stop iterating when the largest strain change × h is below this
+  InstabilityPolicy on_instability = InstabilityPolicy::recover;
+  int max_substeps = 64;     // the robust mode gives up beyond this
+  // Guard limits, checked at the end of every frame.
+  double max_axial_strain = 4.0;               // |ε|
+  double max_section_angle = std::numbers::pi; // |u| h, rad per section
+  double max_speed = 100.0;                    // m/s, any node
+};
+
+struct FilterDesc {
+  bool enabled = true;
+  double zeta_scale = 1.0;  // ζ = zeta_scale × π / (16 EA), the paper's regulator
+};
+
+struct WorldDesc {
+  Eigen::Vector3d gravity{0.0, 0.0, -9.81};
+  double dt = 1.0 / 60.0;
+  SolverDesc solver;
+  FilterDesc filter;
+  int threads = 0;  // 0: all hardware threads
+  std::vector<SegmentDesc> segments;
+};
+
+}  // namespace haustra

@@ -1,0 +1,462 @@
+#include "rod_stages.hpp"
+
+#include <Eigen/Dense>
+#include <cmath>
+
+#include "haustra/kernels/block_tridiagonal.hpp"
+#include "haustra/kernels/inertia_filter.hpp"
+#include "haustra/kernels/mass_matrix.hpp"
+#include "haustra/kernels/rod_backward_sweep.hpp"
+#include "haustra/kernels/rod_forward_sweep.hpp"
+#include "haustra/kernels/rod_loads.hpp"
+#include "haustra/kernels/rod_newton.hpp"
+#include "haustra/kernels/strain_update.hpp"
+
+namespace haustra::detail {
+namespace {
+
+constexpr int kMaxRows = static_cast<int>(kMaxConstraintRows);
+using MatrixS = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows, kMaxRows>;
+using VectorS = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRows, 1>;
+using Matrix6x = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxRows>;
+
+// Newton steps are scaled down to stay within these per frame of iteration (a trust region):
+// beyond them the linearization says little about the rod.
+constexpr double kMaxNewtonAngle = 0.5;   // rad of bend or twist per section
+constexpr double kMaxNewtonStretch = 0.25;
+
+kernels::MassMatrixFactorView factor_of(const WorldModel& model, const SegmentModel& seg) {
+  return {std::span<const double>(model.mass_inv_pivot).subspan(seg.node_offset, seg.node_count),
+          std::span<const double>(model.mass_lower).subspan(seg.node_offset, seg.node_count)};
+}
+
+kernels::StrainLawCoefficients law_of(const SegmentModel& seg, double dt) {
+  kernels::StrainLawCoefficients law;
+  for (std::size_t c = 0; c < 4; ++c) {
+    law.stiffness[c] = seg.stiffness[c];
+    law.rate[c] = seg.viscosity[c] / dt;
+  }
+  return law;
+}
+
+std::array<double, 4> law_total(const SegmentModel& seg, double dt) {
+  const kernels::StrainLawCoefficients law = law_of(seg, dt);
+  return {law.stiffness[0] + law.rate[0], law.stiffness[1] + law.rate[1], law.stiffness[2] + law.rate[2],
+          law.stiffness[3] + law.rate[3]};
+}
+
+std::span<const double> drag_of(const WorldModel& model, const SegmentModel& seg) {
+  return std::span<const double>(model.node_drag).subspan(seg.node_offset, seg.node_count);
+}
+
+std::span<const double> spin_drag_of(const WorldModel& model, const SegmentModel& seg) {
+  return std::span<const double>(model.node_spin_drag).subspan(seg.node_offset, seg.node_count);
+}
+
+void zero(kernels::Vec3View<double> v) {
+  std::fill(v.x.begin(), v.x.end(), 0.0);
+  std::fill(v.y.begin(), v.y.end(), 0.0);
+  std::fill(v.z.begin(), v.z.end(), 0.0);
+}
+
+// Generalized forces of the drag that a unit base twist `axis` meets, into `out`. Uses the node
+// load buffers as scratch: the backward sweep has consumed them by the time this runs.
+void unit_drag_field(const WorldModel& model, const SegmentModel& seg, const SegmentViews& v, std::size_t axis,
+                     kernels::StrainView<double> out) {
+  zero(v.force);
+  zero(v.moment);
+  kernels::add_rigid_drag_loads(v.poses.node_position, drag_of(model, seg), spin_drag_of(model, seg),
+                                v.poses.node_position.get(0), kernels::Vector6d::Unit(static_cast<Eigen::Index>(axis)),
+                                v.force, v.moment);
+  kernels::rod_backward_sweep(v.poses, v.section_length, v.force, v.moment, out);
+}
+
+// Wrench about node 0 of a unit constraint load, and the base twist it causes through the drag.
+kernels::Vector6d unit_wrench(const ConstraintRow& row, const SegmentViews& v) {
+  kernels::Vector6d w;
+  if (row.is_moment) {
+    w.head<3>() = row.dir;
+    w.tail<3>().setZero();
+  } else {
+    w.head<3>() = (v.poses.node_position.get(row.node) - v.poses.node_position.get(0)).cross(row.dir);
+    w.tail<3>() = row.dir;
+  }
+  return w;
+}
+
+// The attachment's remaining error along a row, measured on the current poses.
+double row_error(const ConstraintRow& row, const AttachmentState& as, const SegmentViews& v) {
+  const Eigen::Vector3d e =
+      row.is_moment ? kernels::rotation_log(as.target_rotation * v.poses.node_rotation.get(row.node).conjugate())
+                    : Eigen::Vector3d(as.target - v.poses.node_position.get(row.node));
+  return row.dir.dot(e);
+}
+
+}  // namespace
+
+std::size_t active_constraint_rows(const SegmentModel& seg, const WorldState& state, ConstraintRows& rows) {
+  std::size_t m = 0;
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
+    if (!state.now.attachment[seg.attachment_offset + a].active) continue;
+    for (int axis = 0; axis < 3; ++axis) rows[m++] = {seg.attachments[a].node, Eigen::Vector3d::Unit(axis), false, a};
+    if (seg.attachments[a].hold_frame)
+      for (int axis = 0; axis < 3; ++axis) rows[m++] = {seg.attachments[a].node, Eigen::Vector3d::Unit(axis), true, a};
+  }
+  return m;
+}
+
+kernels::Pose integrate_base(const kernels::Pose& start, const kernels::Vector6d& twist, double dt) {
+  kernels::Pose p;
+  p.rotation = (kernels::rotation_exp(dt * twist.head<3>()) * start.rotation).normalized();
+  p.position = start.position + dt * twist.tail<3>();
+  return p;
+}
+
+void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
+  const SegmentModel& seg = model.segments[segment];
+  const SegmentViews v = segment_views(model, state, segment);
+  kernels::assemble_node_loads(v.node_mass, model.gravity,
+                               state.external_force.view().subview(seg.node_offset, seg.node_count),
+                               state.external_moment.view().subview(seg.node_offset, seg.node_count), v.force,
+                               v.moment);
+  if (!p.newton) return;
+  // Newton solves for increments of the constraint forces; their current totals are loads.
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
+    const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
+    if (!as.active) continue;
+    const std::size_t k = seg.attachments[a].node;
+    v.force.set(k, v.force.get(k) + as.force);
+    v.moment.set(k, v.moment.get(k) + as.moment);
+  }
+  if (!seg.has_drag) return;
+  const auto r0 = state.position_substep_start.view().subview(seg.node_offset, seg.node_count);
+  const auto q0 = state.rotation_substep_start.view().subview(seg.node_offset, seg.node_count);
+  const std::span<const double> c = drag_of(model, seg);
+  const std::span<const double> sd = spin_drag_of(model, seg);
+  for (std::size_t k = 0; k < seg.node_count; ++k) {
+    v.force.set(k, v.force.get(k) - (c[k] / p.dt) * (v.poses.node_position.get(k) - r0.get(k)));
+    const Eigen::Vector3d turn = kernels::rotation_log(v.poses.node_rotation.get(k) * q0.get(k).conjugate());
+    v.moment.set(k, v.moment.get(k) - (sd[k] / p.dt) * turn);
+  }
+}
+
+void stage_free_base(const WorldModel& model, WorldState& state, std::size_t segment, double dt) {
+  const SegmentModel& seg = model.segments[segment];
+  if (seg.base_mode != BaseMode::free) return;
+  const SegmentViews v = segment_views(model, state, segment);
+  const Eigen::Vector3d origin = v.poses.node_position.get(0);
+  // The rod moves rigidly so that the drag balances the total load, C (ω, v) = W, and the drag
+  // loads join the node loads: the strains then see a self-equilibrated load, as a free body should.
+  const kernels::Matrix6d c = kernels::rigid_drag_resistance(v.poses.node_position, drag_of(model, seg),
+                                                             spin_drag_of(model, seg), origin);
+  const kernels::Vector6d w = kernels::total_wrench(v.poses.node_position, v.force, v.moment, origin);
+  const kernels::Vector6d twist = c.ldlt().solve(w);
+  state.base_resistance[segment] = c;
+  state.base_twist[segment] = twist;
+  kernels::add_rigid_drag_loads(v.poses.node_position, drag_of(model, seg), spin_drag_of(model, seg), origin, twist,
+                                v.force, v.moment);
+  state.now.base[segment] = integrate_base(state.base_substep_start[segment], twist, dt);
+}
+
+void stage_backward_sweep(const WorldModel& model, WorldState& state, std::size_t segment) {
+  const SegmentViews v = segment_views(model, state, segment);
+  kernels::rod_backward_sweep(v.poses, v.section_length, v.force, v.moment, v.generalized_force);
+}
+
+Eigen::Vector4d stage_solve(const WorldModel& model, WorldState& state, std::size_t segment,
+                            const SubstepParameters& p) {
+  const SegmentModel& seg = model.segments[segment];
+  const SegmentViews v = segment_views(model, state, segment);
+  kernels::mass_matrix_solve(factor_of(model, seg), v.generalized_force);
+  const double w = model.solver.relaxation;
+  return kernels::strain_update(v.generalized_force, v.rest, v.strain_start, law_of(seg, p.dt), {w, w, w, w},
+                                v.strain);
+}
+
+void stage_forward_sweep(const WorldModel& model, WorldState& state, std::size_t segment) {
+  const SegmentViews v = segment_views(model, state, segment);
+  kernels::rod_forward_sweep(state.now.base[segment], v.section_length, v.strain, v.poses);
+}
+
+void stage_constraints(const WorldModel& model, WorldState& state, std::size_t segment,
+                       const SubstepParameters& p) {
+  const SegmentModel& seg = model.segments[segment];
+  if (seg.constraint_rows == 0) return;
+  ConstraintRows rows{};
+  const std::size_t m = active_constraint_rows(seg, state, rows);
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
+    state.now.attachment[seg.attachment_offset + a].force.setZero();
+    state.now.attachment[seg.attachment_offset + a].moment.setZero();
+  }
+  if (m == 0) return;
+
+  const SegmentViews v = segment_views(model, state, segment);
+  const std::size_t n = seg.node_count;
+  const bool free_base = seg.base_mode == BaseMode::free;
+  double* scratch = state.constraint_scratch.data() + seg.constraint_scratch_offset;
+  auto g_row = [&](std::size_t j) { return kernels::StrainView<double>{std::span<double>(scratch + 4 * n * j, 4 * n)}; };
+  auto y_row = [&](std::size_t j) {
+    return kernels::StrainView<double>{std::span<double>(scratch + 4 * n * (seg.constraint_rows + j), 4 * n)};
+  };
+  auto h_col = [&](std::size_t i) {
+    return kernels::StrainView<double>{std::span<double>(scratch + 4 * n * (2 * seg.constraint_rows + i), 4 * n)};
+  };
+
+  // Rows of J at the linearization configuration (the poses the backward sweep used).
+  for (std::size_t j = 0; j < m; ++j)
+    kernels::rod_unit_load_generalized_force(v.poses, v.section_length, rows[j].node, rows[j].dir, rows[j].is_moment,
+                                             g_row(j));
+
+  // Free base: a constraint force also moves the base, ν_j = C⁻¹ w_j, and the drag that motion
+  // meets loads the strains too: H ν_j, with H the sweeps of the six unit-twist drag fields.
+  Matrix6x nu(6, static_cast<Eigen::Index>(m));
+  Matrix6x w(6, static_cast<Eigen::Index>(m));
+  if (free_base) {
+    const Eigen::LDLT<kernels::Matrix6d> c(state.base_resistance[segment]);
+    for (std::size_t i = 0; i < 6; ++i) unit_drag_field(model, seg, v, i, h_col(i));
+    for (std::size_t j = 0; j < m; ++j) {
+      w.col(static_cast<Eigen::Index>(j)) = unit_wrench(rows[j], v);
+      nu.col(static_cast<Eigen::Index>(j)) = c.solve(w.col(static_cast<Eigen::Index>(j)));
+    }
+  }
+
+  // Y_j = ω A⁻¹ Jᵀ P e_j: the strain response to a unit constraint force.
+  const kernels::StrainLawCoefficients law = law_of(seg, p.dt);
+  std::array<double, 4> scale{};
+  for (std::size_t c = 0; c < 4; ++c) scale[c] = model.solver.relaxation / (law.stiffness[c] + law.rate[c]);
+  for (std::size_t j = 0; j < m; ++j) {
+    const kernels::StrainView<double> y = y_row(j);
+    const kernels::StrainView<double> g = g_row(j);
+    std::copy(g.data.begin(), g.data.end(), y.data.begin());
+    if (free_base)
+      for (std::size_t i = 0; i < 6; ++i) {
+        const double f = nu(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+        const kernels::StrainView<double> h = h_col(i);
+        for (std::size_t e = 0; e < 4 * n; ++e) y.data[e] += f * h.data[e];
+      }
+    kernels::mass_matrix_solve(factor_of(model, seg), y);
+    for (std::size_t k = 0; k < n; ++k)
+      for (std::size_t c = 0; c < 4; ++c) y.at(k, c) *= scale[c];
+  }
+
+  // S = J Y (+ base mobility), in the linearization configuration.
+  const auto mi = static_cast<Eigen::Index>(m);
+  MatrixS s(mi, mi);
+  for (std::size_t i = 0; i < m; ++i) {
+    const std::size_t len = 4 * (rows[i].node + 1);  // G_i vanishes beyond its node
+    const double* gi = g_row(i).data.data();
+    for (std::size_t j = 0; j < m; ++j) {
+      const double* yj = y_row(j).data.data();
+      double dot = 0.0;
+      for (std::size_t e = 0; e < len; ++e) dot += gi[e] * yj[e];
+      if (free_base) dot += p.dt * w.col(static_cast<Eigen::Index>(i)).dot(nu.col(static_cast<Eigen::Index>(j)));
+      s(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = dot;
+    }
+  }
+
+  // Constraint error after the unconstrained update, measured exactly.
+  kernels::rod_forward_sweep(state.now.base[segment], v.section_length, v.strain, v.poses);
+  VectorS err(mi);
+  for (std::size_t j = 0; j < m; ++j)
+    err[static_cast<Eigen::Index>(j)] =
+        row_error(rows[j], state.now.attachment[seg.attachment_offset + rows[j].attachment], v);
+  const VectorS lambda = Eigen::FullPivLU<MatrixS>(s).solve(err);
+
+  for (std::size_t j = 0; j < m; ++j) {
+    const double l = lambda[static_cast<Eigen::Index>(j)];
+    const kernels::StrainView<double> y = y_row(j);
+    for (std::size_t e = 0; e < 4 * n; ++e) v.strain.data[e] += l * y.data[e];
+    AttachmentState& as = state.now.attachment[seg.attachment_offset + rows[j].attachment];
+    (rows[j].is_moment ? as.moment : as.force) += l * rows[j].dir;
+  }
+  if (free_base) {
+    state.base_twist[segment] += nu * lambda;
+    state.now.base[segment] = integrate_base(state.base_substep_start[segment], state.base_twist[segment], p.dt);
+  }
+}
+
+void stage_newton_jacobian(const WorldModel& model, WorldState& state, std::size_t segment,
+                           const SubstepParameters& p) {
+  const SegmentModel& seg = model.segments[segment];
+  const SegmentViews v = segment_views(model, state, segment);
+  NewtonWorkspace& ws = state.newton[segment];
+  kernels::NewtonDrag drag;
+  if (seg.has_drag) {
+    const std::span<const double> c = drag_of(model, seg);
+    const std::span<const double> sd = spin_drag_of(model, seg);
+    for (std::size_t k = 0; k < seg.node_count; ++k) {
+      ws.drag_force_rate[k] = c[k] / p.dt;
+      ws.drag_moment_rate[k] = sd[k] / p.dt;
+    }
+    drag = {ws.drag_force_rate, ws.drag_moment_rate};
+  }
+  ws.base_wrench = kernels::rod_newton_assemble(v.poses, v.section_length, v.force, v.moment, law_total(seg, p.dt), drag,
+                                                seg.base_mode == BaseMode::free, ws.distal_force.view(),
+                                                ws.distal_moment.view(), ws.system());
+  kernels::block_tridiagonal_factor(ws.system());
+}
+
+Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, std::size_t segment,
+                                   const SubstepParameters& p) {
+  constexpr int B = kernels::kNewtonBlock;
+  const SegmentModel& seg = model.segments[segment];
+  const SegmentViews v = segment_views(model, state, segment);
+  NewtonWorkspace& ws = state.newton[segment];
+  const std::size_t n = seg.node_count;
+  const std::array<double, 4> a = law_total(seg, p.dt);
+  const kernels::StrainLawCoefficients law = law_of(seg, p.dt);
+  const bool free_base = seg.base_mode == BaseMode::free;
+
+  // Residual ρ = R − A (q − q*), q* = (k q̂ + (η/Δt) q_start) / a.
+  const kernels::StrainView<double> target{ws.target};
+  for (std::size_t k = 0; k < n; ++k)
+    for (std::size_t c = 0; c < 4; ++c)
+      target.at(k, c) = (law.stiffness[c] * v.rest.at(k, c) + law.rate[c] * v.strain_start.at(k, c)) / a[c];
+  kernels::rod_strain_residual(v.generalized_force, v.strain, target, v.section_length, a,
+                               kernels::StrainView<double>{ws.residual});
+
+  ConstraintRows rows{};
+  const std::size_t m = seg.constraint_rows > 0 ? active_constraint_rows(seg, state, rows) : 0;
+  for (std::size_t at = 0; at < seg.attachments.size(); ++at) {
+    AttachmentState& as = state.now.attachment[seg.attachment_offset + at];
+    if (!as.active) {
+      as.force.setZero();
+      as.moment.setZero();
+    }
+  }
+  // Right-hand sides: column 0 the residual (and, for a free base, the unbalanced wrench);
+  // column 1+j the generalized force of a unit load along constraint row j.
+  const int cols = 1 + static_cast<int>(m);
+  const auto stride = static_cast<std::size_t>(B * cols);
+  auto entry = [&](std::size_t k, int row, int col) -> double& {
+    return ws.rhs[k * stride + static_cast<std::size_t>(col * B + row)];
+  };
+  std::fill_n(ws.rhs.begin(), n * stride, 0.0);
+  const kernels::StrainView<const double> residual{ws.residual};
+  for (std::size_t k = 0; k < n; ++k)
+    for (int c = 0; c < 4; ++c) entry(k, c, 0) = -residual.at(k, static_cast<std::size_t>(c));
+  if (free_base)
+    for (int i = 0; i < 6; ++i) entry(0, kernels::kNewtonRotation + i, 0) = -ws.base_wrench[i];
+  const kernels::StrainView<double> unit{ws.unit};
+  for (std::size_t j = 0; j < m; ++j) {
+    kernels::rod_unit_load_generalized_force(v.poses, v.section_length, rows[j].node, rows[j].dir, rows[j].is_moment,
+                                             unit);
+    for (std::size_t k = 0; k <= rows[j].node; ++k)
+      for (int c = 0; c < 4; ++c) entry(k, c, 1 + static_cast<int>(j)) = -unit.at(k, static_cast<std::size_t>(c));
+    if (free_base) {
+      // A unit load unbalances the free rod by its own wrench about node 0.
+      const kernels::Vector6d w = unit_wrench(rows[j], v);
+      for (int i = 0; i < 6; ++i) entry(0, kernels::kNewtonRotation + i, 1 + static_cast<int>(j)) = -w[i];
+    }
+  }
+  kernels::block_tridiagonal_solve(ws.system(), std::span<double>(ws.rhs.data(), n * stride), cols);
+
+  // Response of column `col` at a row's node, along the row's direction.
+  auto response = [&](const ConstraintRow& row, int col) {
+    const int first = row.is_moment ? kernels::kNewtonRotation : kernels::kNewtonPosition;
+    return row.dir.dot(Eigen::Vector3d(entry(row.node, first, col), entry(row.node, first + 1, col),
+                                       entry(row.node, first + 2, col)));
+  };
+  const auto mi = static_cast<Eigen::Index>(m);
+  VectorS dlambda = VectorS::Zero(mi);
+  if (m > 0) {
+    MatrixS s(mi, mi);
+    VectorS err(mi);
+    for (std::size_t j = 0; j < m; ++j) {
+      const AttachmentState& as = state.now.attachment[seg.attachment_offset + rows[j].attachment];
+      err[static_cast<Eigen::Index>(j)] = row_error(rows[j], as, v) - response(rows[j], 0);
+      for (std::size_t l = 0; l < m; ++l)
+        s(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(l)) = response(rows[j], 1 + static_cast<int>(l));
+    }
+    dlambda = Eigen::FullPivLU<MatrixS>(s).solve(err);
+  }
+  // The full step z = z_0 + Σ δλ_l z_l, folded into column 0.
+  for (std::size_t k = 0; k < n; ++k)
+    for (int r = 0; r < B; ++r) {
+      double d = entry(k, r, 0);
+      for (std::size_t l = 0; l < m; ++l) d += dlambda[static_cast<Eigen::Index>(l)] * entry(k, r, 1 + static_cast<int>(l));
+      entry(k, r, 0) = d;
+    }
+
+  // Trust region: scale the whole step so that no section turns or stretches too far at once.
+  double worst_angle = 0.0;
+  double worst_stretch = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Eigen::Vector3d du(entry(k, 0, 0), entry(k, 1, 0), entry(k, 2, 0));
+    worst_angle = std::max(worst_angle, du.norm() * seg.mean_section);
+    worst_stretch = std::max(worst_stretch, std::abs(entry(k, 3, 0)));
+  }
+  if (free_base) {
+    const Eigen::Vector3d dphi(entry(0, kernels::kNewtonRotation, 0), entry(0, kernels::kNewtonRotation + 1, 0),
+                               entry(0, kernels::kNewtonRotation + 2, 0));
+    worst_angle = std::max(worst_angle, dphi.norm());
+  }
+  double scale = 1.0;
+  if (worst_angle > kMaxNewtonAngle) scale = std::min(scale, kMaxNewtonAngle / worst_angle);
+  if (worst_stretch > kMaxNewtonStretch) scale = std::min(scale, kMaxNewtonStretch / worst_stretch);
+
+  Eigen::Vector4d change = Eigen::Vector4d::Zero();
+  for (std::size_t k = 0; k < n; ++k)
+    for (std::size_t c = 0; c < 4; ++c) {
+      const double d = scale * entry(k, static_cast<int>(c), 0);
+      v.strain.at(k, c) += d;
+      change[static_cast<Eigen::Index>(c)] = std::max(change[static_cast<Eigen::Index>(c)], std::abs(d));
+    }
+  for (std::size_t j = 0; j < m; ++j) {
+    AttachmentState& as = state.now.attachment[seg.attachment_offset + rows[j].attachment];
+    (rows[j].is_moment ? as.moment : as.force) += scale * dlambda[static_cast<Eigen::Index>(j)] * rows[j].dir;
+  }
+  if (free_base) {
+    kernels::Pose& base = state.now.base[segment];
+    const Eigen::Vector3d dphi(entry(0, kernels::kNewtonRotation, 0), entry(0, kernels::kNewtonRotation + 1, 0),
+                               entry(0, kernels::kNewtonRotation + 2, 0));
+    const Eigen::Vector3d dr(entry(0, kernels::kNewtonPosition, 0), entry(0, kernels::kNewtonPosition + 1, 0),
+                             entry(0, kernels::kNewtonPosition + 2, 0));
+    base.rotation = (kernels::rotation_exp(scale * dphi) * base.rotation).normalized();
+    base.position += scale * dr;
+  }
+  return change;
+}
+
+void stage_filter(const WorldModel& model, WorldState& state, std::size_t segment) {
+  const SegmentModel& seg = model.segments[segment];
+  const SegmentViews v = segment_views(model, state, segment);
+  const std::span<std::uint8_t> exempt = std::span(state.filter_exempt).subspan(seg.node_offset, seg.node_count);
+  std::fill(exempt.begin(), exempt.end(), std::uint8_t{0});
+  if (seg.base_mode == BaseMode::clamped) exempt[0] = 1;
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a)
+    if (state.now.attachment[seg.attachment_offset + a].active) exempt[seg.attachments[a].node] = 1;
+  kernels::inertia_filter(state.frame_start.position.view().subview(seg.node_offset, seg.node_count), v.node_mass,
+                          exempt, seg.info.zeta, model.dt, v.poses.node_position, v.poses.mid_position);
+}
+
+GuardResult stage_guard(const WorldModel& model, const WorldState& state, std::size_t segment) {
+  const SegmentModel& seg = model.segments[segment];
+  const SolverDesc& lim = model.solver;
+  const std::size_t off = seg.node_offset;
+  const std::size_t n = seg.node_count;
+  const double* q = state.now.strain.data() + 4 * off;
+  for (std::size_t k = 0; k < n; ++k)
+    for (std::size_t c = 0; c < 4; ++c)
+      if (!std::isfinite(q[4 * k + c])) return {false, k, Stage::solve, "strain (not finite)", q[4 * k + c], 0.0};
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const double h = model.section_length[off + k];
+    const Eigen::Vector3d u(0.5 * (q[4 * k] + q[4 * k + 4]), 0.5 * (q[4 * k + 1] + q[4 * k + 5]),
+                            0.5 * (q[4 * k + 2] + q[4 * k + 6]));
+    const double eps = 0.5 * (q[4 * k + 3] + q[4 * k + 7]);
+    if (std::abs(eps) > lim.max_axial_strain) return {false, k, Stage::solve, "axial strain", eps, lim.max_axial_strain};
+    if (u.norm() * h > lim.max_section_angle)
+      return {false, k, Stage::solve, "bend and twist angle of one section (rad)", u.norm() * h, lim.max_section_angle};
+  }
+  const auto pos = state.now.position.view().subview(off, n);
+  const auto prev = state.frame_start.position.view().subview(off, n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const Eigen::Vector3d r = pos.get(k);
+    if (!r.allFinite()) return {false, k, Stage::forward_sweep, "node position (not finite)", r.norm(), 0.0};
+    const double speed = (r - prev.get(k)).norm() / model.dt;
+    if (speed > lim.max_speed) return {false, k, Stage::forward_sweep, "node speed (m/s)", speed, lim.max_speed};
+  }
+  return {};
+}
+
+}  // namespace haustra::detail

@@ -1,0 +1,65 @@
+#pragma once
+// The rod stages of a frame, one segment at a time. Each reads the constant model and writes only
+// its own segment's slice of the state, so segments can run in parallel in any order and give the
+// same bits.
+#include <array>
+#include <string>
+
+#include "haustra/profile.hpp"
+#include "world_model.hpp"
+#include "world_state.hpp"
+
+namespace haustra::detail {
+
+struct SubstepParameters {
+  double dt = 0.0;                       // substep length
+  bool newton = false;                   // Newton iterations rather than the lagged update
+};
+
+// The active constraint rows of a segment: one per held axis of each active attachment.
+struct ConstraintRow {
+  std::size_t node = 0;
+  Eigen::Vector3d dir = Eigen::Vector3d::Zero();
+  bool is_moment = false;
+  std::size_t attachment = 0;
+};
+using ConstraintRows = std::array<ConstraintRow, kMaxConstraintRows>;
+std::size_t active_constraint_rows(const SegmentModel& seg, const WorldState& state, ConstraintRows& rows);
+
+
+// Gravity and external loads; in Newton mode also the attachments' accumulated constraint forces and
+// the medium's drag on the motion since the substep began.
+void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p);
+void stage_free_base(const WorldModel& model, WorldState& state, std::size_t segment, double dt);
+void stage_backward_sweep(const WorldModel& model, WorldState& state, std::size_t segment);
+// Returns the largest strain change of the update (per component).
+Eigen::Vector4d stage_solve(const WorldModel& model, WorldState& state, std::size_t segment,
+                            const SubstepParameters& p);
+void stage_constraints(const WorldModel& model, WorldState& state, std::size_t segment,
+                       const SubstepParameters& p);
+// Newton mode: assemble and factor the block-tridiagonal Jacobian at the current configuration.
+void stage_newton_jacobian(const WorldModel& model, WorldState& state, std::size_t segment,
+                           const SubstepParameters& p);
+// Newton mode: one Newton step of the implicit law with the attachments held (constraint forces
+// accumulate in the attachment state). Returns the largest strain change of the step.
+Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, std::size_t segment,
+                                   const SubstepParameters& p);
+void stage_forward_sweep(const WorldModel& model, WorldState& state, std::size_t segment);
+void stage_filter(const WorldModel& model, WorldState& state, std::size_t segment);
+
+struct GuardResult {
+  bool ok = true;
+  std::size_t node = 0;
+  Stage stage = Stage::guard;
+  // What failed, with its value and limit; formatted only on failure.
+  const char* quantity = "";
+  double value = 0.0;
+  double limit = 0.0;
+};
+
+GuardResult stage_guard(const WorldModel& model, const WorldState& state, std::size_t segment);
+
+// Twist (ω, v) about node 0 applied for dt to a base pose.
+kernels::Pose integrate_base(const kernels::Pose& start, const kernels::Vector6d& twist, double dt);
+
+}  // namespace haustra::detail

@@ -1,0 +1,332 @@
+#include "haustra/world.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <fmt/format.h>
+
+#include "rod_stages.hpp"
+#include "scheduler.hpp"
+#include "world_model.hpp"
+#include "world_state.hpp"
+
+namespace haustra {
+
+using detail::GuardResult;
+using detail::SubstepParameters;
+
+std::string_view stage_name(Stage s) noexcept {
+  switch (s) {
+    case Stage::loads: return "loads";
+    case Stage::free_base: return "free_base";
+    case Stage::backward_sweep: return "backward_sweep";
+    case Stage::jacobian: return "jacobian";
+    case Stage::solve: return "solve";
+    case Stage::constraints: return "constraints";
+    case Stage::forward_sweep: return "forward_sweep";
+    case Stage::filter: return "filter";
+    case Stage::guard: return "guard";
+    case Stage::count: break;
+  }
+  return "?";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+constexpr std::size_t kMaxEvents = 1024;
+constexpr int kGoodFramesBeforeRelaxing = 120;  // robust mode: frames before halving substeps again
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+}  // namespace
+
+struct World::Impl {
+  detail::WorldModel model;
+  detail::WorldState state;
+  detail::Scheduler scheduler;
+  FrameProfile profile;
+  std::vector<Event> events;
+  std::vector<GuardResult> guard;
+  // A rung of the robust mode's ladder: how a frame is attempted.
+  struct Rung {
+    int substeps;
+    bool newton;
+  };
+  Rung base{1, false};     // what the scene asked for
+  Rung current{1, false};  // what the robust mode runs now
+  int good_frames = 0;
+  bool any_free_base = false;
+  bool any_constraints = false;
+
+  explicit Impl(detail::WorldModel m, int threads) : model(std::move(m)), scheduler(threads) {
+    detail::init_world_state(model, state);
+    guard.resize(model.segments.size());
+    events.reserve(kMaxEvents);
+    base = {model.solver.substeps, model.solver.mode == SolverMode::newton};
+    current = base;
+    for (const auto& s : model.segments) {
+      any_free_base |= s.base_mode == BaseMode::free;
+      any_constraints |= s.constraint_rows > 0;
+    }
+  }
+
+  template <class F>
+  void run_stage(Stage stage, F&& fn) {
+    const Clock::time_point t0 = Clock::now();
+    scheduler.for_each(model.segments.size(), fn);
+    profile.seconds[static_cast<std::size_t>(stage)] += seconds_since(t0);
+    profile.calls[static_cast<std::size_t>(stage)] += 1;
+  }
+
+  // One attempt at a frame with `n` substeps, lagged or Newton. Returns the first segment that
+  // failed the guard, or model.segments.size() when all passed.
+  std::size_t run_frame(int n, bool newton) {
+    SubstepParameters p;
+    p.dt = model.dt / n;
+    p.newton = newton;
+    const std::size_t segs = model.segments.size();
+    for (int sub = 0; sub < n; ++sub) {
+      run_stage(Stage::loads, [&](std::size_t s) {
+        const auto& seg = model.segments[s];
+        const auto off = static_cast<std::ptrdiff_t>(seg.node_offset);
+        const auto cnt = static_cast<std::ptrdiff_t>(seg.node_count);
+        std::copy_n(state.now.strain.begin() + 4 * off, 4 * cnt, state.strain_substep_start.begin() + 4 * off);
+        if (newton && seg.has_drag) {
+          auto copy = [&](const std::vector<double>& from, std::vector<double>& to) {
+            std::copy_n(from.begin() + off, cnt, to.begin() + off);
+          };
+          copy(state.now.position.x, state.position_substep_start.x);
+          copy(state.now.position.y, state.position_substep_start.y);
+          copy(state.now.position.z, state.position_substep_start.z);
+          copy(state.now.rotation.w, state.rotation_substep_start.w);
+          copy(state.now.rotation.x, state.rotation_substep_start.x);
+          copy(state.now.rotation.y, state.rotation_substep_start.y);
+          copy(state.now.rotation.z, state.rotation_substep_start.z);
+        }
+        state.base_substep_start[s] = state.now.base[s];
+        state.segment_converged[s] = 0;
+      });
+      for (int it = 0; it < model.solver.iterations; ++it) {
+        auto active = [&](std::size_t s) { return state.segment_converged[s] == 0; };
+        run_stage(Stage::loads, [&](std::size_t s) {
+          if (active(s)) detail::stage_loads(model, state, s, p);
+        });
+        // Newton moves a free base inside its own system (the medium's drag on every node); the
+        // lagged scheme moves it rigidly against the total drag first.
+        if (any_free_base && !newton) {
+          run_stage(Stage::free_base, [&](std::size_t s) {
+            if (active(s)) detail::stage_free_base(model, state, s, p.dt);
+          });
+        }
+        run_stage(Stage::backward_sweep, [&](std::size_t s) {
+          if (active(s)) detail::stage_backward_sweep(model, state, s);
+        });
+        if (newton) {
+          run_stage(Stage::jacobian, [&](std::size_t s) {
+            if (active(s)) detail::stage_newton_jacobian(model, state, s, p);
+          });
+          run_stage(Stage::solve, [&](std::size_t s) {
+            if (active(s)) state.segment_change[s] = detail::stage_newton_solve(model, state, s, p);
+          });
+        } else {
+          run_stage(Stage::solve, [&](std::size_t s) {
+            if (active(s)) state.segment_change[s] = detail::stage_solve(model, state, s, p);
+          });
+          if (any_constraints)
+            run_stage(Stage::constraints, [&](std::size_t s) {
+              if (active(s)) detail::stage_constraints(model, state, s, p);
+            });
+        }
+        run_stage(Stage::forward_sweep, [&](std::size_t s) {
+          if (active(s)) detail::stage_forward_sweep(model, state, s);
+        });
+        profile.iterations += 1;
+        if (model.solver.iterations > 1) {
+          bool all = true;
+          for (std::size_t s = 0; s < segs; ++s) {
+            if (!active(s)) continue;
+            const Eigen::Vector4d& d = state.segment_change[s];
+            const double h = model.segments[s].mean_section;
+            if (std::max(d.head<3>().maxCoeff() * h, d[3]) <= model.solver.tolerance) state.segment_converged[s] = 1;
+            all = all && state.segment_converged[s] != 0;
+          }
+          if (all) break;
+        }
+      }
+    }
+    if (model.filter.enabled) run_stage(Stage::filter, [&](std::size_t s) { detail::stage_filter(model, state, s); });
+    run_stage(Stage::guard, [&](std::size_t s) { guard[s] = detail::stage_guard(model, state, s); });
+    for (std::size_t s = 0; s < segs; ++s)
+      if (!guard[s].ok) return s;
+    return segs;
+  }
+
+  std::string describe(std::size_t s, const GuardResult& g, int n) const {
+    const std::string what =
+        g.limit > 0.0 ? fmt::format("{} {:.4g} exceeds the limit {:.4g}", g.quantity, g.value, g.limit)
+                      : fmt::format("{}", g.quantity);
+    return fmt::format("frame {}: segment '{}' ({}), node {}: {} after stage '{}' with {} substep{}",
+                       state.frame, model.segments[s].info.name, s, g.node, what, stage_name(g.stage), n,
+                       n == 1 ? "" : "s");
+  }
+
+  void record(Event e) {
+    if (events.size() < kMaxEvents) events.push_back(std::move(e));
+  }
+
+  // The robust mode's ladder: the configured solver, then Newton, then Newton with twice the
+  // substeps each time up to solver.max_substeps. A frame that needed it keeps that rung for a
+  // while, then steps back down.
+
+  [[nodiscard]] bool can_escalate(const Rung& r) const {
+    return model.solver.on_instability == InstabilityPolicy::recover &&
+           (!r.newton || r.substeps < model.solver.max_substeps);
+  }
+
+  [[nodiscard]] Rung escalate(const Rung& r) const {
+    if (!r.newton) return {r.substeps, true};
+    return {std::min(2 * r.substeps, model.solver.max_substeps), true};
+  }
+
+  void step() {
+    const Clock::time_point t0 = Clock::now();
+    profile = FrameProfile{};
+    state.frame_start.copy_from(state.now);
+    Rung rung = current;
+    std::size_t first_segment = model.segments.size();
+    GuardResult first{};
+    Rung first_rung = rung;
+    for (;;) {
+      const std::size_t failed = run_frame(rung.substeps, rung.newton);
+      if (failed == model.segments.size()) break;
+      state.now.copy_from(state.frame_start);
+      if (first_segment == model.segments.size()) {
+        first_segment = failed;
+        first = guard[failed];
+        first_rung = rung;
+      }
+      if (can_escalate(rung)) {
+        rung = escalate(rung);
+        profile.retries += 1;
+        continue;
+      }
+      const GuardResult& g = guard[failed];
+      std::string msg = "unstable at " + describe(failed, g, rung.substeps) + ". ";
+      msg += model.solver.on_instability == InstabilityPolicy::recover
+                 ? fmt::format("Newton with solver.max_substeps = {} did not recover either. ", model.solver.max_substeps)
+                 : "solver.on_instability is \"stop\". ";
+      msg += "Lower the time step, raise solver.max_substeps or solver.iterations, or soften the loads. "
+             "The world keeps its last good frame.";
+      record({Event::Kind::unstable, state.frame, failed, g.node, g.stage, rung.substeps, msg});
+      profile.substeps = rung.substeps;
+      profile.newton = rung.newton;
+      profile.frame_seconds = seconds_since(t0);
+      throw Error(ErrorCode::unstable, msg);
+    }
+    if (first_segment != model.segments.size()) {
+      record({Event::Kind::recovered, state.frame, first_segment, first.node, first.stage, rung.substeps,
+              fmt::format("recovered: {}; the frame was redone with {}{} substep{}",
+                          describe(first_segment, first, first_rung.substeps), rung.newton ? "Newton and " : "",
+                          rung.substeps, rung.substeps == 1 ? "" : "s")});
+      current = rung;
+      good_frames = 0;
+    } else if ((current.substeps != base.substeps || current.newton != base.newton) &&
+               ++good_frames >= kGoodFramesBeforeRelaxing) {
+      current = current.substeps > base.substeps ? Rung{std::max(base.substeps, current.substeps / 2), current.newton}
+                                                 : base;
+      good_frames = 0;
+    }
+    profile.substeps = rung.substeps;
+    profile.newton = rung.newton;
+    state.frame += 1;
+    state.time += model.dt;
+    profile.frame_seconds = seconds_since(t0);
+  }
+
+  std::size_t attachment_index(std::size_t segment, std::size_t attachment) const {
+    if (segment >= model.segments.size())
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("segment index {} out of range (the world has {})", segment, model.segments.size()));
+    const auto& seg = model.segments[segment];
+    if (attachment >= seg.attachments.size())
+      throw Error(ErrorCode::invalid_argument, fmt::format("segment '{}' has {} attachments, asked for index {}",
+                                                           seg.info.name, seg.attachments.size(), attachment));
+    return seg.attachment_offset + attachment;
+  }
+};
+
+std::unique_ptr<World> World::create(const WorldDesc& desc) {
+  return std::unique_ptr<World>(new World(std::make_unique<Impl>(detail::build_world_model(desc), desc.threads)));
+}
+
+World::World(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+World::~World() = default;
+
+void World::step() { impl_->step(); }
+std::size_t World::segment_count() const { return impl_->model.segments.size(); }
+std::size_t World::node_count() const { return impl_->model.node_total; }
+const SegmentInfo& World::segment(std::size_t index) const {
+  if (index >= impl_->model.segments.size())
+    throw Error(ErrorCode::invalid_argument, fmt::format("segment index {} out of range", index));
+  return impl_->model.segments[index].info;
+}
+double World::dt() const { return impl_->model.dt; }
+std::uint64_t World::frame() const { return impl_->state.frame; }
+double World::time() const { return impl_->state.time; }
+kernels::Vec3View<const double> World::node_positions() const { return impl_->state.now.position.view(); }
+kernels::RotationView<const double> World::node_rotations() const { return impl_->state.now.rotation.view(); }
+kernels::StrainView<const double> World::strains() const {
+  return kernels::StrainView<const double>{impl_->state.now.strain};
+}
+kernels::StrainView<const double> World::rest_strains() const {
+  return kernels::StrainView<const double>{impl_->model.rest_strain};
+}
+std::span<const double> World::section_lengths() const { return impl_->model.section_length; }
+kernels::Pose World::base_pose(std::size_t segment) const {
+  if (segment >= impl_->model.segments.size())
+    throw Error(ErrorCode::invalid_argument, fmt::format("segment index {} out of range", segment));
+  return impl_->state.now.base[segment];
+}
+
+void World::set_external_load(std::size_t node, const Eigen::Vector3d& force, const Eigen::Vector3d& moment) {
+  if (node >= impl_->model.node_total)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("node index {} out of range (the world has {} nodes)", node, impl_->model.node_total));
+  if (!force.allFinite() || !moment.allFinite())
+    throw Error(ErrorCode::invalid_argument, "external load: force and moment must be finite");
+  impl_->state.external_force.view().set(node, force);
+  impl_->state.external_moment.view().set(node, moment);
+}
+
+void World::set_attachment_target(std::size_t segment, std::size_t attachment, const Eigen::Vector3d& position) {
+  if (!position.allFinite()) throw Error(ErrorCode::invalid_argument, "attachment target must be finite");
+  impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].target = position;
+}
+
+void World::set_attachment_target_rotation(std::size_t segment, std::size_t attachment,
+                                           const Eigen::Quaterniond& rotation) {
+  if (!rotation.coeffs().allFinite() || !(rotation.norm() > 0.0))
+    throw Error(ErrorCode::invalid_argument, "attachment rotation must be a finite, non-zero quaternion");
+  impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].target_rotation = rotation.normalized();
+}
+
+void World::set_attachment_active(std::size_t segment, std::size_t attachment, bool active) {
+  impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].active = active;
+}
+
+Eigen::Vector3d World::attachment_force(std::size_t segment, std::size_t attachment) const {
+  return impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].force;
+}
+
+Eigen::Vector3d World::attachment_moment(std::size_t segment, std::size_t attachment) const {
+  return impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].moment;
+}
+
+const FrameProfile& World::last_profile() const { return impl_->profile; }
+std::span<const Event> World::events() const { return impl_->events; }
+int World::threads() const { return impl_->scheduler.threads(); }
+
+}  // namespace haustra

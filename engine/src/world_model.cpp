@@ -1,0 +1,237 @@
+#include "world_model.hpp"
+
+#include <cmath>
+#include <fmt/format.h>
+#include <numbers>
+#include <set>
+
+#include "haustra/error.hpp"
+#include "haustra/kernels/mass_matrix.hpp"
+#include "haustra/kernels/rod_forward_sweep.hpp"
+#include "haustra/rest_shape.hpp"
+
+namespace haustra::detail {
+namespace {
+
+// Field checks. Every message says which field, what was expected, and what was given.
+[[noreturn]] void fail(const std::string& field, const std::string& detail) {
+  throw FieldError(ErrorCode::invalid_argument, field, detail);
+}
+
+void check_positive(const std::string& field, double v, const char* unit, double plausible_max,
+                    const char* hint = nullptr) {
+  if (!std::isfinite(v) || !(v > 0.0))
+    fail(field, fmt::format("expected a positive finite value in {}, got {}", unit, v));
+  if (v > plausible_max)
+    fail(field, fmt::format("{} {} is beyond the plausible maximum {} {}{}", v, unit, plausible_max, unit,
+                            hint != nullptr ? hint : ""));
+}
+
+void check_range(const std::string& field, double v, double lo, double hi, const char* what) {
+  if (!std::isfinite(v) || v < lo || v > hi) fail(field, fmt::format("expected {} in [{}, {}], got {}", what, lo, hi, v));
+}
+
+void check_int(const std::string& field, long long v, long long lo, long long hi) {
+  if (v < lo || v > hi) fail(field, fmt::format("expected an integer in [{}, {}], got {}", lo, hi, v));
+}
+
+void check_vector(const std::string& field, const Eigen::Vector3d& v, bool nonzero) {
+  if (!v.allFinite()) fail(field, "expected three finite numbers");
+  if (nonzero && !(v.norm() > 0.0)) fail(field, "expected a non-zero vector");
+}
+
+void check_solver(const SolverDesc& s) {
+  check_int("solver.iterations", s.iterations, 1, 10000);
+  check_int("solver.max_substeps", s.max_substeps, 1, 1 << 16);
+  check_int("solver.substeps", s.substeps, 1, s.max_substeps);
+  if (!(s.relaxation > 0.0) || s.relaxation > 1.0)
+    fail("solver.relaxation", fmt::format("expected a value in (0, 1], got {}", s.relaxation));
+  check_range("solver.tolerance", s.tolerance, 0.0, 1.0, "a dimensionless tolerance");
+  check_positive("solver.max_axial_strain", s.max_axial_strain, "(strain)", 1e3);
+  check_positive("solver.max_section_angle", s.max_section_angle, "rad", 2.0 * std::numbers::pi);
+  check_positive("solver.max_speed", s.max_speed, "m/s", 1e6);
+}
+
+std::size_t resolve_node(const std::string& field, int node, std::size_t node_count) {
+  const auto n = static_cast<long long>(node_count);
+  const long long k = node < 0 ? n + node : node;
+  if (k < 0 || k >= n)
+    fail(field, fmt::format("expected a node index in [{}, {}] (negative counts from the tip), got {}", -n, n - 1, node));
+  return static_cast<std::size_t>(k);
+}
+
+RestShape build_rest_shape(const SegmentDesc& d, const std::string& where) {
+  const kernels::Pose base{kernels::frame_from_tangent(d.base_tangent, d.base_normal), d.base_position};
+  switch (d.rest.kind) {
+    case RestShapeKind::straight:
+      return rest_shape_constant_strain(d.nodes, d.rest.length, Eigen::Vector3d::Zero(), base);
+    case RestShapeKind::constant_strain:
+      check_vector(where + ".curvature", d.rest.curvature_torsion, false);
+      return rest_shape_constant_strain(d.nodes, d.rest.length, d.rest.curvature_torsion, base);
+    case RestShapeKind::centreline:
+      if (d.rest.centreline.size() < 2)
+        fail(where + ".centreline", fmt::format("expected at least 2 points, got {}", d.rest.centreline.size()));
+      return rest_shape_from_centreline(d.rest.centreline, d.nodes, d.base_normal,
+                                        d.rest.centreline_source.empty() ? where + ".centreline"
+                                                                         : d.rest.centreline_source);
+  }
+  fail(where + ".rest", "unknown rest shape kind");
+}
+
+}  // namespace
+
+WorldModel build_world_model(const WorldDesc& desc) {
+  WorldModel m;
+  check_positive("world.dt", desc.dt, "s", 1.0);
+  check_vector("world.gravity", desc.gravity, false);
+  check_int("world.threads", desc.threads, 0, 1024);
+  check_solver(desc.solver);
+  check_range("filter.zeta_scale", desc.filter.zeta_scale, 0.0, 1e12, "a scale factor");
+  m.gravity = desc.gravity;
+  m.dt = desc.dt;
+  m.solver = desc.solver;
+  m.filter = desc.filter;
+
+  std::set<std::string> names;
+  for (std::size_t si = 0; si < desc.segments.size(); ++si) {
+    const SegmentDesc& d = desc.segments[si];
+    const std::string where = fmt::format("segment[{}]", si);
+    if (!names.insert(d.name).second) fail(where + ".name", fmt::format("the name '{}' is used twice", d.name));
+    check_int(where + ".nodes", d.nodes, 2, 10'000'000);
+    if (d.rest.kind != RestShapeKind::centreline)
+      check_positive(where + ".length", d.rest.length, "m", 1000.0);
+    check_vector(where + ".base_position", d.base_position, false);
+    check_vector(where + ".base_tangent", d.base_tangent, true);
+    check_vector(where + ".base_normal", d.base_normal, false);
+    check_positive(where + ".radius", d.cross_section.radius, "m", 0.5, " (lengths are in metres: did you mean millimetres?)");
+    check_positive(where + ".wall_thickness", d.cross_section.wall_thickness, "m", d.cross_section.radius,
+                   " (the wall cannot be thicker than the radius)");
+    check_positive(where + ".youngs_modulus", d.material.youngs_modulus, "Pa", 1e12);
+    check_range(where + ".poisson_ratio", d.material.poisson_ratio, 0.0, 0.4999, "a Poisson ratio");
+    check_positive(where + ".density", d.material.density, "kg/m³", 1e5);
+    if (d.linear_density) check_positive(where + ".linear_density", *d.linear_density, "kg/m", 1e4);
+    const bool any_viscous =
+        std::any_of(d.law.begin(), d.law.end(), [](StrainLaw l) { return l != StrainLaw::elastic; });
+    if (any_viscous) check_positive(where + ".relaxation_time", d.relaxation_time, "s", 1e9);
+    const double drag = d.drag.value_or(d.base == BaseMode::free ? 4.0 : 0.0);
+    if (d.base == BaseMode::free)
+      check_positive(where + ".drag", drag, "N·s/m² (a free base needs the drag of the medium to move against)", 1e9);
+    else
+      check_range(where + ".drag", drag, 0.0, 1e9, "a drag in N·s/m²");
+
+    RestShape rest = build_rest_shape(d, where);
+
+    SegmentModel seg;
+    seg.info.name = d.name;
+    seg.node_offset = m.node_total;
+    seg.node_count = static_cast<std::size_t>(d.nodes);
+    seg.info.nodes = {seg.node_offset, seg.node_count};
+    seg.info.length = rest.length;
+    seg.mean_section = rest.length / static_cast<double>(seg.sections());
+    seg.info.rest_node_deviation = rest.node_deviation;
+    seg.info.rest_polyline_deviation = rest.polyline_deviation;
+
+    // Paper §4.2: thin-walled tube of radius R and wall h_w.
+    const double e = d.material.youngs_modulus;
+    const double r = d.cross_section.radius;
+    const double hw = d.cross_section.wall_thickness;
+    const double g = e / (2.0 * (1.0 + d.material.poisson_ratio));
+    const double area = 2.0 * std::numbers::pi * r * hw;
+    seg.info.bending_stiffness = std::numbers::pi * e * r * r * r * hw;
+    seg.info.torsion_stiffness = 2.0 * std::numbers::pi * g * r * r * r * hw;
+    seg.info.axial_stiffness = e * area;
+    seg.info.linear_density = d.linear_density.value_or(d.material.density * area);
+    seg.info.zeta = desc.filter.zeta_scale * std::numbers::pi / (16.0 * seg.info.axial_stiffness);
+    const std::array<double, 4> k = {seg.info.bending_stiffness, seg.info.bending_stiffness,
+                                     seg.info.torsion_stiffness, seg.info.axial_stiffness};
+    seg.law = d.law;
+    for (std::size_t c = 0; c < 4; ++c) {
+      seg.stiffness[c] = d.law[c] == StrainLaw::viscous ? 0.0 : k[c];
+      seg.viscosity[c] = d.law[c] == StrainLaw::elastic ? 0.0 : k[c] * d.relaxation_time;
+    }
+    seg.info.viscosity = seg.viscosity;
+    seg.base_mode = d.base;
+    seg.has_drag = drag > 0.0;
+    seg.initial_base = rest.base;
+
+    // Per-node arrays.
+    const std::size_t n = seg.node_count;
+    m.section_length.resize(m.node_total + n, 0.0);
+    m.rest_strain.insert(m.rest_strain.end(), rest.strain.begin(), rest.strain.end());
+    for (std::size_t kk = 0; kk + 1 < n; ++kk) m.section_length[m.node_total + kk] = rest.section_length[kk];
+    for (std::size_t kk = 0; kk < n; ++kk) {
+      const double h_prev = kk > 0 ? rest.section_length[kk - 1] : 0.0;
+      const double h_next = kk + 1 < n ? rest.section_length[kk] : 0.0;
+      const double share = 0.5 * (h_prev + h_next);
+      m.node_mass.push_back(seg.info.linear_density * share);
+      m.node_drag.push_back(drag * share);
+      // Spinning a tube of radius R through the medium: drag × R² per length, which also keeps the
+      // rigid resistance invertible for a straight rod.
+      m.node_spin_drag.push_back(drag * r * r * share);
+    }
+    m.mass_inv_pivot.resize(m.node_total + n);
+    m.mass_lower.resize(m.node_total + n);
+    kernels::mass_matrix_factor(rest.section_length, std::span(m.mass_inv_pivot).subspan(m.node_total, n),
+                                std::span(m.mass_lower).subspan(m.node_total, n));
+
+    // Initial poses, for default attachment targets.
+    std::vector<double> buf(14 * n, 0.0);
+    auto col = [&](std::size_t i, std::size_t len) { return std::span<double>(buf.data() + i * n, len); };
+    kernels::RodPoses<double> poses{{col(0, n), col(1, n), col(2, n)},
+                                    {col(3, n), col(4, n), col(5, n), col(6, n)},
+                                    {col(7, n - 1), col(8, n - 1), col(9, n - 1)},
+                                    {col(10, n - 1), col(11, n - 1), col(12, n - 1), col(13, n - 1)}};
+    kernels::rod_forward_sweep(rest.base, rest.section_length, kernels::StrainView<const double>{rest.strain}, poses);
+
+    m.initial_load.resize(6 * (m.node_total + n), 0.0);
+    for (std::size_t li = 0; li < d.loads.size(); ++li) {
+      const std::string lw = fmt::format("{}.load[{}]", where, li);
+      const std::size_t node = resolve_node(lw + ".node", d.loads[li].node, n);
+      check_vector(lw + ".force", d.loads[li].force, false);
+      check_vector(lw + ".moment", d.loads[li].moment, false);
+      for (int j = 0; j < 3; ++j) {
+        m.initial_load[6 * (m.node_total + node) + static_cast<std::size_t>(j)] += d.loads[li].force[j];
+        m.initial_load[6 * (m.node_total + node) + 3 + static_cast<std::size_t>(j)] += d.loads[li].moment[j];
+      }
+    }
+
+    std::set<std::size_t> held;
+    seg.attachment_offset = m.attachment_total;
+    for (std::size_t ai = 0; ai < d.attachments.size(); ++ai) {
+      const AttachmentDesc& a = d.attachments[ai];
+      const std::string aw = fmt::format("{}.attachment[{}]", where, ai);
+      AttachmentModel am;
+      am.node = resolve_node(aw + ".node", a.node, n);
+      am.hold_frame = a.hold_frame;
+      if (!held.insert(am.node).second) fail(aw + ".node", fmt::format("node {} is already attached", am.node));
+      if (am.node == 0 && d.base == BaseMode::clamped)
+        fail(aw + ".node", "node 0 of a clamped segment is already held by its base");
+      am.first_row = seg.constraint_rows;
+      seg.constraint_rows += am.rows();
+      if (seg.constraint_rows > kMaxConstraintRows)
+        fail(aw, fmt::format("too many attachments: at most {} constraint rows per segment (3 per pin, 6 per clamp)",
+                             kMaxConstraintRows));
+      Eigen::Vector3d target = poses.node_position.get(am.node);
+      if (a.target) {
+        check_vector(aw + ".target", *a.target, false);
+        target = *a.target;
+      }
+      m.initial_attachment_target.push_back(target);
+      m.initial_attachment_rotation.push_back(poses.node_rotation.get(am.node));
+      m.initial_attachment_active.push_back(a.active ? 1 : 0);
+      seg.attachments.push_back(am);
+    }
+    m.attachment_total += seg.attachments.size();
+    if (seg.constraint_rows > 0) {
+      // G (unit-load generalized forces), Y (their solved responses) per row, and H (six
+      // rigid-drag fields) for a free base: 4 doubles per node each.
+      seg.constraint_scratch_offset = m.constraint_scratch_total;
+      m.constraint_scratch_total += 4 * n * (2 * seg.constraint_rows + (d.base == BaseMode::free ? 6 : 0));
+    }
+    m.node_total += n;
+    m.segments.push_back(std::move(seg));
+  }
+  return m;
+}
+
+}  // namespace haustra::detail

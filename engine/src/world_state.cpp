@@ -1,0 +1,133 @@
+#include "world_state.hpp"
+
+#include <algorithm>
+
+#include "haustra/kernels/rod_forward_sweep.hpp"
+
+namespace haustra::detail {
+namespace {
+
+void copy_vec3(Vec3Buffer& dst, const Vec3Buffer& src) {
+  std::copy(src.x.begin(), src.x.end(), dst.x.begin());
+  std::copy(src.y.begin(), src.y.end(), dst.y.begin());
+  std::copy(src.z.begin(), src.z.end(), dst.z.begin());
+}
+
+void copy_rot(RotationBuffer& dst, const RotationBuffer& src) {
+  std::copy(src.w.begin(), src.w.end(), dst.w.begin());
+  std::copy(src.x.begin(), src.x.end(), dst.x.begin());
+  std::copy(src.y.begin(), src.y.end(), dst.y.begin());
+  std::copy(src.z.begin(), src.z.end(), dst.z.begin());
+}
+
+void resize_persistent(PersistentState& p, std::size_t nodes, std::size_t segments, std::size_t attachments) {
+  p.strain.assign(4 * nodes, 0.0);
+  p.position.resize(nodes);
+  p.rotation.resize(nodes);
+  p.mid_position.resize(nodes);
+  p.mid_rotation.resize(nodes);
+  p.base.assign(segments, kernels::Pose{});
+  p.attachment.assign(attachments, AttachmentState{});
+}
+
+}  // namespace
+
+void NewtonWorkspace::allocate(std::size_t nodes, int columns) {
+  lower.assign(nodes, kernels::NewtonBlock::Zero());
+  diag.assign(nodes, kernels::NewtonBlock::Zero());
+  upper.assign(nodes, kernels::NewtonBlock::Zero());
+  pivots.assign(nodes, Eigen::PartialPivLU<kernels::NewtonBlock>(kernels::NewtonBlock::Identity()));
+  max_columns = columns;
+  rhs.assign(nodes * kernels::kNewtonBlock * static_cast<std::size_t>(columns), 0.0);
+  distal_force.resize(nodes);
+  distal_moment.resize(nodes);
+  residual.assign(4 * nodes, 0.0);
+  target.assign(4 * nodes, 0.0);
+  unit.assign(4 * nodes, 0.0);
+  drag_force_rate.assign(nodes, 0.0);
+  drag_moment_rate.assign(nodes, 0.0);
+}
+
+void PersistentState::copy_from(const PersistentState& o) {
+  std::copy(o.strain.begin(), o.strain.end(), strain.begin());
+  copy_vec3(position, o.position);
+  copy_rot(rotation, o.rotation);
+  copy_vec3(mid_position, o.mid_position);
+  copy_rot(mid_rotation, o.mid_rotation);
+  std::copy(o.base.begin(), o.base.end(), base.begin());
+  std::copy(o.attachment.begin(), o.attachment.end(), attachment.begin());
+}
+
+void init_world_state(const WorldModel& model, WorldState& state) {
+  const std::size_t n = model.node_total;
+  const std::size_t segs = model.segments.size();
+  resize_persistent(state.now, n, segs, model.attachment_total);
+  resize_persistent(state.frame_start, n, segs, model.attachment_total);
+  state.strain_substep_start.assign(4 * n, 0.0);
+  state.position_substep_start.resize(n);
+  state.rotation_substep_start.resize(n);
+  state.generalized_force.assign(4 * n, 0.0);
+  state.force.resize(n);
+  state.moment.resize(n);
+  state.external_force.resize(n);
+  state.external_moment.resize(n);
+  state.filter_exempt.assign(n, 0);
+  state.base_substep_start.assign(segs, kernels::Pose{});
+  state.base_twist.assign(segs, kernels::Vector6d::Zero());
+  state.base_resistance.assign(segs, kernels::Matrix6d::Identity());
+  state.constraint_scratch.assign(model.constraint_scratch_total, 0.0);
+  state.segment_converged.assign(segs, 0);
+  state.segment_change.assign(segs, Eigen::Vector4d::Zero());
+  const bool newton_possible =
+      model.solver.mode == SolverMode::newton || model.solver.on_instability == InstabilityPolicy::recover;
+  state.newton.resize(newton_possible ? segs : 0);
+  for (std::size_t s = 0; s < state.newton.size(); ++s) {
+    const SegmentModel& seg = model.segments[s];
+    const std::size_t rows = seg.constraint_rows;
+    const int cols = 1 + static_cast<int>(rows);
+    state.newton[s].allocate(seg.node_count, cols);
+  }
+
+  std::copy(model.rest_strain.begin(), model.rest_strain.end(), state.now.strain.begin());
+  for (std::size_t k = 0; k < n; ++k) {
+    state.external_force.x[k] = model.initial_load[6 * k];
+    state.external_force.y[k] = model.initial_load[6 * k + 1];
+    state.external_force.z[k] = model.initial_load[6 * k + 2];
+    state.external_moment.x[k] = model.initial_load[6 * k + 3];
+    state.external_moment.y[k] = model.initial_load[6 * k + 4];
+    state.external_moment.z[k] = model.initial_load[6 * k + 5];
+  }
+  for (std::size_t a = 0; a < model.attachment_total; ++a) {
+    state.now.attachment[a].active = model.initial_attachment_active[a] != 0;
+    state.now.attachment[a].target = model.initial_attachment_target[a];
+    state.now.attachment[a].target_rotation = model.initial_attachment_rotation[a];
+  }
+  for (std::size_t s = 0; s < segs; ++s) {
+    state.now.base[s] = model.segments[s].initial_base;
+    const SegmentViews v = segment_views(model, state, s);
+    kernels::rod_forward_sweep(state.now.base[s], v.section_length, v.strain, v.poses);
+  }
+  state.frame_start.copy_from(state.now);
+}
+
+SegmentViews segment_views(const WorldModel& model, WorldState& state, std::size_t segment) {
+  const SegmentModel& seg = model.segments[segment];
+  const std::size_t off = seg.node_offset;
+  const std::size_t n = seg.node_count;
+  SegmentViews v{
+      .poses = {state.now.position.view().subview(off, n), state.now.rotation.view().subview(off, n),
+                state.now.mid_position.view().subview(off, n - 1),
+                state.now.mid_rotation.view().subview(off, n - 1)},
+      .strain = kernels::StrainView<double>{state.now.strain}.subview(off, n),
+      .strain_start = kernels::StrainView<double>{state.strain_substep_start}.subview(off, n),
+      .generalized_force = kernels::StrainView<double>{state.generalized_force}.subview(off, n),
+      .rest = kernels::StrainView<const double>{model.rest_strain}.subview(off, n),
+      .section_length = std::span<const double>(model.section_length).subspan(off, n - 1),
+      .node_mass = std::span<const double>(model.node_mass).subspan(off, n),
+      .force = state.force.view().subview(off, n),
+      .moment = state.moment.view().subview(off, n),
+  };
+  return v;
+}
+
+}  // namespace haustra::detail

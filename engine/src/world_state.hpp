@@ -1,0 +1,113 @@
+#pragma once
+// The per-frame part of a world (MuJoCo's mjData): everything a step writes. Allocated once at
+// creation; a step never allocates.
+#include <vector>
+
+#include "haustra/kernels/pose.hpp"
+#include "haustra/kernels/rod_loads.hpp"
+#include "haustra/kernels/rod_newton.hpp"
+#include "haustra/kernels/spans.hpp"
+#include "world_model.hpp"
+
+namespace haustra::detail {
+
+struct Vec3Buffer {
+  std::vector<double> x, y, z;
+  void resize(std::size_t n) {
+    x.assign(n, 0.0);
+    y.assign(n, 0.0);
+    z.assign(n, 0.0);
+  }
+  [[nodiscard]] kernels::Vec3View<double> view() { return {x, y, z}; }
+  [[nodiscard]] kernels::Vec3View<const double> view() const { return {x, y, z}; }
+};
+
+struct RotationBuffer {
+  std::vector<double> w, x, y, z;
+  void resize(std::size_t n) {
+    w.assign(n, 1.0);
+    x.assign(n, 0.0);
+    y.assign(n, 0.0);
+    z.assign(n, 0.0);
+  }
+  [[nodiscard]] kernels::RotationView<double> view() { return {w, x, y, z}; }
+  [[nodiscard]] kernels::RotationView<const double> view() const { return {w, x, y, z}; }
+};
+
+struct AttachmentState {
+  bool active = true;
+  Eigen::Vector3d target = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond target_rotation = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();   // on the rod, last frame
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+};
+
+// What a frame carries over to the next one; copied at frame start so a failed frame can be undone.
+struct PersistentState {
+  std::vector<double> strain;  // 4 per node
+  Vec3Buffer position;         // filtered node positions
+  RotationBuffer rotation;     // node frames
+  Vec3Buffer mid_position;     // section midpoints (per node index, last unused)
+  RotationBuffer mid_rotation;
+  std::vector<kernels::Pose> base;
+  std::vector<AttachmentState> attachment;
+
+  void copy_from(const PersistentState& o);  // no allocation: sizes already match
+};
+
+// Scratch of one segment's Newton solve: the block-tridiagonal system and its right-hand sides
+// (the residual, and one column per constraint row).
+struct NewtonWorkspace {
+  std::vector<kernels::NewtonBlock> lower, diag, upper;
+  std::vector<Eigen::PartialPivLU<kernels::NewtonBlock>> pivots;
+  std::vector<double> rhs;
+  Vec3Buffer distal_force, distal_moment;
+  std::vector<double> residual, target, unit;
+  std::vector<double> drag_force_rate, drag_moment_rate;  // c/Δt, s/Δt per node
+  kernels::Vector6d base_wrench = kernels::Vector6d::Zero();  // free base: unbalanced total wrench
+  int max_columns = 1;
+
+  void allocate(std::size_t nodes, int columns);
+  [[nodiscard]] kernels::NewtonSystem system() { return {lower, diag, upper, pivots}; }
+};
+
+struct WorldState {
+  PersistentState now;
+  PersistentState frame_start;  // snapshot: last good frame, and the filter's r^{t−1}
+
+  std::vector<double> strain_substep_start;  // q^{t−1} of the strain law
+  Vec3Buffer position_substep_start;         // for the medium's drag, v = (r − r_start)/Δt
+  RotationBuffer rotation_substep_start;
+  std::vector<double> generalized_force;     // R, then M⁻¹R
+  Vec3Buffer force, moment;                  // assembled node loads
+  Vec3Buffer external_force, external_moment;
+  std::vector<std::uint8_t> filter_exempt;
+  std::vector<kernels::Pose> base_substep_start;
+  std::vector<kernels::Vector6d> base_twist;     // free base: (ω, v) about node 0
+  std::vector<kernels::Matrix6d> base_resistance;
+  std::vector<double> constraint_scratch;        // G, Y, H blocks per constrained segment
+  std::vector<int> segment_converged;            // per segment, within a substep
+  std::vector<Eigen::Vector4d> segment_change;   // last strain change per segment
+  std::vector<NewtonWorkspace> newton;           // per segment; empty when Newton can never run
+
+  std::uint64_t frame = 0;
+  double time = 0.0;
+};
+
+void init_world_state(const WorldModel& model, WorldState& state);
+
+// Views of one segment's slice.
+struct SegmentViews {
+  kernels::RodPoses<double> poses;
+  kernels::StrainView<double> strain;
+  kernels::StrainView<double> strain_start;
+  kernels::StrainView<double> generalized_force;
+  kernels::StrainView<const double> rest;
+  std::span<const double> section_length;  // N
+  std::span<const double> node_mass;
+  kernels::Vec3View<double> force, moment;
+};
+
+SegmentViews segment_views(const WorldModel& model, WorldState& state, std::size_t segment);
+
+}  // namespace haustra::detail

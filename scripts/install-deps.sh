@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages haustra builds and tests with, and only those that are missing.
+# Run as root, or as a user with sudo. Idempotent: a second run installs nothing.
+set -euo pipefail
+
+packages=(
+  # toolchain
+  g++ cmake ninja-build make pkg-config
+  # the chosen dependency set (docs/decisions/0001-dependencies.md)
+  libeigen3-dev libtbb-dev libembree-dev libassimp-dev libbenchmark-dev doctest-dev
+  libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libfmt-dev libpng-dev
+  # instruction-count gate and sanitizer runtimes
+  valgrind
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
+  [[ "$status" == "install ok installed" ]] || missing+=("$p")
+done
+
+if [[ ${#missing[@]} -eq 0 ]]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+sudo_cmd=()
+if [[ $(id -u) -ne 0 ]]; then
+  command -v sudo >/dev/null || { echo "install-deps: not root and no sudo; install: ${missing[*]}" >&2; exit 1; }
+  sudo_cmd=(sudo)
+fi
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update -q
+"${sudo_cmd[@]}" apt-get install -y --no-install-recommends "${missing[@]}"
