@@ -54,7 +54,7 @@ Centreline parse_centreline(const std::string& text, const std::string& file) {
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {
     throw Error(ErrorCode::parse, fmt::format("{}: not valid JSON: {}", file, e.what()));
   }
   if (!doc.is_object())

@@ -164,17 +164,34 @@ struct World::Impl {
     return segs;
   }
 
-  std::string describe(std::size_t s, const GuardResult& g, int n) const {
-    const std::string what =
-        g.limit > 0.0 ? fmt::format("{} {:.4g} exceeds the limit {:.4g}", g.quantity, g.value, g.limit)
-                      : fmt::format("{}", g.quantity);
-    return fmt::format("frame {}: segment '{}' ({}), node {}: {} after stage '{}' with {} substep{}",
-                       state.frame, model.segments[s].info.name, s, g.node, what, stage_name(g.stage), n,
-                       n == 1 ? "" : "s");
+  // Writes "frame F: segment 'S' (i), node K: <what failed> after stage 'X' with N substeps" into
+  // `out` without allocating; returns the end of what was written.
+  template <class It>
+  It describe(It out, std::size_t max, std::size_t s, const GuardResult& g, int n) const {
+    const auto name = std::string_view(model.segments[s].info.name);
+    if (g.limit > 0.0)
+      return fmt::format_to_n(out, max, "frame {}: segment '{}' ({}), node {}: {} {:.4g} exceeds the limit {:.4g} after stage '{}' with {} substep{}",
+                              state.frame, name, s, g.node, g.quantity, g.value, g.limit, stage_name(g.stage), n,
+                              n == 1 ? "" : "s")
+          .out;
+    return fmt::format_to_n(out, max, "frame {}: segment '{}' ({}), node {}: {} after stage '{}' with {} substep{}",
+                            state.frame, name, s, g.node, g.quantity, stage_name(g.stage), n, n == 1 ? "" : "s")
+        .out;
   }
 
-  void record(Event e) {
-    if (events.size() < kMaxEvents) events.push_back(std::move(e));
+  Event make_event(Event::Kind kind, std::size_t s, const GuardResult& g, int n) const {
+    Event e;
+    e.kind = kind;
+    e.frame = state.frame;
+    e.segment = s;
+    e.node = g.node;
+    e.stage = g.stage;
+    e.substeps = n;
+    return e;
+  }
+
+  void record(const Event& e) {
+    if (events.size() < kMaxEvents) events.push_back(e);  // capacity reserved at creation
   }
 
   // The robust mode's ladder: the configured solver, then Newton, then Newton with twice the
@@ -214,23 +231,35 @@ struct World::Impl {
         continue;
       }
       const GuardResult& g = guard[failed];
-      std::string msg = "unstable at " + describe(failed, g, rung.substeps) + ". ";
-      msg += model.solver.on_instability == InstabilityPolicy::recover
-                 ? fmt::format("Newton with solver.max_substeps = {} did not recover either. ", model.solver.max_substeps)
-                 : "solver.on_instability is \"stop\". ";
-      msg += "Lower the time step, raise solver.max_substeps or solver.iterations, or soften the loads. "
-             "The world keeps its last good frame.";
-      record({Event::Kind::unstable, state.frame, failed, g.node, g.stage, rung.substeps, msg});
+      Event e = make_event(Event::Kind::unstable, failed, g, rung.substeps);
+      const std::size_t cap = e.text.size() - 1;
+      char* it = fmt::format_to_n(e.text.data(), cap, "unstable at ").out;
+      it = describe(it, cap - static_cast<std::size_t>(it - e.text.data()), failed, g, rung.substeps);
+      it = fmt::format_to_n(it, cap - static_cast<std::size_t>(it - e.text.data()), ". {}Lower the time step, raise "
+                            "solver.max_substeps or solver.iterations, or soften the loads. The world keeps its last "
+                            "good frame.",
+                            model.solver.on_instability == InstabilityPolicy::recover
+                                ? "Newton with more substeps did not recover either. "
+                                : "solver.on_instability is \"stop\". ")
+               .out;
+      *std::min(it, e.text.data() + cap) = '\0';
+      record(e);
       profile.substeps = rung.substeps;
       profile.newton = rung.newton;
       profile.frame_seconds = seconds_since(t0);
-      throw Error(ErrorCode::unstable, msg);
+      throw Error(ErrorCode::unstable, std::string(e.message()));
     }
     if (first_segment != model.segments.size()) {
-      record({Event::Kind::recovered, state.frame, first_segment, first.node, first.stage, rung.substeps,
-              fmt::format("recovered: {}; the frame was redone with {}{} substep{}",
-                          describe(first_segment, first, first_rung.substeps), rung.newton ? "Newton and " : "",
-                          rung.substeps, rung.substeps == 1 ? "" : "s")});
+      Event e = make_event(Event::Kind::recovered, first_segment, first, rung.substeps);
+      const std::size_t cap = e.text.size() - 1;
+      char* it = fmt::format_to_n(e.text.data(), cap, "recovered: ").out;
+      it = describe(it, cap - static_cast<std::size_t>(it - e.text.data()), first_segment, first, first_rung.substeps);
+      it = fmt::format_to_n(it, cap - static_cast<std::size_t>(it - e.text.data()),
+                            "; the frame was redone with {}{} substep{}", rung.newton ? "Newton and " : "",
+                            rung.substeps, rung.substeps == 1 ? "" : "s")
+               .out;
+      *std::min(it, e.text.data() + cap) = '\0';
+      record(e);
       current = rung;
       good_frames = 0;
     } else if ((current.substeps != base.substeps || current.newton != base.newton) &&

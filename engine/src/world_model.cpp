@@ -66,16 +66,16 @@ RestShape build_rest_shape(const SegmentDesc& d, const std::string& where) {
     case RestShapeKind::straight:
       return rest_shape_constant_strain(d.nodes, d.rest.length, Eigen::Vector3d::Zero(), base);
     case RestShapeKind::constant_strain:
-      check_vector(where + ".curvature", d.rest.curvature_torsion, false);
+      check_vector(where + ".rest.curvature", d.rest.curvature_torsion, false);
       return rest_shape_constant_strain(d.nodes, d.rest.length, d.rest.curvature_torsion, base);
     case RestShapeKind::centreline:
       if (d.rest.centreline.size() < 2)
-        fail(where + ".centreline", fmt::format("expected at least 2 points, got {}", d.rest.centreline.size()));
+        fail(where + ".rest.file", fmt::format("expected at least 2 points, got {}", d.rest.centreline.size()));
       return rest_shape_from_centreline(d.rest.centreline, d.nodes, d.base_normal,
-                                        d.rest.centreline_source.empty() ? where + ".centreline"
+                                        d.rest.centreline_source.empty() ? where + ".rest.file"
                                                                          : d.rest.centreline_source);
   }
-  fail(where + ".rest", "unknown rest shape kind");
+  fail(where + ".rest.shape", "unknown rest shape");
 }
 
 }  // namespace
@@ -99,7 +99,7 @@ WorldModel build_world_model(const WorldDesc& desc) {
     if (!names.insert(d.name).second) fail(where + ".name", fmt::format("the name '{}' is used twice", d.name));
     check_int(where + ".nodes", d.nodes, 2, 10'000'000);
     if (d.rest.kind != RestShapeKind::centreline)
-      check_positive(where + ".length", d.rest.length, "m", 1000.0);
+      check_positive(where + ".rest.length", d.rest.length, "m", 1000.0);
     check_vector(where + ".base_position", d.base_position, false);
     check_vector(where + ".base_tangent", d.base_tangent, true);
     check_vector(where + ".base_normal", d.base_normal, false);

@@ -2,7 +2,9 @@
 // A world: an immutable model (built once from a WorldDesc) and its per-frame state, stepped
 // frame by frame. Buffers are structure-of-arrays, contiguous across all segments; a segment is an
 // offset+count range into them. Views returned here stay valid until the next call to step().
+#include <array>
 #include <cstdint>
+#include <string_view>
 #include <memory>
 #include <span>
 #include <string>
@@ -47,7 +49,9 @@ struct Event {
   std::size_t node = 0;
   Stage stage = Stage::guard;
   int substeps = 1;
-  std::string message;
+  // The message lives in place, so recording an event inside a step allocates nothing.
+  std::array<char, 512> text{};
+  [[nodiscard]] std::string_view message() const { return {text.data()}; }
 };
 
 class World {

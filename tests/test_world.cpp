@@ -1,0 +1,214 @@
+// The world as a whole: determinism across thread counts, no allocation in a step, the guard,
+// free bases and attachments.
+#include <doctest/doctest.h>
+
+#include <cstring>
+
+#include "allocation_counter.hpp"
+#include "haustra/error.hpp"
+#include "haustra/scene.hpp"
+#include "haustra/world.hpp"
+
+using namespace haustra;
+
+namespace {
+
+std::vector<double> positions(const World& w) {
+  const auto p = w.node_positions();
+  std::vector<double> out;
+  for (std::size_t k = 0; k < w.node_count(); ++k) out.insert(out.end(), {p.x[k], p.y[k], p.z[k]});
+  return out;
+}
+
+std::vector<double> run_scene(const std::string& name, int threads, int frames, std::vector<std::string> sets = {}) {
+  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
+  scene.world.threads = threads;
+  auto w = create_world(scene);
+  for (int f = 0; f < frames; ++f) w->step();
+  return positions(*w);
+}
+
+WorldDesc rod_world(SolverMode mode, int nodes = 41) {
+  WorldDesc d;
+  d.threads = 1;
+  d.solver.mode = mode;
+  SegmentDesc s;
+  s.nodes = nodes;
+  s.rest.length = 0.8;
+  d.segments.push_back(s);
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("the same scene gives bit-identical positions with 1 and 2 threads") {
+  for (const char* scene : {"ropes", "sag"}) {
+    for (const char* mode : {"solver.mode=newton", "solver.mode=lagged"}) {
+      const std::vector<double> one = run_scene(scene, 1, 40, {mode});
+      const std::vector<double> two = run_scene(scene, 2, 40, {mode});
+      INFO(scene << " " << mode);
+      REQUIRE(one.size() == two.size());
+      CHECK(std::memcmp(one.data(), two.data(), one.size() * sizeof(double)) == 0);
+    }
+  }
+}
+
+TEST_CASE("a step allocates nothing, in every solver path") {
+  struct Variant {
+    const char* name;
+    SolverMode mode;
+    bool free_base;
+    bool attach;
+  };
+  for (const Variant v : {Variant{"lagged", SolverMode::lagged, false, false},
+                          Variant{"lagged, attachments", SolverMode::lagged, false, true},
+                          Variant{"lagged, free base", SolverMode::lagged, true, true},
+                          Variant{"newton", SolverMode::newton, false, false},
+                          Variant{"newton, attachments", SolverMode::newton, false, true},
+                          Variant{"newton, free base", SolverMode::newton, true, true}}) {
+    WorldDesc d = rod_world(v.mode);
+    d.solver.iterations = 2;
+    d.segments[0].base = v.free_base ? BaseMode::free : BaseMode::clamped;
+    if (v.attach) {
+      d.segments[0].attachments.push_back({-1, true, std::nullopt, true});
+      if (v.free_base) d.segments[0].attachments.push_back({0, false, std::nullopt, true});
+    }
+    d.segments.push_back(d.segments[0]);
+    d.segments[1].name = "second";
+    d.segments[1].base_position = Eigen::Vector3d(0, 0.2, 0);
+    auto w = World::create(d);
+    for (int f = 0; f < 5; ++f) w->step();  // warm-up
+    test::AllocationScope scope;
+    for (int f = 0; f < 20; ++f) w->step();
+    INFO(std::string(v.name));
+    CHECK(scope.count() == 0);
+  }
+}
+
+TEST_CASE("an unstable world stops with the cause, keeps its last good frame and never holds NaN") {
+  // A soft elastic rod under a tip pull: the lagged scheme diverges at once.
+  WorldDesc d = rod_world(SolverMode::lagged);
+  d.solver.on_instability = InstabilityPolicy::stop;
+  d.segments[0].law = {StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic};
+  d.segments[0].loads.push_back({-1, Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d::Zero()});
+  auto w = World::create(d);
+  const std::vector<double> before = positions(*w);
+  try {
+    w->step();
+    w->step();
+    w->step();
+    FAIL("the lagged scheme should have diverged");
+  } catch (const Error& e) {
+    CHECK(e.code() == ErrorCode::unstable);
+    const std::string msg = e.what();
+    CHECK(msg.find("segment 'segment'") != std::string::npos);
+    CHECK(msg.find("node ") != std::string::npos);
+    CHECK(msg.find("after stage '") != std::string::npos);
+    CHECK(msg.find("last good frame") != std::string::npos);
+  }
+  const std::vector<double> after = positions(*w);
+  for (double x : after) CHECK(std::isfinite(x));
+  REQUIRE_FALSE(w->events().empty());
+  CHECK(w->events().back().kind == Event::Kind::unstable);
+  // The failed frame was undone: the state is the one from before it.
+  if (w->frame() == 0) CHECK(std::memcmp(before.data(), after.data(), before.size() * sizeof(double)) == 0);
+}
+
+TEST_CASE("the robust mode recovers where the lagged scheme diverges, and says so") {
+  WorldDesc d = rod_world(SolverMode::lagged);
+  d.gravity = Eigen::Vector3d::Zero();
+  d.solver.on_instability = InstabilityPolicy::recover;
+  d.segments[0].law = {StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic};
+  d.segments[0].loads.push_back({-1, Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d::Zero()});
+  auto w = World::create(d);
+  for (int f = 0; f < 30; ++f) w->step();
+  REQUIRE_FALSE(w->events().empty());
+  CHECK(w->events().front().kind == Event::Kind::recovered);
+  CHECK(w->events().front().message().find("Newton") != std::string_view::npos);
+  // And the result is the Newton equilibrium: ε = F/EA along a straight rod.
+  const double ea = w->segment(0).axial_stiffness;
+  CHECK(w->strains().at(w->node_count() / 2, axial) == doctest::Approx(2.0 / ea).epsilon(1e-6));
+}
+
+TEST_CASE("a free rod falls straight at its terminal speed without bending") {
+  WorldDesc d = rod_world(SolverMode::newton);
+  d.filter.enabled = false;
+  d.segments[0].base = BaseMode::free;
+  d.segments[0].drag = 4.0;
+  auto w = World::create(d);
+  const double mu = w->segment(0).linear_density;
+  const double z0 = w->node_positions().z[0];
+  const int frames = 30;
+  for (int f = 0; f < frames; ++f) w->step();
+  // Uniform weight and uniform drag balance node by node: v = μ g / c, no internal load.
+  const double fall = z0 - w->node_positions().z[0];
+  CHECK(fall / (frames * d.dt) == doctest::Approx(mu * 9.81 / 4.0).epsilon(1e-6));
+  for (std::size_t k = 0; k < w->node_count(); ++k) {
+    CHECK(std::abs(w->strains().at(k, kappa1)) < 1e-9);
+    CHECK(std::abs(w->strains().at(k, kappa2)) < 1e-9);
+    CHECK(std::abs(w->node_positions().z[k] - w->node_positions().z[0]) < 1e-10);
+  }
+}
+
+TEST_CASE("attachments follow their targets and their forces balance the weight") {
+  for (SolverMode mode : {SolverMode::newton, SolverMode::lagged}) {
+    WorldDesc d = rod_world(mode);
+    d.filter.enabled = false;
+    d.segments[0].law = {StrainLaw::kelvin_voigt, StrainLaw::kelvin_voigt, StrainLaw::kelvin_voigt, StrainLaw::elastic};
+    d.segments[0].attachments.push_back({-1, false, std::nullopt, true});
+    auto w = World::create(d);
+    const Eigen::Vector3d target(0.75, 0.0, 0.1);
+    w->set_attachment_target(0, 0, target);
+    for (int f = 0; f < 400; ++f) w->step();
+    INFO((mode == SolverMode::newton ? "newton" : "lagged"));
+    // Newton holds the pin to rounding; the lagged correction is linearized, so it misses by the
+    // square of the frame's motion while the rod still creeps: a micrometre bound.
+    const double tolerance = mode == SolverMode::newton ? 1e-9 : 1e-6;
+    CHECK((w->node_positions().get(w->node_count() - 1) - target).norm() < tolerance);
+    // A clamped base with one pin: the pin carries part of the weight, never more than all of it.
+    const double weight = w->segment(0).linear_density * w->segment(0).length * 9.81;
+    const Eigen::Vector3d f = w->attachment_force(0, 0);
+    CHECK(f.z() > 0.0);
+    CHECK(f.z() < weight);
+  }
+}
+
+TEST_CASE("a rod pinned at both ends hangs on reactions that balance its weight exactly") {
+  WorldDesc d = rod_world(SolverMode::newton);
+  d.filter.enabled = false;
+  d.segments[0].base = BaseMode::free;
+  d.segments[0].attachments.push_back({0, false, std::nullopt, true});
+  d.segments[0].attachments.push_back({-1, false, Eigen::Vector3d(0.7, 0.0, 0.0), true});
+  auto w = World::create(d);
+  for (int f = 0; f < 300; ++f) w->step();
+  const double weight = w->segment(0).linear_density * w->segment(0).length * 9.81;
+  const Eigen::Vector3d total = w->attachment_force(0, 0) + w->attachment_force(0, 1);
+  // Settled: the drag has faded, and the two pins carry the weight and nothing sideways.
+  CHECK(total.z() == doctest::Approx(weight).epsilon(1e-4));
+  CHECK(std::abs(total.x()) < 1e-4 * weight);
+  CHECK(w->attachment_force(0, 0).x() == doctest::Approx(-w->attachment_force(0, 1).x()).epsilon(1e-3));
+}
+
+TEST_CASE("the API rejects bad arguments with a message") {
+  auto w = World::create(rod_world(SolverMode::newton));
+  CHECK_THROWS_AS(w->set_external_load(10'000, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()), Error);
+  CHECK_THROWS_AS(w->set_external_load(0, Eigen::Vector3d(NAN, 0, 0), Eigen::Vector3d::Zero()), Error);
+  CHECK_THROWS_AS(w->set_attachment_target(0, 0, Eigen::Vector3d::Zero()), Error);  // it has none
+  CHECK_THROWS_AS(w->set_attachment_target(3, 0, Eigen::Vector3d::Zero()), Error);
+  CHECK_THROWS_AS(static_cast<void>(w->segment(5)), Error);
+  try {
+    w->set_attachment_target(0, 2, Eigen::Vector3d::Zero());
+  } catch (const Error& e) {
+    CHECK(e.code() == ErrorCode::invalid_argument);
+    CHECK(std::string(e.what()).find("has 0 attachments") != std::string::npos);
+  }
+  WorldDesc bad = rod_world(SolverMode::newton);
+  bad.segments[0].cross_section.radius = 20.0;
+  try {
+    World::create(bad);
+    FAIL("no error");
+  } catch (const FieldError& e) {
+    CHECK(e.field() == "segment[0].radius");
+    CHECK(std::string(e.what()).find("millimetres") != std::string::npos);
+  }
+}

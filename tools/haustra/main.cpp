@@ -1,0 +1,188 @@
+// haustra: the command line. `haustra run SCENE` steps a scene and reports per-stage timings;
+// `haustra validate` runs the reference cases against analytic and independent solutions.
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "haustra/error.hpp"
+#include "haustra/scene.hpp"
+#include "haustra/validation.hpp"
+#include "run_report.hpp"
+
+namespace {
+
+using namespace haustra;
+
+// Exit codes: 0 ok, 1 a reference case failed, 2 bad input, 3 the simulation went unstable.
+constexpr int kExitFailedCase = 1;
+constexpr int kExitBadInput = 2;
+constexpr int kExitUnstable = 3;
+
+class ProgressBar {
+ public:
+  ProgressBar(int total, bool enabled) : total_(total), enabled_(enabled && isatty(STDERR_FILENO) != 0) {}
+  void update(int done) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (done != total_ && now - last_ < std::chrono::milliseconds(100)) return;
+    last_ = now;
+    constexpr int kWidth = 40;
+    const int filled = total_ > 0 ? done * kWidth / total_ : kWidth;
+    fmt::print(stderr, "\r[{}{}] {}/{} frames", std::string(static_cast<std::size_t>(filled), '#'),
+               std::string(static_cast<std::size_t>(kWidth - filled), '.'), done, total_);
+    if (done == total_) fmt::print(stderr, "\n");
+    std::fflush(stderr);
+  }
+  void abort() {
+    if (enabled_) fmt::print(stderr, "\n");
+  }
+
+ private:
+  int total_;
+  bool enabled_;
+  std::chrono::steady_clock::time_point last_{};
+};
+
+struct RunOptions {
+  std::string scene;
+  std::optional<int> frames;
+  std::optional<double> dt;
+  std::optional<int> threads;
+  std::vector<std::string> sets;
+  std::string out;
+  bool quiet = false;
+};
+
+int run(const RunOptions& o) {
+  SceneDesc scene = load_scene(o.scene, o.sets);
+  if (o.frames) scene.frames = *o.frames;
+  if (o.dt) scene.world.dt = *o.dt;
+  if (o.threads) scene.world.threads = *o.threads;
+  if (scene.frames < 0) throw Error(ErrorCode::invalid_argument, "--frames: expected a non-negative count");
+  std::unique_ptr<World> world = create_world(scene);
+
+  fmt::print("haustra run: {} ({})\n", scene.name, scene.file.string());
+  if (!scene.description.empty()) fmt::print("  {}\n", scene.description);
+  fmt::print("  {} segment{}, {} nodes; dt = {:.6g} s; {} frames; solver {}; {} thread{}\n", world->segment_count(),
+             world->segment_count() == 1 ? "" : "s", world->node_count(), world->dt(), scene.frames,
+             scene.world.solver.mode == SolverMode::newton ? "newton" : "lagged", world->threads(),
+             world->threads() == 1 ? "" : "s");
+  for (std::size_t s = 0; s < world->segment_count(); ++s) {
+    const SegmentInfo& info = world->segment(s);
+    if (info.rest_polyline_deviation > 0.0)
+      fmt::print("  segment '{}': rest shape from a centreline, {:.4g} m long; interpolation nodes within {:.2g} m, "
+                 "source polyline within {:.3g} mm of the rod\n",
+                 info.name, info.length, info.rest_node_deviation, info.rest_polyline_deviation * 1e3);
+  }
+
+  cli::RunRecord record;
+  ProgressBar bar(scene.frames, !o.quiet);
+  std::string status = "ok";
+  std::string error;
+  for (int f = 0; f < scene.frames; ++f) {
+    try {
+      world->step();
+    } catch (const Error& e) {
+      if (e.code() != ErrorCode::unstable) throw;
+      record.add(world->last_profile());
+      bar.abort();
+      status = "unstable";
+      error = e.what();
+      break;
+    }
+    record.add(world->last_profile());
+    bar.update(f + 1);
+  }
+  if (!o.quiet) record.print_stage_table(stdout);
+  for (const Event& e : world->events())
+    if (e.kind == Event::Kind::recovered) fmt::print("  event: {}\n", e.message());
+  if (!o.out.empty()) {
+    const std::filesystem::path dir(o.out);
+    std::filesystem::create_directories(dir);
+    record.write_summary(dir / "summary.json", scene, *world, scene.frames, status, error);
+    record.write_frames_csv(dir / "frames.csv");
+    cli::write_nodes_csv(dir / "nodes.csv", *world);
+    fmt::print("\noutputs in {}/: summary.json (counts, per-stage times, final node positions), frames.csv "
+               "(per-frame times), nodes.csv (final nodes and strains)\n",
+               std::filesystem::absolute(dir).lexically_normal().string());
+  }
+  if (status != "ok") {
+    fmt::print(stderr, "error: {}\n", error);
+    return kExitUnstable;
+  }
+  return 0;
+}
+
+int validate(bool json, const std::string& assets) {
+  validation::Options options;
+  if (!assets.empty()) options.assets = assets;
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<validation::CaseResult> results = validation::run_all(options);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  int failed = 0;
+  for (const auto& r : results) failed += r.pass ? 0 : 1;
+  if (json) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const auto& r : results)
+      j.push_back({{"case", r.name},
+                   {"quantity", r.quantity},
+                   {"reference", r.reference},
+                   {"value", r.value},
+                   {r.absolute ? "absolute_error" : "relative_error", r.error},
+                   {"tolerance", r.tolerance},
+                   {"pass", r.pass},
+                   {"note", r.note}});
+    fmt::print("{}\n", j.dump(2));
+  } else {
+    for (const auto& r : results) {
+      fmt::print("{} {}\n     {}\n     reference {:<14.8g} value {:<14.8g} {} error {:<10.3g} tolerance {:<8.3g}{}\n",
+                 r.pass ? "PASS" : "FAIL", r.name, r.quantity, r.reference, r.value, r.absolute ? "absolute" : "relative",
+                 r.error, r.tolerance, r.note.empty() ? "" : "\n     " + r.note);
+    }
+    fmt::print("\n{} of {} checks passed in {:.1f} s\n", results.size() - static_cast<std::size_t>(failed),
+               results.size(), seconds);
+  }
+  return failed == 0 ? 0 : kExitFailedCase;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"haustra: beads-on-string soft organ engine (Chang et al., The Visual Computer 2011)"};
+  app.set_version_flag("--version", std::string("haustra 0.1.0"));
+  app.require_subcommand(1);
+
+  RunOptions ro;
+  CLI::App* run_cmd = app.add_subcommand("run", "step a scene and report per-stage timings");
+  run_cmd->add_option("scene", ro.scene, "scene file (TOML)")->required()->check(CLI::ExistingFile);
+  run_cmd->add_option("--frames", ro.frames, "number of frames (default: the scene's)");
+  run_cmd->add_option("--dt", ro.dt, "time step in seconds (default: the scene's)");
+  run_cmd->add_option("--threads", ro.threads, "worker threads (0: all)");
+  run_cmd->add_option("--set", ro.sets, "override a scene value, e.g. --set segment.nodes=333")->take_all();
+  run_cmd->add_option("--out", ro.out, "directory for summary.json, frames.csv and nodes.csv");
+  run_cmd->add_flag("--quiet", ro.quiet, "no progress bar or timing table");
+
+  bool json = false;
+  std::string assets;
+  CLI::App* validate_cmd = app.add_subcommand("validate", "run the reference cases against analytic solutions");
+  validate_cmd->add_flag("--json", json, "print the results as JSON");
+  validate_cmd->add_option("--assets", assets, "directory holding large-intestine-A-DSJ-centreline.json");
+
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (*run_cmd) return run(ro);
+    if (*validate_cmd) return validate(json, assets);
+  } catch (const haustra::Error& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return e.code() == haustra::ErrorCode::unstable ? kExitUnstable : kExitBadInput;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return kExitBadInput;
+  }
+  return 0;
+}

@@ -1,0 +1,172 @@
+#include "run_report.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+namespace haustra::cli {
+namespace {
+
+double quantile(std::vector<float> v, double q) {
+  if (v.empty()) return 0.0;
+  const auto k = static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5);
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+const char* solver_name(SolverMode m) { return m == SolverMode::newton ? "newton" : "lagged"; }
+
+}  // namespace
+
+void RunRecord::add(const FrameProfile& p) {
+  for (std::size_t s = 0; s < kStageCount; ++s) {
+    stage_seconds_[s].push_back(static_cast<float>(p.seconds[s]));
+    stage_calls_[s] += p.calls[s];
+  }
+  frame_seconds_.push_back(static_cast<float>(p.frame_seconds));
+  substeps_.push_back(p.substeps);
+  retries_.push_back(p.retries);
+  newton_.push_back(p.newton ? 1 : 0);
+}
+
+RunRecord::StageStats RunRecord::stats(std::size_t s) const {
+  StageStats st;
+  const auto& v = stage_seconds_[s];
+  if (v.empty() || stage_calls_[s] == 0) return st;
+  st.ran = true;
+  double total = 0;
+  for (float x : v) total += x;
+  st.total_ms = total * 1e3;
+  st.mean_us = total / static_cast<double>(v.size()) * 1e6;
+  st.median_us = quantile(v, 0.5) * 1e6;
+  st.p99_us = quantile(v, 0.99) * 1e6;
+  st.calls_per_frame = static_cast<double>(stage_calls_[s]) / static_cast<double>(v.size());
+  return st;
+}
+
+void RunRecord::print_stage_table(std::FILE* out) const {
+  double frame_total = 0;
+  for (float x : frame_seconds_) frame_total += x;
+  fmt::print(out, "\n{:<16} {:>10} {:>12} {:>12} {:>12} {:>7}\n", "stage", "calls/fr", "median µs", "mean µs",
+             "p99 µs", "share");
+  for (std::size_t s = 0; s < kStageCount; ++s) {
+    const StageStats st = stats(s);
+    const auto name = stage_name(static_cast<Stage>(s));
+    if (!st.ran) {
+      fmt::print(out, "{:<16} {:>10}\n", name, "not run");
+      continue;
+    }
+    fmt::print(out, "{:<16} {:>10.2f} {:>12.2f} {:>12.2f} {:>12.2f} {:>6.1f}%\n", name, st.calls_per_frame, st.median_us,
+               st.mean_us, st.p99_us, frame_total > 0 ? 100.0 * st.total_ms * 1e-3 / frame_total : 0.0);
+  }
+  fmt::print(out, "{:<16} {:>10} {:>12.2f} {:>12.2f} {:>12.2f}\n", "frame", "", quantile(frame_seconds_, 0.5) * 1e6,
+             frames() ? frame_total / static_cast<double>(frames()) * 1e6 : 0.0, quantile(frame_seconds_, 0.99) * 1e6);
+}
+
+void RunRecord::write_summary(const std::filesystem::path& file, const SceneDesc& scene, const World& world,
+                              int requested_frames, const std::string& status, const std::string& error) const {
+  using nlohmann::json;
+  json j;
+  j["scene"] = scene.name;
+  j["scene_file"] = scene.file.string();
+  j["status"] = status;
+  if (!error.empty()) j["error"] = error;
+  std::size_t sections = 0;
+  for (std::size_t s = 0; s < world.segment_count(); ++s) sections += world.segment(s).nodes.count - 1;
+  j["counts"] = {{"segments", world.segment_count()}, {"nodes", world.node_count()}, {"sections", sections}};
+  j["frames"] = frames();
+  j["requested_frames"] = requested_frames;
+  j["dt"] = world.dt();
+  j["simulated_time"] = world.time();
+  j["threads"] = world.threads();
+  j["solver"] = {{"mode", solver_name(scene.world.solver.mode)},
+                 {"iterations", scene.world.solver.iterations},
+                 {"substeps", scene.world.solver.substeps},
+                 {"on_instability", scene.world.solver.on_instability == InstabilityPolicy::recover ? "recover" : "stop"}};
+  json stages = json::object();
+  for (std::size_t s = 0; s < kStageCount; ++s) {
+    const StageStats st = stats(s);
+    stages[std::string(stage_name(static_cast<Stage>(s)))] =
+        st.ran ? json{{"ran", true},
+                      {"median_us", st.median_us},
+                      {"mean_us", st.mean_us},
+                      {"p99_us", st.p99_us},
+                      {"total_ms", st.total_ms},
+                      {"calls_per_frame", st.calls_per_frame}}
+               : json{{"ran", false}};
+  }
+  j["stages"] = stages;
+  j["frame_time_us"] = {{"median", quantile(frame_seconds_, 0.5) * 1e6},
+                        {"p99", quantile(frame_seconds_, 0.99) * 1e6},
+                        {"max", frame_seconds_.empty() ? 0.0 : *std::max_element(frame_seconds_.begin(), frame_seconds_.end()) * 1e6}};
+  int retried = 0;
+  for (int r : retries_) retried += r > 0 ? 1 : 0;
+  j["robust_mode"] = {{"frames_redone", retried},
+                      {"frames_with_newton", std::count(newton_.begin(), newton_.end(), 1)},
+                      {"max_substeps", substeps_.empty() ? 0 : *std::max_element(substeps_.begin(), substeps_.end())}};
+  json segments = json::array();
+  const auto pos = world.node_positions();
+  for (std::size_t s = 0; s < world.segment_count(); ++s) {
+    const SegmentInfo& info = world.segment(s);
+    json nodes = json::array();
+    for (std::size_t k = info.nodes.offset; k < info.nodes.offset + info.nodes.count; ++k)
+      nodes.push_back({pos.x[k], pos.y[k], pos.z[k]});
+    segments.push_back({{"name", info.name},
+                        {"nodes", info.nodes.count},
+                        {"rest_length_m", info.length},
+                        {"bending_stiffness_Nm2", info.bending_stiffness},
+                        {"torsion_stiffness_Nm2", info.torsion_stiffness},
+                        {"axial_stiffness_N", info.axial_stiffness},
+                        {"linear_density_kg_per_m", info.linear_density},
+                        {"rest_node_deviation_m", info.rest_node_deviation},
+                        {"rest_polyline_deviation_m", info.rest_polyline_deviation},
+                        {"final_node_positions_m", nodes}});
+  }
+  j["segments"] = segments;
+  json events = json::array();
+  for (const Event& e : world.events())
+    events.push_back({{"kind", e.kind == Event::Kind::recovered ? "recovered" : "unstable"},
+                      {"frame", e.frame},
+                      {"segment", e.segment},
+                      {"node", e.node},
+                      {"stage", stage_name(e.stage)},
+                      {"substeps", e.substeps},
+                      {"message", std::string(e.message())}});
+  j["events"] = events;
+  std::ofstream out(file);
+  if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write", file.string()));
+  out << j.dump(2) << '\n';
+}
+
+void RunRecord::write_frames_csv(const std::filesystem::path& file) const {
+  std::ofstream out(file);
+  if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write", file.string()));
+  out << "frame,wall_us,substeps,newton,retries";
+  for (std::size_t s = 0; s < kStageCount; ++s) out << ',' << stage_name(static_cast<Stage>(s)) << "_us";
+  out << '\n';
+  for (std::size_t f = 0; f < frames(); ++f) {
+    out << f << ',' << frame_seconds_[f] * 1e6 << ',' << substeps_[f] << ',' << int{newton_[f]} << ',' << retries_[f];
+    for (std::size_t s = 0; s < kStageCount; ++s) out << ',' << stage_seconds_[s][f] * 1e6;
+    out << '\n';
+  }
+}
+
+void write_nodes_csv(const std::filesystem::path& file, const World& world) {
+  std::ofstream out(file);
+  if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write", file.string()));
+  out << "segment,node,x_m,y_m,z_m,kappa1,kappa2,tau,eps\n";
+  const auto pos = world.node_positions();
+  const auto q = world.strains();
+  for (std::size_t s = 0; s < world.segment_count(); ++s) {
+    const SegmentInfo& info = world.segment(s);
+    for (std::size_t k = 0; k < info.nodes.count; ++k) {
+      const std::size_t i = info.nodes.offset + k;
+      out << fmt::format("{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", info.name, k, pos.x[i], pos.y[i],
+                         pos.z[i], q.at(i, 0), q.at(i, 1), q.at(i, 2), q.at(i, 3));
+    }
+  }
+}
+
+}  // namespace haustra::cli

@@ -1,0 +1,39 @@
+#pragma once
+// What `haustra run` measures while it steps a world, and how it reports it: the per-stage timing
+// table on the terminal, summary.json and the CSV files in --out.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "haustra/profile.hpp"
+#include "haustra/scene.hpp"
+#include "haustra/world.hpp"
+
+namespace haustra::cli {
+
+class RunRecord {
+ public:
+  void add(const FrameProfile& p);
+  [[nodiscard]] std::size_t frames() const { return frame_seconds_.size(); }
+  void print_stage_table(std::FILE* out) const;
+  void write_summary(const std::filesystem::path& file, const SceneDesc& scene, const World& world,
+                     int requested_frames, const std::string& status, const std::string& error) const;
+  void write_frames_csv(const std::filesystem::path& file) const;
+
+ private:
+  struct StageStats {
+    double median_us = 0, mean_us = 0, p99_us = 0, total_ms = 0, calls_per_frame = 0;
+    bool ran = false;
+  };
+  [[nodiscard]] StageStats stats(std::size_t stage) const;
+
+  std::vector<std::vector<float>> stage_seconds_{kStageCount};
+  std::vector<std::uint32_t> stage_calls_ = std::vector<std::uint32_t>(kStageCount, 0);
+  std::vector<float> frame_seconds_;
+  std::vector<int> substeps_, retries_;
+  std::vector<char> newton_;
+};
+
+void write_nodes_csv(const std::filesystem::path& file, const World& world);
+
+}  // namespace haustra::cli
