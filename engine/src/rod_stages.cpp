@@ -167,6 +167,8 @@ Eigen::Vector4d stage_solve(const WorldModel& model, WorldState& state, std::siz
                             const SubstepParameters& p) {
   const SegmentModel& seg = model.segments[segment];
   const SegmentViews v = segment_views(model, state, segment);
+  std::copy(v.strain.data.begin(), v.strain.data.end(),
+            state.strain_before_update.begin() + static_cast<std::ptrdiff_t>(4 * seg.node_offset));
   kernels::mass_matrix_solve(factor_of(model, seg), v.generalized_force);
   const double w = model.solver.relaxation;
   return kernels::strain_update(v.generalized_force, v.rest, v.strain_start, law_of(seg, p.dt), {w, w, w, w},
@@ -430,7 +432,71 @@ void stage_filter(const WorldModel& model, WorldState& state, std::size_t segmen
                           exempt, seg.info.zeta, model.dt, v.poses.node_position, v.poses.mid_position);
 }
 
-GuardResult stage_guard(const WorldModel& model, const WorldState& state, std::size_t segment) {
+namespace {
+
+// The lagged scheme's next frame may take a step at most this much larger than this frame's. With
+// the loads held, elastic strains iterate towards a fixed point: the step must shrink. Viscous
+// strains flow: a steady flow repeats its step (ratio 1), a diverging one grows it by |1 + Δt λ|,
+// usually far beyond the margin allowed here. A false alarm only costs a Newton frame.
+constexpr double kMaxElasticContraction = 1.0;
+constexpr double kMaxViscousGrowth = 1.25;
+
+// With the frame's loads held, the next lagged step from the new strains q would be
+//   ω (k (q̂ − q) + M⁻¹ R(q)) / (k + η/Δt)
+// (its q* starts at q), against this frame's step q − q_b. For elastic strains the ratio is the
+// fixed-point map's contraction; for viscous ones, the growth of the explicit flow. Norm: bend and
+// twist as angles per section (× h), stretch as is.
+struct LaggedRatios {
+  double elastic = 0.0;  // over the elastic strain components
+  double viscous = 0.0;  // over the viscous and Kelvin–Voigt ones
+};
+
+LaggedRatios lagged_contraction(const WorldModel& model, WorldState& state, std::size_t segment,
+                                const SubstepParameters& p) {
+  const SegmentModel& seg = model.segments[segment];
+  const SegmentViews v = segment_views(model, state, segment);
+  const std::size_t n = seg.node_count;
+  // Loads at the new configuration, with the frame's constraint forces and the base's drag.
+  stage_loads(model, state, segment, p);
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
+    const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
+    if (!as.active) continue;
+    const std::size_t k = seg.attachments[a].node;
+    v.force.set(k, v.force.get(k) + as.force);
+    v.moment.set(k, v.moment.get(k) + as.moment);
+  }
+  if (seg.base_mode == BaseMode::free)
+    kernels::add_rigid_drag_loads(v.poses.node_position, drag_of(model, seg), spin_drag_of(model, seg),
+                                  v.poses.node_position.get(0), state.base_twist[segment], v.force, v.moment);
+  kernels::rod_backward_sweep(v.poses, v.section_length, v.force, v.moment, v.generalized_force);
+  kernels::mass_matrix_solve(factor_of(model, seg), v.generalized_force);
+  const kernels::StrainLawCoefficients law = law_of(seg, p.dt);
+  const double* before = state.strain_before_update.data() + 4 * seg.node_offset;
+  const double h = seg.mean_section;
+  std::array<double, 2> next2{}, step2{};  // [0] elastic, [1] viscous
+  for (std::size_t k = 0; k < n; ++k)
+    for (std::size_t c = 0; c < 4; ++c) {
+      const std::size_t group = seg.law[c] == StrainLaw::elastic ? 0 : 1;
+      const double a = law.stiffness[c] + law.rate[c];
+      const double q = v.strain.at(k, c);
+      const double w = c < 3 ? h : 1.0;
+      const double next =
+          model.solver.relaxation * (law.stiffness[c] * (v.rest.at(k, c) - q) + v.generalized_force.at(k, c)) / a * w;
+      const double step = (q - before[4 * k + c]) * w;
+      next2[group] += next * next;
+      step2[group] += step * step;
+    }
+  // Below this the step is rounding: a converged rod, not a verdict.
+  constexpr double kNoise = 1e-12;
+  auto ratio = [&](std::size_t g) {
+    return step2[g] < kNoise * kNoise * static_cast<double>(n) ? 0.0 : std::sqrt(next2[g] / step2[g]);
+  };
+  return {ratio(0), ratio(1)};
+}
+
+}  // namespace
+
+GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
   const SegmentModel& seg = model.segments[segment];
   const SolverDesc& lim = model.solver;
   const std::size_t off = seg.node_offset;
@@ -444,7 +510,8 @@ GuardResult stage_guard(const WorldModel& model, const WorldState& state, std::s
     const Eigen::Vector3d u(0.5 * (q[4 * k] + q[4 * k + 4]), 0.5 * (q[4 * k + 1] + q[4 * k + 5]),
                             0.5 * (q[4 * k + 2] + q[4 * k + 6]));
     const double eps = 0.5 * (q[4 * k + 3] + q[4 * k + 7]);
-    if (std::abs(eps) > lim.max_axial_strain) return {false, k, Stage::solve, "axial strain", eps, lim.max_axial_strain};
+    if (std::abs(eps) > lim.max_axial_strain)
+      return {false, k, Stage::solve, "axial strain", eps, lim.max_axial_strain};
     if (u.norm() * h > lim.max_section_angle)
       return {false, k, Stage::solve, "bend and twist angle of one section (rad)", u.norm() * h, lim.max_section_angle};
   }
@@ -453,8 +520,28 @@ GuardResult stage_guard(const WorldModel& model, const WorldState& state, std::s
   for (std::size_t k = 0; k < n; ++k) {
     const Eigen::Vector3d r = pos.get(k);
     if (!r.allFinite()) return {false, k, Stage::forward_sweep, "node position (not finite)", r.norm(), 0.0};
-    const double speed = (r - prev.get(k)).norm() / model.dt;
-    if (speed > lim.max_speed) return {false, k, Stage::forward_sweep, "node speed (m/s)", speed, lim.max_speed};
+    const double moved = (r - prev.get(k)).norm() / seg.info.length;
+    if (moved > lim.max_displacement)
+      return {false, k, Stage::forward_sweep, "displacement in one frame (segment lengths)", moved, lim.max_displacement};
+  }
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
+    const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
+    if (!as.active) continue;
+    const std::size_t k = seg.attachments[a].node;
+    const double miss = (pos.get(k) - as.target).norm() / seg.info.length;
+    if (miss > lim.max_attachment_error)
+      return {false, k, Stage::constraints, "attachment's distance from its target (segment lengths)", miss,
+              lim.max_attachment_error};
+  }
+  if (!p.newton) {
+    const LaggedRatios r = lagged_contraction(model, state, segment, p);
+    if (r.elastic > kMaxElasticContraction)
+      return {false, 0, Stage::solve,
+              "ratio of the lagged iteration's next step to this one, elastic strains (it must shrink)", r.elastic,
+              kMaxElasticContraction};
+    if (r.viscous > kMaxViscousGrowth)
+      return {false, 0, Stage::solve, "growth of the lagged viscous flow's step from one frame to the next",
+              r.viscous, kMaxViscousGrowth};
   }
   return {};
 }

@@ -57,7 +57,11 @@ struct GuardResult {
   double limit = 0.0;
 };
 
-GuardResult stage_guard(const WorldModel& model, const WorldState& state, std::size_t segment);
+// The guard. For a frame of the lagged scheme it also measures the fixed-point iteration's local
+// contraction: one more backward sweep at the new configuration gives the step the scheme would
+// take next, and a next step larger than this one means the iteration diverges, even while every
+// value is still within bounds (it oscillates or wanders instead of blowing up).
+GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p);
 
 // Twist (ω, v) about node 0 applied for dt to a base pose.
 kernels::Pose integrate_base(const kernels::Pose& start, const kernels::Vector6d& twist, double dt);

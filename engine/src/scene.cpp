@@ -18,11 +18,14 @@ struct SceneSource {
 
 namespace {
 
-// Where a node came from, for messages: "file:line:col", or "file (from --set)".
-std::string where(const std::string& file, const toml::node* node) {
-  if (node != nullptr && node->source().begin.line > 0)
-    return fmt::format("{}:{}:{}", file, node->source().begin.line, node->source().begin.column);
+// Where something came from, for messages: "file:line:col", or "file (from --set)".
+std::string where(const std::string& file, const toml::source_region& source) {
+  if (source.begin.line > 0) return fmt::format("{}:{}:{}", file, source.begin.line, source.begin.column);
   return file + " (from --set)";
+}
+
+std::string where(const std::string& file, const toml::node* node) {
+  return node != nullptr ? where(file, node->source()) : file + " (from --set)";
 }
 
 std::string describe_value(const toml::node& n) {
@@ -42,7 +45,11 @@ class Reader {
   explicit Reader(std::string file) : file_(std::move(file)) {}
 
   [[noreturn]] void fail(const toml::node* node, const std::string& path, const std::string& detail) const {
-    throw FieldError(ErrorCode::parse, path, fmt::format("{}: {}: {}", where(file_, node), path, detail));
+    throw FieldError(ErrorCode::parse, path, detail, fmt::format("{}: {}: {}", where(file_, node), path, detail));
+  }
+
+  [[noreturn]] void fail_at(const toml::source_region& source, const std::string& path, const std::string& detail) const {
+    throw FieldError(ErrorCode::parse, path, detail, fmt::format("{}: {}: {}", where(file_, source), path, detail));
   }
 
   // Rejects keys a table does not know, naming the ones it does.
@@ -52,7 +59,8 @@ class Reader {
       std::string list;
       for (auto k : known) list += fmt::format("{}{}", list.empty() ? "" : ", ", k);
       const std::string full = path.empty() ? std::string(key.str()) : path + "." + std::string(key.str());
-      fail(&node, full, fmt::format("unknown key; expected one of: {}", list));
+      fail_at(key.source().begin.line > 0 ? key.source() : node.source(), full,
+              fmt::format("unknown key; expected one of: {}", list));
     }
   }
 
@@ -283,7 +291,7 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
   if (const toml::table* t = r.table(root, "solver", "solver")) {
     r.check_keys(*t, "solver",
                  {"mode", "iterations", "substeps", "relaxation", "tolerance", "on_instability", "max_substeps",
-                  "max_axial_strain", "max_section_angle", "max_speed"});
+                  "max_axial_strain", "max_section_angle", "max_displacement", "max_attachment_error"});
     SolverDesc& s = w.solver;
     s.mode = r.choice<SolverMode>(*t, "mode", "solver.mode", s.mode,
                                   {{"newton", SolverMode::newton}, {"lagged", SolverMode::lagged}});
@@ -297,7 +305,9 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
     s.max_substeps = r.integer(*t, "max_substeps", "solver.max_substeps", s.max_substeps);
     s.max_axial_strain = r.number(*t, "max_axial_strain", "solver.max_axial_strain", s.max_axial_strain);
     s.max_section_angle = r.number(*t, "max_section_angle", "solver.max_section_angle", s.max_section_angle);
-    s.max_speed = r.number(*t, "max_speed", "solver.max_speed", s.max_speed);
+    s.max_displacement = r.number(*t, "max_displacement", "solver.max_displacement", s.max_displacement);
+    s.max_attachment_error =
+        r.number(*t, "max_attachment_error", "solver.max_attachment_error", s.max_attachment_error);
   }
   if (const toml::table* t = r.table(root, "filter", "filter")) {
     r.check_keys(*t, "filter", {"enabled", "zeta_scale"});
@@ -449,7 +459,7 @@ std::unique_ptr<World> create_world(const SceneDesc& scene) {
     node = found ? view.node() : nearest;
     const std::string loc = where(scene.source->file, node);
     const std::string note = found ? "" : " (not set in the file: the default does not suit the rest of the scene)";
-    throw FieldError(e.code(), e.field(), fmt::format("{}: {}: {}{}", loc, e.field(), e.detail(), note));
+    throw FieldError(e.code(), e.field(), e.detail(), fmt::format("{}: {}: {}{}", loc, e.field(), e.detail(), note));
   }
 }
 

@@ -35,7 +35,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 constexpr std::size_t kMaxEvents = 1024;
-constexpr int kGoodFramesBeforeRelaxing = 120;  // robust mode: frames before halving substeps again
+constexpr int kGoodFramesBeforeRelaxing = 120;  // robust mode: calm frames before halving substeps again
 
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
@@ -158,7 +158,7 @@ struct World::Impl {
       }
     }
     if (model.filter.enabled) run_stage(Stage::filter, [&](std::size_t s) { detail::stage_filter(model, state, s); });
-    run_stage(Stage::guard, [&](std::size_t s) { guard[s] = detail::stage_guard(model, state, s); });
+    run_stage(Stage::guard, [&](std::size_t s) { guard[s] = detail::stage_guard(model, state, s, p); });
     for (std::size_t s = 0; s < segs; ++s)
       if (!guard[s].ok) return s;
     return segs;
@@ -262,10 +262,10 @@ struct World::Impl {
       record(e);
       current = rung;
       good_frames = 0;
-    } else if ((current.substeps != base.substeps || current.newton != base.newton) &&
-               ++good_frames >= kGoodFramesBeforeRelaxing) {
-      current = current.substeps > base.substeps ? Rung{std::max(base.substeps, current.substeps / 2), current.newton}
-                                                 : base;
+    } else if (current.substeps > base.substeps && ++good_frames >= kGoodFramesBeforeRelaxing) {
+      // Extra substeps are shed again after a calm spell. Newton, once engaged, stays: the scheme
+      // that diverged here would diverge again from the same kind of state.
+      current.substeps = std::max(base.substeps, current.substeps / 2);
       good_frames = 0;
     }
     profile.substeps = rung.substeps;

@@ -49,7 +49,8 @@ void check_solver(const SolverDesc& s) {
   check_range("solver.tolerance", s.tolerance, 0.0, 1.0, "a dimensionless tolerance");
   check_positive("solver.max_axial_strain", s.max_axial_strain, "(strain)", 1e3);
   check_positive("solver.max_section_angle", s.max_section_angle, "rad", 2.0 * std::numbers::pi);
-  check_positive("solver.max_speed", s.max_speed, "m/s", 1e6);
+  check_positive("solver.max_displacement", s.max_displacement, "segment lengths per frame", 1e6);
+  check_positive("solver.max_attachment_error", s.max_attachment_error, "segment lengths", 1e6);
 }
 
 std::size_t resolve_node(const std::string& field, int node, std::size_t node_count) {

@@ -89,6 +89,7 @@ struct WorldState {
   std::vector<int> segment_converged;            // per segment, within a substep
   std::vector<Eigen::Vector4d> segment_change;   // last strain change per segment
   std::vector<NewtonWorkspace> newton;           // per segment; empty when Newton can never run
+  std::vector<double> strain_before_update;      // lagged: the strains before the last update
 
   std::uint64_t frame = 0;
   double time = 0.0;

@@ -11,6 +11,7 @@
 
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
+#include "haustra/stability.hpp"
 #include "haustra/validation.hpp"
 #include "run_report.hpp"
 
@@ -150,6 +151,25 @@ int validate(bool json, const std::string& assets) {
   return failed == 0 ? 0 : kExitFailedCase;
 }
 
+int stability(bool markdown) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<validation::StabilityCell> cells = validation::stability_sweep({});
+  const std::vector<validation::StabilityCell> large = validation::stability_sweep(validation::stability_large_n_options());
+  cells.insert(cells.end(), large.begin(), large.end());
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  int bad = 0;
+  for (const auto& c : cells) bad += (!c.finite || !c.names_cause) ? 1 : 0;
+  if (markdown) {
+    fmt::print("{}", validation::stability_markdown(cells));
+  } else {
+    for (const auto& c : cells)
+      fmt::print("E {:<8g} dt {:<9.4g} N {:<6} {:<8} {:<8} {:<7} {}\n", c.youngs_modulus, c.dt, c.nodes, c.load,
+                 c.law, c.outcome, c.detail);
+    fmt::print("\n{} cells in {:.1f} s; {} not finite or without a named cause\n", cells.size(), seconds, bad);
+  }
+  return bad == 0 ? 0 : kExitFailedCase;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -173,10 +193,16 @@ int main(int argc, char** argv) {
   validate_cmd->add_flag("--json", json, "print the results as JSON");
   validate_cmd->add_option("--assets", assets, "directory holding large-intestine-A-DSJ-centreline.json");
 
+  bool markdown = false;
+  CLI::App* stability_cmd =
+      app.add_subcommand("stability", "sweep E, dt, N and load: where the lagged scheme holds, recovers or stops");
+  stability_cmd->add_flag("--markdown", markdown, "print the tables of docs/stability.md");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*run_cmd) return run(ro);
     if (*validate_cmd) return validate(json, assets);
+    if (*stability_cmd) return stability(markdown);
   } catch (const haustra::Error& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return e.code() == haustra::ErrorCode::unstable ? kExitUnstable : kExitBadInput;

@@ -30,6 +30,9 @@ class FieldError : public Error {
  public:
   FieldError(ErrorCode code, std::string field, std::string detail)
       : Error(code, field + ": " + detail), field_(std::move(field)), detail_(std::move(detail)) {}
+  // With the message spelled out in full, e.g. prefixed by the file and line of the field.
+  FieldError(ErrorCode code, std::string field, std::string detail, const std::string& message)
+      : Error(code, message), field_(std::move(field)), detail_(std::move(detail)) {}
   [[nodiscard]] const std::string& field() const noexcept { return field_; }
   [[nodiscard]] const std::string& detail() const noexcept { return detail_; }
 

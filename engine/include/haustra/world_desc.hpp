@@ -106,10 +106,17 @@ struct SolverDesc {
   double tolerance = 0.0;    // stop iterating when the largest strain change × h is below this
   InstabilityPolicy on_instability = InstabilityPolicy::recover;
   int max_substeps = 64;     // the robust mode gives up beyond this
-  // Guard limits, checked at the end of every frame.
+  // Guard limits, checked at the end of every frame. The guard also watches the lagged scheme for
+  // a strain change that reverses every frame without decaying: a fixed-point iteration that does
+  // not converge, even when every value stays within bounds.
   double max_axial_strain = 4.0;               // |ε|
   double max_section_angle = std::numbers::pi; // |u| h, rad per section
-  double max_speed = 100.0;                    // m/s, any node
+  // No node may move more than this many segment lengths in one frame. A model without inertia may
+  // jump to a new equilibrium within a frame, so this only catches runaways, not fast motion.
+  double max_displacement = 4.0;
+  // An active attachment may miss its target by at most this many segment lengths after a frame:
+  // Newton holds it exactly and the lagged scheme to second order, so more means a failed solve.
+  double max_attachment_error = 0.01;
 };
 
 struct FilterDesc {

@@ -1,0 +1,141 @@
+// The haustra command line, end to end: the binary as a user runs it.
+#include <doctest/doctest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "haustra/references.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kCli = HAUSTRA_CLI;
+const std::string kScenes = std::string(HAUSTRA_SOURCE_DIR) + "/scenes/";
+
+struct Result {
+  int code;
+  std::string out, err;
+};
+
+Result run(const std::string& args) {
+  const fs::path dir = fs::temp_directory_path() / "haustra-cli-test";
+  fs::create_directories(dir);
+  const auto id = std::to_string(std::hash<std::string>{}(args));
+  const fs::path out = dir / (id + ".out"), err = dir / (id + ".err");
+  const int status = std::system((kCli + " " + args + " >" + out.string() + " 2>" + err.string()).c_str());
+  auto slurp = [](const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+}
+
+nlohmann::json summary(const fs::path& dir) {
+  std::ifstream in(dir / "summary.json");
+  REQUIRE(in.good());
+  return nlohmann::json::parse(in);
+}
+
+fs::path out_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / "haustra-cli-test" / name;
+  fs::remove_all(d);
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("haustra run writes a summary with counts, stage times and final positions") {
+  const fs::path dir = out_dir("cantilever");
+  const Result r = run("run " + kScenes + "cantilever.toml --quiet --out " + dir.string());
+  INFO(r.out << r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.out.find("outputs in") != std::string::npos);
+  const auto j = summary(dir);
+  CHECK(j["scene"] == "cantilever");
+  CHECK(j["status"] == "ok");
+  CHECK(j["counts"]["segments"] == 1);
+  CHECK(j["counts"]["nodes"] == 101);
+  CHECK(j["counts"]["sections"] == 100);
+  CHECK(j["frames"] == 30);
+  CHECK(j["stages"]["forward_sweep"]["ran"] == true);
+  CHECK(j["stages"]["forward_sweep"]["median_us"].get<double>() > 0.0);
+  CHECK(j["stages"]["filter"]["ran"] == false);  // the scene switches the filter off
+  // The tip against the elastica: the scene is the PL²/B = 3 cantilever of length 1 m.
+  const auto tip = j["segments"][0]["final_node_positions_m"].back();
+  const auto ref = haustra::reference::elastica_cantilever_tip(3.0);
+  const double err = std::hypot(tip[0].get<double>() - ref.x, tip[2].get<double>() - ref.z);
+  CHECK(err < 0.005 * std::hypot(1.0 - ref.x, ref.z));
+  CHECK(fs::exists(dir / "frames.csv"));
+  CHECK(fs::exists(dir / "nodes.csv"));
+}
+
+TEST_CASE("haustra run: --threads 1 and --threads 2 give bit-identical final positions") {
+  for (const std::string scene : {"ropes", "rope"}) {
+    const fs::path one = out_dir(scene + "-1"), two = out_dir(scene + "-2");
+    REQUIRE(run("run " + kScenes + scene + ".toml --quiet --frames 60 --threads 1 --out " + one.string()).code == 0);
+    REQUIRE(run("run " + kScenes + scene + ".toml --quiet --frames 60 --threads 2 --out " + two.string()).code == 0);
+    const auto a = summary(one), b = summary(two);
+    CHECK(a["threads"] == 1);
+    CHECK(b["threads"] == 2);
+    INFO(scene);
+    CHECK(a["segments"] == b["segments"]);  // every coordinate, printed to round-trip precision
+  }
+}
+
+TEST_CASE("haustra run: --set and --dt override the scene") {
+  const fs::path dir = out_dir("set");
+  const Result r = run("run " + kScenes + "ropes.toml --quiet --frames 2 --dt 0.001 --set segment.nodes=11 --set "
+                       "segment[0].nodes=21 --out " + dir.string());
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  const auto j = summary(dir);
+  CHECK(j["counts"]["nodes"] == 21 + 5 * 11);
+  CHECK(j["dt"] == 0.001);
+}
+
+TEST_CASE("haustra run: bad input exits with code 2 and names the file and line") {
+  const Result r = run("run " + kScenes + "ropes.toml --set segment[2].radius=25");
+  CHECK(r.code == 2);
+  CHECK(r.err.find("ropes.toml") != std::string::npos);
+  CHECK(r.err.find("segment[2].radius") != std::string::npos);
+  CHECK(r.err.find("millimetres") != std::string::npos);
+  CHECK(run("run /nonexistent.toml").code != 0);
+  CHECK(run("fly").code != 0);
+}
+
+TEST_CASE("haustra run: an instability exits with code 3, says why, and still writes the summary") {
+  const fs::path dir = out_dir("unstable");
+  // PL²/B = 30: the lagged fixed-point iteration wanders instead of converging.
+  const Result r = run("run " + kScenes + "cantilever.toml --quiet --set solver.mode=lagged --set "
+                       "solver.on_instability=stop --set \"segment.load[0].force=[0,0,-1.884955592e-05]\" --out " +
+                       dir.string());
+  CHECK(r.code == 3);
+  CHECK(r.err.find("unstable at frame") != std::string::npos);
+  CHECK(r.err.find("segment 'rod'") != std::string::npos);
+  const auto j = summary(dir);
+  CHECK(j["status"] == "unstable");
+  REQUIRE_FALSE(j["events"].empty());
+  CHECK(j["events"].back()["kind"] == "unstable");
+  for (const auto& p : j["segments"][0]["final_node_positions_m"])
+    for (const auto& c : p) CHECK(std::isfinite(c.get<double>()));
+}
+
+TEST_CASE("haustra validate --json reports every case, all passing") {
+  const Result r = run("validate --json");
+  REQUIRE(r.code == 0);
+  const auto j = nlohmann::json::parse(r.out);
+  REQUIRE(j.is_array());
+  CHECK(j.size() >= 40);
+  for (const auto& c : j) {
+    INFO(c.dump());
+    CHECK(c["pass"] == true);
+    CHECK(c.contains("reference"));
+    CHECK(c.contains("tolerance"));
+  }
+}

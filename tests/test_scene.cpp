@@ -1,0 +1,211 @@
+// Scene files: every example loads; every bad field is reported with file, line, field and what
+// was expected; --set overrides.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+
+#include "haustra/error.hpp"
+#include "haustra/scene.hpp"
+
+using namespace haustra;
+
+namespace {
+
+const std::string kScenes = std::string(HAUSTRA_SOURCE_DIR) + "/scenes";
+
+// The error message for a scene text, or "" if it loads and builds.
+std::string error_of(const std::string& text, std::vector<std::string> sets = {}) {
+  try {
+    const SceneDesc s = parse_scene(text, kScenes + "/test.toml", sets);
+    create_world(s);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+const char* kMinimal = R"(
+[scene]
+name = "t"
+[[segment]]
+name = "a"
+nodes = 11
+[segment.rest]
+length = 0.5
+)";
+
+}  // namespace
+
+TEST_CASE("every scene in scenes/ loads and builds") {
+  int count = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(kScenes)) {
+    if (entry.path().extension() != ".toml") continue;
+    INFO(entry.path().string());
+    const SceneDesc s = load_scene(entry.path());
+    CHECK_FALSE(s.name.empty());
+    CHECK(s.frames > 0);
+    auto w = create_world(s);
+    CHECK(w->segment_count() == s.world.segments.size());
+    ++count;
+  }
+  CHECK(count >= 5);
+}
+
+TEST_CASE("the scene reader fills every field") {
+  const SceneDesc s = parse_scene(R"(
+[scene]
+name = "full"
+description = "all fields"
+frames = 7
+[world]
+dt = 0.001
+gravity = [0, -9.81, 0]
+threads = 1
+[solver]
+mode = "lagged"
+iterations = 3
+substeps = 2
+relaxation = 0.5
+tolerance = 1e-9
+on_instability = "stop"
+max_substeps = 8
+max_axial_strain = 2.0
+max_section_angle = 1.0
+max_displacement = 10.0
+[filter]
+enabled = false
+zeta_scale = 2.0
+[[segment]]
+name = "s"
+nodes = 21
+base = "free"
+drag = 3.0
+base_position = [1, 2, 3]
+base_tangent = [0, 1, 0]
+base_normal = [1, 0, 0]
+radius = 0.01
+wall_thickness = 0.002
+youngs_modulus = 1e5
+poisson_ratio = 0.3
+density = 1000
+linear_density = 0.2
+relaxation_time = 0.5
+[segment.rest]
+shape = "arc"
+length = 0.7
+curvature = [1.0, 2.0]
+torsion = 0.5
+[segment.law]
+bending = "kelvin-voigt"
+torsion = "elastic"
+axial = "viscous"
+[[segment.attachment]]
+node = -1
+hold_frame = true
+target = [0.1, 0.2, 0.3]
+active = false
+[[segment.load]]
+node = 3
+force = [1, 2, 3]
+moment = [4, 5, 6]
+)",
+                                  "full.toml");
+  CHECK(s.name == "full");
+  CHECK(s.frames == 7);
+  CHECK(s.world.dt == 0.001);
+  CHECK(s.world.gravity.y() == -9.81);
+  CHECK(s.world.solver.mode == SolverMode::lagged);
+  CHECK(s.world.solver.iterations == 3);
+  CHECK(s.world.solver.on_instability == InstabilityPolicy::stop);
+  CHECK(s.world.solver.max_displacement == 10.0);
+  CHECK_FALSE(s.world.filter.enabled);
+  const SegmentDesc& g = s.world.segments.at(0);
+  CHECK(g.base == BaseMode::free);
+  CHECK(*g.drag == 3.0);
+  CHECK(g.base_position.z() == 3.0);
+  CHECK(g.rest.kind == RestShapeKind::constant_strain);
+  CHECK(g.rest.curvature_torsion == Eigen::Vector3d(1.0, 2.0, 0.5));
+  CHECK(g.law[kappa1] == StrainLaw::kelvin_voigt);
+  CHECK(g.law[kappa2] == StrainLaw::kelvin_voigt);
+  CHECK(g.law[torsion] == StrainLaw::elastic);
+  CHECK(g.law[axial] == StrainLaw::viscous);
+  CHECK(*g.linear_density == 0.2);
+  CHECK(g.attachments.at(0).hold_frame);
+  CHECK_FALSE(g.attachments.at(0).active);
+  CHECK(g.loads.at(0).moment.z() == 6.0);
+  CHECK_NOTHROW(create_world(s));
+}
+
+TEST_CASE("bad scene input: the message names the file, the line, the field and what was expected") {
+  struct Case {
+    std::string text;
+    std::vector<std::string> words;  // all must appear in the message
+  };
+  const std::string m = kMinimal;
+  const std::vector<Case> cases = {
+      {"[scene\nname = 1", {"test.toml:1", "not valid TOML"}},
+      {m + "\n[world]\ndtt = 0.01\n", {"test.toml:11:1", "world.dtt", "unknown key", "dt, gravity, threads"}},
+      {m + "\n[world]\ndt = \"fast\"\n", {"test.toml:11", "world.dt", "expected a number", "\"fast\""}},
+      {m + "\n[world]\ndt = -0.1\n", {"test.toml:11", "world.dt", "positive"}},
+      {m + "\n[world]\ndt = nan\n", {"world.dt", "finite"}},
+      {m + "\n[world]\ndt = 5.0\n", {"world.dt", "plausible maximum 1"}},
+      {m + "\n[world]\ngravity = [0, 0]\n", {"world.gravity", "expected [x, y, z]"}},
+      {m + "\n[solver]\nmode = \"fast\"\n", {"test.toml:11", "solver.mode", "\"newton\", \"lagged\"", "\"fast\""}},
+      {m + "\n[solver]\niterations = 0\n", {"test.toml:11", "solver.iterations", "[1, 10000]"}},
+      {m + "\n[solver]\nrelaxation = 1.5\n", {"solver.relaxation", "(0, 1]"}},
+      {m + "\n[solver]\niterations = 2.5\n", {"solver.iterations", "expected an integer"}},
+      {m + "\n[filter]\nenabled = 1\n", {"filter.enabled", "expected true or false"}},
+      {"[[segment]]\nnodes = 1\n", {"test.toml:2", "segment[0].nodes", "[2, 10000000]"}},
+      {"[[segment]]\nradius = 20\n", {"test.toml:2", "segment[0].radius", "millimetres"}},
+      {"[[segment]]\nradius = 0.01\nwall_thickness = 0.02\n", {"test.toml:3", "segment[0].wall_thickness", "thicker than the radius"}},
+      {"[[segment]]\nyoungs_modulus = 0\n", {"test.toml:2", "segment[0].youngs_modulus", "positive"}},
+      {"[[segment]]\npoisson_ratio = 0.5\n", {"segment[0].poisson_ratio", "Poisson"}},
+      {"[[segment]]\nbase = \"floating\"\n", {"segment[0].base", "\"clamped\", \"free\""}},
+      {"[[segment]]\nbase = \"free\"\ndrag = 0\n", {"segment[0].drag", "a free base needs"}},
+      {"[[segment]]\nname = \"a\"\n[[segment]]\nname = \"a\"\n", {"segment[1].name", "used twice"}},
+      {"[[segment]]\n[segment.rest]\nshape = \"centreline\"\n", {"segment[0].rest.file", "needs file"}},
+      {"[[segment]]\n[segment.rest]\nshape = \"centreline\"\nfile = \"missing.json\"\n", {"test.toml:4", "missing.json", "cannot open"}},
+      {"[[segment]]\n[segment.rest]\nfile = \"x.json\"\n", {"segment[0].rest.file", "only a rest shape with shape = \"centreline\""}},
+      {"[[segment]]\n[segment.rest]\nlength = 0\n", {"test.toml:3", "segment[0].rest.length", "positive"}},
+      {"[[segment]]\n[segment.rest]\ncurvature = [1, 2, 3]\n", {"segment[0].rest.curvature", "expected [a, b]"}},
+      {"[[segment]]\n[segment.law]\nbending = \"plastic\"\n", {"segment[0].law.bending", "\"kelvin-voigt\""}},
+      {"[[segment]]\n[[segment.attachment]]\nhold_frame = true\n", {"segment[0].attachment[0].node", "needs node"}},
+      {"[[segment]]\nnodes = 5\n[[segment.attachment]]\nnode = 9\n", {"test.toml:4", "segment[0].attachment[0].node", "[-5, 4]"}},
+      {"[[segment]]\n[[segment.attachment]]\nnode = 0\n", {"segment[0].attachment[0].node", "clamped segment"}},
+      {"[[segment]]\n[[segment.attachment]]\nnode = 3\n[[segment.attachment]]\nnode = 3\n", {"attachment[1].node", "already attached"}},
+      {"[[segment]]\n[[segment.load]]\nnode = 2\nforce = [1, 2]\n", {"segment[0].load[0].force", "expected [x, y, z]"}},
+      {"[[segment]]\n[[segment.load]]\nforce = [1, 2, 3]\n", {"segment[0].load[0].node", "needs node"}},
+      {"[[segment]]\nnode = 5\n", {"segment[0].node", "unknown key", "nodes"}},
+      {"[scenery]\n", {"scenery", "unknown key", "scene, world, solver, filter, segment"}},
+      {"segment = 3\n", {"segment", "expected [[segment]] tables"}},
+      {"[scene]\nframes = -1\n", {"scene.frames", "non-negative"}},
+  };
+  for (const Case& c : cases) {
+    const std::string msg = error_of(c.text);
+    INFO("scene:\n" << c.text << "\nmessage: " << msg);
+    REQUIRE_FALSE(msg.empty());
+    for (const std::string& w : c.words) CHECK(msg.find(w) != std::string::npos);
+  }
+}
+
+TEST_CASE("--set overrides any value, everywhere or in one segment, and is checked like the file") {
+  const std::string two = std::string(kMinimal) + "\n[[segment]]\nname = \"b\"\nnodes = 11\n";
+  SceneDesc s = parse_scene(two, "t.toml", std::vector<std::string>{"segment.nodes=33"});
+  CHECK(s.world.segments.at(0).nodes == 33);
+  CHECK(s.world.segments.at(1).nodes == 33);
+  s = parse_scene(two, "t.toml", std::vector<std::string>{"segment[1].nodes=7", "solver.mode=lagged",
+                                                          "world.gravity=[0,0,-1]", "scene.name=renamed",
+                                                          "segment[0].rest.length=0.25"});
+  CHECK(s.world.segments.at(0).nodes == 11);
+  CHECK(s.world.segments.at(1).nodes == 7);
+  CHECK(s.world.solver.mode == SolverMode::lagged);
+  CHECK(s.world.gravity.z() == -1.0);
+  CHECK(s.name == "renamed");
+  CHECK(s.world.segments.at(0).rest.length == 0.25);
+  CHECK(error_of(two, {"segment.nodez=3"}).find("(from --set)") != std::string::npos);
+  CHECK(error_of(two, {"segment.nodes=abc"}).find("expected an integer") != std::string::npos);
+  CHECK(error_of(two, {"segment[5].nodes=3"}).find("segment[5] does not exist") != std::string::npos);
+  CHECK(error_of(two, {"nodes"}).find("expected key=value") != std::string::npos);
+  CHECK(error_of(two, {"segment=3"}).find("is a table") != std::string::npos);
+  CHECK(error_of(two, {"segment.nodes=1"}).find("segment[0].nodes") != std::string::npos);
+}

@@ -1,0 +1,180 @@
+#include "haustra/stability.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <map>
+
+#include "haustra/error.hpp"
+#include "haustra/world.hpp"
+
+namespace haustra::validation {
+namespace {
+
+WorldDesc cell_world(const StabilityCell& c, SolverMode mode, InstabilityPolicy policy, int max_substeps) {
+  WorldDesc d;
+  d.dt = c.dt;
+  d.threads = 1;
+  d.solver.mode = mode;
+  d.solver.on_instability = policy;
+  d.solver.max_substeps = max_substeps;
+  SegmentDesc s;
+  s.name = "rod";
+  s.nodes = c.nodes;
+  s.rest.length = 1.0;
+  s.material.youngs_modulus = c.youngs_modulus;
+  if (c.law == "elastic")
+    s.law = {StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic};
+  if (c.load == "pull") {
+    const double ea = c.youngs_modulus * 2.0 * std::numbers::pi * s.cross_section.radius * s.cross_section.wall_thickness;
+    s.loads.push_back({-1, Eigen::Vector3d(ea, 0.0, 0.0), Eigen::Vector3d::Zero()});  // ε → 1
+  }
+  d.segments.push_back(s);
+  return d;
+}
+
+bool state_finite(const World& w) {
+  const auto p = w.node_positions();
+  const auto q = w.strains();
+  for (std::size_t k = 0; k < w.node_count(); ++k) {
+    if (!p.get(k).allFinite() || !q.get(k).allFinite()) return false;
+  }
+  return true;
+}
+
+// Runs the cell's frames; returns "" when all passed, else the error message.
+std::string run_cell(const StabilityCell& c, SolverMode mode, InstabilityPolicy policy, int max_substeps,
+                     bool& finite, std::string& event) {
+  auto w = World::create(cell_world(c, mode, policy, max_substeps));
+  std::string error;
+  try {
+    for (int f = 0; f < c.frames; ++f) w->step();
+  } catch (const Error& e) {
+    if (e.code() != ErrorCode::unstable) throw;
+    error = e.what();
+  }
+  finite = state_finite(*w);
+  for (const Event& e : w->events())
+    if (e.kind == Event::Kind::recovered) {
+      event = std::string(e.message());
+      break;
+    }
+  return error;
+}
+
+}  // namespace
+
+StabilityOptions stability_large_n_options() {
+  StabilityOptions o;
+  o.youngs_moduli = {10.0, 33.2e3, 1e7};
+  o.time_steps = {1e-4, 0.1};
+  o.nodes = {20000};
+  o.frames_large = 3;
+  o.max_substeps = 2;
+  return o;
+}
+
+std::vector<StabilityCell> stability_sweep(const StabilityOptions& o) {
+  std::vector<StabilityCell> cells;
+  for (int n : o.nodes)
+    for (const char* load : {"gravity", "pull"})
+      for (const char* law : {"viscous", "elastic"})
+        for (double e : o.youngs_moduli)
+          for (double dt : o.time_steps) {
+            StabilityCell c;
+            c.youngs_modulus = e;
+            c.dt = dt;
+            c.nodes = n;
+            c.load = load;
+            c.law = law;
+            c.frames = n > 200 ? o.frames_large : o.frames_small;
+            std::string event;
+            bool finite = true;
+            const std::string lagged_error = run_cell(c, SolverMode::lagged, InstabilityPolicy::stop, o.max_substeps,
+                                                      finite, event);
+            c.finite = finite;
+            if (lagged_error.empty()) {
+              c.outcome = "lagged";
+            } else {
+              std::string robust_event;
+              const std::string robust_error = run_cell(c, SolverMode::lagged, InstabilityPolicy::recover,
+                                                        o.max_substeps, finite, robust_event);
+              c.finite = c.finite && finite;
+              if (robust_error.empty()) {
+                c.outcome = "robust";
+                c.detail = robust_event;
+              } else {
+                c.outcome = "error";
+                c.detail = robust_error;
+                c.names_cause = robust_error.find("segment '") != std::string::npos &&
+                                robust_error.find("node ") != std::string::npos &&
+                                robust_error.find("after stage '") != std::string::npos;
+              }
+            }
+            cells.push_back(c);
+          }
+  return cells;
+}
+
+std::string stability_markdown(const std::vector<StabilityCell>& cells) {
+  std::string md;
+  auto symbol = [](const StabilityCell& c) {
+    if (!c.finite) return std::string("**NaN**");
+    if (c.outcome == "lagged") return std::string("ok");
+    if (c.outcome == "robust") return std::string("robust");
+    return std::string("error");
+  };
+  std::vector<int> nodes;
+  std::vector<double> es, dts;
+  for (const auto& c : cells) {
+    if (std::find(nodes.begin(), nodes.end(), c.nodes) == nodes.end()) nodes.push_back(c.nodes);
+    if (std::find(es.begin(), es.end(), c.youngs_modulus) == es.end()) es.push_back(c.youngs_modulus);
+    if (std::find(dts.begin(), dts.end(), c.dt) == dts.end()) dts.push_back(c.dt);
+  }
+  for (const char* load : {"gravity", "pull"})
+    for (const char* law : {"viscous", "elastic"}) {
+      md += fmt::format("\n### {} load, {} bending and torsion\n\n", load == std::string("gravity") ? "Gravity" : "Gravity + tip pull to 100 % strain",
+                        law);
+      md += "| N | E (Pa) |";
+      for (double dt : dts) md += fmt::format(" Δt = {:g} s |", dt);
+      md += "\n|---|---|";
+      for (std::size_t i = 0; i < dts.size(); ++i) md += "---|";
+      md += "\n";
+      for (int n : nodes)
+        for (double e : es) {
+          std::string row = fmt::format("| {} | {:g} |", n, e);
+          bool any = false;
+          for (double dt : dts) {
+            const auto it = std::find_if(cells.begin(), cells.end(), [&](const StabilityCell& c) {
+              return c.nodes == n && c.youngs_modulus == e && c.dt == dt && c.load == load && c.law == law;
+            });
+            row += it == cells.end() ? std::string(" |") : fmt::format(" {} |", symbol(*it));
+            any = any || it != cells.end();
+          }
+          if (any) md += row + "\n";
+        }
+    }
+  // Why cells failed, grouped by the guard's reason.
+  std::map<std::string, int> reasons;
+  for (const auto& c : cells) {
+    if (c.outcome != "error") continue;
+    const std::size_t colon = c.detail.find(": ", c.detail.find("node "));
+    const std::size_t after = c.detail.find(" after stage");
+    std::string reason = colon != std::string::npos && after != std::string::npos ? c.detail.substr(colon + 2, after - colon - 2)
+                                                                                  : c.detail;
+    // Drop the numbers so that equal reasons group.
+    std::string key;
+    for (char ch : reason) key += (std::isdigit(static_cast<unsigned char>(ch)) != 0 || ch == '.' || ch == '-') ? '#' : ch;
+    std::string collapsed;
+    for (char ch : key)
+      if (!(ch == '#' && !collapsed.empty() && collapsed.back() == '#')) collapsed += ch;
+    reasons[collapsed] += 1;
+  }
+  if (!reasons.empty()) {
+    md += "\nCells marked *error* stopped with these causes (numbers elided):\n\n";
+    for (const auto& [r, count] : reasons) md += fmt::format("- {} × {}\n", count, r);
+  }
+  return md;
+}
+
+}  // namespace haustra::validation
