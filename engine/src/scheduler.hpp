@@ -1,13 +1,33 @@
 #pragma once
 // Runs a per-segment stage over all segments, on oneTBB inside an arena of the world's width.
 // Each call writes only its segment's slice, so the result does not depend on the thread count.
-#include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/partitioner.h>
 #include <oneapi/tbb/task_arena.h>
 
+#if defined(__SANITIZE_THREAD__)
+#include <sanitizer/tsan_interface.h>
+#endif
+
 namespace haustra::detail {
+
+// oneTBB orders each task after its dispatch and the caller after every task, but Debian's libtbb
+// is not built with ThreadSanitizer, so that ordering is invisible to it and everything a stage
+// shares looks racy. Under TSan the same ordering is stated explicitly, on a fixed address a task
+// can name before it reads anything shared; other builds compile it away.
+#if defined(__SANITIZE_THREAD__)
+inline char g_task_ordering = 0;
+inline void task_dispatch() { __tsan_release(&g_task_ordering); }
+inline void task_begin() { __tsan_acquire(&g_task_ordering); }
+inline void task_end() { __tsan_release(&g_task_ordering); }
+inline void tasks_joined() { __tsan_acquire(&g_task_ordering); }
+#else
+inline void task_dispatch() {}
+inline void task_begin() {}
+inline void task_end() {}
+inline void tasks_joined() {}
+#endif
 
 class Scheduler {
  public:
@@ -22,14 +42,15 @@ class Scheduler {
       for (std::size_t i = 0; i < count; ++i) fn(i);
       return;
     }
-    arena_.execute([&] {
-      tbb::parallel_for(
-          tbb::blocked_range<std::size_t>(0, count, 1),
-          [&](const tbb::blocked_range<std::size_t>& r) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) fn(i);
-          },
-          tbb::simple_partitioner{});
-    });
+    // One task per segment, by index: the body never touches oneTBB's own range objects.
+    const auto body = [&fn](std::size_t i) {
+      task_begin();
+      fn(i);
+      task_end();
+    };
+    task_dispatch();
+    arena_.execute([&] { tbb::parallel_for(std::size_t{0}, count, body, tbb::simple_partitioner{}); });
+    tasks_joined();
   }
 
  private:

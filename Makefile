@@ -1,0 +1,58 @@
+# haustra: the two commands (README): `make demo` and `make test`.
+# Each installs what is missing (Debian packages, through scripts/install-deps.sh), configures,
+# builds and runs. Everything else here is for developers.
+
+JOBS ?= $(shell nproc)
+DEMO_OUT ?= out/demo
+BIN := build/release/bin
+
+.PHONY: all deps configure build demo test test-release test-asan test-tsan bench validate stability-doc clean
+
+all: build
+
+deps:
+	@./scripts/install-deps.sh
+
+configure: deps
+	@cmake --preset release >/dev/null
+
+build: configure
+	@cmake --build --preset release -j $(JOBS)
+
+demo: build
+	@$(BIN)/haustra run scenes/demo.toml --out $(DEMO_OUT)
+	@echo
+	@echo "demo outputs: $(abspath $(DEMO_OUT))/ (summary.json, frames.csv, nodes.csv)"
+
+# Release tests, then the whole suite under ASan+UBSan and the threaded tests under TSan.
+test: test-release test-asan test-tsan
+
+test-release: build
+	@ctest --preset release -j $(JOBS)
+
+# The sanitizer builds compile only what their tests run (the test binary and the CLI it drives).
+test-asan: deps
+	@cmake --preset asan >/dev/null
+	@cmake --build --preset asan -j $(JOBS) --target haustra_tests haustra
+	@ctest --preset asan -j $(JOBS)
+
+# TSan checks what runs on more than one thread: stepping worlds with 2 threads.
+test-tsan: deps
+	@cmake --preset tsan >/dev/null
+	@cmake --build --preset tsan -j $(JOBS) --target haustra_tests haustra
+	@ctest --preset tsan -j $(JOBS) -R "thread"
+
+bench: build
+	@$(BIN)/haustra_bench --benchmark_out=build/release/bench.json --benchmark_out_format=json
+	@echo "benchmark results: $(abspath build/release/bench.json)"
+
+validate: build
+	@$(BIN)/haustra validate
+
+# Regenerates docs/stability.md.
+stability-doc: build
+	@$(BIN)/haustra stability --markdown > docs/stability.md
+	@echo "wrote $(abspath docs/stability.md)"
+
+clean:
+	rm -rf build out

@@ -1,0 +1,110 @@
+// Google Benchmark: the rod kernels per stage, and whole frames, lagged against Newton, across
+// node counts. Counters report nodes per second; compare ratios within one run.
+#include <benchmark/benchmark.h>
+
+#include <random>
+#include <vector>
+
+#include "haustra/kernels/block_tridiagonal.hpp"
+#include "haustra/kernels/mass_matrix.hpp"
+#include "haustra/kernels/rod_backward_sweep.hpp"
+#include "haustra/kernels/rod_forward_sweep.hpp"
+#include "haustra/kernels/rod_newton.hpp"
+#include "haustra/world.hpp"
+
+namespace {
+
+using namespace haustra;
+using namespace haustra::kernels;
+
+struct Rod {
+  std::size_t n;
+  std::vector<double> h, q, px, py, pz, qw, qx, qy, qz, mx, my, mz, mw, mqx, mqy, mqz, fx, fy, fz, tx, ty, tz, r;
+  explicit Rod(std::size_t nodes)
+      : n(nodes), h(nodes - 1, 1.0 / static_cast<double>(nodes - 1)), q(4 * nodes), px(nodes), py(nodes), pz(nodes),
+        qw(nodes), qx(nodes), qy(nodes), qz(nodes), mx(nodes - 1), my(nodes - 1), mz(nodes - 1), mw(nodes - 1),
+        mqx(nodes - 1), mqy(nodes - 1), mqz(nodes - 1), fx(nodes), fy(nodes), fz(nodes, -0.01), tx(nodes), ty(nodes),
+        tz(nodes), r(4 * nodes) {
+    std::mt19937 rng(1);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (auto& v : q) v = u(rng);
+    rod_forward_sweep({}, h, StrainView<const double>{q}, poses());
+  }
+  RodPoses<double> poses() { return {{px, py, pz}, {qw, qx, qy, qz}, {mx, my, mz}, {mw, mqx, mqy, mqz}}; }
+};
+
+void set_counters(benchmark::State& state, std::size_t nodes) {
+  state.counters["nodes/s"] = benchmark::Counter(static_cast<double>(nodes) * static_cast<double>(state.iterations()),
+                                                 benchmark::Counter::kIsRate);
+}
+
+void BM_ForwardSweep(benchmark::State& state) {
+  Rod rod(static_cast<std::size_t>(state.range(0)));
+  for (auto _ : state) {
+    rod_forward_sweep({}, rod.h, StrainView<const double>{rod.q}, rod.poses());
+    benchmark::DoNotOptimize(rod.px.data());
+  }
+  set_counters(state, rod.n);
+}
+
+void BM_BackwardSweep(benchmark::State& state) {
+  Rod rod(static_cast<std::size_t>(state.range(0)));
+  for (auto _ : state) {
+    rod_backward_sweep(rod.poses(), rod.h, {rod.fx, rod.fy, rod.fz}, {rod.tx, rod.ty, rod.tz}, StrainView<double>{rod.r});
+    benchmark::DoNotOptimize(rod.r.data());
+  }
+  set_counters(state, rod.n);
+}
+
+void BM_MassSolve(benchmark::State& state) {
+  Rod rod(static_cast<std::size_t>(state.range(0)));
+  std::vector<double> inv(rod.n), low(rod.n);
+  mass_matrix_factor(rod.h, inv, low);
+  for (auto _ : state) {
+    mass_matrix_solve({inv, low}, StrainView<double>{rod.r});
+    benchmark::DoNotOptimize(rod.r.data());
+  }
+  set_counters(state, rod.n);
+}
+
+void BM_NewtonFactor(benchmark::State& state) {
+  Rod rod(static_cast<std::size_t>(state.range(0)));
+  std::vector<NewtonBlock> lo(rod.n), di(rod.n), up(rod.n);
+  std::vector<Eigen::PartialPivLU<NewtonBlock>> piv(rod.n);
+  std::vector<double> dfx(rod.n), dfy(rod.n), dfz(rod.n), dmx(rod.n), dmy(rod.n), dmz(rod.n);
+  for (auto _ : state) {
+    rod_newton_assemble(rod.poses(), rod.h, {rod.fx, rod.fy, rod.fz}, {rod.tx, rod.ty, rod.tz}, {1, 1, 1, 100}, {},
+                        false, {dfx, dfy, dfz}, {dmx, dmy, dmz}, {lo, di, up, piv});
+    block_tridiagonal_factor<kNewtonBlock>({lo, di, up, piv});
+    benchmark::DoNotOptimize(piv.data());
+  }
+  set_counters(state, rod.n);
+}
+
+// A whole frame of the paper's rectum rod (clamped, gravity), lagged or Newton.
+void BM_Frame(benchmark::State& state, SolverMode mode) {
+  WorldDesc d;
+  d.threads = 1;
+  d.solver.mode = mode;
+  d.solver.on_instability = InstabilityPolicy::stop;
+  d.dt = 1e-3;  // haptic rate
+  SegmentDesc s;
+  s.nodes = static_cast<int>(state.range(0));
+  s.rest.length = 1.66;
+  s.material.youngs_modulus = 1e6;  // stiff enough for the lagged scheme at 1 kHz
+  d.segments.push_back(s);
+  auto w = World::create(d);
+  for (auto _ : state) w->step();
+  set_counters(state, static_cast<std::size_t>(s.nodes));
+}
+
+}  // namespace
+
+BENCHMARK(BM_ForwardSweep)->RangeMultiplier(4)->Range(16, 16384);
+BENCHMARK(BM_BackwardSweep)->RangeMultiplier(4)->Range(16, 16384);
+BENCHMARK(BM_MassSolve)->RangeMultiplier(4)->Range(16, 16384);
+BENCHMARK(BM_NewtonFactor)->RangeMultiplier(4)->Range(16, 4096);
+BENCHMARK_CAPTURE(BM_Frame, lagged, SolverMode::lagged)->Arg(167)->Arg(1000);
+BENCHMARK_CAPTURE(BM_Frame, newton, SolverMode::newton)->Arg(167)->Arg(1000);
+
+BENCHMARK_MAIN();
