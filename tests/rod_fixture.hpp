@@ -1,6 +1,7 @@
 #pragma once
 // Random rods for kernel tests: section lengths, strains and loads drawn from a seeded generator,
 // and buffers for poses and generalized forces, sized once.
+#include <algorithm>
 #include <random>
 #include <vector>
 
@@ -44,6 +45,10 @@ struct RodBuffers {
       ty[k] = 0.1 * load * u(rng);
       tz[k] = 0.1 * load * u(rng);
     }
+  }
+
+  void clear_loads() {
+    for (auto* v : {&fx, &fy, &fz, &tx, &ty, &tz}) std::fill(v->begin(), v->end(), 0.0);
   }
 
   void sweep(const kernels::Pose& base = {}) {

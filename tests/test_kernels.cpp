@@ -107,12 +107,7 @@ TEST_CASE("unit-load generalized force equals a backward sweep with that one loa
   const Eigen::Vector3d dir = Eigen::Vector3d(0.3, -0.5, 0.8).normalized();
   for (bool is_moment : {false, true}) {
     for (std::size_t node : {std::size_t{0}, std::size_t{1}, std::size_t{12}, std::size_t{24}}) {
-      std::fill(rod.fx.begin(), rod.fx.end(), 0.0);
-      std::fill(rod.fy.begin(), rod.fy.end(), 0.0);
-      std::fill(rod.fz.begin(), rod.fz.end(), 0.0);
-      std::fill(rod.tx.begin(), rod.tx.end(), 0.0);
-      std::fill(rod.ty.begin(), rod.ty.end(), 0.0);
-      std::fill(rod.tz.begin(), rod.tz.end(), 0.0);
+      rod.clear_loads();
       (is_moment ? rod.moment() : rod.force()).set(node, dir);
       std::vector<double> unit(4 * rod.n), full(4 * rod.n);
       rod_unit_load_generalized_force(rod.poses(), rod.h, node, dir, is_moment, StrainView<double>{unit});
@@ -193,12 +188,7 @@ TEST_CASE("rigid drag: symmetric positive definite, translation drag is minus c 
   CHECK(Eigen::SelfAdjointEigenSolver<Matrix6d>(cm).eigenvalues().minCoeff() > 0.0);
   Vector6d twist = Vector6d::Zero();
   twist.tail<3>() = Eigen::Vector3d(0, 0, -2.0);
-  std::fill(rod.fx.begin(), rod.fx.end(), 0.0);
-  std::fill(rod.fy.begin(), rod.fy.end(), 0.0);
-  std::fill(rod.fz.begin(), rod.fz.end(), 0.0);
-  std::fill(rod.tx.begin(), rod.tx.end(), 0.0);
-  std::fill(rod.ty.begin(), rod.ty.end(), 0.0);
-  std::fill(rod.tz.begin(), rod.tz.end(), 0.0);
+  rod.clear_loads();
   add_rigid_drag_loads(rod.poses().node_position, c, s, origin, twist, rod.force(), rod.moment());
   for (std::size_t k = 0; k < rod.n; ++k) CHECK(rod.fz[k] == doctest::Approx(2.0 * c[k]));
   // The drag wrench of any twist is −C twist.

@@ -7,6 +7,7 @@
 #include "haustra/error.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/rest_shape.hpp"
+#include "haustra/rod_pose_buffer.hpp"
 
 using namespace haustra;
 
@@ -14,12 +15,8 @@ namespace {
 
 std::vector<Eigen::Vector3d> reconstruct(const RestShape& r) {
   const std::size_t n = r.section_length.size() + 1;
-  std::vector<double> b(14 * n);
-  auto col = [&](std::size_t i, std::size_t len) { return std::span<double>(b.data() + i * n, len); };
-  kernels::RodPoses<double> p{{col(0, n), col(1, n), col(2, n)},
-                              {col(3, n), col(4, n), col(5, n), col(6, n)},
-                              {col(7, n - 1), col(8, n - 1), col(9, n - 1)},
-                              {col(10, n - 1), col(11, n - 1), col(12, n - 1), col(13, n - 1)}};
+  RodPoseBuffer buffer(n);
+  const kernels::RodPoses<double> p = buffer.view();
   kernels::rod_forward_sweep(r.base, r.section_length, kernels::StrainView<const double>{r.strain}, p);
   std::vector<Eigen::Vector3d> out;
   for (std::size_t k = 0; k < n; ++k) out.push_back(p.node_position.get(k));

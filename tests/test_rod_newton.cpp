@@ -21,6 +21,33 @@ std::vector<double> residual_of(test::RodBuffers& rod, const std::array<double, 
   return out;
 }
 
+// The mixed system as one dense matrix.
+Eigen::MatrixXd dense_system(const std::vector<NewtonBlock>& lo, const std::vector<NewtonBlock>& di,
+                             const std::vector<NewtonBlock>& up) {
+  const int b = kNewtonBlock;
+  const auto n = static_cast<int>(di.size());
+  Eigen::MatrixXd big = Eigen::MatrixXd::Zero(n * b, n * b);
+  for (int k = 0; k < n; ++k) {
+    const auto uk = static_cast<std::size_t>(k);
+    big.block(k * b, k * b, b, b) = di[uk];
+    if (k > 0) big.block(k * b, (k - 1) * b, b, b) = lo[uk];
+    if (k + 1 < n) big.block(k * b, (k + 1) * b, b, b) = up[uk];
+  }
+  return big;
+}
+
+// The Schur complement of the dense system onto the kept rows and columns: the Jacobian of the
+// kept equations in the kept unknowns once the others are eliminated.
+Eigen::MatrixXd reduce(const Eigen::MatrixXd& big, const std::vector<int>& keep, const std::vector<int>& other) {
+  auto sub = [&](const std::vector<int>& r, const std::vector<int>& c) {
+    Eigen::MatrixXd m(r.size(), c.size());
+    for (std::size_t i = 0; i < r.size(); ++i)
+      for (std::size_t j = 0; j < c.size(); ++j) m(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = big(r[i], c[j]);
+    return m;
+  };
+  return sub(keep, keep) - sub(keep, other) * sub(other, other).fullPivLu().solve(sub(other, keep));
+}
+
 }  // namespace
 
 TEST_CASE("Newton Jacobian matches finite differences of the residual") {
@@ -38,27 +65,11 @@ TEST_CASE("Newton Jacobian matches finite differences of the residual") {
     rod_newton_assemble(rod.poses(), rod.h, rod.force(), rod.moment(), a, {}, false, {dfx, dfy, dfz},
                         {dmx, dmy, dmz}, {lo, di, up, piv});
 
-    // Dense Jacobian of the mixed system, and its Schur complement onto the strains: the reduced
-    // Jacobian ∂ρ/∂q that finite differences measure.
-    const int b = kNewtonBlock;
-    const int dim = static_cast<int>(n) * b;
-    Eigen::MatrixXd big = Eigen::MatrixXd::Zero(dim, dim);
-    for (std::size_t k = 0; k < n; ++k) {
-      const int r0 = static_cast<int>(k) * b;
-      big.block(r0, r0, b, b) = di[k];
-      if (k > 0) big.block(r0, r0 - b, b, b) = lo[k];
-      if (k + 1 < n) big.block(r0, r0 + b, b, b) = up[k];
-    }
+    // The reduced Jacobian ∂ρ/∂q that finite differences measure: eliminate all but the strains.
+    const Eigen::MatrixXd big = dense_system(lo, di, up);
     std::vector<int> qi, oi;
-    for (int i = 0; i < dim; ++i) (i % b < 4 ? qi : oi).push_back(i);
-    auto sub = [&](const std::vector<int>& r, const std::vector<int>& c) {
-      Eigen::MatrixXd m(r.size(), c.size());
-      for (std::size_t i = 0; i < r.size(); ++i)
-        for (std::size_t j = 0; j < c.size(); ++j) m(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = big(r[i], c[j]);
-      return m;
-    };
-    const Eigen::MatrixXd jqq = sub(qi, qi), jqo = sub(qi, oi), joq = sub(oi, qi), joo = sub(oi, oi);
-    const Eigen::MatrixXd reduced = jqq - jqo * joo.fullPivLu().solve(joq);
+    for (int i = 0; i < big.rows(); ++i) (i % kNewtonBlock < 4 ? qi : oi).push_back(i);
+    const Eigen::MatrixXd reduced = reduce(big, qi, oi);
 
     // Central differences, column by column.
     const double eps = 1e-6;
@@ -140,26 +151,13 @@ TEST_CASE("Newton Jacobian with the medium's drag and a free base matches finite
                           {dfx, dfy, dfz}, {dmx, dmy, dmz}, {lo, di, up, piv});
   for (int i = 0; i < 6; ++i) CHECK(total[i] == doctest::Approx(rho0[4 * n + static_cast<std::size_t>(i)]).epsilon(1e-12));
 
-  // Reduce the dense mixed Jacobian onto (strains, base rotation, base position).
+  // Reduce onto (strains, base rotation, base position): every node residual and the base rows.
   const int b = kNewtonBlock;
-  const int dim = static_cast<int>(n) * b;
-  Eigen::MatrixXd big = Eigen::MatrixXd::Zero(dim, dim);
-  for (std::size_t k = 0; k < n; ++k) {
-    const int r0 = static_cast<int>(k) * b;
-    big.block(r0, r0, b, b) = di[k];
-    if (k > 0) big.block(r0, r0 - b, b, b) = lo[k];
-    if (k + 1 < n) big.block(r0, r0 + b, b, b) = up[k];
-  }
-  // Kept unknowns: every δq, and δφ_0, δr_0. Kept equations: every node residual and the base rows.
+  const Eigen::MatrixXd big = dense_system(lo, di, up);
   std::vector<int> keep, other;
-  for (int i = 0; i < dim; ++i) (i % b < 4 || (i < b && i >= kNewtonRotation && i < kNewtonMoment) ? keep : other).push_back(i);
-  auto sub = [&](const std::vector<int>& r, const std::vector<int>& c) {
-    Eigen::MatrixXd m(r.size(), c.size());
-    for (std::size_t i = 0; i < r.size(); ++i)
-      for (std::size_t j = 0; j < c.size(); ++j) m(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = big(r[i], c[j]);
-    return m;
-  };
-  const Eigen::MatrixXd reduced = sub(keep, keep) - sub(keep, other) * sub(other, other).fullPivLu().solve(sub(other, keep));
+  for (int i = 0; i < big.rows(); ++i)
+    (i % b < 4 || (i < b && i >= kNewtonRotation && i < kNewtonMoment) ? keep : other).push_back(i);
+  const Eigen::MatrixXd reduced = reduce(big, keep, other);
 
   // Finite differences in the same unknowns and equation order.
   const double eps = 1e-6;

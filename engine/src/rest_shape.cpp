@@ -6,6 +6,7 @@
 
 #include "haustra/error.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
+#include "haustra/rod_pose_buffer.hpp"
 
 namespace haustra {
 namespace {
@@ -234,12 +235,8 @@ RestShape rest_shape_from_centreline(std::span<const Eigen::Vector3d> points, in
   for (double h : rest.section_length) rest.length += h;
 
   // Reconstruct with the engine's own sweep and measure.
-  const std::size_t n = static_cast<std::size_t>(nodes);
-  std::vector<double> buf(14 * n);
-  auto col = [&](std::size_t i) { return std::span<double>(buf.data() + i * n, n); };
-  auto mid = [&](std::size_t i) { return std::span<double>(buf.data() + i * n, n - 1); };
-  kernels::RodPoses<double> poses{{col(0), col(1), col(2)}, {col(3), col(4), col(5), col(6)},
-                                  {mid(7), mid(8), mid(9)}, {mid(10), mid(11), mid(12), mid(13)}};
+  RodPoseBuffer buffer(static_cast<std::size_t>(nodes));
+  const kernels::RodPoses<double> poses = buffer.view();
   kernels::rod_forward_sweep(base, rest.section_length, kernels::StrainView<const double>{rest.strain}, poses);
   for (std::size_t j = 0; j <= intervals; ++j)
     rest.node_deviation = std::max(rest.node_deviation, (poses.node_position.get(first_section[j]) - sample[j]).norm());

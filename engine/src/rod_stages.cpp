@@ -71,6 +71,17 @@ void unit_drag_field(const WorldModel& model, const SegmentModel& seg, const Seg
   kernels::rod_backward_sweep(v.poses, v.section_length, v.force, v.moment, out);
 }
 
+// Adds the attachments' current constraint forces and moments to the node loads.
+void add_attachment_loads(const SegmentModel& seg, const WorldState& state, const SegmentViews& v) {
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
+    const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
+    if (!as.active) continue;
+    const std::size_t k = seg.attachments[a].node;
+    v.force.set(k, v.force.get(k) + as.force);
+    v.moment.set(k, v.moment.get(k) + as.moment);
+  }
+}
+
 // Wrench about node 0 of a unit constraint load, and the base twist it causes through the drag.
 kernels::Vector6d unit_wrench(const ConstraintRow& row, const SegmentViews& v) {
   kernels::Vector6d w;
@@ -121,13 +132,7 @@ void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment
                                v.moment);
   if (!p.newton) return;
   // Newton solves for increments of the constraint forces; their current totals are loads.
-  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
-    const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
-    if (!as.active) continue;
-    const std::size_t k = seg.attachments[a].node;
-    v.force.set(k, v.force.get(k) + as.force);
-    v.moment.set(k, v.moment.get(k) + as.moment);
-  }
+  add_attachment_loads(seg, state, v);
   if (!seg.has_drag) return;
   const auto r0 = state.position_substep_start.view().subview(seg.node_offset, seg.node_count);
   const auto q0 = state.rotation_substep_start.view().subview(seg.node_offset, seg.node_count);
@@ -458,13 +463,7 @@ LaggedRatios lagged_contraction(const WorldModel& model, WorldState& state, std:
   const std::size_t n = seg.node_count;
   // Loads at the new configuration, with the frame's constraint forces and the base's drag.
   stage_loads(model, state, segment, p);
-  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
-    const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
-    if (!as.active) continue;
-    const std::size_t k = seg.attachments[a].node;
-    v.force.set(k, v.force.get(k) + as.force);
-    v.moment.set(k, v.moment.get(k) + as.moment);
-  }
+  add_attachment_loads(seg, state, v);
   if (seg.base_mode == BaseMode::free)
     kernels::add_rigid_drag_loads(v.poses.node_position, drag_of(model, seg), spin_drag_of(model, seg),
                                   v.poses.node_position.get(0), state.base_twist[segment], v.force, v.moment);

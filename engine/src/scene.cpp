@@ -125,35 +125,34 @@ class Reader {
     fail(n, path, fmt::format("expected one of {}, got \"{}\"", list, v));
   }
 
-  Eigen::Vector3d vec3(const toml::table& t, std::string_view key, const std::string& path,
-                       const Eigen::Vector3d& fallback) const {
+  // A fixed-length array of finite numbers: [x, y, z] or [a, b].
+  template <int N>
+  Eigen::Matrix<double, N, 1> numbers(const toml::table& t, std::string_view key, const std::string& path,
+                                      const Eigen::Matrix<double, N, 1>& fallback) const {
     const toml::node* n = t.get(key);
     if (n == nullptr) return fallback;
+    const char* shape = N == 3 ? "[x, y, z]" : "[a, b]";
     const toml::array* a = n->as_array();
-    if (a == nullptr || a->size() != 3) fail(n, path, fmt::format("expected [x, y, z], got {}", describe_value(*n)));
-    Eigen::Vector3d v;
-    for (std::size_t i = 0; i < 3; ++i) {
-      const toml::node& e = *a->get(i);
-      if (!(e.is_floating_point() || e.is_integer())) fail(n, path, "expected three numbers");
-      v[static_cast<Eigen::Index>(i)] = *e.value<double>();
+    if (a == nullptr || a->size() != static_cast<std::size_t>(N))
+      fail(n, path, fmt::format("expected {}, got {}", shape, describe_value(*n)));
+    Eigen::Matrix<double, N, 1> v;
+    for (int i = 0; i < N; ++i) {
+      const toml::node& e = *a->get(static_cast<std::size_t>(i));
+      if (!(e.is_floating_point() || e.is_integer())) fail(n, path, fmt::format("expected {} numbers", N));
+      v[i] = *e.value<double>();
     }
-    if (!v.allFinite()) fail(n, path, "expected three finite numbers");
+    if (!v.allFinite()) fail(n, path, fmt::format("expected {} finite numbers", N));
     return v;
+  }
+
+  Eigen::Vector3d vec3(const toml::table& t, std::string_view key, const std::string& path,
+                       const Eigen::Vector3d& fallback) const {
+    return numbers<3>(t, key, path, fallback);
   }
 
   Eigen::Vector2d vec2(const toml::table& t, std::string_view key, const std::string& path,
                        const Eigen::Vector2d& fallback) const {
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return fallback;
-    const toml::array* a = n->as_array();
-    if (a == nullptr || a->size() != 2) fail(n, path, fmt::format("expected [a, b], got {}", describe_value(*n)));
-    Eigen::Vector2d v;
-    for (std::size_t i = 0; i < 2; ++i) {
-      const toml::node& e = *a->get(i);
-      if (!(e.is_floating_point() || e.is_integer())) fail(n, path, "expected two numbers");
-      v[static_cast<Eigen::Index>(i)] = *e.value<double>();
-    }
-    return v;
+    return numbers<2>(t, key, path, fallback);
   }
 
   // An array of tables (TOML [[name]]); absent is empty.

@@ -9,6 +9,7 @@
 #include "haustra/kernels/mass_matrix.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/rest_shape.hpp"
+#include "haustra/rod_pose_buffer.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -176,12 +177,8 @@ WorldModel build_world_model(const WorldDesc& desc) {
                                 std::span(m.mass_lower).subspan(m.node_total, n));
 
     // Initial poses, for default attachment targets.
-    std::vector<double> buf(14 * n, 0.0);
-    auto col = [&](std::size_t i, std::size_t len) { return std::span<double>(buf.data() + i * n, len); };
-    kernels::RodPoses<double> poses{{col(0, n), col(1, n), col(2, n)},
-                                    {col(3, n), col(4, n), col(5, n), col(6, n)},
-                                    {col(7, n - 1), col(8, n - 1), col(9, n - 1)},
-                                    {col(10, n - 1), col(11, n - 1), col(12, n - 1), col(13, n - 1)}};
+    RodPoseBuffer pose_buffer(n);
+    const kernels::RodPoses<double> poses = pose_buffer.view();
     kernels::rod_forward_sweep(rest.base, rest.section_length, kernels::StrainView<const double>{rest.strain}, poses);
 
     m.initial_load.resize(6 * (m.node_total + n), 0.0);

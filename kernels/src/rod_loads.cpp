@@ -1,16 +1,7 @@
+#include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/rod_loads.hpp"
 
 namespace haustra::kernels {
-namespace {
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
-
-}  // namespace
-
 void assemble_node_loads(std::span<const double> node_mass, const Eigen::Vector3d& gravity,
                          Vec3View<const double> external_force,
                          Vec3View<const double> external_moment, Vec3View<double> force,

@@ -1,15 +1,10 @@
+#include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/rod_newton.hpp"
 
 #include "haustra/kernels/mass_matrix.hpp"
 
 namespace haustra::kernels {
 namespace {
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
 
 // Linearization of section k's generalized force:
 // δs = P δφ_k + Q δM_k + Fm δF_k + X (δq_k + δq_{k+1}).

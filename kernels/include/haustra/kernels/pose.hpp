@@ -20,6 +20,13 @@ struct Pose {
 // that straight pieces are exact and no division by a tiny angle happens.
 [[nodiscard]] Pose section_exp(const Eigen::Vector3d& u, double axial_strain, double length);
 
+// The cross-product matrix: skew(a) b = a × b.
+[[nodiscard]] inline Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
 // Rotation vector (axis times angle, angle in [0, π]) of a unit quaternion.
 [[nodiscard]] Eigen::Vector3d rotation_log(const Eigen::Quaterniond& q);
 
