@@ -146,8 +146,10 @@ TEST_CASE("Newton Jacobian with the medium's drag and a free base matches finite
   std::vector<NewtonBlock> lo(n), di(n), up(n);
   std::vector<Eigen::PartialPivLU<NewtonBlock>> piv(n);
   std::vector<double> dfx(n), dfy(n), dfz(n), dmx(n), dmy(n), dmz(n);
+  std::vector<Eigen::Matrix3d> k(n);
+  for (std::size_t i = 0; i < n; ++i) k[i] = fr.c[i] * Eigen::Matrix3d::Identity();
   const Eigen::Matrix<double, 6, 1> total =
-      rod_newton_assemble(fr.rod.poses(), fr.rod.h, fr.rod.force(), fr.rod.moment(), a, {fr.c, fr.s}, true,
+      rod_newton_assemble(fr.rod.poses(), fr.rod.h, fr.rod.force(), fr.rod.moment(), a, {k, fr.s}, true,
                           {dfx, dfy, dfz}, {dmx, dmy, dmz}, {lo, di, up, piv});
   for (int i = 0; i < 6; ++i) CHECK(total[i] == doctest::Approx(rho0[4 * n + static_cast<std::size_t>(i)]).epsilon(1e-12));
 

@@ -11,6 +11,7 @@
 #include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/rod_newton.hpp"
 #include "haustra/kernels/strain_update.hpp"
+#include "collision.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -18,12 +19,19 @@ namespace {
 constexpr int kMaxRows = static_cast<int>(kMaxConstraintRows);
 using MatrixS = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows, kMaxRows>;
 using VectorS = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRows, 1>;
+// Newton's coupled system: constraint rows and the contacts it solves as pairs.
+constexpr int kMaxCoupled = kMaxRows + static_cast<int>(kMaxCoupledContacts);
+using MatrixC = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxCoupled, kMaxCoupled>;
+using VectorC = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxCoupled, 1>;
 using Matrix6x = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxRows>;
 
 // Newton steps are scaled down to stay within these per frame of iteration (a trust region):
 // beyond them the linearization says little about the rod.
 constexpr double kMaxNewtonAngle = 0.5;   // rad of bend or twist per section
 constexpr double kMaxNewtonStretch = 0.25;
+// ... and so that no contact gets deeper by more than this fraction of its bead's radius: a
+// penalty's stiffness grows with depth, so the tangent at the surface lets a bead sink far too far.
+constexpr double kMaxNewtonDeepening = 0.1;
 
 kernels::MassMatrixFactorView factor_of(const WorldModel& model, const SegmentModel& seg) {
   return {std::span<const double>(model.mass_inv_pivot).subspan(seg.node_offset, seg.node_count),
@@ -76,7 +84,7 @@ void add_attachment_loads(const SegmentModel& seg, const WorldState& state, cons
   for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
     const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
     if (!as.active) continue;
-    const std::size_t k = seg.attachments[a].node;
+    const std::size_t k = as.node;
     v.force.set(k, v.force.get(k) + as.force);
     v.moment.set(k, v.moment.get(k) + as.moment);
   }
@@ -108,10 +116,11 @@ double row_error(const ConstraintRow& row, const AttachmentState& as, const Segm
 std::size_t active_constraint_rows(const SegmentModel& seg, const WorldState& state, ConstraintRows& rows) {
   std::size_t m = 0;
   for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
-    if (!state.now.attachment[seg.attachment_offset + a].active) continue;
-    for (int axis = 0; axis < 3; ++axis) rows[m++] = {seg.attachments[a].node, Eigen::Vector3d::Unit(axis), false, a};
-    if (seg.attachments[a].hold_frame)
-      for (int axis = 0; axis < 3; ++axis) rows[m++] = {seg.attachments[a].node, Eigen::Vector3d::Unit(axis), true, a};
+    const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
+    if (!as.active) continue;
+    for (int axis = 0; axis < 3; ++axis) rows[m++] = {as.node, Eigen::Vector3d::Unit(axis), false, a};
+    if (as.hold_frame)
+      for (int axis = 0; axis < 3; ++axis) rows[m++] = {as.node, Eigen::Vector3d::Unit(axis), true, a};
   }
   return m;
 }
@@ -130,6 +139,12 @@ void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment
                                state.external_force.view().subview(seg.node_offset, seg.node_count),
                                state.external_moment.view().subview(seg.node_offset, seg.node_count), v.force,
                                v.moment);
+  // Contact penalties, as the collision stage last evaluated them.
+  const auto bead_force = state.collision.bead_force.view();
+  for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
+    const std::size_t k = model.beads.node[b] - seg.node_offset;
+    v.force.set(k, v.force.get(k) + bead_force.get(b));
+  }
   if (!p.newton) return;
   // Newton solves for increments of the constraint forces; their current totals are loads.
   add_attachment_loads(seg, state, v);
@@ -287,18 +302,21 @@ void stage_newton_jacobian(const WorldModel& model, WorldState& state, std::size
   const SegmentModel& seg = model.segments[segment];
   const SegmentViews v = segment_views(model, state, segment);
   NewtonWorkspace& ws = state.newton[segment];
-  kernels::NewtonDrag drag;
-  if (seg.has_drag) {
+  // Loads that follow the nodes: the medium's drag on every node, contact penalties at beads.
+  kernels::NewtonLoadStiffness stiffness;
+  if (seg.has_drag || seg.bead_count > 0) {
     const std::span<const double> c = drag_of(model, seg);
     const std::span<const double> sd = spin_drag_of(model, seg);
     for (std::size_t k = 0; k < seg.node_count; ++k) {
-      ws.drag_force_rate[k] = c[k] / p.dt;
+      ws.force_stiffness[k] = (c[k] / p.dt) * Eigen::Matrix3d::Identity();
       ws.drag_moment_rate[k] = sd[k] / p.dt;
     }
-    drag = {ws.drag_force_rate, ws.drag_moment_rate};
+    for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b)
+      ws.force_stiffness[model.beads.node[b] - seg.node_offset] += state.collision.bead_stiffness[b];
+    stiffness = {ws.force_stiffness, ws.drag_moment_rate};
   }
-  ws.base_wrench = kernels::rod_newton_assemble(v.poses, v.section_length, v.force, v.moment, law_total(seg, p.dt), drag,
-                                                seg.base_mode == BaseMode::free, ws.distal_force.view(),
+  ws.base_wrench = kernels::rod_newton_assemble(v.poses, v.section_length, v.force, v.moment, law_total(seg, p.dt),
+                                                stiffness, seg.base_mode == BaseMode::free, ws.distal_force.view(),
                                                 ws.distal_moment.view(), ws.system());
   kernels::block_tridiagonal_factor(ws.system());
 }
@@ -332,8 +350,12 @@ Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, s
     }
   }
   // Right-hand sides: column 0 the residual (and, for a free base, the unbalanced wrench);
-  // column 1+j the generalized force of a unit load along constraint row j.
-  const int cols = 1 + static_cast<int>(m);
+  // column 1+j the generalized force of a unit load along constraint row j; then, for each
+  // contact coupled exactly, a unit pair of forces (+n on one bead's node, −n on the other's).
+  const CollisionState& cs = state.collision;
+  const std::size_t p0 = cs.coupled_start.empty() ? 0 : cs.coupled_start[segment];
+  const std::size_t pc = cs.coupled_start.empty() ? 0 : cs.coupled_start[segment + 1] - p0;
+  const int cols = 1 + static_cast<int>(m + pc);
   const auto stride = static_cast<std::size_t>(B * cols);
   auto entry = [&](std::size_t k, int row, int col) -> double& {
     return ws.rhs[k * stride + static_cast<std::size_t>(col * B + row)];
@@ -345,43 +367,69 @@ Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, s
   if (free_base)
     for (int i = 0; i < 6; ++i) entry(0, kernels::kNewtonRotation + i, 0) = -ws.base_wrench[i];
   const kernels::StrainView<double> unit{ws.unit};
-  for (std::size_t j = 0; j < m; ++j) {
-    kernels::rod_unit_load_generalized_force(v.poses, v.section_length, rows[j].node, rows[j].dir, rows[j].is_moment,
-                                             unit);
-    for (std::size_t k = 0; k <= rows[j].node; ++k)
-      for (int c = 0; c < 4; ++c) entry(k, c, 1 + static_cast<int>(j)) = -unit.at(k, static_cast<std::size_t>(c));
+  // A unit load (force or moment along dir, at a node) into column `col`, with `sign`.
+  auto add_unit_load = [&](int col, std::size_t node, const Eigen::Vector3d& dir, bool is_moment, double sign) {
+    kernels::rod_unit_load_generalized_force(v.poses, v.section_length, node, dir, is_moment, unit);
+    for (std::size_t k = 0; k <= node; ++k)
+      for (int c = 0; c < 4; ++c) entry(k, c, col) -= sign * unit.at(k, static_cast<std::size_t>(c));
     if (free_base) {
       // A unit load unbalances the free rod by its own wrench about node 0.
-      const kernels::Vector6d w = unit_wrench(rows[j], v);
-      for (int i = 0; i < 6; ++i) entry(0, kernels::kNewtonRotation + i, 1 + static_cast<int>(j)) = -w[i];
+      const kernels::Vector6d w = unit_wrench({node, dir, is_moment, 0}, v);
+      for (int i = 0; i < 6; ++i) entry(0, kernels::kNewtonRotation + i, col) -= sign * w[i];
     }
+  };
+  for (std::size_t j = 0; j < m; ++j) add_unit_load(1 + static_cast<int>(j), rows[j].node, rows[j].dir, rows[j].is_moment, 1.0);
+  struct Pair {
+    std::size_t a, b;       // local nodes
+    Eigen::Vector3d n;      // separating direction, towards a
+    double stiffness;
+  };
+  std::array<Pair, kMaxCoupledContacts> pairs{};
+  for (std::size_t c = 0; c < pc; ++c) {
+    const Contact& k = cs.candidates[cs.coupled[p0 + c]];
+    pairs[c] = {model.beads.node[k.bead] - seg.node_offset, model.beads.node[k.other] - seg.node_offset, k.direction,
+                std::max(k.stiffness, 1e-300)};
+    const int col = 1 + static_cast<int>(m + c);
+    add_unit_load(col, pairs[c].a, pairs[c].n, false, 1.0);
+    add_unit_load(col, pairs[c].b, pairs[c].n, false, -1.0);
   }
   kernels::block_tridiagonal_solve(ws.system(), std::span<double>(ws.rhs.data(), n * stride), cols);
 
-  // Response of column `col` at a row's node, along the row's direction.
-  auto response = [&](const ConstraintRow& row, int col) {
-    const int first = row.is_moment ? kernels::kNewtonRotation : kernels::kNewtonPosition;
-    return row.dir.dot(Eigen::Vector3d(entry(row.node, first, col), entry(row.node, first + 1, col),
-                                       entry(row.node, first + 2, col)));
+  // Displacement (or rotation) of a node along a direction in column `col`.
+  auto moved = [&](std::size_t node, const Eigen::Vector3d& dir, bool rotation, int col) {
+    const int first = rotation ? kernels::kNewtonRotation : kernels::kNewtonPosition;
+    return dir.dot(Eigen::Vector3d(entry(node, first, col), entry(node, first + 1, col), entry(node, first + 2, col)));
   };
-  const auto mi = static_cast<Eigen::Index>(m);
-  VectorS dlambda = VectorS::Zero(mi);
-  if (m > 0) {
-    MatrixS s(mi, mi);
-    VectorS err(mi);
+  auto response = [&](const ConstraintRow& row, int col) { return moved(row.node, row.dir, row.is_moment, col); };
+  auto separation = [&](const Pair& pr, int col) { return moved(pr.a, pr.n, false, col) - moved(pr.b, pr.n, false, col); };
+
+  // The coupled system: constraint rows hold their targets; each coupled contact's force change
+  // follows its separation, δf = −k n·(δr_a − δr_b).
+  const auto unknowns = static_cast<Eigen::Index>(m + pc);
+  VectorC x = VectorC::Zero(unknowns);
+  if (unknowns > 0) {
+    MatrixC lhs(unknowns, unknowns);
+    VectorC b(unknowns);
     for (std::size_t j = 0; j < m; ++j) {
       const AttachmentState& as = state.now.attachment[seg.attachment_offset + rows[j].attachment];
-      err[static_cast<Eigen::Index>(j)] = row_error(rows[j], as, v) - response(rows[j], 0);
-      for (std::size_t l = 0; l < m; ++l)
-        s(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(l)) = response(rows[j], 1 + static_cast<int>(l));
+      const auto r = static_cast<Eigen::Index>(j);
+      b[r] = row_error(rows[j], as, v) - response(rows[j], 0);
+      for (Eigen::Index l = 0; l < unknowns; ++l) lhs(r, l) = response(rows[j], 1 + static_cast<int>(l));
     }
-    dlambda = Eigen::FullPivLU<MatrixS>(s).solve(err);
+    for (std::size_t c = 0; c < pc; ++c) {
+      const auto r = static_cast<Eigen::Index>(m + c);
+      b[r] = -separation(pairs[c], 0);
+      for (Eigen::Index l = 0; l < unknowns; ++l) lhs(r, l) = separation(pairs[c], 1 + static_cast<int>(l));
+      lhs(r, r) += 1.0 / pairs[c].stiffness;
+    }
+    x = Eigen::FullPivLU<MatrixC>(lhs).solve(b);
   }
-  // The full step z = z_0 + Σ δλ_l z_l, folded into column 0.
+  const VectorS dlambda = x.head(static_cast<Eigen::Index>(m));
+  // The full step z = z_0 + Σ x_l z_l, folded into column 0.
   for (std::size_t k = 0; k < n; ++k)
     for (int r = 0; r < B; ++r) {
       double d = entry(k, r, 0);
-      for (std::size_t l = 0; l < m; ++l) d += dlambda[static_cast<Eigen::Index>(l)] * entry(k, r, 1 + static_cast<int>(l));
+      for (Eigen::Index l = 0; l < unknowns; ++l) d += x[l] * entry(k, r, 1 + static_cast<int>(l));
       entry(k, r, 0) = d;
     }
 
@@ -401,6 +449,28 @@ Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, s
   double scale = 1.0;
   if (worst_angle > kMaxNewtonAngle) scale = std::min(scale, kMaxNewtonAngle / worst_angle);
   if (worst_stretch > kMaxNewtonStretch) scale = std::min(scale, kMaxNewtonStretch / worst_stretch);
+  // Contacts: the depth each would gain from this step (this segment's side of it).
+  for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
+    const std::size_t node = model.beads.node[b] - seg.node_offset;
+    const Eigen::Vector3d dr(entry(node, kernels::kNewtonPosition, 0), entry(node, kernels::kNewtonPosition + 1, 0),
+                             entry(node, kernels::kNewtonPosition + 2, 0));
+    const double allowed = kMaxNewtonDeepening * model.beads.radius[b];
+    for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e) {
+      const Contact& k = cs.candidates[cs.bead_contact[e] >> 1];
+      const bool second = (cs.bead_contact[e] & 1U) != 0;
+      double deepening = -(second ? -1.0 : 1.0) * k.direction.dot(dr);  // along the separating direction, towards it
+      if (k.coupled) {
+        // Both beads are in this step: the pair's relative motion.
+        const std::uint32_t mate = second ? k.bead : k.other;
+        const std::size_t mate_node = model.beads.node[mate] - seg.node_offset;
+        const Eigen::Vector3d dm(entry(mate_node, kernels::kNewtonPosition, 0), entry(mate_node, kernels::kNewtonPosition + 1, 0),
+                                 entry(mate_node, kernels::kNewtonPosition + 2, 0));
+        deepening = -(second ? -1.0 : 1.0) * k.direction.dot(dr - dm);
+      }
+      const double room = allowed + std::max(0.0, -k.depth);  // a gap may close entirely first
+      if (deepening > room) scale = std::min(scale, room / deepening);
+    }
+  }
 
   Eigen::Vector4d change = Eigen::Vector4d::Zero();
   for (std::size_t k = 0; k < n; ++k)
@@ -432,7 +502,7 @@ void stage_filter(const WorldModel& model, WorldState& state, std::size_t segmen
   std::fill(exempt.begin(), exempt.end(), std::uint8_t{0});
   if (seg.base_mode == BaseMode::clamped) exempt[0] = 1;
   for (std::size_t a = 0; a < seg.attachments.size(); ++a)
-    if (state.now.attachment[seg.attachment_offset + a].active) exempt[seg.attachments[a].node] = 1;
+    if (state.now.attachment[seg.attachment_offset + a].active) exempt[state.now.attachment[seg.attachment_offset + a].node] = 1;
   kernels::inertia_filter(state.frame_start.position.view().subview(seg.node_offset, seg.node_count), v.node_mass,
                           exempt, seg.info.zeta, model.dt, v.poses.node_position, v.poses.mid_position);
 }
@@ -501,9 +571,14 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
   const std::size_t off = seg.node_offset;
   const std::size_t n = seg.node_count;
   const double* q = state.now.strain.data() + 4 * off;
-  for (std::size_t k = 0; k < n; ++k)
+  for (std::size_t k = 0; k < n; ++k) {
     for (std::size_t c = 0; c < 4; ++c)
       if (!std::isfinite(q[4 * k + c])) return {false, k, Stage::solve, "strain (not finite)", q[4 * k + c], 0.0};
+    // Node values too: a pattern alternating from node to node averages out in every section
+    // (the kinematics never see it) but is the mark of a load the solve could not take.
+    if (std::abs(q[4 * k + 3]) > lim.max_axial_strain)
+      return {false, k, Stage::solve, "axial strain at a node", q[4 * k + 3], lim.max_axial_strain};
+  }
   for (std::size_t k = 0; k + 1 < n; ++k) {
     const double h = model.section_length[off + k];
     const Eigen::Vector3d u(0.5 * (q[4 * k] + q[4 * k + 4]), 0.5 * (q[4 * k + 1] + q[4 * k + 5]),
@@ -523,10 +598,18 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
     if (moved > lim.max_displacement)
       return {false, k, Stage::forward_sweep, "displacement in one frame (segment lengths)", moved, lim.max_displacement};
   }
+  // A bead deeper into the environment than its own radius has passed through, not touched.
+  for (const ContactCandidate& c : state.collision.candidates) {
+    if (c.kind == ContactKind::bead || model.beads.segment[c.bead] != segment) continue;
+    const double ratio = c.depth / model.beads.radius[c.bead];
+    if (ratio > 1.0)
+      return {false, model.beads.node[c.bead] - off, Stage::contacts,
+              "bead's depth into the environment (bead radii)", ratio, 1.0};
+  }
   for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
     const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
     if (!as.active) continue;
-    const std::size_t k = seg.attachments[a].node;
+    const std::size_t k = as.node;
     const double miss = (pos.get(k) - as.target).norm() / seg.info.length;
     if (miss > lim.max_attachment_error)
       return {false, k, Stage::constraints, "attachment's distance from its target (segment lengths)", miss,

@@ -8,6 +8,7 @@
 
 #include "haustra/centreline.hpp"
 #include "haustra/error.hpp"
+#include "haustra/mesh_io.hpp"
 
 namespace haustra {
 
@@ -155,6 +156,36 @@ class Reader {
     return numbers<2>(t, key, path, fallback);
   }
 
+  std::vector<int> integers(const toml::table& t, std::string_view key, const std::string& path) const {
+    std::vector<int> out;
+    const toml::node* n = t.get(key);
+    if (n == nullptr) return out;
+    const toml::array* a = n->as_array();
+    if (a == nullptr) fail(n, path, fmt::format("expected an array of integers, got {}", describe_value(*n)));
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const toml::node& e = *a->get(i);
+      if (!e.is_integer()) fail(n, fmt::format("{}[{}]", path, i), fmt::format("expected an integer, got {}", describe_value(e)));
+      out.push_back(static_cast<int>(*e.value<std::int64_t>()));
+    }
+    return out;
+  }
+
+  // [[a, b], ...]: pairs of numbers.
+  std::vector<std::pair<double, double>> pairs(const toml::table& t, std::string_view key, const std::string& path) const {
+    std::vector<std::pair<double, double>> out;
+    const toml::node* n = t.get(key);
+    if (n == nullptr) return out;
+    const toml::array* a = n->as_array();
+    if (a == nullptr) fail(n, path, fmt::format("expected [[a, b], ...], got {}", describe_value(*n)));
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const toml::array* p = a->get(i)->as_array();
+      if (p == nullptr || p->size() != 2 || !(p->get(0)->is_number()) || !(p->get(1)->is_number()))
+        fail(a->get(i), fmt::format("{}[{}]", path, i), "expected [a, b] of two numbers");
+      out.emplace_back(*p->get(0)->value<double>(), *p->get(1)->value<double>());
+    }
+    return out;
+  }
+
   // An array of tables (TOML [[name]]); absent is empty.
   std::vector<const toml::table*> tables(const toml::table& t, std::string_view key, const std::string& path) const {
     std::vector<const toml::table*> out;
@@ -189,7 +220,7 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
   r.check_keys(t, path,
                {"name", "nodes", "rest", "law", "base", "base_position", "base_tangent", "base_normal", "drag", "radius",
                 "wall_thickness", "youngs_modulus", "poisson_ratio", "density", "linear_density", "relaxation_time",
-                "attachment", "load"});
+                "attachment", "load", "beads"});
   SegmentDesc s;
   s.name = r.string(t, "name", path + ".name", path);
   s.nodes = r.integer(t, "nodes", path + ".nodes", s.nodes);
@@ -240,6 +271,16 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
     s.law[torsion] = read_law(r, *law, "torsion", lp + ".torsion", s.law[torsion]);
     s.law[axial] = read_law(r, *law, "axial", lp + ".axial", s.law[axial]);
   }
+  if (const toml::table* beads = r.table(t, "beads", path + ".beads")) {
+    const std::string bp = path + ".beads";
+    r.check_keys(*beads, bp, {"count", "spacing", "nodes", "radius", "radius_profile"});
+    s.beads.enabled = true;
+    s.beads.count = r.integer(*beads, "count", bp + ".count", 0);
+    s.beads.spacing = r.number(*beads, "spacing", bp + ".spacing", 0.0);
+    s.beads.nodes = r.integers(*beads, "nodes", bp + ".nodes");
+    s.beads.radius = r.number(*beads, "radius", bp + ".radius", 0.0);
+    s.beads.radius_profile = r.pairs(*beads, "radius_profile", bp + ".radius_profile");
+  }
   const auto attachments = r.tables(t, "attachment", path + ".attachment");
   for (std::size_t i = 0; i < attachments.size(); ++i) {
     const toml::table& a = *attachments[i];
@@ -268,8 +309,93 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
   return s;
 }
 
+void read_environment(const Reader& r, const toml::table& t, const std::filesystem::path& scene_dir, EnvironmentDesc& env) {
+  r.check_keys(t, "environment", {"plane", "sphere", "capsule", "mesh"});
+  const auto planes = r.tables(t, "plane", "environment.plane");
+  for (std::size_t i = 0; i < planes.size(); ++i) {
+    const std::string p = fmt::format("environment.plane[{}]", i);
+    r.check_keys(*planes[i], p, {"name", "point", "normal"});
+    PlaneDesc d;
+    d.name = r.string(*planes[i], "name", p + ".name", p);
+    d.point = r.vec3(*planes[i], "point", p + ".point", d.point);
+    d.normal = r.vec3(*planes[i], "normal", p + ".normal", d.normal);
+    env.planes.push_back(d);
+  }
+  const auto spheres = r.tables(t, "sphere", "environment.sphere");
+  for (std::size_t i = 0; i < spheres.size(); ++i) {
+    const std::string p = fmt::format("environment.sphere[{}]", i);
+    r.check_keys(*spheres[i], p, {"name", "center", "radius"});
+    SphereObstacleDesc d;
+    d.name = r.string(*spheres[i], "name", p + ".name", p);
+    d.center = r.vec3(*spheres[i], "center", p + ".center", d.center);
+    d.radius = r.number(*spheres[i], "radius", p + ".radius", d.radius);
+    env.spheres.push_back(d);
+  }
+  const auto capsules = r.tables(t, "capsule", "environment.capsule");
+  for (std::size_t i = 0; i < capsules.size(); ++i) {
+    const std::string p = fmt::format("environment.capsule[{}]", i);
+    r.check_keys(*capsules[i], p, {"name", "a", "b", "radius"});
+    CapsuleObstacleDesc d;
+    d.name = r.string(*capsules[i], "name", p + ".name", p);
+    d.a = r.vec3(*capsules[i], "a", p + ".a", d.a);
+    d.b = r.vec3(*capsules[i], "b", p + ".b", d.b);
+    d.radius = r.number(*capsules[i], "radius", p + ".radius", d.radius);
+    env.capsules.push_back(d);
+  }
+  const auto meshes = r.tables(t, "mesh", "environment.mesh");
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    const std::string p = fmt::format("environment.mesh[{}]", i);
+    r.check_keys(*meshes[i], p, {"name", "file", "scale", "translate"});
+    const toml::node* file_node = meshes[i]->get("file");
+    if (file_node == nullptr) r.fail(meshes[i], p + ".file", "a mesh obstacle needs file = \"path\"");
+    MeshObstacleDesc d;
+    d.name = r.string(*meshes[i], "name", p + ".name", p);
+    const std::filesystem::path f = scene_dir / r.string(*meshes[i], "file", p + ".file", "");
+    const double scale = r.number(*meshes[i], "scale", p + ".scale", 1.0);
+    if (!(scale > 0.0)) r.fail(meshes[i]->get("scale"), p + ".scale", "expected a positive scale (e.g. 0.001 for millimetres)");
+    const Eigen::Vector3d translate = r.vec3(*meshes[i], "translate", p + ".translate", Eigen::Vector3d::Zero());
+    try {
+      TriangleMesh mesh = load_mesh(f);
+      for (auto& v : mesh.vertices) v = scale * v + translate;
+      d.vertices = std::move(mesh.vertices);
+      d.triangles = std::move(mesh.triangles);
+      d.source = f.string();
+    } catch (const Error& e) {
+      r.fail(file_node, p + ".file", e.what());
+    }
+    env.meshes.push_back(std::move(d));
+  }
+}
+
+InstrumentDesc read_instrument(const Reader& r, const toml::table& t, const std::string& path) {
+  r.check_keys(t, path,
+               {"name", "radius", "length", "grasp_reach", "hold_frame", "force_filter", "tip", "axis", "keyframe"});
+  InstrumentDesc d;
+  d.name = r.string(t, "name", path + ".name", path);
+  d.radius = r.number(t, "radius", path + ".radius", d.radius);
+  d.length = r.number(t, "length", path + ".length", d.length);
+  d.grasp_reach = r.number(t, "grasp_reach", path + ".grasp_reach", d.grasp_reach);
+  d.hold_frame = r.boolean(t, "hold_frame", path + ".hold_frame", d.hold_frame);
+  d.force_filter = r.number(t, "force_filter", path + ".force_filter", d.force_filter);
+  d.tip = r.vec3(t, "tip", path + ".tip", d.tip);
+  d.axis = r.vec3(t, "axis", path + ".axis", d.axis);
+  const auto keyframes = r.tables(t, "keyframe", path + ".keyframe");
+  for (std::size_t i = 0; i < keyframes.size(); ++i) {
+    const std::string kp = fmt::format("{}.keyframe[{}]", path, i);
+    r.check_keys(*keyframes[i], kp, {"time", "tip", "axis", "grasp"});
+    if (keyframes[i]->get("time") == nullptr) r.fail(keyframes[i], kp + ".time", "a keyframe needs time = <s>");
+    InstrumentKeyframe k;
+    k.time = r.number(*keyframes[i], "time", kp + ".time", 0.0);
+    k.tip = r.vec3(*keyframes[i], "tip", kp + ".tip", i > 0 ? d.keyframes.back().tip : d.tip);
+    k.axis = r.vec3(*keyframes[i], "axis", kp + ".axis", i > 0 ? d.keyframes.back().axis : d.axis);
+    k.grasp = r.boolean(*keyframes[i], "grasp", kp + ".grasp", i > 0 && d.keyframes.back().grasp);
+    d.keyframes.push_back(k);
+  }
+  return d;
+}
+
 SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesystem::path& file) {
-  r.check_keys(root, "", {"scene", "world", "solver", "filter", "segment"});
+  r.check_keys(root, "", {"scene", "world", "solver", "filter", "segment", "contact", "environment", "instrument"});
   SceneDesc scene;
   scene.file = file;
   if (const toml::table* t = r.table(root, "scene", "scene")) {
@@ -316,6 +442,24 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
   const auto segments = r.tables(root, "segment", "segment");
   for (std::size_t i = 0; i < segments.size(); ++i)
     w.segments.push_back(read_segment(r, *segments[i], fmt::format("segment[{}]", i), file.parent_path()));
+  if (const toml::table* t = r.table(root, "contact", "contact")) {
+    r.check_keys(*t, "contact", {"coefficient", "exponent", "margin", "broad_phase", "self"});
+    ContactDesc& c = w.contact;
+    c.coefficient = r.number(*t, "coefficient", "contact.coefficient", c.coefficient);
+    c.exponent = r.number(*t, "exponent", "contact.exponent", c.exponent);
+    c.margin = r.number(*t, "margin", "contact.margin", c.margin);
+    c.broad_phase = r.choice<BroadPhase>(*t, "broad_phase", "contact.broad_phase", c.broad_phase,
+                                         {{"auto", BroadPhase::automatic},
+                                          {"grid", BroadPhase::grid},
+                                          {"sweep", BroadPhase::sweep},
+                                          {"brute", BroadPhase::brute}});
+    c.self = r.boolean(*t, "self", "contact.self", c.self);
+  }
+  if (const toml::table* t = r.table(root, "environment", "environment"))
+    read_environment(r, *t, file.parent_path(), w.environment);
+  const auto instruments = r.tables(root, "instrument", "instrument");
+  for (std::size_t i = 0; i < instruments.size(); ++i)
+    w.instruments.push_back(read_instrument(r, *instruments[i], fmt::format("instrument[{}]", i)));
   return scene;
 }
 

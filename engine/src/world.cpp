@@ -4,6 +4,8 @@
 #include <chrono>
 #include <fmt/format.h>
 
+#include "collision.hpp"
+#include "instruments.hpp"
 #include "rod_stages.hpp"
 #include "scheduler.hpp"
 #include "world_model.hpp"
@@ -16,6 +18,9 @@ using detail::SubstepParameters;
 
 std::string_view stage_name(Stage s) noexcept {
   switch (s) {
+    case Stage::instruments: return "instruments";
+    case Stage::collide: return "collide";
+    case Stage::contacts: return "contacts";
     case Stage::loads: return "loads";
     case Stage::free_base: return "free_base";
     case Stage::backward_sweep: return "backward_sweep";
@@ -25,6 +30,7 @@ std::string_view stage_name(Stage s) noexcept {
     case Stage::forward_sweep: return "forward_sweep";
     case Stage::filter: return "filter";
     case Stage::guard: return "guard";
+    case Stage::report: return "report";
     case Stage::count: break;
   }
   return "?";
@@ -63,6 +69,8 @@ struct World::Impl {
 
   explicit Impl(detail::WorldModel m, int threads) : model(std::move(m)), scheduler(threads) {
     detail::init_world_state(model, state);
+    detail::init_collision_state(model, state);
+    detail::init_instruments(model, state);
     guard.resize(model.segments.size());
     events.reserve(kMaxEvents);
     base = {model.solver.substeps, model.solver.mode == SolverMode::newton};
@@ -71,6 +79,15 @@ struct World::Impl {
       any_free_base |= s.base_mode == BaseMode::free;
       any_constraints |= s.constraint_rows > 0;
     }
+  }
+
+  // A world-wide stage (it spreads its own work over the scheduler).
+  template <class F>
+  void time_stage(Stage stage, F&& fn) {
+    const Clock::time_point t0 = Clock::now();
+    fn();
+    profile.seconds[static_cast<std::size_t>(stage)] += seconds_since(t0);
+    profile.calls[static_cast<std::size_t>(stage)] += 1;
   }
 
   template <class F>
@@ -109,8 +126,13 @@ struct World::Impl {
         state.base_substep_start[s] = state.now.base[s];
         state.segment_converged[s] = 0;
       });
+      if (model.beads.size() > 0) time_stage(Stage::collide, [&] { detail::stage_collide(model, state, scheduler); });
       for (int it = 0; it < model.solver.iterations; ++it) {
         auto active = [&](std::size_t s) { return state.segment_converged[s] == 0; };
+        // Contact penalties at the current positions: the frame's start for the lagged scheme,
+        // each iterate for Newton (which also takes their stiffness).
+        if (!state.collision.candidates.empty())
+          time_stage(Stage::contacts, [&] { detail::stage_contacts(model, state, scheduler); });
         run_stage(Stage::loads, [&](std::size_t s) {
           if (active(s)) detail::stage_loads(model, state, s, p);
         });
@@ -156,6 +178,7 @@ struct World::Impl {
           if (all) break;
         }
       }
+      if (model.beads.size() > 0) detail::record_bead_motion(model, state);
     }
     if (model.filter.enabled) run_stage(Stage::filter, [&](std::size_t s) { detail::stage_filter(model, state, s); });
     run_stage(Stage::guard, [&](std::size_t s) { guard[s] = detail::stage_guard(model, state, s, p); });
@@ -211,6 +234,8 @@ struct World::Impl {
   void step() {
     const Clock::time_point t0 = Clock::now();
     profile = FrameProfile{};
+    if (!model.instruments.empty())
+      time_stage(Stage::instruments, [&] { detail::stage_instruments(model, state, state.time + model.dt); });
     state.frame_start.copy_from(state.now);
     Rung rung = current;
     std::size_t first_segment = model.segments.size();
@@ -268,6 +293,11 @@ struct World::Impl {
       current.substeps = std::max(base.substeps, current.substeps / 2);
       good_frames = 0;
     }
+    if (model.beads.size() > 0 || !model.instruments.empty())
+      time_stage(Stage::report, [&] {
+        detail::instrument_forces(model, state, model.dt);
+        if (model.beads.size() > 0) detail::stage_contact_report(model, state);
+      });
     profile.substeps = rung.substeps;
     profile.newton = rung.newton;
     state.frame += 1;
@@ -353,6 +383,74 @@ Eigen::Vector3d World::attachment_force(std::size_t segment, std::size_t attachm
 Eigen::Vector3d World::attachment_moment(std::size_t segment, std::size_t attachment) const {
   return impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].moment;
 }
+
+std::size_t World::bead_count() const { return impl_->model.beads.size(); }
+Range World::beads(std::size_t segment) const {
+  if (segment >= impl_->model.segments.size())
+    throw Error(ErrorCode::invalid_argument, fmt::format("segment index {} out of range", segment));
+  return {impl_->model.segments[segment].bead_offset, impl_->model.segments[segment].bead_count};
+}
+std::span<const double> World::bead_radii() const { return impl_->model.beads.radius; }
+std::span<const std::uint32_t> World::bead_nodes() const { return impl_->model.beads.node; }
+bool World::beads_may_collide(std::size_t a, std::size_t b) const {
+  const auto& beads = impl_->model.beads;
+  if (a >= beads.size() || b >= beads.size() || a == b)
+    throw Error(ErrorCode::invalid_argument, fmt::format("bead indices {} and {}: need two different beads below {}", a, b,
+                                                         beads.size()));
+  if (beads.segment[a] != beads.segment[b]) return true;
+  if (!impl_->model.contact.self) return false;
+  return !beads.excluded(static_cast<std::uint32_t>(std::min(a, b)), static_cast<std::uint32_t>(std::max(a, b)));
+}
+const ContactReport& World::contacts() const { return impl_->state.collision.report; }
+std::span<const Contact> World::contact_list() const { return impl_->state.collision.candidates; }
+
+std::size_t World::instrument_count() const { return impl_->model.instruments.size(); }
+
+namespace {
+void check_instrument(const World::Impl& impl, std::size_t i);
+}  // namespace
+
+void World::set_instrument_pose(std::size_t instrument, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis) {
+  check_instrument(*impl_, instrument);
+  if (!tip.allFinite() || !axis.allFinite() || !(axis.norm() > 0.0))
+    throw Error(ErrorCode::invalid_argument, "instrument pose: the tip must be finite and the axis a finite, non-zero direction");
+  detail::InstrumentState& s = impl_->state.instruments[instrument];
+  s.scripted = false;
+  detail::set_instrument_pose(s, tip, axis);
+}
+
+void World::set_instrument_grasp(std::size_t instrument, bool closed) {
+  check_instrument(*impl_, instrument);
+  impl_->state.instruments[instrument].scripted = false;
+  impl_->state.instruments[instrument].closed = closed;
+}
+
+InstrumentReading World::instrument(std::size_t instrument) const {
+  check_instrument(*impl_, instrument);
+  const detail::InstrumentState& s = impl_->state.instruments[instrument];
+  InstrumentReading r;
+  r.tip = s.tip;
+  r.axis = s.axis;
+  r.closed = s.closed;
+  r.grasping = s.grasping;
+  if (s.grasping) {
+    r.grasped_segment = s.grasp_segment;
+    r.grasped_node = impl_->state.now.attachment[s.grasp_attachment].node;
+  }
+  r.force = s.force;
+  r.torque = s.torque;
+  r.filtered_force = s.filtered_force;
+  r.filtered_torque = s.filtered_torque;
+  return r;
+}
+
+namespace {
+void check_instrument(const World::Impl& impl, std::size_t i) {
+  if (i >= impl.model.instruments.size())
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("instrument index {} out of range (the world has {})", i, impl.model.instruments.size()));
+}
+}  // namespace
 
 const FrameProfile& World::last_profile() const { return impl_->profile; }
 std::span<const Event> World::events() const { return impl_->events; }

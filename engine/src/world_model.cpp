@@ -94,6 +94,8 @@ WorldModel build_world_model(const WorldDesc& desc) {
   m.solver = desc.solver;
   m.filter = desc.filter;
 
+  build_environment(desc, m);
+  std::vector<Eigen::Vector3d> initial_positions;
   std::set<std::string> names;
   for (std::size_t si = 0; si < desc.segments.size(); ++si) {
     const SegmentDesc& d = desc.segments[si];
@@ -180,6 +182,7 @@ WorldModel build_world_model(const WorldDesc& desc) {
     RodPoseBuffer pose_buffer(n);
     const kernels::RodPoses<double> poses = pose_buffer.view();
     kernels::rod_forward_sweep(rest.base, rest.section_length, kernels::StrainView<const double>{rest.strain}, poses);
+    for (std::size_t i = 0; i < n; ++i) initial_positions.push_back(poses.node_position.get(i));
 
     m.initial_load.resize(6 * (m.node_total + n), 0.0);
     for (std::size_t li = 0; li < d.loads.size(); ++li) {
@@ -199,26 +202,44 @@ WorldModel build_world_model(const WorldDesc& desc) {
       const AttachmentDesc& a = d.attachments[ai];
       const std::string aw = fmt::format("{}.attachment[{}]", where, ai);
       AttachmentModel am;
-      am.node = resolve_node(aw + ".node", a.node, n);
+      am.initial_node = resolve_node(aw + ".node", a.node, n);
       am.hold_frame = a.hold_frame;
-      if (!held.insert(am.node).second) fail(aw + ".node", fmt::format("node {} is already attached", am.node));
-      if (am.node == 0 && d.base == BaseMode::clamped)
+      if (!held.insert(am.initial_node).second)
+        fail(aw + ".node", fmt::format("node {} is already attached", am.initial_node));
+      if (am.initial_node == 0 && d.base == BaseMode::clamped)
         fail(aw + ".node", "node 0 of a clamped segment is already held by its base");
-      am.first_row = seg.constraint_rows;
       seg.constraint_rows += am.rows();
       if (seg.constraint_rows > kMaxConstraintRows)
         fail(aw, fmt::format("too many attachments: at most {} constraint rows per segment (3 per pin, 6 per clamp)",
                              kMaxConstraintRows));
-      Eigen::Vector3d target = poses.node_position.get(am.node);
+      Eigen::Vector3d target = poses.node_position.get(am.initial_node);
       if (a.target) {
         check_vector(aw + ".target", *a.target, false);
         target = *a.target;
       }
       m.initial_attachment_target.push_back(target);
-      m.initial_attachment_rotation.push_back(poses.node_rotation.get(am.node));
+      m.initial_attachment_rotation.push_back(poses.node_rotation.get(am.initial_node));
       m.initial_attachment_active.push_back(a.active ? 1 : 0);
       seg.attachments.push_back(am);
     }
+    // One grasp slot per instrument on every segment with beads: closing an instrument attaches
+    // the node of the bead it closes on.
+    if (d.beads.enabled)
+      for (std::size_t i = 0; i < desc.instruments.size(); ++i) {
+        AttachmentModel am;
+        am.grasp_slot = true;
+        am.instrument = i;
+        am.hold_frame = desc.instruments[i].hold_frame;
+        seg.constraint_rows += am.rows();
+        if (seg.constraint_rows > kMaxConstraintRows)
+          fail(fmt::format("instrument[{}]", i),
+               fmt::format("segment '{}' would need more than {} constraint rows with a grasp slot per instrument",
+                           d.name, kMaxConstraintRows));
+        m.initial_attachment_target.push_back(Eigen::Vector3d::Zero());
+        m.initial_attachment_rotation.push_back(Eigen::Quaterniond::Identity());
+        m.initial_attachment_active.push_back(0);
+        seg.attachments.push_back(am);
+      }
     m.attachment_total += seg.attachments.size();
     if (seg.constraint_rows > 0) {
       // G (unit-load generalized forces), Y (their solved responses) per row, and H (six
@@ -229,6 +250,7 @@ WorldModel build_world_model(const WorldDesc& desc) {
     m.node_total += n;
     m.segments.push_back(std::move(seg));
   }
+  build_beads(desc, initial_positions, m);
   return m;
 }
 

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <memory>
+
 #include "haustra/kernels/pose.hpp"
 #include "haustra/world.hpp"
 #include "haustra/world_desc.hpp"
@@ -14,10 +16,14 @@ namespace haustra::detail {
 
 inline constexpr std::size_t kMaxConstraintRows = 24;  // four clamps (3 position + 3 frame rows)
 
+// An attachment slot: scene attachments hold a fixed node; grasp slots (one per instrument and
+// segment) take whichever node an instrument closes on, at run time. The node and whether the
+// frame is held live in the state; the model fixes the slot's capacity in constraint rows.
 struct AttachmentModel {
-  std::size_t node = 0;  // local to the segment
-  bool hold_frame = false;
-  std::size_t first_row = 0;  // within the segment's constraint rows
+  std::size_t initial_node = 0;  // local to the segment
+  bool hold_frame = false;       // capacity: 6 rows if the frame may be held, else 3
+  std::size_t instrument = 0;    // for grasp slots
+  bool grasp_slot = false;
   [[nodiscard]] std::size_t rows() const { return hold_frame ? 6 : 3; }
 };
 
@@ -37,7 +43,25 @@ struct SegmentModel {
   std::size_t attachment_offset = 0;      // into the world's attachment state arrays
   // Offsets into the world's constraint scratch (doubles), valid when constraint_rows > 0.
   std::size_t constraint_scratch_offset = 0;
+  std::size_t bead_offset = 0;   // into the world's bead arrays
+  std::size_t bead_count = 0;
   [[nodiscard]] std::size_t sections() const { return node_count - 1; }
+};
+
+class StaticMeshes;
+
+// Beads of all segments, ordered by segment then node: what the collision stages read.
+struct BeadModel {
+  std::vector<std::uint32_t> node;      // global node index
+  std::vector<std::uint32_t> segment;
+  std::vector<double> radius;           // m
+  std::vector<double> modulus;          // Young's modulus of its tissue, Pa
+  // Pairs of one segment that overlap or touch at rest never collide: for bead i, the excluded
+  // partners j > i, ascending (CSR).
+  std::vector<std::uint32_t> exclusion_start;
+  std::vector<std::uint32_t> exclusion;
+  [[nodiscard]] std::size_t size() const { return node.size(); }
+  [[nodiscard]] bool excluded(std::uint32_t a, std::uint32_t b) const;
 };
 
 struct WorldModel {
@@ -61,6 +85,13 @@ struct WorldModel {
   std::vector<double> mass_lower;
   // Initial external loads and attachment targets, copied into the state at creation.
   std::vector<double> initial_load;  // 6 per node: force xyz, moment xyz
+  BeadModel beads;
+  ContactDesc contact;
+  double contact_margin = 0.0;  // resolved
+  EnvironmentDesc environment;   // normals unit length
+  std::shared_ptr<const StaticMeshes> meshes;
+  std::vector<InstrumentDesc> instruments;  // keyframes sorted, axes unit length
+
   std::vector<Eigen::Vector3d> initial_attachment_target;
   std::vector<Eigen::Quaterniond> initial_attachment_rotation;
   std::vector<std::uint8_t> initial_attachment_active;
@@ -68,5 +99,10 @@ struct WorldModel {
 
 // Builds the model; throws haustra::Error naming the segment and the field.
 WorldModel build_world_model(const WorldDesc& desc);
+
+// The beads of one segment (nodes and radii) and, with all segments placed, the world's bead
+// arrays and rest-pose exclusions; the environment and the instruments. Part of the builder.
+void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& initial_positions, WorldModel& m);
+void build_environment(const WorldDesc& desc, WorldModel& m);
 
 }  // namespace haustra::detail

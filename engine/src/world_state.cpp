@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "collision.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 
 namespace haustra::detail {
@@ -44,7 +45,7 @@ void NewtonWorkspace::allocate(std::size_t nodes, int columns) {
   residual.assign(4 * nodes, 0.0);
   target.assign(4 * nodes, 0.0);
   unit.assign(4 * nodes, 0.0);
-  drag_force_rate.assign(nodes, 0.0);
+  force_stiffness.assign(nodes, Eigen::Matrix3d::Zero());
   drag_moment_rate.assign(nodes, 0.0);
 }
 
@@ -85,7 +86,8 @@ void init_world_state(const WorldModel& model, WorldState& state) {
   for (std::size_t s = 0; s < state.newton.size(); ++s) {
     const SegmentModel& seg = model.segments[s];
     const std::size_t rows = seg.constraint_rows;
-    const int cols = 1 + static_cast<int>(rows);
+    // The residual, one column per constraint row, one per contact Newton couples exactly.
+    const int cols = 1 + static_cast<int>(rows) + (seg.bead_count > 0 ? static_cast<int>(kMaxCoupledContacts) : 0);
     state.newton[s].allocate(seg.node_count, cols);
   }
 
@@ -98,6 +100,11 @@ void init_world_state(const WorldModel& model, WorldState& state) {
     state.external_moment.y[k] = model.initial_load[6 * k + 4];
     state.external_moment.z[k] = model.initial_load[6 * k + 5];
   }
+  for (const SegmentModel& seg : model.segments)
+    for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
+      state.now.attachment[seg.attachment_offset + a].node = seg.attachments[a].initial_node;
+      state.now.attachment[seg.attachment_offset + a].hold_frame = seg.attachments[a].hold_frame;
+    }
   for (std::size_t a = 0; a < model.attachment_total; ++a) {
     state.now.attachment[a].active = model.initial_attachment_active[a] != 0;
     state.now.attachment[a].target = model.initial_attachment_target[a];

@@ -3,6 +3,7 @@
 // creation; a step never allocates.
 #include <vector>
 
+#include "haustra/kernels/broad_phase.hpp"
 #include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/rod_newton.hpp"
@@ -36,6 +37,8 @@ struct RotationBuffer {
 
 struct AttachmentState {
   bool active = true;
+  std::size_t node = 0;     // local to the segment
+  bool hold_frame = false;
   Eigen::Vector3d target = Eigen::Vector3d::Zero();
   Eigen::Quaterniond target_rotation = Eigen::Quaterniond::Identity();
   Eigen::Vector3d force = Eigen::Vector3d::Zero();   // on the rod, last frame
@@ -63,12 +66,53 @@ struct NewtonWorkspace {
   std::vector<double> rhs;
   Vec3Buffer distal_force, distal_moment;
   std::vector<double> residual, target, unit;
-  std::vector<double> drag_force_rate, drag_moment_rate;  // c/Δt, s/Δt per node
+  std::vector<Eigen::Matrix3d> force_stiffness;  // per node: −∂f/∂r of drag and contacts
+  std::vector<double> drag_moment_rate;          // s/Δt per node
   kernels::Vector6d base_wrench = kernels::Vector6d::Zero();  // free base: unbalanced total wrench
   int max_columns = 1;
 
   void allocate(std::size_t nodes, int columns);
   [[nodiscard]] kernels::NewtonSystem system() { return {lower, diag, upper, pivots}; }
+};
+
+using ContactCandidate = Contact;
+
+struct InstrumentState {
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  Eigen::Quaterniond frame = Eigen::Quaterniond::Identity();  // d3 along the axis
+  bool closed = false;
+  bool scripted = true;       // follows its keyframes until the host sets a pose
+  bool grasping = false;
+  std::size_t grasp_segment = 0;
+  std::size_t grasp_attachment = 0;  // global attachment index
+  std::uint32_t grasp_bead = 0;
+  Eigen::Vector3d grasp_offset = Eigen::Vector3d::Zero();             // node in the instrument frame
+  Eigen::Quaterniond grasp_rotation = Eigen::Quaterniond::Identity();  // node frame in the instrument frame
+  Eigen::Vector3d force = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
+  Eigen::Vector3d filtered_force = Eigen::Vector3d::Zero(), filtered_torque = Eigen::Vector3d::Zero();
+};
+
+struct CollisionState {
+  Vec3Buffer bead_center;                        // at the substep's start
+  std::vector<double> bead_motion;               // how far each bead moved in the last substep, m
+  std::vector<double> reach_radius;              // radius + its share of the candidate margin
+  std::vector<ContactCandidate> candidates;      // capacity kept between frames
+  std::vector<kernels::SpherePair> pairs;
+  std::vector<std::vector<kernels::SpherePair>> chunk_pairs;      // per chunk of beads
+  std::vector<std::vector<ContactCandidate>> chunk_candidates;
+  std::vector<std::size_t> chunk_count;
+  kernels::SphereGrid grid;
+  std::vector<std::uint32_t> sweep_order;
+  // Per bead, the candidates it takes part in: (candidate << 1) | side, side 1 for the second bead.
+  std::vector<std::uint32_t> bead_contact_start;
+  std::vector<std::uint32_t> bead_contact;
+  std::vector<std::uint32_t> coupled_start;       // per segment (CSR): its coupled contacts
+  std::vector<std::uint32_t> coupled;
+  std::vector<std::uint32_t> coupled_fill;        // scratch
+  Vec3Buffer bead_force;                          // sum over its contacts
+  std::vector<Eigen::Matrix3d> bead_stiffness;    // −∂force/∂centre, normal part
+  ContactReport report;
 };
 
 struct WorldState {
@@ -90,6 +134,8 @@ struct WorldState {
   std::vector<Eigen::Vector4d> segment_change;   // last strain change per segment
   std::vector<NewtonWorkspace> newton;           // per segment; empty when Newton can never run
   std::vector<double> strain_before_update;      // lagged: the strains before the last update
+  CollisionState collision;
+  std::vector<InstrumentState> instruments;
 
   std::uint64_t frame = 0;
   double time = 0.0;

@@ -2,6 +2,7 @@
 #include "haustra/kernels/rod_newton.hpp"
 
 #include "haustra/kernels/mass_matrix.hpp"
+#include <Eigen/Geometry>
 
 namespace haustra::kernels {
 namespace {
@@ -42,7 +43,7 @@ SectionLinearization linearize_section(const Eigen::Matrix3d& rm, const Eigen::V
 
 Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, std::span<const double> section_length,
                                                 Vec3View<const double> node_force, Vec3View<const double> node_moment,
-                                                const std::array<double, 4>& law_total, NewtonDrag drag,
+                                                const std::array<double, 4>& law_total, NewtonLoadStiffness stiffness,
                                                 bool free_base, Vec3View<double> distal_force,
                                                 Vec3View<double> distal_moment, NewtonSystem system) {
   constexpr int Q = kNewtonStrain;
@@ -50,7 +51,7 @@ Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, st
   constexpr int R = kNewtonPosition;
   constexpr int M = kNewtonMoment;
   constexpr int F = kNewtonForce;
-  const bool has_drag = !drag.force_rate.empty();
+  const bool has_stiffness = !stiffness.force.empty();
   const std::size_t n = poses.node_count();
   const std::size_t sections = n - 1;
 
@@ -114,9 +115,9 @@ Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, st
       // depending on its own motion (the drag of node 0 has no lever arm about itself).
       di.block<3, 3>(PHI, M).setIdentity();
       di.block<3, 3>(R, F).setIdentity();
-      if (has_drag) {
-        di.block<3, 3>(PHI, PHI) = -drag.moment_rate[0] * Eigen::Matrix3d::Identity();
-        di.block<3, 3>(R, R) = -drag.force_rate[0] * Eigen::Matrix3d::Identity();
+      if (has_stiffness) {
+        di.block<3, 3>(PHI, PHI) = -stiffness.moment[0] * Eigen::Matrix3d::Identity();
+        di.block<3, 3>(R, R) = -stiffness.force[0];
       }
     } else {
       di.block<3, 3>(PHI, PHI).setIdentity();
@@ -151,10 +152,10 @@ Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, st
       up.block<3, 3>(M, M) = -Eigen::Matrix3d::Identity();
       up.block<3, 3>(M, R) = sf;
       up.block<3, 3>(F, F) = -Eigen::Matrix3d::Identity();
-      if (has_drag) {
-        // δm_{k+1} = −s δφ_{k+1}/Δt and δf_{k+1} = −c δr_{k+1}/Δt enter the distal sums.
-        up.block<3, 3>(M, PHI) = drag.moment_rate[k + 1] * Eigen::Matrix3d::Identity();
-        up.block<3, 3>(F, R) = drag.force_rate[k + 1] * Eigen::Matrix3d::Identity();
+      if (has_stiffness) {
+        // δm_{k+1} = −s δφ_{k+1} and δf_{k+1} = −K δr_{k+1} enter the distal sums.
+        up.block<3, 3>(M, PHI) = stiffness.moment[k + 1] * Eigen::Matrix3d::Identity();
+        up.block<3, 3>(F, R) = stiffness.force[k + 1];
       }
     }
     lin[0] = lin[1];

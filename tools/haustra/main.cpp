@@ -90,13 +90,13 @@ int run(const RunOptions& o) {
       world->step();
     } catch (const Error& e) {
       if (e.code() != ErrorCode::unstable) throw;
-      record.add(world->last_profile());
+      record.add(world->last_profile(), *world);
       bar.abort();
       status = "unstable";
       error = e.what();
       break;
     }
-    record.add(world->last_profile());
+    record.add(world->last_profile(), *world);
     bar.update(f + 1);
   }
   if (!o.quiet) record.print_stage_table(stdout);

@@ -20,7 +20,12 @@ const char* solver_name(SolverMode m) { return m == SolverMode::newton ? "newton
 
 }  // namespace
 
-void RunRecord::add(const FrameProfile& p) {
+void RunRecord::add(const FrameProfile& p, const World& world) {
+  has_beads_ = world.bead_count() > 0;
+  contacts_.push_back(world.contacts());
+  std::vector<InstrumentReading> readings;
+  for (std::size_t i = 0; i < world.instrument_count(); ++i) readings.push_back(world.instrument(i));
+  instruments_.push_back(std::move(readings));
   for (std::size_t s = 0; s < kStageCount; ++s) {
     stage_seconds_[s].push_back(static_cast<float>(p.seconds[s]));
     stage_calls_[s] += p.calls[s];
@@ -125,6 +130,53 @@ void RunRecord::write_summary(const std::filesystem::path& file, const SceneDesc
                         {"final_node_positions_m", nodes}});
   }
   j["segments"] = segments;
+  if (has_beads_) {
+    // Per frame, measured at each frame's final positions.
+    json env = json::array(), env_ratio = json::array(), bead = json::array(), bead_ratio = json::array(),
+         touching = json::array();
+    double worst_env = 0.0, worst_bead = 0.0, worst_env_ratio = 0.0, worst_bead_ratio = 0.0;
+    for (const ContactReport& c : contacts_) {
+      env.push_back(c.max_environment_depth);
+      env_ratio.push_back(c.max_environment_depth_ratio);
+      bead.push_back(c.max_bead_overlap);
+      bead_ratio.push_back(c.max_bead_overlap_ratio);
+      touching.push_back(c.touching);
+      worst_env = std::max(worst_env, c.max_environment_depth);
+      worst_bead = std::max(worst_bead, c.max_bead_overlap);
+      worst_env_ratio = std::max(worst_env_ratio, c.max_environment_depth_ratio);
+      worst_bead_ratio = std::max(worst_bead_ratio, c.max_bead_overlap_ratio);
+    }
+    j["contacts"] = {{"beads", world.bead_count()},
+                     {"max_environment_depth_m", worst_env},
+                     {"max_environment_depth_over_radius", worst_env_ratio},
+                     {"max_bead_overlap_m", worst_bead},
+                     {"max_bead_overlap_over_radius", worst_bead_ratio},
+                     {"per_frame",
+                      {{"max_environment_depth_m", env},
+                       {"max_environment_depth_over_radius", env_ratio},
+                       {"max_bead_overlap_m", bead},
+                       {"max_bead_overlap_over_radius", bead_ratio},
+                       {"touching", touching}}}};
+  }
+  if (world.instrument_count() > 0) {
+    json instruments = json::array();
+    for (std::size_t i = 0; i < world.instrument_count(); ++i) {
+      json force = json::array(), filtered = json::array(), torque = json::array(), grasping = json::array();
+      for (const auto& frame : instruments_) {
+        const InstrumentReading& r = frame[i];
+        force.push_back({r.force.x(), r.force.y(), r.force.z()});
+        filtered.push_back({r.filtered_force.x(), r.filtered_force.y(), r.filtered_force.z()});
+        torque.push_back({r.torque.x(), r.torque.y(), r.torque.z()});
+        grasping.push_back(r.grasping);
+      }
+      instruments.push_back({{"index", i},
+                             {"force_N_per_frame", force},
+                             {"filtered_force_N_per_frame", filtered},
+                             {"torque_Nm_per_frame", torque},
+                             {"grasping_per_frame", grasping}});
+    }
+    j["instruments"] = instruments;
+  }
   json events = json::array();
   for (const Event& e : world.events())
     events.push_back({{"kind", e.kind == Event::Kind::recovered ? "recovered" : "unstable"},
@@ -145,10 +197,20 @@ void RunRecord::write_frames_csv(const std::filesystem::path& file) const {
   if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write", file.string()));
   out << "frame,wall_us,substeps,newton,retries";
   for (std::size_t s = 0; s < kStageCount; ++s) out << ',' << stage_name(static_cast<Stage>(s)) << "_us";
+  if (has_beads_) out << ",touching,max_environment_depth_m,max_bead_overlap_m";
+  const std::size_t instruments = instruments_.empty() ? 0 : instruments_.front().size();
+  for (std::size_t i = 0; i < instruments; ++i)
+    out << fmt::format(",instrument{0}_fx,instrument{0}_fy,instrument{0}_fz", i);
   out << '\n';
   for (std::size_t f = 0; f < frames(); ++f) {
     out << f << ',' << frame_seconds_[f] * 1e6 << ',' << substeps_[f] << ',' << int{newton_[f]} << ',' << retries_[f];
     for (std::size_t s = 0; s < kStageCount; ++s) out << ',' << stage_seconds_[s][f] * 1e6;
+    if (has_beads_)
+      out << ',' << contacts_[f].touching << ',' << contacts_[f].max_environment_depth << ','
+          << contacts_[f].max_bead_overlap;
+    for (std::size_t i = 0; i < instruments; ++i)
+      out << ',' << instruments_[f][i].force.x() << ',' << instruments_[f][i].force.y() << ','
+          << instruments_[f][i].force.z();
     out << '\n';
   }
 }

@@ -13,7 +13,7 @@ namespace haustra::cli {
 
 class RunRecord {
  public:
-  void add(const FrameProfile& p);
+  void add(const FrameProfile& p, const World& world);
   [[nodiscard]] std::size_t frames() const { return frame_seconds_.size(); }
   void print_stage_table(std::FILE* out) const;
   void write_summary(const std::filesystem::path& file, const SceneDesc& scene, const World& world,
@@ -32,6 +32,9 @@ class RunRecord {
   std::vector<float> frame_seconds_;
   std::vector<int> substeps_, retries_;
   std::vector<char> newton_;
+  std::vector<ContactReport> contacts_;
+  std::vector<std::vector<InstrumentReading>> instruments_;
+  bool has_beads_ = false;
 };
 
 void write_nodes_csv(const std::filesystem::path& file, const World& world);

@@ -7,7 +7,10 @@
 namespace haustra {
 
 enum class Stage : std::uint8_t {
-  loads,           // gravity + external loads → node forces
+  instruments,     // scripted poses, grasps and releases
+  collide,         // beads follow nodes; broad and narrow phase → contact candidates
+  contacts,        // penalty forces (and their stiffness) at the current positions
+  loads,           // gravity + external loads + contacts → node forces
   free_base,       // rigid drag of free bases
   backward_sweep,  // node forces → generalized forces R
   jacobian,        // Newton: assemble and factor the block-tridiagonal system
@@ -16,6 +19,7 @@ enum class Stage : std::uint8_t {
   forward_sweep,   // strains → node poses
   filter,          // inertia filter
   guard,           // finite values and bounds
+  report,          // penetrations and instrument forces at the frame's end
   count
 };
 

@@ -41,6 +41,50 @@ struct SegmentInfo {
   double rest_polyline_deviation = 0.0;
 };
 
+enum class ContactKind : std::uint8_t { bead, plane, sphere, capsule, mesh, instrument };
+
+// A contact of the last substep: a bead and what it may touch (another bead, or the shape's index
+// among planes, spheres, capsules, meshes or instruments), listed at the substep's start within a
+// margin, with the penalty evaluated at the positions of the solve's last iteration. A mesh
+// contact keeps the tangent plane found at the start.
+struct Contact {
+  std::uint32_t bead = 0;
+  std::uint32_t other = 0;
+  ContactKind kind = ContactKind::bead;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();   // mesh: on the plane
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ(); // mesh: the plane's free side
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();   // N, on `bead`; a second bead gets the opposite
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();  // separating direction
+  double stiffness = 0.0;   // of the linearization, N/m
+  double depth = 0.0;       // m; > 0 overlapping
+  bool coupled = false;     // two beads of one segment, solved as a pair by Newton (not node by node)
+};
+
+// Contacts of the last frame, measured at its final positions.
+struct ContactReport {
+  std::size_t candidates = 0;   // pairs and bead–shape pairs within the margin at the frame's start
+  std::size_t touching = 0;     // of those, overlapping at its end
+  double max_environment_depth = 0.0;        // m: deepest bead into a plane, obstacle, mesh or instrument
+  double max_environment_depth_ratio = 0.0;  // the same over that bead's radius
+  double max_bead_overlap = 0.0;             // m: deepest overlap of two beads that may collide
+  double max_bead_overlap_ratio = 0.0;       // the same over the smaller radius
+};
+
+// An instrument's state after the last frame. Force and torque are what the tissue exerts on the
+// instrument (the negative of what the instrument exerts on the rod), torque about the tip.
+struct InstrumentReading {
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  bool closed = false;
+  bool grasping = false;
+  std::size_t grasped_segment = 0;
+  std::size_t grasped_node = 0;  // local to the segment
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  Eigen::Vector3d torque = Eigen::Vector3d::Zero();
+  Eigen::Vector3d filtered_force = Eigen::Vector3d::Zero();   // low-passed (InstrumentDesc::force_filter)
+  Eigen::Vector3d filtered_torque = Eigen::Vector3d::Zero();
+};
+
 struct Event {
   enum class Kind : std::uint8_t { recovered, unstable };
   Kind kind = Kind::recovered;
@@ -92,6 +136,21 @@ class World {
   // Force (and moment) the attachment exerted on the rod in the last frame, world frame.
   [[nodiscard]] Eigen::Vector3d attachment_force(std::size_t segment, std::size_t attachment) const;
   [[nodiscard]] Eigen::Vector3d attachment_moment(std::size_t segment, std::size_t attachment) const;
+
+  // Beads, ordered by segment then node.
+  [[nodiscard]] std::size_t bead_count() const;
+  [[nodiscard]] Range beads(std::size_t segment) const;
+  [[nodiscard]] std::span<const double> bead_radii() const;
+  [[nodiscard]] std::span<const std::uint32_t> bead_nodes() const;  // global node index of each bead
+  [[nodiscard]] bool beads_may_collide(std::size_t a, std::size_t b) const;  // false for rest-pose neighbours
+  [[nodiscard]] const ContactReport& contacts() const;
+  [[nodiscard]] std::span<const Contact> contact_list() const;  // valid until the next step
+
+  // Instruments. Setting a pose hands the instrument from its script to the host for good.
+  [[nodiscard]] std::size_t instrument_count() const;
+  void set_instrument_pose(std::size_t instrument, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis);
+  void set_instrument_grasp(std::size_t instrument, bool closed);
+  [[nodiscard]] InstrumentReading instrument(std::size_t instrument) const;
 
   [[nodiscard]] const FrameProfile& last_profile() const;
   [[nodiscard]] std::span<const Event> events() const;

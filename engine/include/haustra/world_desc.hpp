@@ -8,6 +8,7 @@
 #include <numbers>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace haustra {
@@ -75,6 +76,18 @@ struct PointLoadDesc {
   Eigen::Vector3d moment = Eigen::Vector3d::Zero();  // N·m, world frame
 };
 
+// Beads: rigid spheres centred on chosen nodes, for collision (the paper: 55 beads on 167 nodes).
+// Choose the nodes by count (spread evenly by node index, both ends included), by spacing along
+// the rest length, or by an explicit list; give the radius as a constant or a profile along the rod.
+struct BeadsDesc {
+  bool enabled = false;
+  int count = 0;               // beads spread evenly over the nodes
+  double spacing = 0.0;        // m of rest arc length between beads (first and last node included)
+  std::vector<int> nodes;      // explicit node indices (negative counts from the tip)
+  double radius = 0.0;         // m; 0: the segment's cross-section radius
+  std::vector<std::pair<double, double>> radius_profile;  // (fraction of the length, radius in m)
+};
+
 struct SegmentDesc {
   std::string name = "segment";
   int nodes = 167;  // N+1; the paper's count
@@ -96,6 +109,75 @@ struct SegmentDesc {
   std::optional<double> drag;
   std::vector<AttachmentDesc> attachments;
   std::vector<PointLoadDesc> loads;
+  BeadsDesc beads;
+};
+
+enum class BroadPhase : std::uint8_t { automatic, brute, grid, sweep };
+
+// The paper's penalty response (eq. 13), f = coefficient × E × depth^exponent, along the
+// separating direction; E is the bead's tissue (the harmonic mean for two tissues).
+struct ContactDesc {
+  double coefficient = 50.0;
+  double exponent = 2.0;
+  double margin = -1.0;  // m: candidates within r_a + r_b + margin; < 0: half the smallest bead radius
+  BroadPhase broad_phase = BroadPhase::automatic;  // brute below 64 beads, else the grid
+  bool self = true;      // beads of one segment collide (except pairs touching at rest)
+};
+
+struct PlaneDesc {
+  std::string name;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // the free side
+};
+
+struct SphereObstacleDesc {
+  std::string name;
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  double radius = 0.1;
+};
+
+struct CapsuleObstacleDesc {
+  std::string name;
+  Eigen::Vector3d a = Eigen::Vector3d::Zero(), b = Eigen::Vector3d::UnitX();
+  double radius = 0.05;
+};
+
+// A static triangle mesh (another organ, the pelvis), queried through Embree.
+struct MeshObstacleDesc {
+  std::string name;
+  std::string source;                             // file it came from, for messages
+  std::vector<Eigen::Vector3d> vertices;          // m
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+};
+
+struct EnvironmentDesc {
+  std::vector<PlaneDesc> planes;
+  std::vector<SphereObstacleDesc> spheres;
+  std::vector<CapsuleObstacleDesc> capsules;
+  std::vector<MeshObstacleDesc> meshes;
+};
+
+struct InstrumentKeyframe {
+  double time = 0.0;                              // s
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero();  // m
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ(); // from the tip towards the handle
+  bool grasp = false;                             // jaws closed from this keyframe on
+};
+
+// A kinematic capsule (grasper, retractor) from its tip back along its axis. It pushes tissue by
+// contact; closing it within reach of a bead attaches that bead's node until it opens. Its pose
+// follows the keyframes (linear in position, spherical in axis, grasp stepwise) until a host sets
+// it through the API.
+struct InstrumentDesc {
+  std::string name = "instrument";
+  double radius = 0.004;       // m
+  double length = 0.3;         // m
+  double grasp_reach = 0.01;   // m beyond a bead's surface within which closing grasps it
+  bool hold_frame = false;     // a grasp holds the node's orientation too
+  double force_filter = 0.0;   // s: time constant of the low-pass filter on the reported force; 0 = none
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  std::vector<InstrumentKeyframe> keyframes;
 };
 
 struct SolverDesc {
@@ -131,6 +213,9 @@ struct WorldDesc {
   FilterDesc filter;
   int threads = 0;  // 0: all hardware threads
   std::vector<SegmentDesc> segments;
+  ContactDesc contact;
+  EnvironmentDesc environment;
+  std::vector<InstrumentDesc> instruments;
 };
 
 }  // namespace haustra

@@ -27,7 +27,7 @@ void block_tridiagonal_factor(BlockTridiagonalView<B> m) {
   }
 }
 
-inline constexpr int kMaxRhsColumns = 32;
+inline constexpr int kMaxRhsColumns = 72;
 
 // rhs: n blocks of B rows × cols columns (cols ≤ kMaxRhsColumns), column-major within a block
 // (block k starts at k·B·cols). Overwritten by the solution.

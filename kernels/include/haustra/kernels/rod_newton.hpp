@@ -1,7 +1,8 @@
 #pragma once
 // The Newton system of the implicit strain law a_c M (q − q*) = R(q) for one rod, with dead node
-// loads plus an optional viscous drag of the surrounding medium on every node (f = −c δr/Δt,
-// m = −s δφ/Δt), which is what lets a free base move. In strain coordinates alone the Jacobian is
+// loads plus loads that follow the node's motion: the viscous drag of the surrounding medium
+// (f = −c δr/Δt, m = −s δφ/Δt, which is what lets a free base move) and contact penalties
+// (f = −k n nᵀ δr), given as a per-node load stiffness. In strain coordinates alone the Jacobian is
 // dense (a strain change moves every distal lever arm); in mixed form it is block-tridiagonal.
 // Per node k the unknowns are
 //   z_k = (δq_k [4], δφ_k [3] world rotation of the frame, δr_k [3] position,
@@ -34,18 +35,18 @@ inline constexpr int kNewtonForce = 13;
 using NewtonBlock = Eigen::Matrix<double, kNewtonBlock, kNewtonBlock>;
 using NewtonSystem = BlockTridiagonalView<kNewtonBlock>;
 
-struct NewtonDrag {
-  std::span<const double> force_rate;   // c_k / Δt per node (N/m); empty: no drag
-  std::span<const double> moment_rate;  // s_k / Δt per node (N·m/rad)
+struct NewtonLoadStiffness {
+  std::span<const Eigen::Matrix3d> force;  // per node: −∂f/∂r (N/m); empty: none
+  std::span<const double> moment;          // per node: −∂m/∂φ (N·m/rad), isotropic
 };
 
 // law_total: a_c = k_c + η_c/Δt per component. node_force/moment: all current loads, drag included.
 // distal_force, distal_moment: caller scratch, N+1. free_base: the base rows balance the rod's
-// total wrench instead of holding node 0 (needs drag). Returns that total wrench (moment about
+// total wrench instead of holding node 0 (needs a load stiffness at every node, e.g. drag). Returns that total wrench (moment about
 // node 0, then force), which is the right-hand side of the free base rows, negated.
 Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, std::span<const double> section_length,
                                                 Vec3View<const double> node_force, Vec3View<const double> node_moment,
-                                                const std::array<double, 4>& law_total, NewtonDrag drag,
+                                                const std::array<double, 4>& law_total, NewtonLoadStiffness stiffness,
                                                 bool free_base, Vec3View<double> distal_force,
                                                 Vec3View<double> distal_moment, NewtonSystem system);
 

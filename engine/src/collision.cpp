@@ -1,0 +1,302 @@
+#include "collision.hpp"
+
+#include <algorithm>
+
+#include "haustra/kernels/contact_geometry.hpp"
+#include "static_meshes.hpp"
+
+namespace haustra::detail {
+namespace {
+
+constexpr std::size_t kChunk = 256;  // beads per task: fixed, so the split does not depend on threads
+constexpr double kSpeculation = 1.5;  // a bead's reach: the margin plus this times its last motion
+constexpr std::size_t kBruteBelow = 64;
+
+std::size_t chunks_of(std::size_t n) { return (n + kChunk - 1) / kChunk; }
+
+Eigen::Vector3d node_position(const WorldState& state, std::uint32_t node) {
+  return {state.now.position.x[node], state.now.position.y[node], state.now.position.z[node]};
+}
+
+// Penalty coefficient (× E) of a candidate: the harmonic mean of two tissues' moduli.
+double stiffness_of(const WorldModel& model, const ContactCandidate& c) {
+  const double e = model.beads.modulus[c.bead];
+  if (c.kind != ContactKind::bead) return model.contact.coefficient * e;
+  const double f = model.beads.modulus[c.other];
+  return model.contact.coefficient * 2.0 * e * f / (e + f);
+}
+
+Eigen::Vector3d instrument_end(const InstrumentState& s, const InstrumentDesc& d) { return s.tip + d.length * s.axis; }
+
+// Depth and separating direction of a candidate for a bead at c (and, for two beads, the other at o).
+kernels::SphereContact measure(const WorldModel& model, const WorldState& state, const ContactCandidate& k,
+                               const Eigen::Vector3d& c) {
+  const double r = model.beads.radius[k.bead];
+  switch (k.kind) {
+    case ContactKind::bead:
+      return kernels::sphere_sphere(c, r, node_position(state, model.beads.node[k.other]), model.beads.radius[k.other]);
+    case ContactKind::plane:
+    case ContactKind::mesh:
+      return kernels::sphere_plane(c, r, k.point, k.normal);
+    case ContactKind::sphere: {
+      const SphereObstacleDesc& s = model.environment.spheres[k.other];
+      return kernels::sphere_sphere(c, r, s.center, s.radius);
+    }
+    case ContactKind::capsule: {
+      const CapsuleObstacleDesc& s = model.environment.capsules[k.other];
+      return kernels::sphere_capsule(c, r, s.a, s.b, s.radius);
+    }
+    case ContactKind::instrument: {
+      const InstrumentState& s = state.instruments[k.other];
+      const InstrumentDesc& d = model.instruments[k.other];
+      return kernels::sphere_capsule(c, r, s.tip, instrument_end(s, d), d.radius);
+    }
+  }
+  return {};
+}
+
+// Environment and instrument candidates of one bead, appended to `out`.
+void environment_candidates(const WorldModel& model, const WorldState& state, std::uint32_t b,
+                            std::vector<ContactCandidate>& out) {
+  const Eigen::Vector3d c = state.collision.bead_center.view().get(b);
+  const double r = model.beads.radius[b];
+  const double margin = model.contact_margin + kSpeculation * state.collision.bead_motion[b];
+  const EnvironmentDesc& env = model.environment;
+  auto add = [&](ContactKind kind, std::size_t other, const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+    ContactCandidate k;
+    k.bead = b;
+    k.other = static_cast<std::uint32_t>(other);
+    k.kind = kind;
+    k.point = point;
+    k.normal = normal;
+    out.push_back(k);
+  };
+  for (std::size_t i = 0; i < env.planes.size(); ++i)
+    if (kernels::sphere_plane(c, r, env.planes[i].point, env.planes[i].normal).depth > -margin)
+      add(ContactKind::plane, i, env.planes[i].point, env.planes[i].normal);
+  for (std::size_t i = 0; i < env.spheres.size(); ++i)
+    if (kernels::sphere_sphere(c, r, env.spheres[i].center, env.spheres[i].radius).depth > -margin)
+      add(ContactKind::sphere, i, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
+  for (std::size_t i = 0; i < env.capsules.size(); ++i)
+    if (kernels::sphere_capsule(c, r, env.capsules[i].a, env.capsules[i].b, env.capsules[i].radius).depth > -margin)
+      add(ContactKind::capsule, i, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
+  if (model.meshes && model.meshes->size() > 0) {
+    const StaticMeshes::Hit hit = model.meshes->closest(c, r + margin);
+    // The tangent plane at the closest point stands in for the mesh during the frame.
+    if (hit.found) add(ContactKind::mesh, hit.mesh, hit.point, hit.push);
+  }
+  for (std::size_t i = 0; i < model.instruments.size(); ++i) {
+    if (instrument_holds(state, i, b)) continue;  // the grasped bead sits in the jaws
+    const InstrumentState& s = state.instruments[i];
+    if (kernels::sphere_capsule(c, r, s.tip, instrument_end(s, model.instruments[i]), model.instruments[i].radius).depth >
+        -margin)
+      add(ContactKind::instrument, i, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
+  }
+}
+
+}  // namespace
+
+bool instrument_holds(const WorldState& state, std::size_t instrument, std::uint32_t bead) {
+  const InstrumentState& s = state.instruments[instrument];
+  return s.grasping && s.grasp_bead == bead;
+}
+
+void init_collision_state(const WorldModel& model, WorldState& state) {
+  CollisionState& cs = state.collision;
+  const std::size_t nb = model.beads.size();
+  cs.bead_center.resize(nb);
+  cs.bead_motion.assign(nb, 0.0);
+  cs.reach_radius.assign(nb, 0.0);
+  cs.bead_force.resize(nb);
+  cs.bead_stiffness.assign(nb, Eigen::Matrix3d::Zero());
+  cs.bead_contact_start.assign(nb + 1, 0);
+  cs.coupled_start.assign(model.segments.size() + 1, 0);
+  cs.coupled_fill.assign(model.segments.size(), 0);
+  cs.coupled.reserve(kMaxCoupledContacts * model.segments.size());
+  const std::size_t chunks = chunks_of(nb);
+  cs.chunk_pairs.assign(chunks, {});
+  cs.chunk_candidates.assign(chunks, {});
+  cs.chunk_count.assign(chunks, 0);
+  // Room for a dense pile (a dozen neighbours per bead) before anything grows.
+  for (auto& v : cs.chunk_pairs) v.resize(16 * kChunk);
+  for (auto& v : cs.chunk_candidates) v.reserve(4 * kChunk);
+  cs.candidates.reserve(16 * nb + 64);
+  cs.bead_contact.reserve(32 * nb + 64);
+  cs.pairs.resize(16 * nb + 64);
+  cs.sweep_order.resize(nb);
+}
+
+void stage_collide(const WorldModel& model, WorldState& state, Scheduler& scheduler) {
+  CollisionState& cs = state.collision;
+  const BeadModel& beads = model.beads;
+  const std::size_t nb = beads.size();
+  for (std::size_t b = 0; b < nb; ++b) {
+    cs.bead_center.view().set(b, node_position(state, beads.node[b]));
+    cs.reach_radius[b] = beads.radius[b] + 0.5 * model.contact_margin + kSpeculation * cs.bead_motion[b];
+  }
+  // Pairs within reach: each bead's radius grown by its share of the margin and its speculation.
+  const kernels::SphereSet set{cs.bead_center.x, cs.bead_center.y, cs.bead_center.z, cs.reach_radius};
+  const double margin = 0.0;
+  const std::size_t chunks = chunks_of(nb);
+
+  // Bead pairs, ascending (a, b).
+  BroadPhase method = model.contact.broad_phase;
+  if (method == BroadPhase::automatic) method = nb < kBruteBelow ? BroadPhase::brute : BroadPhase::grid;
+  std::size_t pair_count = 0;
+  if (method == BroadPhase::grid) {
+    cs.grid.build(set, margin);
+    scheduler.for_each(chunks, [&](std::size_t c) {
+      const std::size_t first = c * kChunk, last = std::min(nb, first + kChunk);
+      std::vector<kernels::SpherePair>& out = cs.chunk_pairs[c];
+      std::size_t n = cs.grid.query(set, first, last, out);
+      if (n > out.size()) {  // a denser pile than ever before: grow once and redo
+        out.resize(2 * n);
+        n = cs.grid.query(set, first, last, out);
+      }
+      cs.chunk_count[c] = n;
+    });
+    for (std::size_t c = 0; c < chunks; ++c) pair_count += cs.chunk_count[c];
+    if (cs.pairs.size() < pair_count) cs.pairs.resize(2 * pair_count);
+    std::size_t at = 0;
+    for (std::size_t c = 0; c < chunks; ++c) {
+      std::copy_n(cs.chunk_pairs[c].begin(), cs.chunk_count[c], cs.pairs.begin() + static_cast<std::ptrdiff_t>(at));
+      at += cs.chunk_count[c];
+    }
+  } else {
+    for (;;) {
+      pair_count = method == BroadPhase::brute ? kernels::broad_phase_brute(set, margin, cs.pairs)
+                                               : kernels::broad_phase_sweep(set, margin, cs.sweep_order, cs.pairs);
+      if (pair_count <= cs.pairs.size()) break;
+      cs.pairs.resize(2 * pair_count);
+    }
+  }
+
+  cs.candidates.clear();
+  for (std::size_t p = 0; p < pair_count; ++p) {
+    const kernels::SpherePair& pr = cs.pairs[p];
+    if (beads.segment[pr.a] == beads.segment[pr.b] && (!model.contact.self || beads.excluded(pr.a, pr.b))) continue;
+    ContactCandidate k;
+    k.bead = pr.a;
+    k.other = pr.b;
+    k.kind = ContactKind::bead;
+    cs.candidates.push_back(k);
+  }
+  // Environment and instruments, bead by bead, in chunks concatenated in order.
+  scheduler.for_each(chunks, [&](std::size_t c) {
+    std::vector<ContactCandidate>& out = cs.chunk_candidates[c];
+    out.clear();
+    const std::size_t first = c * kChunk, last = std::min(nb, first + kChunk);
+    for (std::size_t b = first; b < last; ++b) environment_candidates(model, state, static_cast<std::uint32_t>(b), out);
+  });
+  for (std::size_t c = 0; c < chunks; ++c)
+    cs.candidates.insert(cs.candidates.end(), cs.chunk_candidates[c].begin(), cs.chunk_candidates[c].end());
+
+  // Per bead, the candidates it takes part in, in candidate order.
+  std::fill(cs.bead_contact_start.begin(), cs.bead_contact_start.end(), 0u);
+  for (const ContactCandidate& k : cs.candidates) {
+    ++cs.bead_contact_start[k.bead + 1];
+    if (k.kind == ContactKind::bead) ++cs.bead_contact_start[k.other + 1];
+  }
+  for (std::size_t b = 0; b < nb; ++b) cs.bead_contact_start[b + 1] += cs.bead_contact_start[b];
+  cs.bead_contact.resize(cs.bead_contact_start[nb]);
+  for (std::size_t i = 0; i < cs.candidates.size(); ++i) {
+    const ContactCandidate& k = cs.candidates[i];
+    cs.bead_contact[cs.bead_contact_start[k.bead]++] = static_cast<std::uint32_t>(i << 1);
+    if (k.kind == ContactKind::bead) cs.bead_contact[cs.bead_contact_start[k.other]++] = static_cast<std::uint32_t>((i << 1) | 1);
+  }
+  for (std::size_t b = nb; b > 0; --b) cs.bead_contact_start[b] = cs.bead_contact_start[b - 1];
+  cs.bead_contact_start[0] = 0;
+  cs.report.candidates = cs.candidates.size();
+}
+
+// For the Newton linearization: a quadratic penalty has almost no stiffness just after first
+// touch, so a touching bead is linearized with at least the stiffness it would have at this
+// fraction of its radius deep. A candidate that does not touch has neither force nor stiffness: a
+// Jacobian stiffer than the rod makes every constraint force computed against it overshoot.
+constexpr double kLinearizationDepth = 0.02;
+
+void stage_contacts(const WorldModel& model, WorldState& state, Scheduler& scheduler) {
+  CollisionState& cs = state.collision;
+  const std::size_t n = cs.candidates.size();
+  const double exponent = model.contact.exponent;
+  scheduler.for_each(chunks_of(n), [&](std::size_t c) {
+    const std::size_t last = std::min(n, (c + 1) * kChunk);
+    for (std::size_t i = c * kChunk; i < last; ++i) {
+      ContactCandidate& k = cs.candidates[i];
+      const kernels::SphereContact m = measure(model, state, k, node_position(state, model.beads.node[k.bead]));
+      const double coefficient = stiffness_of(model, k);
+      const kernels::Penalty p = kernels::contact_penalty(m.depth, coefficient, exponent);
+      const kernels::Penalty floor =
+          kernels::contact_penalty(kLinearizationDepth * model.beads.radius[k.bead], coefficient, exponent);
+      k.depth = m.depth;
+      k.direction = m.normal;
+      k.force = p.force * m.normal;
+      // Two beads both move: each side sees the pair's stiffness twice, so that their combined
+      // correction is not doubled (one side held still then under-corrects, which converges).
+      k.stiffness = m.depth > 0.0 ? std::max(p.stiffness, floor.stiffness) * (k.kind == ContactKind::bead ? 2.0 : 1.0) : 0.0;
+      k.coupled = false;
+    }
+  });
+  // The touching pairs within one segment that Newton couples exactly, in candidate order.
+  const std::size_t segs = model.segments.size();
+  std::fill(cs.coupled_start.begin(), cs.coupled_start.end(), 0u);
+  for (ContactCandidate& k : cs.candidates) {
+    if (k.kind != ContactKind::bead || k.depth <= 0.0) continue;
+    const std::uint32_t sa = model.beads.segment[k.bead];
+    if (sa != model.beads.segment[k.other] || cs.coupled_start[sa + 1] >= kMaxCoupledContacts) continue;
+    k.coupled = true;
+    k.stiffness *= 0.5;  // the pair's own stiffness: both beads are in the solve
+    ++cs.coupled_start[sa + 1];
+  }
+  for (std::size_t g = 0; g < segs; ++g) cs.coupled_start[g + 1] += cs.coupled_start[g];
+  cs.coupled.resize(cs.coupled_start[segs]);
+  std::copy(cs.coupled_start.begin(), cs.coupled_start.end() - 1, cs.coupled_fill.begin());
+  for (std::size_t i = 0; i < cs.candidates.size(); ++i)
+    if (cs.candidates[i].coupled)
+      cs.coupled[cs.coupled_fill[model.beads.segment[cs.candidates[i].bead]]++] = static_cast<std::uint32_t>(i);
+  const std::size_t nb = model.beads.size();
+  scheduler.for_each(chunks_of(nb), [&](std::size_t c) {
+    const std::size_t last = std::min(nb, (c + 1) * kChunk);
+    for (std::size_t b = c * kChunk; b < last; ++b) {
+      Eigen::Vector3d f = Eigen::Vector3d::Zero();
+      Eigen::Matrix3d k = Eigen::Matrix3d::Zero();
+      for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e) {
+        const ContactCandidate& kc = cs.candidates[cs.bead_contact[e] >> 1];
+        const bool second = (cs.bead_contact[e] & 1U) != 0;
+        f += second ? Eigen::Vector3d(-kc.force) : kc.force;
+        if (!kc.coupled) k += kc.stiffness * kc.direction * kc.direction.transpose();
+      }
+      cs.bead_force.view().set(b, f);
+      cs.bead_stiffness[b] = k;
+    }
+  });
+}
+
+void record_bead_motion(const WorldModel& model, WorldState& state) {
+  CollisionState& cs = state.collision;
+  for (std::size_t b = 0; b < model.beads.size(); ++b)
+    cs.bead_motion[b] = (node_position(state, model.beads.node[b]) - cs.bead_center.view().get(b)).norm();
+}
+
+void stage_contact_report(const WorldModel& model, WorldState& state) {
+  CollisionState& cs = state.collision;
+  ContactReport& r = cs.report;
+  r.touching = 0;
+  r.max_environment_depth = r.max_environment_depth_ratio = 0.0;
+  r.max_bead_overlap = r.max_bead_overlap_ratio = 0.0;
+  for (const ContactCandidate& k : cs.candidates) {
+    const kernels::SphereContact m = measure(model, state, k, node_position(state, model.beads.node[k.bead]));
+    if (m.depth <= 0.0) continue;
+    ++r.touching;
+    if (k.kind == ContactKind::bead) {
+      const double smaller = std::min(model.beads.radius[k.bead], model.beads.radius[k.other]);
+      r.max_bead_overlap = std::max(r.max_bead_overlap, m.depth);
+      r.max_bead_overlap_ratio = std::max(r.max_bead_overlap_ratio, m.depth / smaller);
+    } else {
+      r.max_environment_depth = std::max(r.max_environment_depth, m.depth);
+      r.max_environment_depth_ratio = std::max(r.max_environment_depth_ratio, m.depth / model.beads.radius[k.bead]);
+    }
+  }
+}
+
+}  // namespace haustra::detail

@@ -1,0 +1,32 @@
+#pragma once
+// The collision stages: world-wide, over the beads of all segments.
+//   stage_collide   — at each substep's start: beads take their nodes' positions; the broad phase
+//                     and the narrow phase list every contact candidate, in an order that does not
+//                     depend on the thread count. A bead's reach is the margin plus 1.5 times how
+//                     far it moved in the last substep (a speculative margin), so a fast bead is
+//                     listed before it arrives rather than found deep inside something later.
+//   stage_contacts  — at every iteration: the penalty force (and its stiffness) of each candidate
+//                     at the current positions, gathered per bead. Up to kMaxCoupledContacts
+//                     touching contacts between two beads of one segment are marked `coupled`:
+//                     Newton solves them as pairs (they hang on the same rod; node by node they
+//                     would not converge in a fold). The others enter its Jacobian node by node.
+//   stage_contact_report — at a frame's end: depths at the final positions.
+#include "scheduler.hpp"
+#include "world_model.hpp"
+#include "world_state.hpp"
+
+namespace haustra::detail {
+
+inline constexpr std::size_t kMaxCoupledContacts = 40;  // per segment and Newton iteration
+
+void init_collision_state(const WorldModel& model, WorldState& state);
+void stage_collide(const WorldModel& model, WorldState& state, Scheduler& scheduler);
+void stage_contacts(const WorldModel& model, WorldState& state, Scheduler& scheduler);
+void stage_contact_report(const WorldModel& model, WorldState& state);
+// After a substep: how far each bead moved, for the next substep's speculative margin.
+void record_bead_motion(const WorldModel& model, WorldState& state);
+
+// Beads a contact candidate list can ignore: an instrument's own grasped bead.
+[[nodiscard]] bool instrument_holds(const WorldState& state, std::size_t instrument, std::uint32_t bead);
+
+}  // namespace haustra::detail

@@ -1,0 +1,156 @@
+#include "instruments.hpp"
+
+#include <cmath>
+
+#include "haustra/kernels/pose.hpp"
+
+namespace haustra::detail {
+namespace {
+
+Eigen::Vector3d node_position(const WorldState& state, std::size_t node) {
+  return {state.now.position.x[node], state.now.position.y[node], state.now.position.z[node]};
+}
+
+// The grasp slot of `instrument` on `segment`, as a global attachment index.
+std::size_t grasp_slot(const SegmentModel& seg, std::size_t instrument) {
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a)
+    if (seg.attachments[a].grasp_slot && seg.attachments[a].instrument == instrument) return seg.attachment_offset + a;
+  return static_cast<std::size_t>(-1);
+}
+
+bool node_attached(const WorldModel& model, const WorldState& state, std::size_t segment, std::size_t node) {
+  const SegmentModel& seg = model.segments[segment];
+  if (node == 0 && seg.base_mode == BaseMode::clamped) return true;
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
+    const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
+    if (as.active && as.node == node) return true;
+  }
+  return false;
+}
+
+void grasp(const WorldModel& model, WorldState& state, std::size_t i) {
+  InstrumentState& s = state.instruments[i];
+  const InstrumentDesc& d = model.instruments[i];
+  // The nearest bead surface within reach of the tip; ties go to the lower bead index.
+  double best = d.grasp_reach;
+  std::size_t chosen = model.beads.size();
+  for (std::size_t b = 0; b < model.beads.size(); ++b) {
+    const std::uint32_t node = model.beads.node[b];
+    const std::size_t segment = model.beads.segment[b];
+    const std::size_t local = node - model.segments[segment].node_offset;
+    if (node_attached(model, state, segment, local)) continue;
+    const double gap = (node_position(state, node) - s.tip).norm() - model.beads.radius[b];
+    if (gap <= best && (chosen == model.beads.size() || gap < best)) {
+      best = gap;
+      chosen = b;
+    }
+  }
+  if (chosen == model.beads.size()) return;  // nothing in reach: the jaws close on air
+  const std::size_t segment = model.beads.segment[chosen];
+  const SegmentModel& seg = model.segments[segment];
+  const std::size_t slot = grasp_slot(seg, i);
+  const std::size_t node = model.beads.node[chosen];
+  AttachmentState& as = state.now.attachment[slot];
+  as.active = true;
+  as.node = node - seg.node_offset;
+  as.hold_frame = d.hold_frame;
+  as.force.setZero();
+  as.moment.setZero();
+  const Eigen::Quaterniond node_rot(state.now.rotation.w[node], state.now.rotation.x[node], state.now.rotation.y[node],
+                                    state.now.rotation.z[node]);
+  // Held where it is, relative to the instrument: the grasp keeps that offset as it moves.
+  s.grasp_offset = s.frame.conjugate() * (node_position(state, node) - s.tip);
+  s.grasp_rotation = s.frame.conjugate() * node_rot;
+  as.target = node_position(state, node);
+  as.target_rotation = node_rot;
+  s.grasping = true;
+  s.grasp_segment = segment;
+  s.grasp_attachment = slot;
+  s.grasp_bead = static_cast<std::uint32_t>(chosen);
+}
+
+void release(WorldState& state, std::size_t i) {
+  InstrumentState& s = state.instruments[i];
+  AttachmentState& as = state.now.attachment[s.grasp_attachment];
+  as.active = false;
+  as.force.setZero();
+  as.moment.setZero();
+  s.grasping = false;
+}
+
+}  // namespace
+
+void set_instrument_pose(InstrumentState& s, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis) {
+  s.tip = tip;
+  s.axis = axis.normalized();
+  s.frame = kernels::frame_from_tangent(s.axis, Eigen::Vector3d::UnitX());
+}
+
+void init_instruments(const WorldModel& model, WorldState& state) {
+  state.instruments.assign(model.instruments.size(), InstrumentState{});
+  for (std::size_t i = 0; i < model.instruments.size(); ++i) {
+    const InstrumentDesc& d = model.instruments[i];
+    InstrumentState& s = state.instruments[i];
+    s.scripted = !d.keyframes.empty();
+    if (s.scripted)
+      set_instrument_pose(s, d.keyframes.front().tip, d.keyframes.front().axis);
+    else
+      set_instrument_pose(s, d.tip, d.axis);
+  }
+}
+
+void stage_instruments(const WorldModel& model, WorldState& state, double time) {
+  for (std::size_t i = 0; i < model.instruments.size(); ++i) {
+    const InstrumentDesc& d = model.instruments[i];
+    InstrumentState& s = state.instruments[i];
+    if (s.scripted) {
+      const auto& kf = d.keyframes;
+      std::size_t k = 0;
+      while (k + 1 < kf.size() && kf[k + 1].time <= time) ++k;
+      if (time <= kf.front().time || k + 1 == kf.size()) {
+        set_instrument_pose(s, kf[k].tip, kf[k].axis);
+      } else {
+        const double t = (time - kf[k].time) / (kf[k + 1].time - kf[k].time);
+        const Eigen::Vector3d axis = (1.0 - t) * kf[k].axis + t * kf[k + 1].axis;
+        set_instrument_pose(s, (1.0 - t) * kf[k].tip + t * kf[k + 1].tip,
+                            axis.norm() > 1e-9 ? axis : kf[k + 1].axis);  // opposite axes: take the next one
+      }
+      s.closed = time >= kf.front().time ? kf[k].grasp : kf.front().grasp;
+    }
+    if (s.closed && !s.grasping) grasp(model, state, i);
+    if (!s.closed && s.grasping) release(state, i);
+    if (s.grasping) {
+      AttachmentState& as = state.now.attachment[s.grasp_attachment];
+      as.target = s.tip + s.frame * s.grasp_offset;
+      as.target_rotation = s.frame * s.grasp_rotation;
+    }
+  }
+}
+
+void instrument_forces(const WorldModel& model, WorldState& state, double dt) {
+  for (std::size_t i = 0; i < model.instruments.size(); ++i) {
+    InstrumentState& s = state.instruments[i];
+    Eigen::Vector3d force = Eigen::Vector3d::Zero();
+    Eigen::Vector3d torque = Eigen::Vector3d::Zero();
+    for (const ContactCandidate& k : state.collision.candidates) {
+      if (k.kind != ContactKind::instrument || k.other != i) continue;
+      const Eigen::Vector3d on_instrument = -k.force;
+      force += on_instrument;
+      torque += (node_position(state, model.beads.node[k.bead]) - s.tip).cross(on_instrument);
+    }
+    if (s.grasping) {
+      const AttachmentState& as = state.now.attachment[s.grasp_attachment];
+      const std::size_t node = model.segments[s.grasp_segment].node_offset + as.node;
+      force -= as.force;
+      torque += (node_position(state, node) - s.tip).cross(Eigen::Vector3d(-as.force)) - as.moment;
+    }
+    s.force = force;
+    s.torque = torque;
+    const double tau = model.instruments[i].force_filter;
+    const double alpha = tau > 0.0 ? dt / (tau + dt) : 1.0;
+    s.filtered_force += alpha * (force - s.filtered_force);
+    s.filtered_torque += alpha * (torque - s.filtered_torque);
+  }
+}
+
+}  // namespace haustra::detail

@@ -1,0 +1,154 @@
+#include "static_meshes.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "haustra/error.hpp"
+#include "haustra/kernels/contact_geometry.hpp"
+#include "haustra/mesh_io.hpp"
+
+namespace haustra::detail {
+namespace {
+
+std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
+  return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+}
+
+}  // namespace
+
+struct StaticMeshes::Query {
+  const StaticMeshes* self = nullptr;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  bool found = false;
+  std::uint32_t mesh = 0, triangle = 0;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  double distance = 0.0;
+};
+
+StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
+  if (descs.empty()) return;
+  device_ = rtcNewDevice(nullptr);
+  if (device_ == nullptr) throw Error(ErrorCode::internal, "Embree: cannot create a device");
+  scene_ = rtcNewScene(device_);
+  for (std::size_t m = 0; m < descs.size(); ++m) {
+    const MeshObstacleDesc& d = descs[m];
+    Mesh mesh;
+    mesh.vertices = d.vertices;
+    mesh.triangles = d.triangles;
+    mesh.closed = is_closed(TriangleMesh{d.vertices, d.triangles});
+    mesh.vertex_normal.assign(mesh.vertices.size(), Eigen::Vector3d::Zero());
+    for (const auto& t : mesh.triangles) {
+      const Eigen::Vector3d& a = mesh.vertices[t[0]];
+      const Eigen::Vector3d& b = mesh.vertices[t[1]];
+      const Eigen::Vector3d& c = mesh.vertices[t[2]];
+      const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+      mesh.face_normal.push_back(n.allFinite() ? n : Eigen::Vector3d::UnitZ());
+      const Eigen::Vector3d corners[3] = {a, b, c};
+      for (int i = 0; i < 3; ++i) {
+        const Eigen::Vector3d e1 = (corners[(i + 1) % 3] - corners[i]).normalized();
+        const Eigen::Vector3d e2 = (corners[(i + 2) % 3] - corners[i]).normalized();
+        const double angle = std::acos(std::clamp(e1.dot(e2), -1.0, 1.0));
+        if (std::isfinite(angle)) mesh.vertex_normal[t[static_cast<std::size_t>(i)]] += angle * mesh.face_normal.back();
+        mesh.edge_normal[edge_key(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)])] +=
+            mesh.face_normal.back();
+      }
+    }
+    RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                           3 * sizeof(float), mesh.vertices.size()));
+    auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                              3 * sizeof(unsigned), mesh.triangles.size()));
+    for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
+      for (int i = 0; i < 3; ++i) vb[3 * v + static_cast<std::size_t>(i)] = static_cast<float>(mesh.vertices[v][i]);
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+      for (std::size_t i = 0; i < 3; ++i) ib[3 * t + i] = mesh.triangles[t][i];
+    rtcCommitGeometry(geom);
+    rtcAttachGeometryByID(scene_, geom, static_cast<unsigned>(m));
+    rtcReleaseGeometry(geom);
+    meshes_.push_back(std::move(mesh));
+  }
+  rtcCommitScene(scene_);
+  if (rtcGetDeviceError(device_) != RTC_ERROR_NONE) throw Error(ErrorCode::internal, "Embree: cannot build the mesh scene");
+}
+
+StaticMeshes::~StaticMeshes() {
+  if (scene_ != nullptr) rtcReleaseScene(scene_);
+  if (device_ != nullptr) rtcReleaseDevice(device_);
+}
+
+bool StaticMeshes::on_primitive(RTCPointQueryFunctionArguments* args) {
+  auto* q = static_cast<Query*>(args->userPtr);
+  const Mesh& mesh = q->self->meshes_[args->geomID];
+  const auto& t = mesh.triangles[args->primID];
+  const Eigen::Vector3d c =
+      kernels::closest_point_on_triangle(q->p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
+  const double d = (q->p - c).norm();
+  if (d >= args->query->radius) return false;
+  args->query->radius = static_cast<float>(d);
+  q->found = true;
+  q->mesh = args->geomID;
+  q->triangle = args->primID;
+  q->point = c;
+  q->distance = d;
+  return true;
+}
+
+StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius) const {
+  Hit hit;
+  if (scene_ == nullptr) return hit;
+  Query q;
+  q.self = this;
+  q.p = p;
+  RTCPointQuery query;
+  query.x = static_cast<float>(p.x());
+  query.y = static_cast<float>(p.y());
+  query.z = static_cast<float>(p.z());
+  query.radius = static_cast<float>(radius);
+  query.time = 0.0f;
+  RTCPointQueryContext context;
+  rtcInitPointQueryContext(&context);
+  rtcPointQuery(scene_, &query, &context, &StaticMeshes::on_primitive, &q);
+  if (!q.found) return hit;
+  const Mesh& mesh = meshes_[q.mesh];
+  const auto& t = mesh.triangles[q.triangle];
+  // Which feature holds the closest point: the pseudo-normal of that feature tells the side.
+  const Eigen::Vector3d& a = mesh.vertices[t[0]];
+  const Eigen::Vector3d& b = mesh.vertices[t[1]];
+  const Eigen::Vector3d& c = mesh.vertices[t[2]];
+  const double scale = std::max({(b - a).norm(), (c - a).norm(), 1e-300});
+  const double tol = 1e-9 * scale;
+  Eigen::Vector3d normal = mesh.face_normal[q.triangle];
+  const Eigen::Vector3d corners[3] = {a, b, c};
+  bool on_vertex = false;
+  for (int i = 0; i < 3; ++i)
+    if ((q.point - corners[i]).norm() <= tol) {
+      normal = mesh.vertex_normal[t[static_cast<std::size_t>(i)]];
+      on_vertex = true;
+    }
+  if (!on_vertex)
+    for (int i = 0; i < 3; ++i) {
+      const Eigen::Vector3d& e0 = corners[i];
+      const Eigen::Vector3d& e1 = corners[(i + 1) % 3];
+      if ((kernels::closest_point_on_segment(q.point, e0, e1) - q.point).norm() <= tol) {
+        const auto it = mesh.edge_normal.find(edge_key(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)]));
+        if (it != mesh.edge_normal.end()) normal = it->second;
+      }
+    }
+  normal.normalize();
+  const Eigen::Vector3d away = p - q.point;
+  hit.found = true;
+  hit.mesh = q.mesh;
+  hit.point = q.point;
+  if (mesh.closed) {
+    const bool inside = away.dot(normal) < 0.0;
+    hit.push = q.distance > tol ? Eigen::Vector3d((inside ? -away : away) / q.distance) : normal;
+    hit.signed_distance = inside ? -q.distance : q.distance;
+  } else {
+    hit.push = q.distance > tol ? Eigen::Vector3d(away / q.distance) : normal;
+    hit.signed_distance = q.distance;
+  }
+  return hit;
+}
+
+}  // namespace haustra::detail
