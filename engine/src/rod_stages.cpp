@@ -31,7 +31,10 @@ constexpr double kMaxNewtonAngle = 0.5;   // rad of bend or twist per section
 constexpr double kMaxNewtonStretch = 0.25;
 // ... and so that no contact gets deeper by more than this fraction of its bead's radius: a
 // penalty's stiffness grows with depth, so the tangent at the surface lets a bead sink far too far.
+// Checked on the rod's real motion (a backtracking line search): far down a long rod a step's
+// rotations add up and the first-order displacement says little about where a bead goes.
 constexpr double kMaxNewtonDeepening = 0.1;
+constexpr int kMaxBacktracks = 8;
 
 kernels::MassMatrixFactorView factor_of(const WorldModel& model, const SegmentModel& seg) {
   return {std::span<const double>(model.mass_inv_pivot).subspan(seg.node_offset, seg.node_count),
@@ -449,48 +452,63 @@ Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, s
   double scale = 1.0;
   if (worst_angle > kMaxNewtonAngle) scale = std::min(scale, kMaxNewtonAngle / worst_angle);
   if (worst_stretch > kMaxNewtonStretch) scale = std::min(scale, kMaxNewtonStretch / worst_stretch);
-  // Contacts: the depth each would gain from this step (this segment's side of it).
-  for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
-    const std::size_t node = model.beads.node[b] - seg.node_offset;
-    const Eigen::Vector3d dr(entry(node, kernels::kNewtonPosition, 0), entry(node, kernels::kNewtonPosition + 1, 0),
-                             entry(node, kernels::kNewtonPosition + 2, 0));
-    const double allowed = kMaxNewtonDeepening * model.beads.radius[b];
-    for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e) {
-      const Contact& k = cs.candidates[cs.bead_contact[e] >> 1];
-      const bool second = (cs.bead_contact[e] & 1U) != 0;
-      double deepening = -(second ? -1.0 : 1.0) * k.direction.dot(dr);  // along the separating direction, towards it
-      if (k.coupled) {
-        // Both beads are in this step: the pair's relative motion.
-        const std::uint32_t mate = second ? k.bead : k.other;
-        const std::size_t mate_node = model.beads.node[mate] - seg.node_offset;
-        const Eigen::Vector3d dm(entry(mate_node, kernels::kNewtonPosition, 0), entry(mate_node, kernels::kNewtonPosition + 1, 0),
-                                 entry(mate_node, kernels::kNewtonPosition + 2, 0));
-        deepening = -(second ? -1.0 : 1.0) * k.direction.dot(dr - dm);
+  // Take the step; back off while a contact would deepen more than it may.
+  const kernels::Pose base_before = state.now.base[segment];
+  const Eigen::Vector3d dphi0(entry(0, kernels::kNewtonRotation, 0), entry(0, kernels::kNewtonRotation + 1, 0),
+                              entry(0, kernels::kNewtonRotation + 2, 0));
+  const Eigen::Vector3d dr0(entry(0, kernels::kNewtonPosition, 0), entry(0, kernels::kNewtonPosition + 1, 0),
+                            entry(0, kernels::kNewtonPosition + 2, 0));
+  for (std::size_t b = 0; b < seg.bead_count; ++b)
+    ws.bead_start[b] = v.poses.node_position.get(model.beads.node[seg.bead_offset + b] - seg.node_offset);
+  auto apply = [&](double factor) {
+    for (std::size_t k = 0; k < n; ++k)
+      for (std::size_t c = 0; c < 4; ++c) v.strain.at(k, c) += factor * entry(k, static_cast<int>(c), 0);
+  };
+  auto worst_deepening = [&]() {  // largest excess over the allowance, in m (≤ 0: fine)
+    double worst = 0.0;
+    for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
+      const Eigen::Vector3d moved_b =
+          v.poses.node_position.get(model.beads.node[b] - seg.node_offset) - ws.bead_start[b - seg.bead_offset];
+      const double allowed = kMaxNewtonDeepening * model.beads.radius[b];
+      for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e) {
+        const Contact& k = cs.candidates[cs.bead_contact[e] >> 1];
+        const bool second = (cs.bead_contact[e] & 1U) != 0;
+        Eigen::Vector3d relative = moved_b;
+        if (k.coupled) {  // both beads are this segment's: their relative motion
+          const std::uint32_t mate = second ? k.bead : k.other;
+          relative -= v.poses.node_position.get(model.beads.node[mate] - seg.node_offset) -
+                      ws.bead_start[mate - seg.bead_offset];
+        }
+        const double deepening = -(second ? -1.0 : 1.0) * k.direction.dot(relative);
+        worst = std::max(worst, deepening - allowed - std::max(0.0, -k.depth));  // a gap may close first
       }
-      const double room = allowed + std::max(0.0, -k.depth);  // a gap may close entirely first
-      if (deepening > room) scale = std::min(scale, room / deepening);
     }
+    return worst;
+  };
+  double taken = 0.0;
+  for (int attempt = 0;; ++attempt) {
+    apply(scale - taken);
+    taken = scale;
+    if (free_base) {
+      kernels::Pose& base = state.now.base[segment];
+      base.rotation = (kernels::rotation_exp(scale * dphi0) * base_before.rotation).normalized();
+      base.position = base_before.position + scale * dr0;
+    }
+    if (seg.bead_count == 0 || attempt == kMaxBacktracks) break;
+    kernels::rod_forward_sweep(state.now.base[segment], v.section_length, v.strain, v.poses);
+    if (worst_deepening() <= 0.0) break;
+    scale *= 0.5;
   }
 
   Eigen::Vector4d change = Eigen::Vector4d::Zero();
   for (std::size_t k = 0; k < n; ++k)
     for (std::size_t c = 0; c < 4; ++c) {
-      const double d = scale * entry(k, static_cast<int>(c), 0);
-      v.strain.at(k, c) += d;
-      change[static_cast<Eigen::Index>(c)] = std::max(change[static_cast<Eigen::Index>(c)], std::abs(d));
+      const double d = scale * std::abs(entry(k, static_cast<int>(c), 0));
+      change[static_cast<Eigen::Index>(c)] = std::max(change[static_cast<Eigen::Index>(c)], d);
     }
   for (std::size_t j = 0; j < m; ++j) {
     AttachmentState& as = state.now.attachment[seg.attachment_offset + rows[j].attachment];
     (rows[j].is_moment ? as.moment : as.force) += scale * dlambda[static_cast<Eigen::Index>(j)] * rows[j].dir;
-  }
-  if (free_base) {
-    kernels::Pose& base = state.now.base[segment];
-    const Eigen::Vector3d dphi(entry(0, kernels::kNewtonRotation, 0), entry(0, kernels::kNewtonRotation + 1, 0),
-                               entry(0, kernels::kNewtonRotation + 2, 0));
-    const Eigen::Vector3d dr(entry(0, kernels::kNewtonPosition, 0), entry(0, kernels::kNewtonPosition + 1, 0),
-                             entry(0, kernels::kNewtonPosition + 2, 0));
-    base.rotation = (kernels::rotation_exp(scale * dphi) * base.rotation).normalized();
-    base.position += scale * dr;
   }
   return change;
 }

@@ -89,6 +89,7 @@ void init_world_state(const WorldModel& model, WorldState& state) {
     // The residual, one column per constraint row, one per contact Newton couples exactly.
     const int cols = 1 + static_cast<int>(rows) + (seg.bead_count > 0 ? static_cast<int>(kMaxCoupledContacts) : 0);
     state.newton[s].allocate(seg.node_count, cols);
+    state.newton[s].bead_start.assign(seg.bead_count, Eigen::Vector3d::Zero());
   }
 
   std::copy(model.rest_strain.begin(), model.rest_strain.end(), state.now.strain.begin());

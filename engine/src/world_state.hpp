@@ -69,6 +69,7 @@ struct NewtonWorkspace {
   std::vector<Eigen::Matrix3d> force_stiffness;  // per node: −∂f/∂r of drag and contacts
   std::vector<double> drag_moment_rate;          // s/Δt per node
   kernels::Vector6d base_wrench = kernels::Vector6d::Zero();  // free base: unbalanced total wrench
+  std::vector<Eigen::Vector3d> bead_start;       // the segment's bead positions before a step
   int max_columns = 1;
 
   void allocate(std::size_t nodes, int columns);
