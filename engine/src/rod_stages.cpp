@@ -452,6 +452,14 @@ Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, s
   double scale = 1.0;
   if (worst_angle > kMaxNewtonAngle) scale = std::min(scale, kMaxNewtonAngle / worst_angle);
   if (worst_stretch > kMaxNewtonStretch) scale = std::min(scale, kMaxNewtonStretch / worst_stretch);
+  // No step may take a section more than halfway to collapse (ε = −1, its strain the mean of its
+  // nodes'): past it the rod has no length to carry a load and Newton finds a spurious, folded-up
+  // solution.
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const double shrink = -0.5 * (entry(k, 3, 0) + entry(k + 1, 3, 0));
+    const double room = 1.0 + 0.5 * (v.strain.at(k, 3) + v.strain.at(k + 1, 3));
+    if (shrink > 0.5 * room) scale = std::min(scale, 0.5 * room / shrink);
+  }
   // Take the step; back off while a contact would deepen more than it may.
   const kernels::Pose base_before = state.now.base[segment];
   const Eigen::Vector3d dphi0(entry(0, kernels::kNewtonRotation, 0), entry(0, kernels::kNewtonRotation + 1, 0),
@@ -485,6 +493,7 @@ Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, s
     }
     return worst;
   };
+  const double unsearched = scale;
   double taken = 0.0;
   for (int attempt = 0;; ++attempt) {
     apply(scale - taken);
@@ -500,6 +509,7 @@ Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, s
     scale *= 0.5;
   }
 
+  state.segment_step_cut[segment] = scale < unsearched ? 1 : 0;
   Eigen::Vector4d change = Eigen::Vector4d::Zero();
   for (std::size_t k = 0; k < n; ++k)
     for (std::size_t c = 0; c < 4; ++c) {
@@ -583,6 +593,25 @@ LaggedRatios lagged_contraction(const WorldModel& model, WorldState& state, std:
 
 }  // namespace
 
+// A section squeezed to a tenth of its rest length has collapsed: no tissue does that.
+constexpr double kCollapsedCompression = 0.9;
+
+double attachment_miss(const WorldModel& model, const WorldState& state, std::size_t segment, std::size_t& node) {
+  const SegmentModel& seg = model.segments[segment];
+  const auto pos = state.now.position.view().subview(seg.node_offset, seg.node_count);
+  double worst = 0.0;
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
+    const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
+    if (!as.active) continue;
+    const double miss = (pos.get(as.node) - as.target).norm();
+    if (miss > worst) {
+      worst = miss;
+      node = as.node;
+    }
+  }
+  return worst;
+}
+
 GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
   const SegmentModel& seg = model.segments[segment];
   const SolverDesc& lim = model.solver;
@@ -604,6 +633,8 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
     const double eps = 0.5 * (q[4 * k + 3] + q[4 * k + 7]);
     if (std::abs(eps) > lim.max_axial_strain)
       return {false, k, Stage::solve, "axial strain", eps, lim.max_axial_strain};
+    if (-eps > kCollapsedCompression)
+      return {false, k, Stage::solve, "compression (−axial strain) of a collapsing section", -eps, kCollapsedCompression};
     if (u.norm() * h > lim.max_section_angle)
       return {false, k, Stage::solve, "bend and twist angle of one section (rad)", u.norm() * h, lim.max_section_angle};
   }
@@ -624,15 +655,11 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
       return {false, model.beads.node[c.bead] - off, Stage::contacts,
               "bead's depth into the environment (bead radii)", ratio, 1.0};
   }
-  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
-    const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
-    if (!as.active) continue;
-    const std::size_t k = as.node;
-    const double miss = (pos.get(k) - as.target).norm() / seg.info.length;
-    if (miss > lim.max_attachment_error)
-      return {false, k, Stage::constraints, "attachment's distance from its target (segment lengths)", miss,
-              lim.max_attachment_error};
-  }
+  std::size_t k = 0;
+  const double miss = attachment_miss(model, state, segment, k) / seg.info.length;
+  if (miss > lim.max_attachment_error)
+    return {false, k, Stage::constraints, "attachment's distance from its target (segment lengths)", miss,
+            lim.max_attachment_error};
   if (!p.newton) {
     const LaggedRatios r = lagged_contraction(model, state, segment, p);
     if (r.elastic > kMaxElasticContraction)

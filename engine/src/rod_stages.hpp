@@ -61,6 +61,8 @@ struct GuardResult {
 // contraction: one more backward sweep at the new configuration gives the step the scheme would
 // take next, and a next step larger than this one means the iteration diverges, even while every
 // value is still within bounds (it oscillates or wanders instead of blowing up).
+// The largest distance (m) of an active attachment from its target, and its node (local).
+double attachment_miss(const WorldModel& model, const WorldState& state, std::size_t segment, std::size_t& node);
 GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p);
 
 // Twist (ω, v) about node 0 applied for dt to a base pose.

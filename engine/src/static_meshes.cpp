@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <limits>
 
 #include "haustra/error.hpp"
 #include "haustra/kernels/contact_geometry.hpp"
@@ -23,7 +24,7 @@ struct StaticMeshes::Query {
   bool found = false;
   std::uint32_t mesh = 0, triangle = 0;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
-  double distance = 0.0;
+  double distance = 0.0;  // of the best so far; the query radius before any is found
 };
 
 StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
@@ -84,14 +85,21 @@ bool StaticMeshes::on_primitive(RTCPointQueryFunctionArguments* args) {
   const Eigen::Vector3d c =
       kernels::closest_point_on_triangle(q->p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
   const double d = (q->p - c).norm();
-  if (d >= args->query->radius) return false;
-  args->query->radius = static_cast<float>(d);
+  if (d >= q->distance) return false;
+  q->distance = d;
+  args->query->radius = q->self->culling_radius(q->p, d);
   q->found = true;
   q->mesh = args->geomID;
   q->triangle = args->primID;
   q->point = c;
-  q->distance = d;
   return true;
+}
+
+float StaticMeshes::culling_radius(const Eigen::Vector3d& p, double distance) {
+  // Embree culls in single precision, with the query point and the vertices rounded to float: pad
+  // the radius by that rounding so that no triangle nearer than `distance` in double is culled.
+  const double pad = 8.0 * std::numeric_limits<float>::epsilon() * (p.cwiseAbs().maxCoeff() + distance);
+  return std::nextafter(static_cast<float>(distance + pad), std::numeric_limits<float>::infinity());
 }
 
 StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius) const {
@@ -100,11 +108,12 @@ StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius)
   Query q;
   q.self = this;
   q.p = p;
+  q.distance = radius;
   RTCPointQuery query;
   query.x = static_cast<float>(p.x());
   query.y = static_cast<float>(p.y());
   query.z = static_cast<float>(p.z());
-  query.radius = static_cast<float>(radius);
+  query.radius = culling_radius(p, radius);
   query.time = 0.0f;
   RTCPointQueryContext context;
   rtcInitPointQueryContext(&context);

@@ -45,6 +45,7 @@ class StaticMeshes {
   };
   struct Query;
   static bool on_primitive(RTCPointQueryFunctionArguments* args);
+  static float culling_radius(const Eigen::Vector3d& p, double distance);
 
   std::vector<Mesh> meshes_;
   RTCDevice device_ = nullptr;

@@ -127,7 +127,9 @@ struct World::Impl {
         state.segment_converged[s] = 0;
       });
       if (model.beads.size() > 0) time_stage(Stage::collide, [&] { detail::stage_collide(model, state, scheduler); });
-      for (int it = 0; it < model.solver.iterations; ++it) {
+      const int iterations = model.solver.iterations;
+      const int max_iterations = newton ? std::max(iterations, model.solver.max_iterations) : iterations;
+      for (int it = 0; it < max_iterations; ++it) {
         auto active = [&](std::size_t s) { return state.segment_converged[s] == 0; };
         // Contact penalties at the current positions: the frame's start for the lagged scheme,
         // each iterate for Newton (which also takes their stiffness).
@@ -166,17 +168,23 @@ struct World::Impl {
           if (active(s)) detail::stage_forward_sweep(model, state, s);
         });
         profile.iterations += 1;
-        if (model.solver.iterations > 1) {
-          bool all = true;
-          for (std::size_t s = 0; s < segs; ++s) {
-            if (!active(s)) continue;
-            const Eigen::Vector4d& d = state.segment_change[s];
-            const double h = model.segments[s].mean_section;
-            if (std::max(d.head<3>().maxCoeff() * h, d[3]) <= model.solver.tolerance) state.segment_converged[s] = 1;
-            all = all && state.segment_converged[s] != 0;
+        bool all = true;
+        for (std::size_t s = 0; s < segs; ++s) {
+          if (!active(s)) continue;
+          const Eigen::Vector4d& d = state.segment_change[s];
+          const double moved = std::max(d.head<3>().maxCoeff() * model.segments[s].mean_section, d[3]);
+          if (moved <= model.solver.tolerance) state.segment_converged[s] = 1;
+          // Past the fixed count, Newton goes on only where a contact cut its step short or an
+          // attachment is still off target.
+          if (it + 1 >= iterations) {
+            std::size_t node = 0;
+            if (state.segment_step_cut[s] == 0 &&
+                detail::attachment_miss(model, state, s, node) <= model.solver.attachment_tolerance)
+              state.segment_converged[s] = 1;
           }
-          if (all) break;
+          all = all && state.segment_converged[s] != 0;
         }
+        if (all) break;
       }
       if (model.beads.size() > 0) detail::record_bead_motion(model, state);
     }
@@ -435,7 +443,10 @@ InstrumentReading World::instrument(std::size_t instrument) const {
   r.grasping = s.grasping;
   if (s.grasping) {
     r.grasped_segment = s.grasp_segment;
-    r.grasped_node = impl_->state.now.attachment[s.grasp_attachment].node;
+    const detail::AttachmentState& as = impl_->state.now.attachment[s.grasp_attachment];
+    r.grasped_node = as.node;
+    r.grasp_attachment = s.grasp_attachment - impl_->model.segments[s.grasp_segment].attachment_offset;
+    r.grasp_target = as.target;
   }
   r.force = s.force;
   r.torque = s.torque;

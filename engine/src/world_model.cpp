@@ -43,6 +43,8 @@ void check_vector(const std::string& field, const Eigen::Vector3d& v, bool nonze
 
 void check_solver(const SolverDesc& s) {
   check_int("solver.iterations", s.iterations, 1, 10000);
+  check_int("solver.max_iterations", s.max_iterations, 1, 10000);
+  check_positive("solver.attachment_tolerance", s.attachment_tolerance, "m", 1.0);
   check_int("solver.max_substeps", s.max_substeps, 1, 1 << 16);
   check_int("solver.substeps", s.substeps, 1, s.max_substeps);
   if (!(s.relaxation > 0.0) || s.relaxation > 1.0)

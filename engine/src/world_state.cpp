@@ -79,6 +79,7 @@ void init_world_state(const WorldModel& model, WorldState& state) {
   state.constraint_scratch.assign(model.constraint_scratch_total, 0.0);
   state.segment_converged.assign(segs, 0);
   state.segment_change.assign(segs, Eigen::Vector4d::Zero());
+  state.segment_step_cut.assign(segs, 0);
   state.strain_before_update.assign(4 * n, 0.0);
   const bool newton_possible =
       model.solver.mode == SolverMode::newton || model.solver.on_instability == InstabilityPolicy::recover;

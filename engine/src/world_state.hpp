@@ -133,6 +133,7 @@ struct WorldState {
   std::vector<double> constraint_scratch;        // G, Y, H blocks per constrained segment
   std::vector<int> segment_converged;            // per segment, within a substep
   std::vector<Eigen::Vector4d> segment_change;   // last strain change per segment
+  std::vector<std::uint8_t> segment_step_cut;    // Newton's last step was scaled down
   std::vector<NewtonWorkspace> newton;           // per segment; empty when Newton can never run
   std::vector<double> strain_before_update;      // lagged: the strains before the last update
   CollisionState collision;

@@ -79,6 +79,10 @@ struct InstrumentReading {
   bool grasping = false;
   std::size_t grasped_segment = 0;
   std::size_t grasped_node = 0;  // local to the segment
+  // The segment's attachment that holds the grasp (for attachment_force), and where the grasp
+  // wants the node: the tip plus the offset the node had from it at the moment of grasping.
+  std::size_t grasp_attachment = 0;
+  Eigen::Vector3d grasp_target = Eigen::Vector3d::Zero();
   Eigen::Vector3d force = Eigen::Vector3d::Zero();
   Eigen::Vector3d torque = Eigen::Vector3d::Zero();
   Eigen::Vector3d filtered_force = Eigen::Vector3d::Zero();   // low-passed (InstrumentDesc::force_filter)

@@ -186,6 +186,12 @@ struct SolverDesc {
   int substeps = 1;          // per frame
   double relaxation = 1.0;   // ω in (0, 1]: q ← q + ω (q* − q)
   double tolerance = 0.0;    // stop iterating when the largest strain change × h is below this
+  // Newton only: past `iterations`, a segment keeps iterating, up to this many in all, while the
+  // contact line search cut its last step short or an active attachment misses its target by more
+  // than `attachment_tolerance` (m). A grasp that starts to pull or a contact that opens then
+  // converges within the frame; steady frames and rods without contacts or attachments pay nothing.
+  int max_iterations = 8;
+  double attachment_tolerance = 1e-6;
   InstabilityPolicy on_instability = InstabilityPolicy::recover;
   int max_substeps = 64;     // the robust mode gives up beyond this
   // Guard limits, checked at the end of every frame. The guard also watches the lagged scheme for

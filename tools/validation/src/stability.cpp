@@ -141,8 +141,9 @@ What the map says:
   because tension is a load stiffness (F L²/B) the lagged iteration cannot follow.
 - Newton recovers every such cell where the load is physically sustainable.
 - The *error* cells are loads the material cannot carry: E ≤ 1 kPa (a rod softer than jelly) with
-  its own weight or a pull stretches it past the guard's 400 % — the error says "axial strain …
-  exceeds the limit". Those are bad inputs, not solver failures.
+  its own weight or a pull stretches it past the guard's 400 % or crushes a section to less than a
+  tenth of its length — the error says "axial strain … exceeds the limit" or "compression (−axial
+  strain) of a collapsing section …". Those are bad inputs, not solver failures.
 - At N = 20,000 the same holds; Newton's cost is linear in N.
 )md";
 
