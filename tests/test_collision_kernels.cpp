@@ -104,6 +104,32 @@ TEST_CASE("grid and sort-and-sweep return exactly the brute-force pairs") {
       for (int i = 0; i < 50; ++i) s.add(1000.0 * c + u(rng) * 0.1, u(rng) * 0.1, u(rng) * 0.1, 0.02);
     check_all_agree(s, 0.0, "clusters");
   }
+  SUBCASE("dense cells and hashed cells") {
+    // Packed beads index the cells directly; the same beads with one far away hash them.
+    Spheres s;
+    for (int i = 0; i < 500; ++i) s.add(0.3 * u(rng), 0.3 * u(rng), 0.3 * u(rng), 0.01 + 0.005 * u(rng));
+    SphereGrid g;
+    g.build(s.set(), 0.0);
+    CHECK(g.dense());
+    check_all_agree(s, 0.0, "dense");
+    s.add(500.0, 0.0, 0.0, 0.01);
+    g.build(s.set(), 0.0);
+    CHECK_FALSE(g.dense());
+    check_all_agree(s, 0.0, "hashed");
+    check_all_agree(s, 0.004, "hashed with margin");
+  }
+  SUBCASE("a radius profile: no outliers, every sphere in the grid, pairs at exactly touching distance") {
+    Spheres s;
+    for (int i = 0; i < 200; ++i) {
+      const double r = 0.01 + 0.01 * i / 199.0;  // 1 to 2 cm along a rod
+      s.add(0.0125 * i, 0.001 * (i % 3), 0.0, r);
+    }
+    for (int i = 0; i + 1 < 200; i += 7) {  // copies shifted to touch exactly along y
+      s.add(s.x[i], s.y[i] + 2.0 * s.r[i], 0.0, s.r[i]);
+    }
+    check_all_agree(s, 0.0, "profile");
+    check_all_agree(s, 0.003, "profile with margin");
+  }
   SUBCASE("empty and single") {
     Spheres s;
     check_all_agree(s, 0.0, "empty");

@@ -50,8 +50,15 @@ namespace {
 
 constexpr int kKeyBits = 21;  // per axis: 2M cells
 constexpr std::int64_t kMaxCell = (std::int64_t{1} << kKeyBits) - 1;
-constexpr std::int64_t kLargeCells = 8;      // a box over more cells than this per axis is "large"
-constexpr double kBoundaryGrowth = 1e-9;     // of a cell: boxes that touch share a cell despite rounding
+// A sphere whose reach (2r + margin) is more than this many times the median's stays out of the
+// grid: one outlier must not coarsen the cells for everybody.
+constexpr double kLargeReach = 8.0;
+// Cells are this much wider than the widest reach in them, so that two spheres within reach
+// always have centres in the same or adjacent cells despite rounding.
+constexpr double kCellSlack = 1e-9;
+// A dense array of cells is used when it has at most this many cells, or this many per sphere.
+constexpr std::size_t kMaxDenseCells = std::size_t{1} << 16;
+constexpr std::size_t kDenseCellsPerSphere = 8;
 
 std::uint64_t mix(std::uint64_t x) {  // splitmix64 finalizer
   x ^= x >> 30;
@@ -68,27 +75,31 @@ std::uint64_t SphereGrid::key(std::int64_t ix, std::int64_t iy, std::int64_t iz)
          static_cast<std::uint64_t>(iz);
 }
 
-std::size_t SphereGrid::bucket(std::uint64_t k) const { return static_cast<std::size_t>(mix(k)) & bucket_mask_; }
+std::size_t SphereGrid::bucket(std::int64_t ix, std::int64_t iy, std::int64_t iz) const {
+  // Dense: the cell's own index, z fastest, so neighbouring cells are neighbours in memory.
+  if (dense_)
+    return static_cast<std::size_t>((static_cast<std::uint64_t>(ix) * dims_[1] + static_cast<std::uint64_t>(iy)) *
+                                        dims_[2] +
+                                    static_cast<std::uint64_t>(iz));
+  return static_cast<std::size_t>(mix(key(ix, iy, iz))) & bucket_mask_;
+}
 
-SphereGrid::CellBox SphereGrid::box_of(const SphereSet& s, std::size_t i) const {
-  const double grow = s.radius[i] + 0.5 * margin_ + kBoundaryGrowth * cell_;
-  const double c[3] = {s.x[i], s.y[i], s.z[i]};
-  CellBox b{};
-  for (int d = 0; d < 3; ++d) {
-    b.lo[d] = std::clamp(static_cast<std::int64_t>(std::floor((c[d] - grow - origin_[d]) / cell_)), std::int64_t{0}, kMaxCell);
-    b.hi[d] = std::clamp(static_cast<std::int64_t>(std::floor((c[d] + grow - origin_[d]) / cell_)), std::int64_t{0}, kMaxCell);
-  }
-  return b;
+std::int64_t SphereGrid::cell_of(double coordinate, int axis) const {
+  return std::clamp(static_cast<std::int64_t>(std::floor((coordinate - origin_[axis]) * inverse_cell_)), std::int64_t{0},
+                    kMaxCell);
 }
 
 void SphereGrid::build(const SphereSet& s, double margin, double cell) {
   const std::size_t n = s.size();
   margin_ = margin;
   unsorted_.clear();
+  large_.clear();
+  is_large_.assign(n, 0);
   if (n == 0) {
     entries_.clear();
     bucket_start_.assign(2, 0);
     bucket_mask_ = 0;
+    dense_ = false;
     return;
   }
   double lo[3] = {std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
@@ -97,47 +108,62 @@ void SphereGrid::build(const SphereSet& s, double margin, double cell) {
                   std::numeric_limits<double>::lowest()};
   for (std::size_t i = 0; i < n; ++i) {
     const double c[3] = {s.x[i], s.y[i], s.z[i]};
-    const double g = s.radius[i] + 0.5 * margin;
     for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], c[d] - g);
-      hi[d] = std::max(hi[d], c[d] + g);
+      lo[d] = std::min(lo[d], c[d]);
+      hi[d] = std::max(hi[d], c[d]);
     }
   }
+  auto reach = [&](std::size_t i) { return 2.0 * s.radius[i] + margin; };
   if (cell <= 0.0) {
+    // The widest reach short of the outliers: any two such spheres in reach sit in adjacent cells.
     radii_.assign(s.radius.begin(), s.radius.end());
     std::nth_element(radii_.begin(), radii_.begin() + static_cast<std::ptrdiff_t>(n / 2), radii_.end());
-    cell = 2.0 * radii_[n / 2] + margin;
+    const double limit = kLargeReach * (2.0 * radii_[n / 2] + margin);
+    cell = 0.0;
+    for (std::size_t i = 0; i < n; ++i)
+      if (reach(i) <= limit) cell = std::max(cell, reach(i));
   }
   // Keep the grid within the key's range: a scene far larger than its beads gets coarser cells.
   double extent = 0.0;
   for (int d = 0; d < 3; ++d) extent = std::max(extent, hi[d] - lo[d]);
-  cell_ = std::max({cell, extent / static_cast<double>(kMaxCell - 1), 1e-12});
-  for (int d = 0; d < 3; ++d) origin_[d] = lo[d] - cell_;  // a cell of slack below the lowest box
-  large_.clear();
-  is_large_.assign(n, 0);
+  cell_ = std::max({cell * (1.0 + kCellSlack), extent / static_cast<double>(kMaxCell - 3), 1e-12});
+  inverse_cell_ = 1.0 / cell_;
+  for (int d = 0; d < 3; ++d) origin_[d] = lo[d] - cell_;  // a cell of slack below the lowest centre
+  // A sphere that reaches further than a cell is tested against every other directly.
   for (std::size_t i = 0; i < n; ++i) {
-    const CellBox b = box_of(s, i);
-    if (b.hi[0] - b.lo[0] >= kLargeCells || b.hi[1] - b.lo[1] >= kLargeCells || b.hi[2] - b.lo[2] >= kLargeCells) {
+    if (reach(i) * (1.0 + kCellSlack) > cell_) {
       large_.push_back(static_cast<std::uint32_t>(i));
       is_large_[i] = 1;
       continue;
     }
-    for (std::int64_t ix = b.lo[0]; ix <= b.hi[0]; ++ix)
-      for (std::int64_t iy = b.lo[1]; iy <= b.hi[1]; ++iy)
-        for (std::int64_t iz = b.lo[2]; iz <= b.hi[2]; ++iz) unsorted_.push_back({key(ix, iy, iz), static_cast<std::uint32_t>(i)});
+    unsorted_.push_back({s.x[i], s.y[i], s.z[i], s.radius[i], static_cast<std::uint32_t>(cell_of(s.x[i], 0)),
+                         static_cast<std::uint32_t>(cell_of(s.y[i], 1)), static_cast<std::uint32_t>(cell_of(s.z[i], 2)),
+                         static_cast<std::uint32_t>(i), 0});
   }
-  // Bucket by hash with a stable counting sort: entries of one cell stay in sphere order.
+  // Bucket with a stable counting sort (a cell's spheres stay in index order): by cell when a
+  // dense array of cells is small next to the spheres, which keeps neighbouring cells together in
+  // memory; by a hash of the cell otherwise (beads scattered over a large, mostly empty space).
+  double cells = 1.0;  // in double: a sparse scene's product overflows any integer
+  for (int d = 0; d < 3; ++d) {
+    dims_[d] = static_cast<std::uint64_t>(cell_of(hi[d], d)) + 2;  // and a cell of slack above
+    cells *= static_cast<double>(dims_[d]);
+  }
+  dense_ = cells <= static_cast<double>(std::max(kMaxDenseCells, kDenseCellsPerSphere * n));
   std::size_t buckets = 1;
-  while (buckets < 2 * unsorted_.size()) buckets <<= 1;
+  if (dense_) {
+    buckets = static_cast<std::size_t>(cells);
+  } else {
+    while (buckets < 2 * unsorted_.size()) buckets <<= 1;
+  }
   bucket_mask_ = buckets - 1;
   bucket_start_.assign(buckets + 1, 0);
-  for (const Entry& e : unsorted_) ++bucket_start_[bucket(e.key) + 1];
+  for (Entry& e : unsorted_) {
+    e.bucket = static_cast<std::uint32_t>(bucket(e.ix, e.iy, e.iz));
+    ++bucket_start_[e.bucket + 1];
+  }
   for (std::size_t b = 0; b < buckets; ++b) bucket_start_[b + 1] += bucket_start_[b];
   entries_.resize(unsorted_.size());
-  for (const Entry& e : unsorted_) {
-    const std::size_t b = bucket(e.key);
-    entries_[bucket_start_[b]++] = e;
-  }
+  for (const Entry& e : unsorted_) entries_[bucket_start_[e.bucket]++] = e;
   for (std::size_t b = buckets; b > 0; --b) bucket_start_[b] = bucket_start_[b - 1];
   bucket_start_[0] = 0;
 }
@@ -156,25 +182,25 @@ std::size_t SphereGrid::query(const SphereSet& s, std::size_t first, std::size_t
       for (std::size_t b = a + 1; b < s.size(); ++b) emit(a, static_cast<std::uint32_t>(b));
       continue;
     }
-    // Large spheres after a, then the grid's neighbours.
+    // Large spheres after a, then the spheres centred in a's cell and the 26 around it: within
+    // reach of a, a sphere no wider than a cell is centred no more than a cell away.
     for (auto it = std::upper_bound(large_.begin(), large_.end(), static_cast<std::uint32_t>(a)); it != large_.end(); ++it)
       emit(a, *it);
-    const CellBox ba = box_of(s, a);
-    for (std::int64_t ix = ba.lo[0]; ix <= ba.hi[0]; ++ix)
-      for (std::int64_t iy = ba.lo[1]; iy <= ba.hi[1]; ++iy)
-        for (std::int64_t iz = ba.lo[2]; iz <= ba.hi[2]; ++iz) {
-          const std::uint64_t k = key(ix, iy, iz);
-          const std::size_t bk = bucket(k);
+    const std::int64_t cx = cell_of(s.x[a], 0), cy = cell_of(s.y[a], 1), cz = cell_of(s.z[a], 2);
+    for (std::int64_t ix = std::max<std::int64_t>(cx - 1, 0); ix <= cx + 1; ++ix)
+      for (std::int64_t iy = std::max<std::int64_t>(cy - 1, 0); iy <= cy + 1; ++iy)
+        for (std::int64_t iz = std::max<std::int64_t>(cz - 1, 0); iz <= cz + 1; ++iz) {
+          const std::size_t bk = bucket(ix, iy, iz);
           for (std::size_t e = bucket_start_[bk]; e < bucket_start_[bk + 1]; ++e) {
-            if (entries_[e].key != k) continue;
-            const std::uint32_t b = entries_[e].sphere;
-            if (b <= a) continue;
-            // Report from the first cell both boxes share only.
-            const CellBox bb = box_of(s, b);
-            if (std::max(ba.lo[0], bb.lo[0]) != ix || std::max(ba.lo[1], bb.lo[1]) != iy ||
-                std::max(ba.lo[2], bb.lo[2]) != iz)
-              continue;
-            emit(a, b);
+            const Entry& entry = entries_[e];
+            // The hash may share a bucket between cells; a cell lists its spheres in index order.
+            if (entry.ix != ix || entry.iy != iy || entry.iz != iz || entry.sphere <= a) continue;
+            // spheres_near on the copy: the same operations, so the same answer bit for bit.
+            const double dx = s.x[a] - entry.x, dy = s.y[a] - entry.y, dz = s.z[a] - entry.z;
+            const double within = s.radius[a] + entry.radius + margin_;
+            if (dx * dx + dy * dy + dz * dz > within * within) continue;
+            if (count < out.size()) out[count] = {static_cast<std::uint32_t>(a), entry.sphere};
+            ++count;
           }
         }
     if (count <= out.size())

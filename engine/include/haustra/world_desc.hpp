@@ -120,7 +120,7 @@ struct ContactDesc {
   double coefficient = 50.0;
   double exponent = 2.0;
   double margin = -1.0;  // m: candidates within r_a + r_b + margin; < 0: half the smallest bead radius
-  BroadPhase broad_phase = BroadPhase::automatic;  // brute below 64 beads, else the grid
+  BroadPhase broad_phase = BroadPhase::automatic;  // brute below 256 beads, else the grid
   bool self = true;      // beads of one segment collide (except pairs touching at rest)
 };
 

@@ -37,33 +37,37 @@ std::size_t broad_phase_brute(const SphereSet& s, double margin, std::span<Spher
 std::size_t broad_phase_sweep(const SphereSet& s, double margin, std::span<std::uint32_t> order,
                               std::span<SpherePair> out);
 
-// Uniform grid as a spatial hash. Each sphere is entered in every cell its margin-grown box
-// touches; cells are found through a hash of their integer coordinates, bucketed by a stable
-// counting sort (O(n), deterministic). A pair is reported only from the first cell both boxes
-// share, so no pair comes twice. Spheres much larger than a cell (a box over more than 8 cells
-// along an axis) stay out of the grid and are tested against every sphere directly. Buffers are
-// kept between builds: no allocation once warm.
+// Uniform grid. Each sphere is entered in the cell of its centre; cells are as wide as the widest
+// reach (2r + margin) among the spheres, so a sphere meets only spheres centred in its own cell
+// and the 26 around it. The cells' lists are bucketed by a stable counting sort (O(n),
+// deterministic): by the cell's index in a dense array when that array is small next to the
+// sphere count, which keeps neighbouring cells together in memory, else by a hash of the cell
+// (spheres scattered over a large, mostly empty space). Spheres reaching more than 8 times the
+// median's stay out of the grid and are tested against every sphere directly, so that an outlier
+// does not coarsen the cells for all. Buffers are kept between builds: no allocation once warm.
 class SphereGrid {
  public:
-  // cell: edge length; 0 chooses twice the median radius plus the margin.
+  // cell: edge length; 0 chooses the widest reach short of the outliers. Spheres reaching further
+  // than the cell are tested against all others.
   void build(const SphereSet& s, double margin, double cell = 0.0);
   // Pairs (a, b) with first ≤ a < last, in ascending order. Pure: callable concurrently.
   std::size_t query(const SphereSet& s, std::size_t first, std::size_t last, std::span<SpherePair> out) const;
   [[nodiscard]] double cell_size() const { return cell_; }
+  [[nodiscard]] bool dense() const { return dense_; }
 
  private:
   struct Entry {
-    std::uint64_t key;
+    double x, y, z, radius;    // a copy of the sphere, read where the cell is
+    std::uint32_t ix, iy, iz;  // the cell of the sphere's centre
     std::uint32_t sphere;
+    std::uint32_t bucket;
   };
-  struct CellBox {
-    std::int64_t lo[3], hi[3];
-  };
-  [[nodiscard]] CellBox box_of(const SphereSet& s, std::size_t i) const;
+  [[nodiscard]] std::int64_t cell_of(double coordinate, int axis) const;
   [[nodiscard]] static std::uint64_t key(std::int64_t ix, std::int64_t iy, std::int64_t iz);
-  [[nodiscard]] std::size_t bucket(std::uint64_t key) const;
+  [[nodiscard]] std::size_t bucket(std::int64_t ix, std::int64_t iy, std::int64_t iz) const;
 
   double cell_ = 1.0;
+  double inverse_cell_ = 1.0;
   double margin_ = 0.0;
   double origin_[3] = {0, 0, 0};
   std::vector<Entry> unsorted_;                // in sphere order
@@ -73,6 +77,8 @@ class SphereGrid {
   std::vector<std::uint32_t> large_;           // spheres kept out of the grid, ascending
   std::vector<std::uint8_t> is_large_;
   std::size_t bucket_mask_ = 0;
+  bool dense_ = false;                         // buckets are cells, indexed directly
+  std::uint64_t dims_[3] = {1, 1, 1};          // cells per axis in dense mode
 };
 
 }  // namespace haustra::kernels
