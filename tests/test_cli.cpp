@@ -75,6 +75,49 @@ TEST_CASE("haustra run writes a summary with counts, stage times and final posit
   CHECK(fs::exists(dir / "nodes.csv"));
 }
 
+TEST_CASE("haustra run drop: summary.json has the floor and self penetration of every frame") {
+  const fs::path dir = out_dir("drop");
+  const Result r = run("run " + kScenes + "drop.toml --frames 90 --out " + dir.string());
+  INFO(r.out << r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.out.find("contacts (55 beads): deepest into the environment") != std::string::npos);
+  const auto j = summary(dir);
+  const auto& c = j["contacts"];
+  CHECK(c["beads"] == 55);
+  const auto& floor = c["per_frame"]["max_environment_depth_over_radius"];
+  const auto& self = c["per_frame"]["max_bead_overlap_over_radius"];
+  REQUIRE(floor.size() == 90);
+  REQUIRE(self.size() == 90);
+  REQUIRE(c["per_frame"]["max_environment_depth_m"].size() == 90);
+  REQUIRE(c["per_frame"]["touching"].size() == 90);
+  double worst_floor = 0.0, worst_self = 0.0;
+  for (std::size_t f = 0; f < 90; ++f) {
+    worst_floor = std::max(worst_floor, floor[f].get<double>());
+    worst_self = std::max(worst_self, self[f].get<double>());
+    // Depth over radius is the depth in m over the 2 cm radius of every bead of this scene.
+    CHECK(floor[f].get<double>() == doctest::Approx(c["per_frame"]["max_environment_depth_m"][f].get<double>() / 0.02));
+  }
+  CHECK(c["max_environment_depth_over_radius"].get<double>() == worst_floor);
+  CHECK(c["max_bead_overlap_over_radius"].get<double>() == worst_self);
+  CHECK(floor[0].get<double>() == 0.0);  // hanging: nothing touches at first
+  CHECK(worst_floor > 0.0);               // it lands within 1.5 s
+  CHECK(worst_floor < 0.2);
+}
+
+TEST_CASE("haustra run grasp-pull: the instrument force of every frame, grasping from 0.6 s") {
+  const fs::path dir = out_dir("grasp-pull");
+  const Result r = run("run " + kScenes + "grasp-pull.toml --frames 60 --quiet --out " + dir.string());
+  INFO(r.out << r.err);
+  REQUIRE(r.code == 0);
+  const auto j = summary(dir);
+  const auto& g = j["instruments"][0];
+  REQUIRE(g["force_N_per_frame"].size() == 60);
+  REQUIRE(g["grasping_per_frame"].size() == 60);
+  CHECK(g["grasping_per_frame"][34] == false);
+  CHECK(g["grasping_per_frame"][35] == true);  // the 36th frame ends at 0.6 s
+  CHECK(g["force_N_per_frame"][59][2].get<double>() < 0.0);  // holding tissue: pulled down
+}
+
 TEST_CASE("haustra run: --threads 1 and --threads 2 give bit-identical final positions") {
   for (const std::string scene : {"ropes", "rope"}) {
     const fs::path one = out_dir(scene + "-1"), two = out_dir(scene + "-2");

@@ -136,6 +136,93 @@ moment = [4, 5, 6]
   CHECK_NOTHROW(create_world(s));
 }
 
+TEST_CASE("the scene reader fills the contact, bead, environment and instrument fields") {
+  const SceneDesc s = parse_scene(R"(
+[solver]
+max_iterations = 5
+attachment_tolerance = 1e-5
+[contact]
+coefficient = 20.0
+exponent = 1.5
+margin = 0.004
+broad_phase = "sweep"
+self = false
+[[segment]]
+nodes = 41
+[segment.rest]
+length = 0.8
+[segment.beads]
+spacing = 0.1
+radius_profile = [[0.0, 0.02], [1.0, 0.01]]
+[[environment.plane]]
+name = "floor"
+point = [0, 0, -0.1]
+normal = [0, 0, 2]
+[[environment.sphere]]
+center = [0.2, 0, 0]
+radius = 0.05
+[[environment.capsule]]
+a = [0, 0.2, 0]
+b = [1, 0.2, 0]
+radius = 0.03
+[[environment.mesh]]
+name = "bolster"
+file = "assets/bolster.obj"
+scale = 0.5
+translate = [0, 0, -1]
+[[instrument]]
+name = "grasper"
+radius = 0.005
+length = 0.25
+grasp_reach = 0.02
+hold_frame = true
+force_filter = 0.1
+[[instrument.keyframe]]
+time = 0.0
+tip = [0, 0, 0.3]
+[[instrument.keyframe]]
+time = 1.0
+grasp = true
+)",
+                                  kScenes + "/contact.toml");
+  const WorldDesc& w = s.world;
+  CHECK(w.solver.max_iterations == 5);
+  CHECK(w.solver.attachment_tolerance == 1e-5);
+  CHECK(w.contact.coefficient == 20.0);
+  CHECK(w.contact.exponent == 1.5);
+  CHECK(w.contact.margin == 0.004);
+  CHECK(w.contact.broad_phase == BroadPhase::sweep);
+  CHECK_FALSE(w.contact.self);
+  CHECK(w.segments.at(0).beads.enabled);
+  CHECK(w.segments.at(0).beads.spacing == 0.1);
+  CHECK(w.segments.at(0).beads.radius_profile.size() == 2);
+  CHECK(w.environment.planes.at(0).name == "floor");
+  CHECK(w.environment.spheres.at(0).radius == 0.05);
+  CHECK(w.environment.capsules.at(0).b.x() == 1.0);
+  // The bolster (r = 6 cm, |y| ≤ 40 cm) scaled by a half and moved down a metre.
+  double lowest = 1e9, widest = 0.0;
+  for (const auto& v : w.environment.meshes.at(0).vertices) {
+    lowest = std::min(lowest, v.z());
+    widest = std::max(widest, v.y());
+  }
+  CHECK(lowest == doctest::Approx(-1.03).epsilon(1e-6));
+  CHECK(widest == doctest::Approx(0.2).epsilon(1e-6));
+  const InstrumentDesc& g = w.instruments.at(0);
+  CHECK(g.name == "grasper");
+  CHECK(g.hold_frame);
+  CHECK(g.force_filter == 0.1);
+  REQUIRE(g.keyframes.size() == 2);
+  CHECK(g.keyframes[1].tip.z() == 0.3);  // carried over from the keyframe before
+  CHECK(g.keyframes[1].grasp);
+  CHECK_FALSE(g.keyframes[0].grasp);
+  auto world = create_world(s);
+  // Beads every 10 cm on 80 cm, both ends included, radii from 2 cm down to 1 cm along the rod.
+  REQUIRE(world->bead_count() == 9);
+  CHECK(world->bead_radii()[0] == doctest::Approx(0.02));
+  CHECK(world->bead_radii()[8] == doctest::Approx(0.01));
+  CHECK(world->bead_radii()[4] == doctest::Approx(0.015));
+}
+
 TEST_CASE("bad scene input: the message names the file, the line, the field and what was expected") {
   struct Case {
     std::string text;
@@ -179,6 +266,31 @@ TEST_CASE("bad scene input: the message names the file, the line, the field and 
       {"[scenery]\n", {"scenery", "unknown key", "scene, world, solver, filter, segment"}},
       {"segment = 3\n", {"segment", "expected [[segment]] tables"}},
       {"[scene]\nframes = -1\n", {"scene.frames", "non-negative"}},
+      // Contacts, beads, the environment and instruments.
+      {m + "\n[contact]\ncoefficient = -5\n", {"test.toml:11", "contact.coefficient", "positive"}},
+      {m + "\n[contact]\nexponent = 7\n", {"test.toml:11", "contact.exponent", "[1, 4]"}},
+      {m + "\n[contact]\nbroad_phase = \"octree\"\n", {"contact.broad_phase", "\"grid\"", "\"octree\""}},
+      {m + "\n[contact]\nstiffness = 1\n", {"contact.stiffness", "unknown key", "coefficient"}},
+      {m + "[segment.beads]\ncount = 5\nspacing = 0.1\n", {"segment[0].beads", "one of them"}},
+      {m + "[segment.beads]\ncount = 50\n", {"test.toml:10", "segment[0].beads.count", "at most one bead per node"}},
+      {m + "[segment.beads]\nnodes = [0, 4, 40]\n", {"segment[0].beads.nodes[2]", "[-11, 10]", "40"}},
+      {m + "[segment.beads]\nradius = 15\n", {"test.toml:10", "segment[0].beads.radius", "millimetres"}},
+      {m + "[segment.beads]\nradius_profile = [[0.5, 0.02], [0.2, 0.01]]\n", {"radius_profile[1]", "rise from 0 to 1"}},
+      {m + "\n[[environment.plane]]\nnormal = [0, 0, 0]\n", {"test.toml:11", "environment.plane[0].normal", "non-zero"}},
+      {m + "\n[[environment.sphere]]\nradius = -1\n", {"environment.sphere[0].radius", "positive radius"}},
+      {m + "\n[[environment.capsule]]\na = [0, 0]\n", {"environment.capsule[0].a", "expected [x, y, z]"}},
+      {m + "\n[[environment.mesh]]\nname = \"pelvis\"\n", {"environment.mesh[0].file", "needs file"}},
+      {m + "\n[[environment.mesh]]\nfile = \"no-such.obj\"\n", {"test.toml:11", "environment.mesh[0].file", "no-such.obj"}},
+      {m + "\n[[environment.mesh]]\nfile = \"assets/bolster.obj\"\nscale = 0\n", {"environment.mesh[0].scale", "positive scale"}},
+      {m + "\n[environment]\nbox = 1\n", {"environment.box", "unknown key", "plane, sphere, capsule, mesh"}},
+      {m + "\n[[instrument]]\nradius = 4\n", {"test.toml:11", "instrument[0].radius", "millimetres"}},
+      {m + "\n[[instrument]]\naxis = [0, 0, 0]\n", {"instrument[0].axis", "non-zero"}},
+      {m + "\n[[instrument]]\n[[instrument.keyframe]]\ntip = [0, 0, 1]\n", {"instrument[0].keyframe[0].time", "needs time"}},
+      {m + "\n[[instrument]]\n[[instrument.keyframe]]\ntime = 1.0\n[[instrument.keyframe]]\ntime = 0.5\n",
+       {"instrument[0].keyframe[1].time", "increasing time"}},
+      {m + "\n[[instrument]]\ngrasp_reach = -0.01\n", {"instrument[0].grasp_reach", "[0, 0.5]"}},
+      {m + "\n[solver]\nmax_iterations = 0\n", {"solver.max_iterations", "[1, 10000]"}},
+      {m + "\n[solver]\nattachment_tolerance = -1\n", {"solver.attachment_tolerance", "positive"}},
   };
   for (const Case& c : cases) {
     const std::string msg = error_of(c.text);

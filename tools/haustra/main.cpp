@@ -99,7 +99,10 @@ int run(const RunOptions& o) {
     record.add(world->last_profile(), *world);
     bar.update(f + 1);
   }
-  if (!o.quiet) record.print_stage_table(stdout);
+  if (!o.quiet) {
+    record.print_stage_table(stdout);
+    record.print_contacts(stdout, *world);
+  }
   for (const Event& e : world->events())
     if (e.kind == Event::Kind::recovered) fmt::print("  event: {}\n", e.message());
   if (!o.out.empty()) {
@@ -108,8 +111,9 @@ int run(const RunOptions& o) {
     record.write_summary(dir / "summary.json", scene, *world, scene.frames, status, error);
     record.write_frames_csv(dir / "frames.csv");
     cli::write_nodes_csv(dir / "nodes.csv", *world);
-    fmt::print("\noutputs in {}/: summary.json (counts, per-stage times, final node positions), frames.csv "
-               "(per-frame times), nodes.csv (final nodes and strains)\n",
+    fmt::print("\noutputs in {}/: summary.json (counts, per-stage times, final node positions, per-frame "
+               "penetrations and instrument forces), frames.csv (per-frame times, contacts, forces), nodes.csv "
+               "(final nodes and strains)\n",
                std::filesystem::absolute(dir).lexically_normal().string());
   }
   if (status != "ok") {

@@ -36,6 +36,32 @@ void RunRecord::add(const FrameProfile& p, const World& world) {
   newton_.push_back(p.newton ? 1 : 0);
 }
 
+void RunRecord::print_contacts(std::FILE* out, const World& world) const {
+  if (has_beads_ && !contacts_.empty()) {
+    std::size_t env_frame = 0, bead_frame = 0;
+    for (std::size_t f = 0; f < contacts_.size(); ++f) {
+      if (contacts_[f].max_environment_depth_ratio > contacts_[env_frame].max_environment_depth_ratio) env_frame = f;
+      if (contacts_[f].max_bead_overlap_ratio > contacts_[bead_frame].max_bead_overlap_ratio) bead_frame = f;
+    }
+    const ContactReport& last = contacts_.back();
+    fmt::print(out,
+               "\ncontacts ({} beads): deepest into the environment {:.3g} mm ({:.1f} % of r) at frame {}, "
+               "between beads {:.3g} mm ({:.1f} %) at frame {}; last frame {:.1f} % and {:.1f} %, {} touching\n",
+               world.bead_count(), 1e3 * contacts_[env_frame].max_environment_depth,
+               100.0 * contacts_[env_frame].max_environment_depth_ratio, env_frame + 1,
+               1e3 * contacts_[bead_frame].max_bead_overlap, 100.0 * contacts_[bead_frame].max_bead_overlap_ratio,
+               bead_frame + 1, 100.0 * last.max_environment_depth_ratio, 100.0 * last.max_bead_overlap_ratio,
+               last.touching);
+  }
+  if (!instruments_.empty())
+    for (std::size_t i = 0; i < instruments_.back().size(); ++i) {
+      const InstrumentReading& r = instruments_.back()[i];
+      fmt::print(out, "instrument {}: {}force on it [{:.3f}, {:.3f}, {:.3f}] N, filtered [{:.3f}, {:.3f}, {:.3f}] N\n", i,
+                 r.grasping ? fmt::format("grasping segment {} node {}; ", r.grasped_segment, r.grasped_node) : "",
+                 r.force.x(), r.force.y(), r.force.z(), r.filtered_force.x(), r.filtered_force.y(), r.filtered_force.z());
+    }
+}
+
 RunRecord::StageStats RunRecord::stats(std::size_t s) const {
   StageStats st;
   const auto& v = stage_seconds_[s];

@@ -16,6 +16,8 @@ class RunRecord {
   void add(const FrameProfile& p, const World& world);
   [[nodiscard]] std::size_t frames() const { return frame_seconds_.size(); }
   void print_stage_table(std::FILE* out) const;
+  // The deepest penetrations and where they happened; each instrument's last force.
+  void print_contacts(std::FILE* out, const World& world) const;
   void write_summary(const std::filesystem::path& file, const SceneDesc& scene, const World& world,
                      int requested_frames, const std::string& status, const std::string& error) const;
   void write_frames_csv(const std::filesystem::path& file) const;

@@ -166,7 +166,7 @@ struct InstrumentKeyframe {
 
 // A kinematic capsule (grasper, retractor) from its tip back along its axis. It pushes tissue by
 // contact; closing it within reach of a bead attaches that bead's node until it opens. Its pose
-// follows the keyframes (linear in position, spherical in axis, grasp stepwise) until a host sets
+// follows the keyframes (position and axis linear, the axis renormalized; grasp stepwise) until a host sets
 // it through the API.
 struct InstrumentDesc {
   std::string name = "instrument";
