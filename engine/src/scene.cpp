@@ -309,51 +309,50 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
   return s;
 }
 
+// Each [[environment.<key>]] table through `read`, into `out`.
+template <class Desc, class Read>
+void read_obstacles(const Reader& r, const toml::table& t, const char* key, std::vector<Desc>& out, Read read) {
+  const auto tables = r.tables(t, key, fmt::format("environment.{}", key));
+  for (std::size_t i = 0; i < tables.size(); ++i) out.push_back(read(*tables[i], fmt::format("environment.{}[{}]", key, i)));
+}
+
 void read_environment(const Reader& r, const toml::table& t, const std::filesystem::path& scene_dir, EnvironmentDesc& env) {
   r.check_keys(t, "environment", {"plane", "sphere", "capsule", "mesh"});
-  const auto planes = r.tables(t, "plane", "environment.plane");
-  for (std::size_t i = 0; i < planes.size(); ++i) {
-    const std::string p = fmt::format("environment.plane[{}]", i);
-    r.check_keys(*planes[i], p, {"name", "point", "normal"});
+  read_obstacles(r, t, "plane", env.planes, [&](const toml::table& o, const std::string& p) {
+    r.check_keys(o, p, {"name", "point", "normal"});
     PlaneDesc d;
-    d.name = r.string(*planes[i], "name", p + ".name", p);
-    d.point = r.vec3(*planes[i], "point", p + ".point", d.point);
-    d.normal = r.vec3(*planes[i], "normal", p + ".normal", d.normal);
-    env.planes.push_back(d);
-  }
-  const auto spheres = r.tables(t, "sphere", "environment.sphere");
-  for (std::size_t i = 0; i < spheres.size(); ++i) {
-    const std::string p = fmt::format("environment.sphere[{}]", i);
-    r.check_keys(*spheres[i], p, {"name", "center", "radius"});
+    d.name = r.string(o, "name", p + ".name", p);
+    d.point = r.vec3(o, "point", p + ".point", d.point);
+    d.normal = r.vec3(o, "normal", p + ".normal", d.normal);
+    return d;
+  });
+  read_obstacles(r, t, "sphere", env.spheres, [&](const toml::table& o, const std::string& p) {
+    r.check_keys(o, p, {"name", "center", "radius"});
     SphereObstacleDesc d;
-    d.name = r.string(*spheres[i], "name", p + ".name", p);
-    d.center = r.vec3(*spheres[i], "center", p + ".center", d.center);
-    d.radius = r.number(*spheres[i], "radius", p + ".radius", d.radius);
-    env.spheres.push_back(d);
-  }
-  const auto capsules = r.tables(t, "capsule", "environment.capsule");
-  for (std::size_t i = 0; i < capsules.size(); ++i) {
-    const std::string p = fmt::format("environment.capsule[{}]", i);
-    r.check_keys(*capsules[i], p, {"name", "a", "b", "radius"});
+    d.name = r.string(o, "name", p + ".name", p);
+    d.center = r.vec3(o, "center", p + ".center", d.center);
+    d.radius = r.number(o, "radius", p + ".radius", d.radius);
+    return d;
+  });
+  read_obstacles(r, t, "capsule", env.capsules, [&](const toml::table& o, const std::string& p) {
+    r.check_keys(o, p, {"name", "a", "b", "radius"});
     CapsuleObstacleDesc d;
-    d.name = r.string(*capsules[i], "name", p + ".name", p);
-    d.a = r.vec3(*capsules[i], "a", p + ".a", d.a);
-    d.b = r.vec3(*capsules[i], "b", p + ".b", d.b);
-    d.radius = r.number(*capsules[i], "radius", p + ".radius", d.radius);
-    env.capsules.push_back(d);
-  }
-  const auto meshes = r.tables(t, "mesh", "environment.mesh");
-  for (std::size_t i = 0; i < meshes.size(); ++i) {
-    const std::string p = fmt::format("environment.mesh[{}]", i);
-    r.check_keys(*meshes[i], p, {"name", "file", "scale", "translate"});
-    const toml::node* file_node = meshes[i]->get("file");
-    if (file_node == nullptr) r.fail(meshes[i], p + ".file", "a mesh obstacle needs file = \"path\"");
+    d.name = r.string(o, "name", p + ".name", p);
+    d.a = r.vec3(o, "a", p + ".a", d.a);
+    d.b = r.vec3(o, "b", p + ".b", d.b);
+    d.radius = r.number(o, "radius", p + ".radius", d.radius);
+    return d;
+  });
+  read_obstacles(r, t, "mesh", env.meshes, [&](const toml::table& o, const std::string& p) {
+    r.check_keys(o, p, {"name", "file", "scale", "translate"});
+    const toml::node* file_node = o.get("file");
+    if (file_node == nullptr) r.fail(&o, p + ".file", "a mesh obstacle needs file = \"path\"");
     MeshObstacleDesc d;
-    d.name = r.string(*meshes[i], "name", p + ".name", p);
-    const std::filesystem::path f = scene_dir / r.string(*meshes[i], "file", p + ".file", "");
-    const double scale = r.number(*meshes[i], "scale", p + ".scale", 1.0);
-    if (!(scale > 0.0)) r.fail(meshes[i]->get("scale"), p + ".scale", "expected a positive scale (e.g. 0.001 for millimetres)");
-    const Eigen::Vector3d translate = r.vec3(*meshes[i], "translate", p + ".translate", Eigen::Vector3d::Zero());
+    d.name = r.string(o, "name", p + ".name", p);
+    const std::filesystem::path f = scene_dir / r.string(o, "file", p + ".file", "");
+    const double scale = r.number(o, "scale", p + ".scale", 1.0);
+    if (!(scale > 0.0)) r.fail(o.get("scale"), p + ".scale", "expected a positive scale (e.g. 0.001 for millimetres)");
+    const Eigen::Vector3d translate = r.vec3(o, "translate", p + ".translate", Eigen::Vector3d::Zero());
     try {
       TriangleMesh mesh = load_mesh(f);
       for (auto& v : mesh.vertices) v = scale * v + translate;
@@ -363,8 +362,8 @@ void read_environment(const Reader& r, const toml::table& t, const std::filesyst
     } catch (const Error& e) {
       r.fail(file_node, p + ".file", e.what());
     }
-    env.meshes.push_back(std::move(d));
-  }
+    return d;
+  });
 }
 
 InstrumentDesc read_instrument(const Reader& r, const toml::table& t, const std::string& path) {
