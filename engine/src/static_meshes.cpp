@@ -29,9 +29,7 @@ struct StaticMeshes::Query {
 
 StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
   if (descs.empty()) return;
-  device_ = rtcNewDevice(nullptr);
-  if (device_ == nullptr) throw Error(ErrorCode::internal, "Embree: cannot create a device");
-  scene_ = rtcNewScene(device_);
+  embree_ = std::make_unique<EmbreeScene>();
   for (std::size_t m = 0; m < descs.size(); ++m) {
     const MeshObstacleDesc& d = descs[m];
     Mesh mesh;
@@ -55,28 +53,13 @@ StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
             mesh.face_normal.back();
       }
     }
-    RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                           3 * sizeof(float), mesh.vertices.size()));
-    auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                              3 * sizeof(unsigned), mesh.triangles.size()));
-    for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
-      for (int i = 0; i < 3; ++i) vb[3 * v + static_cast<std::size_t>(i)] = static_cast<float>(mesh.vertices[v][i]);
-    for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
-      for (std::size_t i = 0; i < 3; ++i) ib[3 * t + i] = mesh.triangles[t][i];
-    rtcCommitGeometry(geom);
-    rtcAttachGeometryByID(scene_, geom, static_cast<unsigned>(m));
-    rtcReleaseGeometry(geom);
+    embree_->add_triangles(mesh.vertices, mesh.triangles);
     meshes_.push_back(std::move(mesh));
   }
-  rtcCommitScene(scene_);
-  if (rtcGetDeviceError(device_) != RTC_ERROR_NONE) throw Error(ErrorCode::internal, "Embree: cannot build the mesh scene");
+  embree_->commit();
 }
 
-StaticMeshes::~StaticMeshes() {
-  if (scene_ != nullptr) rtcReleaseScene(scene_);
-  if (device_ != nullptr) rtcReleaseDevice(device_);
-}
+StaticMeshes::~StaticMeshes() = default;
 
 bool StaticMeshes::on_primitive(RTCPointQueryFunctionArguments* args) {
   auto* q = static_cast<Query*>(args->userPtr);
@@ -104,7 +87,7 @@ float StaticMeshes::culling_radius(const Eigen::Vector3d& p, double distance) {
 
 StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius) const {
   Hit hit;
-  if (scene_ == nullptr) return hit;
+  if (!embree_) return hit;
   Query q;
   q.self = this;
   q.p = p;
@@ -117,7 +100,7 @@ StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius)
   query.time = 0.0f;
   RTCPointQueryContext context;
   rtcInitPointQueryContext(&context);
-  rtcPointQuery(scene_, &query, &context, &StaticMeshes::on_primitive, &q);
+  rtcPointQuery(embree_->scene(), &query, &context, &StaticMeshes::on_primitive, &q);
   if (!q.found) return hit;
   const Mesh& mesh = meshes_[q.mesh];
   const auto& t = mesh.triangles[q.triangle];

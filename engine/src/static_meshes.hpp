@@ -5,12 +5,15 @@
 // An open mesh is a two-sided sheet. Built once with the model; queries are thread-safe.
 #include <embree3/rtcore.h>
 
+#include <memory>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
+#include "embree_scene.hpp"
 #include "haustra/world_desc.hpp"
 
 namespace haustra::detail {
@@ -48,8 +51,7 @@ class StaticMeshes {
   static float culling_radius(const Eigen::Vector3d& p, double distance);
 
   std::vector<Mesh> meshes_;
-  RTCDevice device_ = nullptr;
-  RTCScene scene_ = nullptr;
+  std::unique_ptr<EmbreeScene> embree_;
 };
 
 }  // namespace haustra::detail
