@@ -6,6 +6,7 @@
 
 #include "haustra/error.hpp"
 #include "haustra/kernels/broad_phase.hpp"
+#include "embree_scene.hpp"
 #include "static_meshes.hpp"
 #include "world_model.hpp"
 
@@ -156,7 +157,8 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
   }
 }
 
-void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& initial_positions, WorldModel& m) {
+void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& initial_positions,
+                 const std::vector<RodPoseBuffer>& rest_poses, const std::vector<TriangleMesh>& meshes, WorldModel& m) {
   BeadModel& beads = m.beads;
   for (std::size_t si = 0; si < m.segments.size(); ++si) {
     SegmentModel& seg = m.segments[si];
@@ -172,16 +174,30 @@ void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& init
         fail(fmt::format("{}.radius_profile[{}]", where, i), "fractions of the length must rise from 0 to 1");
       check_radius(fmt::format("{}.radius_profile[{}]", where, i), r);
     }
-    if (b.radius != 0.0 && !b.radius_profile.empty())
-      fail(where, "give either radius or radius_profile, not both");
+    if ((b.radius != 0.0 ? 1 : 0) + (b.radius_profile.empty() ? 0 : 1) + (b.radius_from_mesh ? 1 : 0) > 1)
+      fail(where, "give one of radius, radius_profile or radius = \"mesh\"");
+    if (b.radius_from_mesh && meshes[si].triangles.empty())
+      fail(where + ".radius", "radius = \"mesh\" needs the segment's organ mesh ([segment.mesh])");
+    std::unique_ptr<EmbreeScene> wall;
+    if (b.radius_from_mesh) {
+      wall = std::make_unique<EmbreeScene>();
+      wall->add_triangles(meshes[si].vertices, meshes[si].triangles);
+      wall->commit();
+    }
     double arc = 0.0;
     std::size_t last = 0;
     for (std::size_t k : bead_nodes(b, seg, h, where)) {
       for (; last < k; ++last) arc += h[last];
       const double fraction = arc / seg.info.length;
-      const double r = !b.radius_profile.empty() ? profile_radius(b.radius_profile, fraction)
-                       : b.radius != 0.0         ? b.radius
-                                                 : desc.segments[si].cross_section.radius;
+      double r = !b.radius_profile.empty() ? profile_radius(b.radius_profile, fraction)
+                 : b.radius != 0.0         ? b.radius
+                                           : desc.segments[si].cross_section.radius;
+      if (b.radius_from_mesh) {
+        const kernels::RodPoses<const double> rest = rest_poses[si].view();
+        r = mesh_cross_section_radius(*wall, {rest.node_rotation.get(k), rest.node_position.get(k)},
+                                      10.0 * desc.segments[si].cross_section.radius,
+                                      fmt::format("{}.radius (bead on node {})", where, k));
+      }
       beads.node.push_back(static_cast<std::uint32_t>(seg.node_offset + k));
       beads.segment.push_back(static_cast<std::uint32_t>(si));
       beads.radius.push_back(r);

@@ -10,9 +10,11 @@
 #include <embree3/rtcore.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 namespace haustra::detail {
 
@@ -32,10 +34,41 @@ class EmbreeScene {
   [[nodiscard]] RTCScene scene() const { return scene_; }
   [[nodiscard]] RTCDevice device() const { return device_; }
 
+  // Queries on a committed scene; thread-safe. Triangles are named by (geometry, primitive).
+  struct Hit {
+    bool found = false;
+    unsigned geometry = 0, triangle = 0;
+    double distance = 0.0;  // along the ray, or to the closest point
+  };
+  // The first triangle a ray meets in (t_near, t_far); direction need not be unit (t scales with it).
+  [[nodiscard]] Hit first_hit(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_near,
+                              double t_far) const;
+  // The winding number of closed, outward-oriented surfaces around the ray's origin, counted along
+  // the ray: +1 for every triangle it leaves through, −1 for every one it enters through.
+  [[nodiscard]] int winding(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
+  // Inside (winding number ≥ 1, so the union of overlapping closed surfaces counts as inside),
+  // by majority over three fixed, unrelated directions: a ray grazing an edge or a vertex can
+  // miscount, two rarely both do.
+  [[nodiscard]] bool inside(const Eigen::Vector3d& p) const;
+  // The closest point on any triangle within `radius` (in double, from the stored geometry).
+  [[nodiscard]] Hit closest(const Eigen::Vector3d& p, double radius) const;
+  [[nodiscard]] const std::vector<Eigen::Vector3d>& vertices(unsigned geometry) const { return meshes_[geometry].vertices; }
+  [[nodiscard]] const std::vector<std::array<std::uint32_t, 3>>& triangles(unsigned geometry) const {
+    return meshes_[geometry].triangles;
+  }
+
  private:
+  struct Mesh {
+    std::vector<Eigen::Vector3d> vertices;
+    std::vector<std::array<std::uint32_t, 3>> triangles;
+  };
+  struct ClosestQuery;
+  static bool on_closest(RTCPointQueryFunctionArguments* args);
+
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   unsigned geometries_ = 0;
+  std::vector<Mesh> meshes_;
 };
 
 }  // namespace haustra::detail

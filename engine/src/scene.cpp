@@ -215,12 +215,55 @@ StrainLaw read_law(const Reader& r, const toml::table& t, std::string_view key, 
                               {"kelvin-voigt", StrainLaw::kelvin_voigt}});
 }
 
+OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::string& path,
+                              const std::filesystem::path& scene_dir) {
+  r.check_keys(t, path, {"source", "file", "scale", "translate", "procedural", "cage", "skinning", "rings_per_vertex", "normals"});
+  OrganMeshDesc d;
+  d.enabled = true;
+  const toml::node* file_node = t.get("file");
+  d.source = r.choice<MeshSource>(t, "source", path + ".source", file_node != nullptr ? MeshSource::file : MeshSource::procedural,
+                                  {{"procedural", MeshSource::procedural}, {"file", MeshSource::file}});
+  if (d.source == MeshSource::file) {
+    if (file_node == nullptr) r.fail(&t, path + ".file", "a mesh with source = \"file\" needs file = \"path\"");
+    d.file = (scene_dir / r.string(t, "file", path + ".file", "")).string();
+    if (!std::filesystem::exists(d.file)) r.fail(file_node, path + ".file", fmt::format("{}: no such mesh file", d.file));
+  } else if (file_node != nullptr) {
+    r.fail(file_node, path + ".file", "only a mesh with source = \"file\" reads a file");
+  }
+  d.scale = r.number(t, "scale", path + ".scale", d.scale);
+  d.translate = r.vec3(t, "translate", path + ".translate", d.translate);
+  d.skinning = r.choice<SkinningMethod>(t, "skinning", path + ".skinning", d.skinning,
+                                        {{"mvc", SkinningMethod::mean_value}, {"linear-blend", SkinningMethod::linear_blend}});
+  d.rings_per_vertex = r.integer(t, "rings_per_vertex", path + ".rings_per_vertex", d.rings_per_vertex);
+  d.normals = r.boolean(t, "normals", path + ".normals", d.normals);
+  if (const toml::table* p = r.table(t, "procedural", path + ".procedural")) {
+    const std::string pp = path + ".procedural";
+    r.check_keys(*p, pp, {"vertices", "radius", "haustra_spacing", "haustra_depth", "taenia_depth", "end_taper"});
+    ProceduralOrganDesc& o = d.procedural;
+    o.vertices = r.integer(*p, "vertices", pp + ".vertices", o.vertices);
+    o.radius = r.number(*p, "radius", pp + ".radius", o.radius);
+    o.haustra_spacing = r.number(*p, "haustra_spacing", pp + ".haustra_spacing", o.haustra_spacing);
+    o.haustra_depth = r.number(*p, "haustra_depth", pp + ".haustra_depth", o.haustra_depth);
+    o.taenia_depth = r.number(*p, "taenia_depth", pp + ".taenia_depth", o.taenia_depth);
+    o.end_taper = r.number(*p, "end_taper", pp + ".end_taper", o.end_taper);
+  }
+  if (const toml::table* c = r.table(t, "cage", path + ".cage")) {
+    const std::string cp = path + ".cage";
+    r.check_keys(*c, cp, {"ring_vertices", "middle_rings", "clearance", "max_iterations"});
+    d.cage.ring_vertices = r.integer(*c, "ring_vertices", cp + ".ring_vertices", d.cage.ring_vertices);
+    d.cage.middle_rings = r.boolean(*c, "middle_rings", cp + ".middle_rings", d.cage.middle_rings);
+    d.cage.clearance = r.number(*c, "clearance", cp + ".clearance", d.cage.clearance);
+    d.cage.max_iterations = r.integer(*c, "max_iterations", cp + ".max_iterations", d.cage.max_iterations);
+  }
+  return d;
+}
+
 SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::string& path,
                          const std::filesystem::path& scene_dir) {
   r.check_keys(t, path,
                {"name", "nodes", "rest", "law", "base", "base_position", "base_tangent", "base_normal", "drag", "radius",
                 "wall_thickness", "youngs_modulus", "poisson_ratio", "density", "linear_density", "relaxation_time",
-                "attachment", "load", "beads"});
+                "attachment", "load", "beads", "mesh"});
   SegmentDesc s;
   s.name = r.string(t, "name", path + ".name", path);
   s.nodes = r.integer(t, "nodes", path + ".nodes", s.nodes);
@@ -278,9 +321,18 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
     s.beads.count = r.integer(*beads, "count", bp + ".count", 0);
     s.beads.spacing = r.number(*beads, "spacing", bp + ".spacing", 0.0);
     s.beads.nodes = r.integers(*beads, "nodes", bp + ".nodes");
-    s.beads.radius = r.number(*beads, "radius", bp + ".radius", 0.0);
+    if (const toml::node* radius = beads->get("radius"); radius != nullptr && radius->is_string()) {
+      if (*radius->value<std::string>() != "mesh")
+        r.fail(radius, bp + ".radius",
+               fmt::format("expected a radius in m or \"mesh\" (from the organ mesh's cross-sections), got \"{}\"",
+                           *radius->value<std::string>()));
+      s.beads.radius_from_mesh = true;
+    } else {
+      s.beads.radius = r.number(*beads, "radius", bp + ".radius", 0.0);
+    }
     s.beads.radius_profile = r.pairs(*beads, "radius_profile", bp + ".radius_profile");
   }
+  if (const toml::table* mesh = r.table(t, "mesh", path + ".mesh")) s.mesh = read_organ_mesh(r, *mesh, path + ".mesh", scene_dir);
   const auto attachments = r.tables(t, "attachment", path + ".attachment");
   for (std::size_t i = 0; i < attachments.size(); ++i) {
     const toml::table& a = *attachments[i];

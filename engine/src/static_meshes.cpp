@@ -18,15 +18,6 @@ std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
 
 }  // namespace
 
-struct StaticMeshes::Query {
-  const StaticMeshes* self = nullptr;
-  Eigen::Vector3d p = Eigen::Vector3d::Zero();
-  bool found = false;
-  std::uint32_t mesh = 0, triangle = 0;
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();
-  double distance = 0.0;  // of the best so far; the query radius before any is found
-};
-
 StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
   if (descs.empty()) return;
   embree_ = std::make_unique<EmbreeScene>();
@@ -61,60 +52,27 @@ StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
 
 StaticMeshes::~StaticMeshes() = default;
 
-bool StaticMeshes::on_primitive(RTCPointQueryFunctionArguments* args) {
-  auto* q = static_cast<Query*>(args->userPtr);
-  const Mesh& mesh = q->self->meshes_[args->geomID];
-  const auto& t = mesh.triangles[args->primID];
-  const Eigen::Vector3d c =
-      kernels::closest_point_on_triangle(q->p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
-  const double d = (q->p - c).norm();
-  if (d >= q->distance) return false;
-  q->distance = d;
-  args->query->radius = q->self->culling_radius(q->p, d);
-  q->found = true;
-  q->mesh = args->geomID;
-  q->triangle = args->primID;
-  q->point = c;
-  return true;
-}
-
-float StaticMeshes::culling_radius(const Eigen::Vector3d& p, double distance) {
-  // Embree culls in single precision, with the query point and the vertices rounded to float: pad
-  // the radius by that rounding so that no triangle nearer than `distance` in double is culled.
-  const double pad = 8.0 * std::numeric_limits<float>::epsilon() * (p.cwiseAbs().maxCoeff() + distance);
-  return std::nextafter(static_cast<float>(distance + pad), std::numeric_limits<float>::infinity());
-}
-
 StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius) const {
   Hit hit;
   if (!embree_) return hit;
-  Query q;
-  q.self = this;
-  q.p = p;
-  q.distance = radius;
-  RTCPointQuery query;
-  query.x = static_cast<float>(p.x());
-  query.y = static_cast<float>(p.y());
-  query.z = static_cast<float>(p.z());
-  query.radius = culling_radius(p, radius);
-  query.time = 0.0f;
-  RTCPointQueryContext context;
-  rtcInitPointQueryContext(&context);
-  rtcPointQuery(embree_->scene(), &query, &context, &StaticMeshes::on_primitive, &q);
-  if (!q.found) return hit;
-  const Mesh& mesh = meshes_[q.mesh];
-  const auto& t = mesh.triangles[q.triangle];
+  const EmbreeScene::Hit found = embree_->closest(p, radius);
+  if (!found.found) return hit;
+  const Mesh& mesh = meshes_[found.geometry];
+  const auto& t = mesh.triangles[found.triangle];
+  const Eigen::Vector3d point =
+      kernels::closest_point_on_triangle(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
+  const double distance = found.distance;
   // Which feature holds the closest point: the pseudo-normal of that feature tells the side.
   const Eigen::Vector3d& a = mesh.vertices[t[0]];
   const Eigen::Vector3d& b = mesh.vertices[t[1]];
   const Eigen::Vector3d& c = mesh.vertices[t[2]];
   const double scale = std::max({(b - a).norm(), (c - a).norm(), 1e-300});
   const double tol = 1e-9 * scale;
-  Eigen::Vector3d normal = mesh.face_normal[q.triangle];
+  Eigen::Vector3d normal = mesh.face_normal[found.triangle];
   const Eigen::Vector3d corners[3] = {a, b, c};
   bool on_vertex = false;
   for (int i = 0; i < 3; ++i)
-    if ((q.point - corners[i]).norm() <= tol) {
+    if ((point - corners[i]).norm() <= tol) {
       normal = mesh.vertex_normal[t[static_cast<std::size_t>(i)]];
       on_vertex = true;
     }
@@ -122,23 +80,23 @@ StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius)
     for (int i = 0; i < 3; ++i) {
       const Eigen::Vector3d& e0 = corners[i];
       const Eigen::Vector3d& e1 = corners[(i + 1) % 3];
-      if ((kernels::closest_point_on_segment(q.point, e0, e1) - q.point).norm() <= tol) {
+      if ((kernels::closest_point_on_segment(point, e0, e1) - point).norm() <= tol) {
         const auto it = mesh.edge_normal.find(edge_key(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)]));
         if (it != mesh.edge_normal.end()) normal = it->second;
       }
     }
   normal.normalize();
-  const Eigen::Vector3d away = p - q.point;
+  const Eigen::Vector3d away = p - point;
   hit.found = true;
-  hit.mesh = q.mesh;
-  hit.point = q.point;
+  hit.mesh = found.geometry;
+  hit.point = point;
   if (mesh.closed) {
     const bool inside = away.dot(normal) < 0.0;
-    hit.push = q.distance > tol ? Eigen::Vector3d((inside ? -away : away) / q.distance) : normal;
-    hit.signed_distance = inside ? -q.distance : q.distance;
+    hit.push = distance > tol ? Eigen::Vector3d((inside ? -away : away) / distance) : normal;
+    hit.signed_distance = inside ? -distance : distance;
   } else {
-    hit.push = q.distance > tol ? Eigen::Vector3d(away / q.distance) : normal;
-    hit.signed_distance = q.distance;
+    hit.push = distance > tol ? Eigen::Vector3d(away / distance) : normal;
+    hit.signed_distance = distance;
   }
   return hit;
 }

@@ -46,9 +46,6 @@ class StaticMeshes {
     std::unordered_map<std::uint64_t, Eigen::Vector3d> edge_normal;
     bool closed = false;
   };
-  struct Query;
-  static bool on_primitive(RTCPointQueryFunctionArguments* args);
-  static float culling_radius(const Eigen::Vector3d& p, double distance);
 
   std::vector<Mesh> meshes_;
   std::unique_ptr<EmbreeScene> embree_;

@@ -6,6 +6,7 @@
 
 #include "collision.hpp"
 #include "instruments.hpp"
+#include "mesh_stages.hpp"
 #include "rod_stages.hpp"
 #include "scheduler.hpp"
 #include "world_model.hpp"
@@ -31,6 +32,9 @@ std::string_view stage_name(Stage s) noexcept {
     case Stage::filter: return "filter";
     case Stage::guard: return "guard";
     case Stage::report: return "report";
+    case Stage::cage: return "cage";
+    case Stage::skin: return "skin";
+    case Stage::normals: return "normals";
     case Stage::count: break;
   }
   return "?";
@@ -79,6 +83,21 @@ struct World::Impl {
       any_free_base |= s.base_mode == BaseMode::free;
       any_constraints |= s.constraint_rows > 0;
     }
+    follow_rod();  // the meshes at rest, before the first step
+  }
+
+  // The organ meshes follow the rod: rings, skinning, normals. Only scheduled when a segment has
+  // a mesh; skinning splits into fixed chunks so any thread count gives the same bits.
+  void follow_rod() {
+    if (!model.any_mesh) return;
+    run_stage(Stage::cage, [&](std::size_t s) { detail::stage_cage(model, state, s); });
+    time_stage(Stage::skin, [&] {
+      scheduler.for_each(model.skin_chunks.size(), [&](std::size_t c) { detail::stage_skin(model, state, c); });
+    });
+    if (model.any_normals)
+      time_stage(Stage::normals, [&] {
+        scheduler.for_each(model.skin_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, state, c); });
+      });
   }
 
   // A world-wide stage (it spreads its own work over the scheduler).
@@ -306,6 +325,7 @@ struct World::Impl {
         detail::instrument_forces(model, state, model.dt);
         if (model.beads.size() > 0) detail::stage_contact_report(model, state);
       });
+    follow_rod();
     profile.substeps = rung.substeps;
     profile.newton = rung.newton;
     state.frame += 1;
@@ -462,6 +482,37 @@ void check_instrument(const World::Impl& impl, std::size_t i) {
                 fmt::format("instrument index {} out of range (the world has {})", i, impl.model.instruments.size()));
 }
 }  // namespace
+
+const MeshInfo& World::mesh(std::size_t segment) const {
+  if (segment >= impl_->model.segments.size())
+    throw Error(ErrorCode::invalid_argument, fmt::format("segment index {} out of range", segment));
+  return impl_->model.meshes_of[segment].info;
+}
+std::size_t World::mesh_buffer_size() const { return impl_->model.mesh_vertex_total; }
+kernels::Vec3View<const float> World::mesh_positions() const {
+  const auto& p = impl_->state.mesh.position;
+  return {p.x, p.y, p.z};
+}
+kernels::Vec3View<const float> World::mesh_normals() const {
+  const auto& p = impl_->state.mesh.normal;
+  return {p.x, p.y, p.z};
+}
+std::span<const std::array<std::uint32_t, 3>> World::mesh_triangles() const { return impl_->model.mesh_triangles; }
+std::span<const std::array<std::uint32_t, 3>> World::cage_triangles(std::size_t segment) const {
+  return impl_->model.meshes_of.at(segment).cage.triangles;
+}
+std::vector<Eigen::Vector3d> World::cage_vertices(std::size_t segment) const {
+  const detail::SegmentMesh& m = impl_->model.meshes_of.at(segment);
+  if (!m.enabled) return {};
+  std::vector<Eigen::Vector3d> out(m.cage.offset.size());
+  kernels::cage_vertices(std::span(impl_->state.mesh.ring_pose).subspan(m.ring_offset, m.cage.ring_station.size()),
+                         m.cage.vertex_ring, m.cage.offset, out);
+  return out;
+}
+std::span<const kernels::RingPose> World::ring_poses(std::size_t segment) const {
+  const detail::SegmentMesh& m = impl_->model.meshes_of.at(segment);
+  return std::span<const kernels::RingPose>(impl_->state.mesh.ring_pose).subspan(m.ring_offset, m.cage.ring_station.size());
+}
 
 const FrameProfile& World::last_profile() const { return impl_->profile; }
 std::span<const Event> World::events() const { return impl_->events; }

@@ -98,6 +98,7 @@ WorldModel build_world_model(const WorldDesc& desc) {
 
   build_environment(desc, m);
   std::vector<Eigen::Vector3d> initial_positions;
+  std::vector<RodPoseBuffer> rest_poses;
   std::set<std::string> names;
   for (std::size_t si = 0; si < desc.segments.size(); ++si) {
     const SegmentDesc& d = desc.segments[si];
@@ -181,8 +182,8 @@ WorldModel build_world_model(const WorldDesc& desc) {
                                 std::span(m.mass_lower).subspan(m.node_total, n));
 
     // Initial poses, for default attachment targets.
-    RodPoseBuffer pose_buffer(n);
-    const kernels::RodPoses<double> poses = pose_buffer.view();
+    rest_poses.emplace_back(n);
+    const kernels::RodPoses<double> poses = rest_poses.back().view();
     kernels::rod_forward_sweep(rest.base, rest.section_length, kernels::StrainView<const double>{rest.strain}, poses);
     for (std::size_t i = 0; i < n; ++i) initial_positions.push_back(poses.node_position.get(i));
 
@@ -252,7 +253,9 @@ WorldModel build_world_model(const WorldDesc& desc) {
     m.node_total += n;
     m.segments.push_back(std::move(seg));
   }
-  build_beads(desc, initial_positions, m);
+  std::vector<TriangleMesh> meshes = load_organ_meshes(desc, m);
+  build_beads(desc, initial_positions, rest_poses, meshes, m);
+  bind_organ_meshes(desc, rest_poses, meshes, m);
   return m;
 }
 

@@ -8,8 +8,13 @@
 
 #include <memory>
 
+#include "cage_builder.hpp"
+#include "embree_scene.hpp"
 #include "haustra/kernels/pose.hpp"
+#include "haustra/mesh_io.hpp"
+#include "haustra/rod_pose_buffer.hpp"
 #include "haustra/world.hpp"
+#include "skin_binding.hpp"
 #include "haustra/world_desc.hpp"
 
 namespace haustra::detail {
@@ -64,6 +69,27 @@ struct BeadModel {
   [[nodiscard]] bool excluded(std::uint32_t a, std::uint32_t b) const;
 };
 
+// A segment's organ mesh: its cage, its binding, and where its rings and vertices live in the
+// world's buffers (vertex ranges start on whole skinning blocks).
+struct SegmentMesh {
+  bool enabled = false;
+  bool normals = false;
+  MeshInfo info;
+  CageModel cage;
+  SkinBinding binding;
+  std::size_t ring_offset = 0;
+  std::size_t vertex_offset = 0;  // a multiple of kSkinLanes
+  std::size_t triangle_offset = 0;
+};
+
+// Skinning and normals run over fixed chunks of blocks, so the work splits the same way whatever
+// the thread count (each vertex is computed alone: any split gives the same bits).
+struct SkinChunk {
+  std::uint32_t segment = 0;
+  std::size_t first_block = 0;  // local to the segment's binding
+  std::size_t blocks = 0;
+};
+
 struct WorldModel {
   Eigen::Vector3d gravity;
   double dt = 0.0;
@@ -92,6 +118,16 @@ struct WorldModel {
   std::shared_ptr<const StaticMeshes> meshes;
   std::vector<InstrumentDesc> instruments;  // keyframes sorted, axes unit length
 
+  // Organ meshes (one entry per segment, disabled where a segment has none).
+  std::vector<SegmentMesh> meshes_of;
+  std::size_t ring_total = 0;
+  std::size_t mesh_vertex_total = 0;  // with padding between segments
+  std::vector<std::array<std::uint32_t, 3>> mesh_triangles;  // world vertex indices
+  std::vector<std::uint32_t> vertex_triangle_start, vertex_triangle;  // CSR: triangles around each vertex
+  std::vector<SkinChunk> skin_chunks;
+  bool any_mesh = false;
+  bool any_normals = false;
+
   std::vector<Eigen::Vector3d> initial_attachment_target;
   std::vector<Eigen::Quaterniond> initial_attachment_rotation;
   std::vector<std::uint8_t> initial_attachment_active;
@@ -102,7 +138,18 @@ WorldModel build_world_model(const WorldDesc& desc);
 
 // The beads of one segment (nodes and radii) and, with all segments placed, the world's bead
 // arrays and rest-pose exclusions; the environment and the instruments. Part of the builder.
-void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& initial_positions, WorldModel& m);
+void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& initial_positions,
+                 const std::vector<RodPoseBuffer>& rest_poses, const std::vector<TriangleMesh>& meshes, WorldModel& m);
 void build_environment(const WorldDesc& desc, WorldModel& m);
+
+// Organ meshes: loaded or generated around each segment's rest pose before the beads (a bead may
+// take its radius from the mesh), then caged and bound once the beads exist.
+std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const WorldModel& m);
+void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
+                       std::vector<TriangleMesh>& meshes, WorldModel& m);
+// The median distance from a station to the mesh wall over a ring of rays in its (d1, d2) plane;
+// wall: an Embree scene of the mesh. Throws when no ray meets the wall within `reach`.
+double mesh_cross_section_radius(const EmbreeScene& wall, const kernels::Pose& station, double reach,
+                                 const std::string& where);
 
 }  // namespace haustra::detail

@@ -118,6 +118,10 @@ void init_world_state(const WorldModel& model, WorldState& state) {
     kernels::rod_forward_sweep(state.now.base[s], v.section_length, v.strain, v.poses);
   }
   state.frame_start.copy_from(state.now);
+  state.mesh.ring_pose.assign(model.ring_total, kernels::RingPose{});
+  state.mesh.ring_delta.assign(kernels::kRingDeltaFloats * model.ring_total, 0.0f);
+  state.mesh.position.resize(model.mesh_vertex_total);
+  state.mesh.normal.resize(model.mesh_vertex_total);
 }
 
 SegmentViews segment_views(const WorldModel& model, WorldState& state, std::size_t segment) {

@@ -4,6 +4,8 @@
 #include <vector>
 
 #include "haustra/kernels/broad_phase.hpp"
+#include "haustra/kernels/cage_rings.hpp"
+#include "haustra/kernels/skinning.hpp"
 #include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/rod_newton.hpp"
@@ -116,6 +118,23 @@ struct CollisionState {
   ContactReport report;
 };
 
+struct FloatVec3Buffer {
+  std::vector<float> x, y, z;
+  void resize(std::size_t n) {
+    x.assign(n, 0.0f);
+    y.assign(n, 0.0f);
+    z.assign(n, 0.0f);
+  }
+  [[nodiscard]] kernels::FloatVec3Out out() { return {x, y, z}; }
+};
+
+// The organ meshes' per-frame state: ring poses and how they moved, skinned vertices and normals.
+struct MeshState {
+  std::vector<kernels::RingPose> ring_pose;  // model.ring_total
+  std::vector<float> ring_delta;             // kRingDeltaFloats per ring
+  FloatVec3Buffer position, normal;          // model.mesh_vertex_total
+};
+
 struct WorldState {
   PersistentState now;
   PersistentState frame_start;  // snapshot: last good frame, and the filter's r^{t−1}
@@ -138,6 +157,7 @@ struct WorldState {
   std::vector<double> strain_before_update;      // lagged: the strains before the last update
   CollisionState collision;
   std::vector<InstrumentState> instruments;
+  MeshState mesh;
 
   std::uint64_t frame = 0;
   double time = 0.0;

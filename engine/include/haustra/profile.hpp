@@ -20,6 +20,9 @@ enum class Stage : std::uint8_t {
   filter,          // inertia filter
   guard,           // finite values and bounds
   report,          // penetrations and instrument forces at the frame's end
+  cage,            // cage rings follow the rod
+  skin,            // the organ meshes follow the rings (rigid-group MVC)
+  normals,         // per-vertex normals of the skinned meshes
   count
 };
 

@@ -8,8 +8,10 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "haustra/error.hpp"
+#include "haustra/kernels/cage_rings.hpp"
 #include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/spans.hpp"
 #include "haustra/profile.hpp"
@@ -39,6 +41,52 @@ struct SegmentInfo {
   // polyline's vertices from the rod's curve (includes the resampling to N+1 nodes). Metres.
   double rest_node_deviation = 0.0;
   double rest_polyline_deviation = 0.0;
+};
+
+// How the cage around a segment's organ mesh came out (docs/decisions/0017-cage-builder.md).
+struct CageReport {
+  std::size_t rings = 0, bead_rings = 0, middle_rings = 0;
+  std::size_t dropped_rings = 0;          // rings taken out of the cage where it folded (beads stay)
+  std::size_t ring_vertices = 0;          // m per ring
+  std::size_t vertices = 0, triangles = 0;
+  double clearance = 0.0;                 // m asked between mesh and cage
+  // How far ring vertices went beyond their template (the bead's radius), m; negative: inside it.
+  double inflation_min = 0.0, inflation_mean = 0.0, inflation_max = 0.0;
+  int iterations = 0;                     // inflation passes
+  std::size_t held_at_bends = 0;          // ring vertices held back on the inner side of a bend
+  double tightest_bend = 0.0;             // m: the smallest bend radius at a ring
+  // Embree's final verification: all zero for a cage that embeds the mesh.
+  std::size_t mesh_vertices_outside = 0, crossing_edges = 0, self_intersections = 0;
+  // Cage edges through the cage of a part of the organ more than 4 radii away along the rod:
+  // loops of the organ that touch. The cage is then the union of its parts (allowed).
+  std::size_t touching_loops = 0;
+  double seconds = 0.0;
+};
+
+// The binding of the mesh to the cage: mean value coordinates (or linear-blend weights) per mesh
+// vertex, grouped by ring, localized to the rings of largest weight.
+struct SkinReport {
+  SkinningMethod method = SkinningMethod::mean_value;
+  std::size_t rings_per_vertex = 0;       // slots per vertex (all rings when not localized)
+  double min_weight = 0.0;                // most negative MVC weight of any vertex
+  double max_negative_mass = 0.0;         // Σ|w| of negative weights, worst vertex
+  double mean_negative_mass = 0.0;
+  std::size_t negative_vertices = 0;      // vertices with any negative weight
+  std::size_t on_face = 0, on_vertex = 0; // vertices found on the cage (exact branches)
+  double max_dropped_mass = 0.0;          // Σ|w| of the rings left out by localization, worst vertex
+  double mean_dropped_mass = 0.0;
+  double rest_error = 0.0;                // m: skinned rest pose vs the input mesh (float rounding)
+  double seconds = 0.0;                   // to compute the weights
+};
+
+// A segment's organ mesh: where its vertices are in the world's mesh buffers, and how it was bound.
+struct MeshInfo {
+  bool enabled = false;
+  std::string source;                     // file, or "procedural"
+  Range vertices;                         // into mesh_positions()
+  Range triangles;                        // into mesh_triangles()
+  CageReport cage;
+  SkinReport skin;
 };
 
 enum class ContactKind : std::uint8_t { bead, plane, sphere, capsule, mesh, instrument };
@@ -155,6 +203,19 @@ class World {
   void set_instrument_pose(std::size_t instrument, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis);
   void set_instrument_grasp(std::size_t instrument, bool closed);
   [[nodiscard]] InstrumentReading instrument(std::size_t instrument) const;
+
+  // Organ meshes. Positions and normals are float SoA buffers over all segments' meshes (each
+  // segment's range in mesh(s).vertices; the gaps between ranges are padding), updated at the end
+  // of every step and valid until the next one. Triangles index those buffers.
+  [[nodiscard]] const MeshInfo& mesh(std::size_t segment) const;
+  [[nodiscard]] std::size_t mesh_buffer_size() const;
+  [[nodiscard]] kernels::Vec3View<const float> mesh_positions() const;
+  [[nodiscard]] kernels::Vec3View<const float> mesh_normals() const;
+  [[nodiscard]] std::span<const std::array<std::uint32_t, 3>> mesh_triangles() const;
+  // A segment's cage at the current pose (for drawing and checks) and its ring poses.
+  [[nodiscard]] std::vector<Eigen::Vector3d> cage_vertices(std::size_t segment) const;
+  [[nodiscard]] std::span<const std::array<std::uint32_t, 3>> cage_triangles(std::size_t segment) const;
+  [[nodiscard]] std::span<const kernels::RingPose> ring_poses(std::size_t segment) const;
 
   [[nodiscard]] const FrameProfile& last_profile() const;
   [[nodiscard]] std::span<const Event> events() const;

@@ -86,6 +86,50 @@ struct BeadsDesc {
   std::vector<int> nodes;      // explicit node indices (negative counts from the tip)
   double radius = 0.0;         // m; 0: the segment's cross-section radius
   std::vector<std::pair<double, double>> radius_profile;  // (fraction of the length, radius in m)
+  // Each bead as wide as the organ mesh's cross-section at its node (the median distance from the
+  // node to the mesh wall over a ring of rays in the node's normal plane). Needs a mesh.
+  bool radius_from_mesh = false;
+};
+
+// A procedural organ: a closed tube around the rod's rest centreline, with regular haustral bulges
+// between semilunar folds and the three taeniae coli (longitudinal bands) pulling the wall in.
+struct ProceduralOrganDesc {
+  int vertices = 10'000;           // about this many (1,000 to 1,000,000)
+  double radius = 0.0;             // m, mean wall radius; 0: the segment's radius
+  double haustra_spacing = 0.03;   // m between folds; 0: no haustra
+  double haustra_depth = 0.15;     // fraction of the radius a fold pulls in
+  double taenia_depth = 0.08;      // fraction of the radius a taenia pulls in; 0: none
+  double end_taper = 0.25;         // the caps: fraction of the radius the tube rounds off over
+};
+
+enum class MeshSource : std::uint8_t { procedural, file };
+enum class SkinningMethod : std::uint8_t {
+  mean_value,    // the paper's cage and mean value coordinates
+  linear_blend,  // linear-blend skinning on the bead frames (for comparison: the collapsing joint)
+};
+
+// The cage around the organ mesh (the paper's §6): a bead template ring on every bead, a middle
+// template ring halfway between beads, each of `ring_vertices` vertices pushed out until the mesh
+// is embedded; capped ends.
+struct CageDesc {
+  int ring_vertices = 8;
+  bool middle_rings = true;
+  double clearance = 0.0;     // m between the mesh and the cage; 0: 5 % of the segment radius
+  int max_iterations = 40;    // inflation passes
+};
+
+// The detailed organ mesh a segment drives, at the rod's rest pose.
+struct OrganMeshDesc {
+  bool enabled = false;
+  MeshSource source = MeshSource::procedural;
+  ProceduralOrganDesc procedural;
+  std::string file;            // any format assimp reads
+  double scale = 1.0;          // file units to metres (0.001 for millimetres)
+  Eigen::Vector3d translate = Eigen::Vector3d::Zero();  // m, after scaling
+  CageDesc cage;
+  SkinningMethod skinning = SkinningMethod::mean_value;
+  int rings_per_vertex = 4;    // localization: the rings of largest weight kept per vertex; 0: all
+  bool normals = true;         // per-vertex normals every frame
 };
 
 struct SegmentDesc {
@@ -110,6 +154,7 @@ struct SegmentDesc {
   std::vector<AttachmentDesc> attachments;
   std::vector<PointLoadDesc> loads;
   BeadsDesc beads;
+  OrganMeshDesc mesh;
 };
 
 enum class BroadPhase : std::uint8_t { automatic, brute, grid, sweep };

@@ -1,0 +1,42 @@
+#include "mesh_stages.hpp"
+
+#include "haustra/kernels/cage_rings.hpp"
+#include "haustra/kernels/skinning.hpp"
+
+namespace haustra::detail {
+
+void stage_cage(const WorldModel& model, WorldState& state, std::size_t segment) {
+  const SegmentMesh& mesh = model.meshes_of[segment];
+  if (!mesh.enabled) return;
+  const std::size_t rings = mesh.cage.ring_station.size();
+  const std::span<kernels::RingPose> pose = std::span(state.mesh.ring_pose).subspan(mesh.ring_offset, rings);
+  kernels::ring_poses(segment_views(model, state, segment).poses, mesh.cage.ring_station, pose);
+  kernels::ring_deltas(mesh.cage.ring_rest, pose,
+                       std::span(state.mesh.ring_delta).subspan(kernels::kRingDeltaFloats * mesh.ring_offset,
+                                                               kernels::kRingDeltaFloats * rings));
+}
+
+void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk) {
+  const SkinChunk& c = model.skin_chunks[chunk];
+  const SegmentMesh& mesh = model.meshes_of[c.segment];
+  const std::size_t n = mesh.binding.rest_x.size();
+  auto part = [&](std::vector<float>& v) { return std::span(v).subspan(mesh.vertex_offset, n); };
+  const std::size_t rings = mesh.cage.ring_station.size();
+  kernels::skin_rigid_groups(mesh.binding.view(),
+                             std::span<const float>(state.mesh.ring_delta)
+                                 .subspan(kernels::kRingDeltaFloats * mesh.ring_offset, kernels::kRingDeltaFloats * rings),
+                             c.first_block, c.blocks,
+                             {part(state.mesh.position.x), part(state.mesh.position.y), part(state.mesh.position.z)});
+}
+
+void stage_normals(const WorldModel& model, WorldState& state, std::size_t chunk) {
+  const SkinChunk& c = model.skin_chunks[chunk];
+  const SegmentMesh& mesh = model.meshes_of[c.segment];
+  if (!mesh.normals) return;
+  const std::size_t first = mesh.vertex_offset + c.first_block * kernels::kSkinLanes;
+  kernels::vertex_normals(model.mesh_triangles, model.vertex_triangle_start, model.vertex_triangle, state.mesh.position.x,
+                          state.mesh.position.y, state.mesh.position.z, first, c.blocks * kernels::kSkinLanes,
+                          state.mesh.normal.out());
+}
+
+}  // namespace haustra::detail

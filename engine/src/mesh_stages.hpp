@@ -1,0 +1,15 @@
+#pragma once
+// The frame's last stages: cage rings follow the rod, the organ meshes follow the rings, normals.
+#include "world_model.hpp"
+#include "world_state.hpp"
+
+namespace haustra::detail {
+
+// Per segment with a mesh: ring poses from the rod's stations and their change since rest.
+void stage_cage(const WorldModel& model, WorldState& state, std::size_t segment);
+// Per skinning chunk: vertices from the ring deltas (rigid-group form).
+void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk);
+// Per skinning chunk: normals of its vertices, where the segment asked for them.
+void stage_normals(const WorldModel& model, WorldState& state, std::size_t chunk);
+
+}  // namespace haustra::detail

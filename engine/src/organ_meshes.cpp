@@ -1,0 +1,150 @@
+// Organ meshes of the segments: loaded or generated at the rest pose, caged and bound to the rings.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "haustra/error.hpp"
+#include "haustra/procedural_organ.hpp"
+#include "haustra/rod_curve.hpp"
+#include "world_model.hpp"
+
+namespace haustra::detail {
+namespace {
+
+[[noreturn]] void fail(ErrorCode code, const std::string& field, const std::string& detail) {
+  throw FieldError(code, field, detail);
+}
+
+constexpr std::size_t kChunkBlocks = 64;  // 512 vertices per skinning task
+
+}  // namespace
+
+double mesh_cross_section_radius(const EmbreeScene& wall, const kernels::Pose& station, double reach,
+                                 const std::string& where) {
+  constexpr int kRays = 16;
+  const Eigen::Matrix3d r = station.rotation.toRotationMatrix();
+  std::vector<double> hits;
+  for (int i = 0; i < kRays; ++i) {
+    const double theta = 2.0 * std::numbers::pi * i / kRays;
+    const Eigen::Vector3d dir = std::cos(theta) * r.col(0) + std::sin(theta) * r.col(1);
+    const EmbreeScene::Hit h = wall.first_hit(station.position, dir, 0.0, reach);
+    if (h.found) hits.push_back(h.distance);
+  }
+  if (hits.size() < kRays / 2)
+    fail(ErrorCode::invalid_geometry, where,
+         fmt::format("only {} of {} rays from the node meet the organ mesh within {:.3g} m: the mesh does not surround "
+                     "the rod there",
+                     hits.size(), kRays, reach));
+  std::nth_element(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(hits.size() / 2), hits.end());
+  return hits[hits.size() / 2];
+}
+
+std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const WorldModel& m) {
+  std::vector<TriangleMesh> meshes(desc.segments.size());
+  for (std::size_t si = 0; si < desc.segments.size(); ++si) {
+    const OrganMeshDesc& d = desc.segments[si].mesh;
+    if (!d.enabled) continue;
+    const std::string where = fmt::format("segment[{}].mesh", si);
+    const SegmentModel& seg = m.segments[si];
+    TriangleMesh& mesh = meshes[si];
+    if (d.source == MeshSource::procedural) {
+      const RodCurve curve(std::span<const double>(m.section_length).subspan(seg.node_offset, seg.node_count - 1),
+                           std::span<const double>(m.rest_strain).subspan(4 * seg.node_offset, 4 * seg.node_count),
+                           seg.initial_base);
+      mesh = procedural_organ(curve, d.procedural, desc.segments[si].cross_section.radius, where + ".procedural");
+    } else {
+      if (d.file.empty()) fail(ErrorCode::invalid_argument, where + ".file", "a mesh from a file needs file = \"path\"");
+      if (!std::isfinite(d.scale) || !(d.scale > 0.0))
+        fail(ErrorCode::invalid_argument, where + ".scale",
+             fmt::format("expected a positive scale (0.001 for millimetres), got {}", d.scale));
+      if (!d.translate.allFinite()) fail(ErrorCode::invalid_argument, where + ".translate", "expected three finite numbers");
+      try {
+        mesh = load_mesh(d.file);
+      } catch (const Error& e) {
+        fail(e.code(), where + ".file", e.what());
+      }
+      for (auto& v : mesh.vertices) v = d.scale * v + d.translate;
+      for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+        for (std::uint32_t v : mesh.triangles[t])
+          if (v >= mesh.vertices.size())
+            fail(ErrorCode::invalid_geometry, where + ".file",
+                 fmt::format("{}: triangle {} uses vertex {} of {}", d.file, t, v, mesh.vertices.size()));
+    }
+  }
+  return meshes;
+}
+
+void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
+                       std::vector<TriangleMesh>& meshes, WorldModel& m) {
+  m.meshes_of.assign(desc.segments.size(), SegmentMesh{});
+  for (std::size_t si = 0; si < desc.segments.size(); ++si) {
+    const SegmentDesc& sd = desc.segments[si];
+    const OrganMeshDesc& d = sd.mesh;
+    if (!d.enabled) continue;
+    const std::string where = fmt::format("segment[{}].mesh", si);
+    const SegmentModel& seg = m.segments[si];
+    if (d.rings_per_vertex < 0 || d.rings_per_vertex > 4096)
+      fail(ErrorCode::invalid_argument, where + ".rings_per_vertex",
+           fmt::format("expected 0 (all rings) or a count up to 4096, got {}", d.rings_per_vertex));
+    if (!std::isfinite(d.cage.clearance) || d.cage.clearance < 0.0 || d.cage.clearance > sd.cross_section.radius)
+      fail(ErrorCode::invalid_argument, where + ".cage.clearance",
+           fmt::format("expected a clearance in [0, {}] m (0: 5 % of the radius), got {}", sd.cross_section.radius,
+                       d.cage.clearance));
+    if (seg.bead_count < 2)
+      fail(ErrorCode::invalid_argument, where,
+           "the cage is built from the beads: give the segment at least two beads ([segment.beads])");
+
+    SegmentMesh& out = m.meshes_of[si];
+    out.enabled = true;
+    out.normals = d.normals;
+    out.info.enabled = true;
+    out.info.source = d.source == MeshSource::procedural ? "procedural" : d.file;
+    CageBuildInput in{.rest = rest_poses[si].view(),
+                      .section_length = std::span<const double>(m.section_length).subspan(seg.node_offset, seg.node_count - 1),
+                      .rest_strain = std::span<const double>(m.rest_strain).subspan(4 * seg.node_offset, 4 * seg.node_count),
+                      .bead_node = {},
+                      .bead_radius = {},
+                      .mesh = &meshes[si],
+                      .desc = d.cage,
+                      .clearance = d.cage.clearance > 0.0 ? d.cage.clearance : 0.05 * sd.cross_section.radius,
+                      .where = where};
+    for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
+      in.bead_node.push_back(m.beads.node[b] - seg.node_offset);
+      in.bead_radius.push_back(m.beads.radius[b]);
+    }
+    out.cage = build_cage(in, out.info.cage);
+    out.binding = d.skinning == SkinningMethod::mean_value
+                      ? bind_mean_value(out.cage, meshes[si], d.rings_per_vertex, out.info.skin)
+                      : bind_linear_blend(out.cage, meshes[si], out.info.skin);
+
+    out.ring_offset = m.ring_total;
+    m.ring_total += out.cage.ring_station.size();
+    out.vertex_offset = m.mesh_vertex_total;
+    m.mesh_vertex_total += out.binding.rest_x.size();  // whole blocks: the next segment starts aligned
+    out.triangle_offset = m.mesh_triangles.size();
+    for (const auto& t : meshes[si].triangles)
+      m.mesh_triangles.push_back({static_cast<std::uint32_t>(out.vertex_offset + t[0]),
+                                  static_cast<std::uint32_t>(out.vertex_offset + t[1]),
+                                  static_cast<std::uint32_t>(out.vertex_offset + t[2])});
+    out.info.vertices = {out.vertex_offset, meshes[si].vertices.size()};
+    out.info.triangles = {out.triangle_offset, meshes[si].triangles.size()};
+    for (std::size_t first = 0; first < out.binding.blocks(); first += kChunkBlocks)
+      m.skin_chunks.push_back({static_cast<std::uint32_t>(si), first, std::min(kChunkBlocks, out.binding.blocks() - first)});
+    m.any_mesh = true;
+    m.any_normals = m.any_normals || d.normals;
+    meshes[si] = TriangleMesh{};  // the binding keeps what stepping needs
+  }
+  // Triangles around each vertex (CSR), for normals summed in a fixed order.
+  m.vertex_triangle_start.assign(m.mesh_vertex_total + 1, 0);
+  for (const auto& t : m.mesh_triangles)
+    for (std::uint32_t v : t) ++m.vertex_triangle_start[v + 1];
+  for (std::size_t v = 0; v < m.mesh_vertex_total; ++v) m.vertex_triangle_start[v + 1] += m.vertex_triangle_start[v];
+  m.vertex_triangle.assign(m.vertex_triangle_start.back(), 0);
+  std::vector<std::uint32_t> fill(m.vertex_triangle_start.begin(), m.vertex_triangle_start.end() - 1);
+  for (std::size_t t = 0; t < m.mesh_triangles.size(); ++t)
+    for (std::uint32_t v : m.mesh_triangles[t]) m.vertex_triangle[fill[v]++] = static_cast<std::uint32_t>(t);
+}
+
+}  // namespace haustra::detail

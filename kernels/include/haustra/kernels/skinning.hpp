@@ -1,0 +1,59 @@
+#pragma once
+// Skinning the organ mesh from the cage rings.
+//
+// Mean value coordinates bind a mesh vertex x to the cage vertices p_j: x = Σ w_j p_j. Every cage
+// vertex moves rigidly with its ring g (p_j = c_g + R_g o_j), so the sum regroups by ring:
+//   x' = x + Σ_g [ (R'_g − R_g) A_g + b_g (c'_g − c_g) ],  b_g = Σ_{j∈g} w_j,  A_g = Σ_{j∈g} w_j o_j.
+// That is the rigid-group form: 4 floats per (vertex, ring) and a 3×4 delta per ring, applied in
+// displacement form so that the rest pose is reproduced exactly whatever rings are kept. Linear
+// blend skinning has the same shape (b_g its joint weights, A_g = b_g R_gᵀ(x − c_g)), so one
+// kernel serves both.
+//
+// Layout: vertices in blocks of kSkinLanes; for each block and each of `slots` rings per vertex,
+// kSkinLanes ring indices and 4 × kSkinLanes coefficients (b, Ax, Ay, Az), lane-contiguous. Padding
+// lanes and unused slots carry zero coefficients.
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <span>
+
+namespace haustra::kernels {
+
+inline constexpr std::size_t kSkinLanes = 8;
+inline constexpr std::size_t kSkinCoefficients = 4;  // b, Ax, Ay, Az
+
+struct SkinBindingView {
+  std::size_t slots = 0;                       // rings per vertex
+  std::span<const float> rest_x, rest_y, rest_z;  // blocks × kSkinLanes
+  std::span<const std::uint32_t> ring;         // blocks × slots × kSkinLanes
+  std::span<const float> coefficient;          // blocks × slots × 4 × kSkinLanes
+  [[nodiscard]] std::size_t blocks() const { return rest_x.size() / kSkinLanes; }
+};
+
+struct FloatVec3Out {
+  std::span<float> x, y, z;  // blocks × kSkinLanes (padding lanes written too)
+};
+
+// Blocks [first, first + count) of the binding; ring_delta: kRingDeltaFloats per ring.
+void skin_rigid_groups(const SkinBindingView& binding, std::span<const float> ring_delta, std::size_t first,
+                       std::size_t count, const FloatVec3Out& out);
+
+// Reference: the same sum, vertex by vertex and slot by slot, accumulated in double.
+void skin_rigid_groups_reference(const SkinBindingView& binding, std::span<const float> ring_delta,
+                                 const FloatVec3Out& out);
+
+// Reference of the binding itself: the plain sparse product over cage vertices (CSR rows of
+// (cage vertex, weight)), in double and displacement form: x' = x + Σ_j w_j (p'_j − p_j).
+void skin_csr_reference(std::span<const std::uint32_t> row_start, std::span<const std::uint32_t> column,
+                        std::span<const double> weight, std::span<const Eigen::Vector3d> rest_mesh,
+                        std::span<const Eigen::Vector3d> rest_cage, std::span<const Eigen::Vector3d> cage,
+                        std::span<Eigen::Vector3d> out);
+
+// Area-weighted vertex normals (unit; zero for a vertex of no triangle). vertex_triangles: CSR
+// rows of the triangles around each vertex, so every vertex is summed in a fixed order.
+void vertex_normals(std::span<const std::array<std::uint32_t, 3>> triangles,
+                    std::span<const std::uint32_t> vertex_triangle_start, std::span<const std::uint32_t> vertex_triangle,
+                    std::span<const float> x, std::span<const float> y, std::span<const float> z,
+                    std::size_t first_vertex, std::size_t vertex_count, const FloatVec3Out& normal);
+
+}  // namespace haustra::kernels
