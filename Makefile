@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo test test-release test-asan test-tsan bench validate stability-doc clean
+.PHONY: all deps configure build demo test test-release test-asan test-tsan bench validate stability-doc skinning-doc clean
 
 all: build
 
@@ -22,7 +22,7 @@ build: configure
 demo: build
 	@$(BIN)/haustra run scenes/demo.toml --out $(DEMO_OUT)
 	@echo
-	@echo "demo outputs: $(abspath $(DEMO_OUT))/ (summary.json, frames.csv, nodes.csv)"
+	@echo "demo outputs: $(abspath $(DEMO_OUT))/ (summary.json, frames.csv, nodes.csv, mesh/ deformed meshes, mesh.glb animation)"
 
 # Release tests, then the whole suite under ASan+UBSan and the threaded tests under TSan.
 test: test-release test-asan test-tsan
@@ -54,6 +54,11 @@ validate: build
 stability-doc: build
 	@$(BIN)/haustra stability --markdown > docs/stability.md
 	@echo "wrote $(abspath docs/stability.md)"
+
+# Regenerates docs/skinning.md's table (the localization study).
+skinning-doc: build
+	@$(BIN)/haustra skinning --markdown > docs/skinning-table.md
+	@echo "wrote $(abspath docs/skinning-table.md)"
 
 clean:
 	rm -rf build out

@@ -1,17 +1,21 @@
 #pragma once
-// The cage around an organ mesh (the paper's §6.1–6.2), built once at the rod's rest pose.
+// The cage around an organ mesh (the paper's §6.1–6.2), built once, in the binding pose.
 //
-// Rings: a bead template on every bead's node and a middle template at the rod station (node or
-// section midpoint) nearest halfway, in arc length, between adjacent beads. Each ring has m
-// vertices in its station's (d1, d2) plane; consecutive rings are joined by quads (two triangles)
-// and the ends are capped by one vertex each on the axis. Every ring vertex starts where a ray from
-// the ring's centre meets the mesh wall, plus the clearance, and is pushed outward (caps: along the
-// axis) until Embree finds every mesh vertex inside the cage and no mesh edge crossing it.
+// Binding pose: like the paper ("we build up a cage at the binding pose where the whole rectum is
+// fully extended"), the mesh is taken into the rod's material coordinates: every vertex x becomes
+// (o_x, o_y, s + o_z), s its closest point on the rest centreline and o its offset in the rod's
+// frame there. In that straight pose the rings are parallel: a bead template ring on every bead's
+// node and a middle template ring at the rod station (node or section midpoint) nearest halfway
+// between adjacent beads, m vertices each; quads join consecutive rings, one vertex caps each end.
+// Every ring vertex starts where a ray from the ring's centre meets the (straightened) mesh wall,
+// plus the clearance, and is pushed outward (caps: along the axis) until Embree finds every mesh
+// vertex inside the cage, no mesh edge crossing it and no cage triangle crossing another.
 //
-// Tight bends: all ring planes of a bend pass through its axis of curvature, so a ring vertex on
-// the inner side may reach no farther than where its ray crosses the neighbouring rings' planes
-// (it is held at 90 % of that). A middle ring whose cage still intersects itself is dropped; a
-// cage that cannot be repaired fails with the ring, its place on the rod and the bend radius there.
+// A real colon bends with radii close to its own radius and its loops touch: a cage of planar
+// rings around the curved rest pose folds on the inner side of such bends (all ring planes of a
+// bend meet at its axis). In the binding pose no ring plane meets another. Every cage vertex is a
+// fixed offset in its ring's frame, so the same cage, carried by the rest poses of the rings'
+// stations, is the cage at the curved rest pose (docs/decisions/0017-cage-in-the-binding-pose.md).
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -26,12 +30,15 @@ namespace haustra::detail {
 
 struct CageModel {
   std::vector<std::uint32_t> ring_station;    // per ring: 2k node k, 2k + 1 midpoint of section k
-  std::vector<kernels::RingPose> ring_rest;   // per ring, at rest
+  std::vector<kernels::RingPose> ring_rest;   // per ring, the station's rest pose (curved)
+  std::vector<kernels::RingPose> ring_binding;// per ring, in the binding pose (straight)
   std::vector<std::int32_t> ring_bead;        // per ring: the bead (local index) or −1 for a middle ring
   std::vector<std::uint32_t> vertex_ring;     // per cage vertex
   std::vector<Eigen::Vector3d> offset;        // per cage vertex, in its ring's frame
-  std::vector<Eigen::Vector3d> rest_vertices; // per cage vertex, world, at rest
+  std::vector<Eigen::Vector3d> binding_vertices;  // per cage vertex, binding pose
+  std::vector<Eigen::Vector3d> rest_vertices;     // per cage vertex, curved rest pose
   std::vector<std::array<std::uint32_t, 3>> triangles;  // outward
+  std::vector<Eigen::Vector3d> mesh_binding;  // the mesh's vertices in the binding pose
 };
 
 struct CageBuildInput {
@@ -46,7 +53,7 @@ struct CageBuildInput {
   std::string where;                     // e.g. "segment[0].mesh", for messages
 };
 
-// Throws FieldError{invalid_geometry} naming the ring and the bend when no embedding cage exists.
+// Throws FieldError{invalid_geometry} naming the ring when no embedding cage exists.
 CageModel build_cage(const CageBuildInput& in, CageReport& report);
 
 }  // namespace haustra::detail

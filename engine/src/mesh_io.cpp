@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <assimp/Exporter.hpp>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -50,6 +51,53 @@ bool is_closed(const TriangleMesh& mesh) {
   for (const auto& [edge, count] : edges)
     if (count != 2) return false;
   return !edges.empty();
+}
+
+void save_mesh(const std::filesystem::path& file, const TriangleMesh& mesh, std::span<const Eigen::Vector3d> normals) {
+  std::string ext = file.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const char* format = ext == ".obj" ? "obj" : ext == ".ply" ? "plyb" : ext == ".stl" ? "stlb" : ext == ".glb" ? "glb2" : nullptr;
+  if (format == nullptr)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("{}: unknown mesh format '{}' (expected .obj, .ply, .stl or .glb)", file.string(), ext));
+  // A minimal assimp scene: one node, one material, one mesh. aiScene frees what it owns.
+  aiScene scene;
+  scene.mRootNode = new aiNode();
+  scene.mRootNode->mNumMeshes = 1;
+  scene.mRootNode->mMeshes = new unsigned[1]{0};
+  scene.mNumMaterials = 1;
+  scene.mMaterials = new aiMaterial*[1]{new aiMaterial()};
+  scene.mNumMeshes = 1;
+  scene.mMeshes = new aiMesh*[1]{new aiMesh()};
+  aiMesh& m = *scene.mMeshes[0];
+  m.mMaterialIndex = 0;
+  m.mPrimitiveTypes = aiPrimitiveType_TRIANGLE;
+  m.mNumVertices = static_cast<unsigned>(mesh.vertices.size());
+  m.mVertices = new aiVector3D[mesh.vertices.size()];
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
+    m.mVertices[v] = aiVector3D(static_cast<float>(mesh.vertices[v].x()), static_cast<float>(mesh.vertices[v].y()),
+                                static_cast<float>(mesh.vertices[v].z()));
+  if (normals.size() == mesh.vertices.size()) {
+    m.mNormals = new aiVector3D[normals.size()];
+    for (std::size_t v = 0; v < normals.size(); ++v)
+      m.mNormals[v] = aiVector3D(static_cast<float>(normals[v].x()), static_cast<float>(normals[v].y()),
+                                 static_cast<float>(normals[v].z()));
+  }
+  m.mNumFaces = static_cast<unsigned>(mesh.triangles.size());
+  m.mFaces = new aiFace[mesh.triangles.size()];
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    m.mFaces[t].mNumIndices = 3;
+    m.mFaces[t].mIndices = new unsigned[3]{mesh.triangles[t][0], mesh.triangles[t][1], mesh.triangles[t][2]};
+  }
+  Assimp::Exporter exporter;
+  if (exporter.Export(&scene, format, file.string()) != AI_SUCCESS)
+    throw Error(ErrorCode::io, fmt::format("{}: cannot write the mesh: {}", file.string(), exporter.GetErrorString()));
+}
+
+double mesh_volume(std::span<const Eigen::Vector3d> vertices, std::span<const std::array<std::uint32_t, 3>> triangles) {
+  double v = 0.0;
+  for (const auto& t : triangles) v += vertices[t[0]].dot(vertices[t[1]].cross(vertices[t[2]]));
+  return v / 6.0;
 }
 
 }  // namespace haustra

@@ -19,7 +19,7 @@ void stage_cage(const WorldModel& model, WorldState& state, std::size_t segment)
 void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk) {
   const SkinChunk& c = model.skin_chunks[chunk];
   const SegmentMesh& mesh = model.meshes_of[c.segment];
-  const std::size_t n = mesh.binding.rest_x.size();
+  const std::size_t n = mesh.binding.vertices;
   auto part = [&](std::vector<float>& v) { return std::span(v).subspan(mesh.vertex_offset, n); };
   const std::size_t rings = mesh.cage.ring_station.size();
   kernels::skin_rigid_groups(mesh.binding.view(),
@@ -30,12 +30,9 @@ void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk) {
 }
 
 void stage_normals(const WorldModel& model, WorldState& state, std::size_t chunk) {
-  const SkinChunk& c = model.skin_chunks[chunk];
-  const SegmentMesh& mesh = model.meshes_of[c.segment];
-  if (!mesh.normals) return;
-  const std::size_t first = mesh.vertex_offset + c.first_block * kernels::kSkinLanes;
+  const NormalChunk& c = model.normal_chunks[chunk];
   kernels::vertex_normals(model.mesh_triangles, model.vertex_triangle_start, model.vertex_triangle, state.mesh.position.x,
-                          state.mesh.position.y, state.mesh.position.z, first, c.blocks * kernels::kSkinLanes,
+                          state.mesh.position.y, state.mesh.position.z, c.first_vertex, c.vertices,
                           state.mesh.normal.out());
 }
 

@@ -9,7 +9,7 @@ namespace haustra::detail {
 void stage_cage(const WorldModel& model, WorldState& state, std::size_t segment);
 // Per skinning chunk: vertices from the ring deltas (rigid-group form).
 void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk);
-// Per skinning chunk: normals of its vertices, where the segment asked for them.
+// Per normals chunk (segments that asked for normals): normals of its vertices.
 void stage_normals(const WorldModel& model, WorldState& state, std::size_t chunk);
 
 }  // namespace haustra::detail

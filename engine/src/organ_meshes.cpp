@@ -122,7 +122,7 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
     out.ring_offset = m.ring_total;
     m.ring_total += out.cage.ring_station.size();
     out.vertex_offset = m.mesh_vertex_total;
-    m.mesh_vertex_total += out.binding.rest_x.size();  // whole blocks: the next segment starts aligned
+    m.mesh_vertex_total += meshes[si].vertices.size();
     out.triangle_offset = m.mesh_triangles.size();
     for (const auto& t : meshes[si].triangles)
       m.mesh_triangles.push_back({static_cast<std::uint32_t>(out.vertex_offset + t[0]),
@@ -132,6 +132,11 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
     out.info.triangles = {out.triangle_offset, meshes[si].triangles.size()};
     for (std::size_t first = 0; first < out.binding.blocks(); first += kChunkBlocks)
       m.skin_chunks.push_back({static_cast<std::uint32_t>(si), first, std::min(kChunkBlocks, out.binding.blocks() - first)});
+    const std::size_t chunk_vertices = kChunkBlocks * kernels::kSkinLanes;
+    if (d.normals)
+      for (std::size_t first = 0; first < meshes[si].vertices.size(); first += chunk_vertices)
+        m.normal_chunks.push_back({static_cast<std::uint32_t>(si), out.vertex_offset + first,
+                                   std::min(chunk_vertices, meshes[si].vertices.size() - first)});
     m.any_mesh = true;
     m.any_normals = m.any_normals || d.normals;
     meshes[si] = TriangleMesh{};  // the binding keeps what stepping needs

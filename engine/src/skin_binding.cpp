@@ -16,34 +16,74 @@ namespace {
 using kernels::kSkinCoefficients;
 using kernels::kSkinLanes;
 
-SkinBinding empty_binding(const TriangleMesh& mesh, std::size_t slots) {
-  SkinBinding b;
-  b.vertices = mesh.vertices.size();
-  b.slots = slots;
-  const std::size_t blocks = (b.vertices + kSkinLanes - 1) / kSkinLanes;
-  b.rest_x.assign(blocks * kSkinLanes, 0.0f);
-  b.rest_y.assign(blocks * kSkinLanes, 0.0f);
-  b.rest_z.assign(blocks * kSkinLanes, 0.0f);
-  for (std::size_t v = 0; v < b.vertices; ++v) {
-    b.rest_x[v] = static_cast<float>(mesh.vertices[v].x());
-    b.rest_y[v] = static_cast<float>(mesh.vertices[v].y());
-    b.rest_z[v] = static_cast<float>(mesh.vertices[v].z());
+// Per vertex, its kept rings (ascending) and their coefficients (b, A), before packing.
+struct Slots {
+  std::size_t keep = 0;
+  std::vector<std::uint32_t> ring;  // vertices × keep
+  std::vector<double> coef;         // vertices × keep × 4: b, Ax, Ay, Az
+  void resize(std::size_t vertices, std::size_t k) {
+    keep = k;
+    ring.assign(vertices * k, 0);
+    coef.assign(vertices * k * 4, 0.0);
   }
-  b.ring.assign(blocks * slots * kSkinLanes, 0);
-  b.coefficient.assign(blocks * slots * kSkinCoefficients * kSkinLanes, 0.0f);
+  void set(std::size_t v, std::size_t slot, std::uint32_t g, double b, const Eigen::Vector3d& a) {
+    ring[v * keep + slot] = g;
+    double* c = &coef[(v * keep + slot) * 4];
+    c[0] = b;
+    c[1] = a.x();
+    c[2] = a.y();
+    c[3] = a.z();
+  }
+};
+
+// Packs vertices into blocks that share their ring set: vertices sorted by ring set (then index),
+// each set filling whole blocks, the last one padded.
+SkinBinding pack(const TriangleMesh& mesh, const Slots& slots) {
+  const std::size_t n = mesh.vertices.size(), k = slots.keep;
+  std::vector<std::uint32_t> order(n);
+  std::iota(order.begin(), order.end(), 0U);
+  auto set_of = [&](std::uint32_t v) { return std::span<const std::uint32_t>(slots.ring).subspan(v * k, k); };
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    const auto ra = set_of(a), rb = set_of(b);
+    return std::lexicographical_compare(ra.begin(), ra.end(), rb.begin(), rb.end());
+  });
+  SkinBinding b;
+  b.vertices = n;
+  b.slots = k;
+  std::size_t i = 0;
+  while (i < n) {
+    std::size_t j = i;
+    while (j < n && std::equal(set_of(order[i]).begin(), set_of(order[i]).end(), set_of(order[j]).begin())) ++j;
+    for (std::size_t first = i; first < j; first += kSkinLanes) {
+      const std::size_t block = b.ring.size() / std::max<std::size_t>(k, 1);
+      const auto rings = set_of(order[first]);
+      b.ring.insert(b.ring.end(), rings.begin(), rings.end());
+      b.coefficient.resize((block + 1) * k * kSkinCoefficients * kSkinLanes, 0.0f);
+      for (std::size_t l = 0; l < kSkinLanes; ++l) {
+        const bool real = first + l < j;
+        const std::uint32_t v = real ? order[first + l] : kernels::kNoVertex;
+        b.vertex.push_back(v);
+        b.rest_x.push_back(real ? static_cast<float>(mesh.vertices[v].x()) : 0.0f);
+        b.rest_y.push_back(real ? static_cast<float>(mesh.vertices[v].y()) : 0.0f);
+        b.rest_z.push_back(real ? static_cast<float>(mesh.vertices[v].z()) : 0.0f);
+        if (!real) continue;
+        for (std::size_t s = 0; s < k; ++s)
+          for (std::size_t c = 0; c < kSkinCoefficients; ++c)
+            b.coefficient[((block * k + s) * kSkinCoefficients + c) * kSkinLanes + l] =
+                static_cast<float>(slots.coef[(v * k + s) * 4 + c]);
+      }
+    }
+    i = j;
+  }
   return b;
 }
 
-void set_slot(SkinBinding& b, std::size_t v, std::size_t slot, std::uint32_t ring, double weight,
-              const Eigen::Vector3d& moment) {
-  const std::size_t block = v / kSkinLanes, lane = v % kSkinLanes;
-  const std::size_t at = (block * b.slots + slot) * kSkinLanes + lane;
-  const std::size_t c = (block * b.slots + slot) * kSkinCoefficients * kSkinLanes + lane;
-  b.ring[at] = ring;
-  b.coefficient[c] = static_cast<float>(weight);
-  b.coefficient[c + kSkinLanes] = static_cast<float>(moment.x());
-  b.coefficient[c + 2 * kSkinLanes] = static_cast<float>(moment.y());
-  b.coefficient[c + 3 * kSkinLanes] = static_cast<float>(moment.z());
+double rest_error(const SkinBinding& b, const TriangleMesh& mesh) {
+  double worst = 0.0;
+  for (std::size_t i = 0; i < b.vertex.size(); ++i)
+    if (b.vertex[i] != kernels::kNoVertex)
+      worst = std::max(worst, (Eigen::Vector3d(b.rest_x[i], b.rest_y[i], b.rest_z[i]) - mesh.vertices[b.vertex[i]]).norm());
+  return worst;
 }
 
 }  // namespace
@@ -54,12 +94,14 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
   const std::size_t rings = cage.ring_station.size();
   const std::size_t n = cage.rest_vertices.size();
   const std::size_t keep = rings_per_vertex <= 0 ? rings : std::min(rings, static_cast<std::size_t>(rings_per_vertex));
-  SkinBinding b = empty_binding(mesh, keep);
-  const kernels::CageView view{cage.rest_vertices, cage.triangles};
-  const kernels::CageFrame frame = kernels::cage_frame(cage.rest_vertices);
+  Slots slots;
+  slots.resize(mesh.vertices.size(), keep);
+  // Weights in the binding pose, where the cage embeds the mesh without folds.
+  const kernels::CageView view{cage.binding_vertices, cage.triangles};
+  const kernels::CageFrame frame = kernels::cage_frame(cage.binding_vertices);
 
   struct VertexStats {
-    double min_weight = 0.0, negative_mass = 0.0, dropped_mass = 0.0;
+    double min_weight = 0.0, negative_mass = 0.0, dropped_mass = 0.0, correction = 0.0;
     kernels::MvcLocation location = kernels::MvcLocation::general;
   };
   std::vector<VertexStats> stats(mesh.vertices.size());
@@ -70,7 +112,7 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
     std::vector<Eigen::Vector3d> moment(rings);
     std::vector<std::uint32_t> order(rings);
     for (std::size_t v = range.begin(); v != range.end(); ++v) {
-      const kernels::MvcResult r = kernels::mean_value_coordinates(mesh.vertices[v], view, frame, scratch, w);
+      const kernels::MvcResult r = kernels::mean_value_coordinates(cage.mesh_binding[v], view, frame, scratch, w);
       std::fill(mass.begin(), mass.end(), 0.0);
       std::fill(weight.begin(), weight.end(), 0.0);
       std::fill(moment.begin(), moment.end(), Eigen::Vector3d::Zero());
@@ -90,8 +132,23 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
       for (std::size_t k = keep; k < rings; ++k) dropped += mass[order[k]];
       // Renormalized to a partition of unity, so a rigid translation of the rod stays exact.
       const double scale = kept != 0.0 ? 1.0 / kept : 1.0;
-      for (std::size_t k = 0; k < keep; ++k) set_slot(b, v, k, order[k], scale * weight[order[k]], scale * moment[order[k]]);
-      stats[v] = {r.min_weight, r.negative_mass, dropped, r.location};
+      // Carried to the rings' rest poses, the kept weights put the vertex at Σ b_g c_g + R_g A_g;
+      // the rest of the way (the bend between binding and rest pose, and what localization left
+      // out) is shared by the kept rings in proportion to their weight, rotating with each ring:
+      // the rest pose is then reproduced exactly and a rigid motion of the rod moves the vertex
+      // rigidly.
+      Eigen::Vector3d reach = Eigen::Vector3d::Zero();
+      for (std::size_t k = 0; k < keep; ++k) {
+        const kernels::RingPose& rp = cage.ring_rest[order[k]];
+        reach += scale * (weight[order[k]] * rp.centre + rp.rotation * moment[order[k]]);
+      }
+      const Eigen::Vector3d correction = mesh.vertices[v] - reach;
+      for (std::size_t k = 0; k < keep; ++k) {
+        const double bg = scale * weight[order[k]];
+        const Eigen::Vector3d ag = scale * moment[order[k]] + bg * (cage.ring_rest[order[k]].rotation.transpose() * correction);
+        slots.set(v, k, order[k], bg, ag);
+      }
+      stats[v] = {r.min_weight, r.negative_mass, dropped, correction.norm(), r.location};
       if (csr != nullptr) {
         std::vector<std::uint8_t> kept_ring(rings, 0);
         for (std::size_t k = 0; k < keep; ++k) kept_ring[order[k]] = 1;
@@ -110,6 +167,7 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
     report.min_weight = std::min(report.min_weight, s.min_weight);
     report.max_negative_mass = std::max(report.max_negative_mass, s.negative_mass);
     report.max_dropped_mass = std::max(report.max_dropped_mass, s.dropped_mass);
+    report.max_rest_correction = std::max(report.max_rest_correction, s.correction);
     negative_sum += s.negative_mass;
     dropped_sum += s.dropped_mass;
     report.negative_vertices += s.negative_mass > 0.0 ? 1 : 0;
@@ -119,10 +177,8 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
   const auto count = static_cast<double>(std::max<std::size_t>(stats.size(), 1));
   report.mean_negative_mass = negative_sum / count;
   report.mean_dropped_mass = dropped_sum / count;
-  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-    const Eigen::Vector3d rest(b.rest_x[v], b.rest_y[v], b.rest_z[v]);
-    report.rest_error = std::max(report.rest_error, (rest - mesh.vertices[v]).norm());
-  }
+  SkinBinding b = pack(mesh, slots);
+  report.rest_error = rest_error(b, mesh);
   if (csr != nullptr) {
     csr->start.assign(1, 0);
     csr->column.clear();
@@ -144,7 +200,8 @@ SkinBinding bind_linear_blend(const CageModel& cage, const TriangleMesh& mesh, S
   std::vector<std::uint32_t> joints;  // bead rings, in order along the rod
   for (std::size_t g = 0; g < cage.ring_bead.size(); ++g)
     if (cage.ring_bead[g] >= 0) joints.push_back(static_cast<std::uint32_t>(g));
-  SkinBinding b = empty_binding(mesh, 2);
+  Slots slots;
+  slots.resize(mesh.vertices.size(), 2);
   tbb::parallel_for(std::size_t{0}, mesh.vertices.size(), [&](std::size_t v) {
     const Eigen::Vector3d& x = mesh.vertices[v];
     double best = std::numeric_limits<double>::infinity(), best_t = 0.0;
@@ -164,35 +221,16 @@ SkinBinding bind_linear_blend(const CageModel& cage, const TriangleMesh& mesh, S
     const double w[2] = {1.0 - best_t, best_t};
     for (std::size_t k = 0; k < 2; ++k) {
       const kernels::RingPose& r = cage.ring_rest[g[k]];
-      set_slot(b, v, k, g[k], w[k], w[k] * (r.rotation.transpose() * (x - r.centre)));
+      slots.set(v, k, g[k], w[k], w[k] * (r.rotation.transpose() * (x - r.centre)));
     }
   });
+  SkinBinding b = pack(mesh, slots);
   report = SkinReport{};
   report.method = SkinningMethod::linear_blend;
   report.rings_per_vertex = 2;
-  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-    const Eigen::Vector3d rest(b.rest_x[v], b.rest_y[v], b.rest_z[v]);
-    report.rest_error = std::max(report.rest_error, (rest - mesh.vertices[v]).norm());
-  }
+  report.rest_error = rest_error(b, mesh);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return b;
-}
-
-double localized_rest_error(const SkinBinding& b, const CageModel& cage, const TriangleMesh& mesh) {
-  double worst = 0.0;
-  for (std::size_t v = 0; v < b.vertices; ++v) {
-    const std::size_t block = v / kSkinLanes, lane = v % kSkinLanes;
-    Eigen::Vector3d x = Eigen::Vector3d::Zero();
-    for (std::size_t s = 0; s < b.slots; ++s) {
-      const std::size_t at = (block * b.slots + s) * kSkinLanes + lane;
-      const std::size_t c = (block * b.slots + s) * kSkinCoefficients * kSkinLanes + lane;
-      const kernels::RingPose& r = cage.ring_rest[b.ring[at]];
-      const Eigen::Vector3d a(b.coefficient[c + kSkinLanes], b.coefficient[c + 2 * kSkinLanes], b.coefficient[c + 3 * kSkinLanes]);
-      x += static_cast<double>(b.coefficient[c]) * r.centre + r.rotation * a;
-    }
-    worst = std::max(worst, (x - mesh.vertices[v]).norm());
-  }
-  return worst;
 }
 
 }  // namespace haustra::detail

@@ -1,7 +1,8 @@
 #pragma once
-// Binding an organ mesh to its cage at rest: mean value coordinates of every mesh vertex (in
-// double, in parallel), regrouped by ring into the rigid-group form the skinning kernel applies,
-// and localized to the rings of largest weight (docs/decisions/0018-skinning-localization.md).
+// Binding an organ mesh to its cage: mean value coordinates of every mesh vertex in the binding
+// pose (in double, in parallel), regrouped by ring into the rigid-group form the skinning kernel
+// applies, localized to the rings of largest weight, and made exact at the curved rest pose
+// (docs/decisions/0018-skinning-localization.md).
 // Linear-blend skinning on the bead rings is bound into the same form, for comparison.
 #include <cstdint>
 #include <vector>
@@ -16,12 +17,13 @@ namespace haustra::detail {
 struct SkinBinding {
   std::size_t vertices = 0;
   std::size_t slots = 0;
-  std::vector<float> rest_x, rest_y, rest_z;  // padded to whole blocks
-  std::vector<std::uint32_t> ring;           // local to the segment's rings
+  std::vector<float> rest_x, rest_y, rest_z;  // blocks × lanes
+  std::vector<std::uint32_t> vertex;         // blocks × lanes: mesh vertex (local), or kNoVertex
+  std::vector<std::uint32_t> ring;           // blocks × slots, local to the segment's rings
   std::vector<float> coefficient;
   [[nodiscard]] std::size_t blocks() const { return rest_x.size() / kernels::kSkinLanes; }
   [[nodiscard]] kernels::SkinBindingView view() const {
-    return {slots, rest_x, rest_y, rest_z, ring, coefficient};
+    return {slots, rest_x, rest_y, rest_z, vertex, ring, coefficient};
   }
 };
 
@@ -38,10 +40,5 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
 // Linear-blend skinning on the bead rings: each vertex on the two beads whose centre segment is
 // nearest, weights by its position along that segment.
 SkinBinding bind_linear_blend(const CageModel& cage, const TriangleMesh& mesh, SkinReport& report);
-
-// Where the localized, renormalized weights put each vertex at rest in the absolute form
-// Σ_g b_g c_g + R_g A_g (the displacement form the engine uses is exact at rest by construction):
-// the largest distance from the input mesh, m.
-double localized_rest_error(const SkinBinding& binding, const CageModel& cage, const TriangleMesh& mesh);
 
 }  // namespace haustra::detail

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "collision.hpp"
+#include "haustra/kernels/rod_forward_sweep.hpp"
 #include "instruments.hpp"
 #include "mesh_stages.hpp"
 #include "rod_stages.hpp"
@@ -94,9 +95,9 @@ struct World::Impl {
     time_stage(Stage::skin, [&] {
       scheduler.for_each(model.skin_chunks.size(), [&](std::size_t c) { detail::stage_skin(model, state, c); });
     });
-    if (model.any_normals)
+    if (!model.normal_chunks.empty())
       time_stage(Stage::normals, [&] {
-        scheduler.for_each(model.skin_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, state, c); });
+        scheduler.for_each(model.normal_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, state, c); });
       });
   }
 
@@ -376,6 +377,27 @@ kernels::Pose World::base_pose(std::size_t segment) const {
   if (segment >= impl_->model.segments.size())
     throw Error(ErrorCode::invalid_argument, fmt::format("segment index {} out of range", segment));
   return impl_->state.now.base[segment];
+}
+
+void World::pose_rod(std::size_t segment, const kernels::Pose& base, std::span<const double> strains) {
+  auto& m = impl_->model;
+  if (segment >= m.segments.size())
+    throw Error(ErrorCode::invalid_argument, fmt::format("segment index {} out of range", segment));
+  const detail::SegmentModel& seg = m.segments[segment];
+  if (strains.size() != 4 * seg.node_count)
+    throw Error(ErrorCode::invalid_argument, fmt::format("segment '{}' needs {} strains (4 per node), got {}", seg.info.name,
+                                                         4 * seg.node_count, strains.size()));
+  if (!base.position.allFinite() || !base.rotation.coeffs().allFinite() || !(base.rotation.norm() > 0.0))
+    throw Error(ErrorCode::invalid_argument, "pose_rod: the base pose must be finite");
+  for (double q : strains)
+    if (!std::isfinite(q)) throw Error(ErrorCode::invalid_argument, "pose_rod: strains must be finite");
+  auto& st = impl_->state;
+  std::copy(strains.begin(), strains.end(), st.now.strain.begin() + static_cast<std::ptrdiff_t>(4 * seg.node_offset));
+  st.now.base[segment] = {base.rotation.normalized(), base.position};
+  const detail::SegmentViews v = detail::segment_views(m, st, segment);
+  kernels::rod_forward_sweep(st.now.base[segment], v.section_length, v.strain, v.poses);
+  st.frame_start.copy_from(st.now);
+  impl_->follow_rod();
 }
 
 void World::set_external_load(std::size_t node, const Eigen::Vector3d& force, const Eigen::Vector3d& moment) {

@@ -70,7 +70,7 @@ struct BeadModel {
 };
 
 // A segment's organ mesh: its cage, its binding, and where its rings and vertices live in the
-// world's buffers (vertex ranges start on whole skinning blocks).
+// world's buffers.
 struct SegmentMesh {
   bool enabled = false;
   bool normals = false;
@@ -78,7 +78,7 @@ struct SegmentMesh {
   CageModel cage;
   SkinBinding binding;
   std::size_t ring_offset = 0;
-  std::size_t vertex_offset = 0;  // a multiple of kSkinLanes
+  std::size_t vertex_offset = 0;  // into the world's mesh buffers
   std::size_t triangle_offset = 0;
 };
 
@@ -88,6 +88,12 @@ struct SkinChunk {
   std::uint32_t segment = 0;
   std::size_t first_block = 0;  // local to the segment's binding
   std::size_t blocks = 0;
+};
+
+struct NormalChunk {
+  std::uint32_t segment = 0;
+  std::size_t first_vertex = 0;  // world mesh vertex
+  std::size_t vertices = 0;
 };
 
 struct WorldModel {
@@ -121,10 +127,11 @@ struct WorldModel {
   // Organ meshes (one entry per segment, disabled where a segment has none).
   std::vector<SegmentMesh> meshes_of;
   std::size_t ring_total = 0;
-  std::size_t mesh_vertex_total = 0;  // with padding between segments
+  std::size_t mesh_vertex_total = 0;
   std::vector<std::array<std::uint32_t, 3>> mesh_triangles;  // world vertex indices
   std::vector<std::uint32_t> vertex_triangle_start, vertex_triangle;  // CSR: triangles around each vertex
   std::vector<SkinChunk> skin_chunks;
+  std::vector<NormalChunk> normal_chunks;
   bool any_mesh = false;
   bool any_normals = false;
 

@@ -1,35 +1,53 @@
 #include "haustra/kernels/skinning.hpp"
 
 #include <cmath>
+#include <cstring>
 
 #include "haustra/kernels/cage_rings.hpp"
 
 namespace haustra::kernels {
+
+namespace {
+
+// Eight floats as one AVX register (GCC/Clang vector extension): the compiler's own loop
+// vectorizer turns the lane loop into scalar code once the slot loop is unrolled.
+using Lanes = float __attribute__((vector_size(kSkinLanes * sizeof(float))));
+static_assert(sizeof(Lanes) == kSkinLanes * sizeof(float));
+
+inline Lanes load(const float* p) {
+  Lanes v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+}  // namespace
 
 void skin_rigid_groups(const SkinBindingView& binding, std::span<const float> ring_delta, std::size_t first,
                        std::size_t count, const FloatVec3Out& out) {
   const std::size_t slots = binding.slots;
   const float* delta = ring_delta.data();
   for (std::size_t block = first; block < first + count; ++block) {
-    alignas(32) float dx[kSkinLanes] = {}, dy[kSkinLanes] = {}, dz[kSkinLanes] = {};
-    const std::uint32_t* ring = binding.ring.data() + block * slots * kSkinLanes;
-    const float* coef = binding.coefficient.data() + block * slots * kSkinCoefficients * kSkinLanes;
-    for (std::size_t s = 0; s < slots; ++s, ring += kSkinLanes, coef += kSkinCoefficients * kSkinLanes) {
-      // Lane by lane with no dependence between lanes: the compiler turns this into gathers of the
-      // ring deltas and FMAs across the 8 lanes.
-      for (std::size_t l = 0; l < kSkinLanes; ++l) {
-        const float* t = delta + kRingDeltaFloats * ring[l];
-        const float b = coef[l], ax = coef[kSkinLanes + l], ay = coef[2 * kSkinLanes + l], az = coef[3 * kSkinLanes + l];
-        dx[l] += t[0] * ax + t[1] * ay + t[2] * az + t[3] * b;
-        dy[l] += t[4] * ax + t[5] * ay + t[6] * az + t[7] * b;
-        dz[l] += t[8] * ax + t[9] * ay + t[10] * az + t[11] * b;
-      }
-    }
     const std::size_t base = block * kSkinLanes;
+    Lanes x = load(binding.rest_x.data() + base);
+    Lanes y = load(binding.rest_y.data() + base);
+    Lanes z = load(binding.rest_z.data() + base);
+    const std::uint32_t* ring = binding.ring.data() + block * slots;
+    const float* coef = binding.coefficient.data() + block * slots * kSkinCoefficients * kSkinLanes;
+    for (std::size_t s = 0; s < slots; ++s, coef += kSkinCoefficients * kSkinLanes) {
+      // One ring for all lanes: its 3×4 delta is broadcast against 8 vertices' coefficients.
+      const float* t = delta + kRingDeltaFloats * ring[s];
+      const Lanes b = load(coef), ax = load(coef + kSkinLanes), ay = load(coef + 2 * kSkinLanes),
+                  az = load(coef + 3 * kSkinLanes);
+      x += t[0] * ax + t[1] * ay + t[2] * az + t[3] * b;
+      y += t[4] * ax + t[5] * ay + t[6] * az + t[7] * b;
+      z += t[8] * ax + t[9] * ay + t[10] * az + t[11] * b;
+    }
     for (std::size_t l = 0; l < kSkinLanes; ++l) {
-      out.x[base + l] = binding.rest_x[base + l] + dx[l];
-      out.y[base + l] = binding.rest_y[base + l] + dy[l];
-      out.z[base + l] = binding.rest_z[base + l] + dz[l];
+      const std::uint32_t v = binding.vertex[base + l];
+      if (v == kNoVertex) continue;
+      out.x[v] = x[l];
+      out.y[v] = y[l];
+      out.z[v] = z[l];
     }
   }
 }
@@ -37,21 +55,22 @@ void skin_rigid_groups(const SkinBindingView& binding, std::span<const float> ri
 void skin_rigid_groups_reference(const SkinBindingView& binding, std::span<const float> ring_delta,
                                  const FloatVec3Out& out) {
   const std::size_t slots = binding.slots;
-  for (std::size_t v = 0; v < binding.rest_x.size(); ++v) {
-    const std::size_t block = v / kSkinLanes, lane = v % kSkinLanes;
+  for (std::size_t i = 0; i < binding.rest_x.size(); ++i) {
+    const std::uint32_t v = binding.vertex[i];
+    if (v == kNoVertex) continue;
+    const std::size_t block = i / kSkinLanes, lane = i % kSkinLanes;
     double d[3] = {0.0, 0.0, 0.0};
     for (std::size_t s = 0; s < slots; ++s) {
-      const std::size_t at = (block * slots + s) * kSkinLanes + lane;
       const std::size_t c = ((block * slots + s) * kSkinCoefficients) * kSkinLanes + lane;
       const double coef[4] = {binding.coefficient[c + kSkinLanes], binding.coefficient[c + 2 * kSkinLanes],
                               binding.coefficient[c + 3 * kSkinLanes], binding.coefficient[c]};  // Ax Ay Az b
-      const float* t = ring_delta.data() + kRingDeltaFloats * binding.ring[at];
+      const float* t = ring_delta.data() + kRingDeltaFloats * binding.ring[block * slots + s];
       for (int r = 0; r < 3; ++r)
         for (int k = 0; k < 4; ++k) d[r] += static_cast<double>(t[4 * r + k]) * coef[k];
     }
-    out.x[v] = static_cast<float>(binding.rest_x[v] + d[0]);
-    out.y[v] = static_cast<float>(binding.rest_y[v] + d[1]);
-    out.z[v] = static_cast<float>(binding.rest_z[v] + d[2]);
+    out.x[v] = static_cast<float>(binding.rest_x[i] + d[0]);
+    out.y[v] = static_cast<float>(binding.rest_y[i] + d[1]);
+    out.z[v] = static_cast<float>(binding.rest_z[i] + d[2]);
   }
 }
 

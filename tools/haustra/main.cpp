@@ -14,6 +14,7 @@
 #include "haustra/stability.hpp"
 #include "haustra/validation.hpp"
 #include "run_report.hpp"
+#include "haustra/skinning_study.hpp"
 
 namespace {
 
@@ -57,6 +58,8 @@ struct RunOptions {
   std::vector<std::string> sets;
   std::string out;
   bool quiet = false;
+  int mesh_every = 10;
+  std::string mesh_format = "ply";
 };
 
 int run(const RunOptions& o) {
@@ -81,7 +84,17 @@ int run(const RunOptions& o) {
                  info.name, info.length, info.rest_node_deviation, info.rest_polyline_deviation * 1e3);
   }
 
+  for (std::size_t s = 0; s < world->segment_count(); ++s) cli::print_mesh_info(stdout, *world, s);
+
   cli::RunRecord record;
+  // Deformed organ meshes: every mesh_every frames (and the first and last) as files, and all of
+  // them as one animated glTF.
+  std::unique_ptr<cli::MeshRecorder> meshes;
+  bool any_mesh = false;
+  for (std::size_t s = 0; s < world->segment_count(); ++s) any_mesh = any_mesh || world->mesh(s).enabled;
+  if (!o.out.empty() && any_mesh && o.mesh_every > 0)
+    meshes = std::make_unique<cli::MeshRecorder>(*world, std::filesystem::path(o.out) / "mesh", o.mesh_format);
+  if (meshes) meshes->record(*world);
   ProgressBar bar(scene.frames, !o.quiet);
   std::string status = "ok";
   std::string error;
@@ -97,6 +110,7 @@ int run(const RunOptions& o) {
       break;
     }
     record.add(world->last_profile(), *world);
+    if (meshes && ((f + 1) % o.mesh_every == 0 || f + 1 == scene.frames)) meshes->record(*world);
     bar.update(f + 1);
   }
   if (!o.quiet) {
@@ -115,6 +129,12 @@ int run(const RunOptions& o) {
                "penetrations and instrument forces), frames.csv (per-frame times, contacts, forces), nodes.csv "
                "(final nodes and strains)\n",
                std::filesystem::absolute(dir).lexically_normal().string());
+    if (meshes) {
+      meshes->finish(dir / "mesh.glb");
+      fmt::print("deformed meshes: {} frames in {}/ ({}), all of them animated in {}\n", meshes->frames(),
+                 std::filesystem::absolute(dir / "mesh").lexically_normal().string(), o.mesh_format,
+                 std::filesystem::absolute(dir / "mesh.glb").lexically_normal().string());
+    }
   }
   if (status != "ok") {
     fmt::print(stderr, "error: {}\n", error);
@@ -155,6 +175,22 @@ int validate(bool json, const std::string& assets) {
   return failed == 0 ? 0 : kExitFailedCase;
 }
 
+int skinning(bool markdown) {
+  const validation::SkinningStudy study = validation::run_skinning_study();
+  if (markdown) {
+    fmt::print("{}", validation::skinning_markdown(study));
+    return 0;
+  }
+  for (const auto& r : study.rows)
+    fmt::print("{:<26} slots {:>3.0f}  skin {:>8.1f} us  vs MVC max {:>6.3f} mm p99 {:>6.3f} mm  vs rigid sections max {:>6.2f} mm "
+               "p99 {:>6.2f} mm  volume bend {:+6.2f} %  twist {:+6.2f} %\n",
+               r.method, r.slots, r.skin_us, 1e3 * r.max_error, 1e3 * r.p99_error, 1e3 * r.transport_max, 1e3 * r.transport_p99,
+               100.0 * r.bend_volume_change, 100.0 * r.twist_volume_change);
+  fmt::print("{:<26} volume bend {:+6.2f} %  twist {:+6.2f} %\n", "rigid cross-sections", 100.0 * study.transport_bend_volume_change,
+             100.0 * study.transport_twist_volume_change);
+  return 0;
+}
+
 int stability(bool markdown) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<validation::StabilityCell> cells = validation::stability_sweep({});
@@ -190,6 +226,9 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--set", ro.sets, "override a scene value, e.g. --set segment.nodes=333")->take_all();
   run_cmd->add_option("--out", ro.out, "directory for summary.json, frames.csv and nodes.csv");
   run_cmd->add_flag("--quiet", ro.quiet, "no progress bar or timing table");
+  run_cmd->add_option("--mesh-every", ro.mesh_every, "with --out: write the deformed organ mesh every N frames (0: never)")
+      ->check(CLI::NonNegativeNumber);
+  run_cmd->add_option("--mesh-format", ro.mesh_format, "ply, obj or stl")->check(CLI::IsMember({"ply", "obj", "stl"}));
 
   bool json = false;
   std::string assets;
@@ -202,11 +241,17 @@ int main(int argc, char** argv) {
       app.add_subcommand("stability", "sweep E, dt, N and load: where the lagged scheme holds, recovers or stops");
   stability_cmd->add_flag("--markdown", markdown, "print the tables of docs/stability.md");
 
+  bool skinning_markdown = false;
+  CLI::App* skinning_cmd = app.add_subcommand(
+      "skinning", "localization study: rings kept per mesh vertex against cost and error, and linear-blend skinning");
+  skinning_cmd->add_flag("--markdown", skinning_markdown, "print the table of docs/skinning.md");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*run_cmd) return run(ro);
     if (*validate_cmd) return validate(json, assets);
     if (*stability_cmd) return stability(markdown);
+    if (*skinning_cmd) return skinning(skinning_markdown);
   } catch (const haustra::Error& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return e.code() == haustra::ErrorCode::unstable ? kExitUnstable : kExitBadInput;

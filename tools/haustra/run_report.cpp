@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -256,5 +257,76 @@ void write_nodes_csv(const std::filesystem::path& file, const World& world) {
     }
   }
 }
+
+void print_mesh_info(std::FILE* out, const World& world, std::size_t segment) {
+  const MeshInfo& m = world.mesh(segment);
+  if (!m.enabled) return;
+  const CageReport& c = m.cage;
+  const SkinReport& k = m.skin;
+  fmt::print(out, "  segment '{}': mesh {} ({} vertices, {} triangles)\n", world.segment(segment).name,
+             std::filesystem::path(m.source).filename().string(), m.vertices.count, m.triangles.count);
+  fmt::print(out,
+             "    cage: {} rings ({} bead, {} middle, {} taken out) x {} vertices = {} vertices, {} triangles; clearance "
+             "{:.2f} mm; rings grown {:+.1f} to {:+.1f} mm beyond the beads (mean {:+.1f}); {} passes, {:.2f} s\n",
+             c.rings, c.bead_rings, c.middle_rings, c.dropped_rings, c.ring_vertices, c.vertices, c.triangles,
+             1e3 * c.clearance, 1e3 * c.inflation_min, 1e3 * c.inflation_max, 1e3 * c.inflation_mean, c.iterations, c.seconds);
+  fmt::print(out,
+             "    embedding (Embree, binding pose): {} mesh vertices outside, {} mesh edges crossing, {} cage "
+             "self-intersections; at the curved rest pose {} outside; tightest bend {}\n",
+             c.mesh_vertices_outside, c.crossing_edges, c.self_intersections, c.rest_pose_outside,
+             std::isfinite(c.tightest_bend) ? fmt::format("{:.1f} mm", 1e3 * c.tightest_bend) : "none (straight)");
+  if (k.method == SkinningMethod::mean_value)
+    fmt::print(out,
+               "    mean value coordinates: {} rings per vertex; min weight {:.3g}; negative mass max {:.3g}, mean {:.3g} "
+               "({} vertices); weight left out max {:.3g}, mean {:.3g}; rest correction max {:.2f} mm; rest error {:.2g} m; "
+               "{:.2f} s\n",
+               k.rings_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass, k.negative_vertices,
+               k.max_dropped_mass, k.mean_dropped_mass, 1e3 * k.max_rest_correction, k.rest_error, k.seconds);
+  else
+    fmt::print(out, "    linear-blend skinning on the bead frames (2 per vertex); rest error {:.2g} m\n", k.rest_error);
+}
+
+namespace {
+TriangleMesh compact_triangles(const World& world, std::vector<std::uint32_t>& used) {
+  std::vector<std::int64_t> index(world.mesh_buffer_size(), -1);
+  for (std::size_t s = 0; s < world.segment_count(); ++s) {
+    const MeshInfo& m = world.mesh(s);
+    for (std::size_t v = m.vertices.offset; v < m.vertices.offset + m.vertices.count; ++v) {
+      index[v] = static_cast<std::int64_t>(used.size());
+      used.push_back(static_cast<std::uint32_t>(v));
+    }
+  }
+  TriangleMesh mesh;
+  for (const auto& t : world.mesh_triangles())
+    mesh.triangles.push_back({static_cast<std::uint32_t>(index[t[0]]), static_cast<std::uint32_t>(index[t[1]]),
+                              static_cast<std::uint32_t>(index[t[2]])});
+  mesh.vertices.resize(used.size());
+  return mesh;
+}
+}  // namespace
+
+MeshRecorder::MeshRecorder(const World& world, std::filesystem::path dir, std::string format)
+    : dir_(std::move(dir)), format_(std::move(format)), mesh_(compact_triangles(world, used_)), animation_(mesh_.triangles) {
+  std::filesystem::create_directories(dir_);
+}
+
+void MeshRecorder::record(const World& world) {
+  const auto p = world.mesh_positions();
+  const auto n = world.mesh_normals();
+  std::vector<Eigen::Vector3d> normals(used_.size());
+  std::vector<float> x(used_.size()), y(used_.size()), z(used_.size());
+  for (std::size_t i = 0; i < used_.size(); ++i) {
+    const std::uint32_t v = used_[i];
+    mesh_.vertices[i] = Eigen::Vector3d(p.x[v], p.y[v], p.z[v]);
+    normals[i] = Eigen::Vector3d(n.x[v], n.y[v], n.z[v]);
+    x[i] = p.x[v];
+    y[i] = p.y[v];
+    z[i] = p.z[v];
+  }
+  save_mesh(dir_ / fmt::format("frame_{:05d}.{}", world.frame(), format_), mesh_, normals);
+  animation_.add_frame(world.time(), x, y, z);
+}
+
+void MeshRecorder::finish(const std::filesystem::path& glb) { animation_.write_glb(glb); }
 
 }  // namespace haustra::cli

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "haustra/mesh_animation.hpp"
+#include "haustra/mesh_io.hpp"
 #include "haustra/profile.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
@@ -40,5 +42,25 @@ class RunRecord {
 };
 
 void write_nodes_csv(const std::filesystem::path& file, const World& world);
+
+// Writes the world's organ meshes (all segments in one file) as a numbered sequence of files and
+// collects them into one animated glTF.
+class MeshRecorder {
+ public:
+  MeshRecorder(const World& world, std::filesystem::path dir, std::string format);
+  void record(const World& world);
+  void finish(const std::filesystem::path& glb);
+  [[nodiscard]] std::size_t frames() const { return animation_.frames(); }
+
+ private:
+  std::filesystem::path dir_;
+  std::string format_;
+  std::vector<std::uint32_t> used_;  // world vertex index of each written vertex
+  TriangleMesh mesh_;                // triangles over the written vertices
+  MeshAnimation animation_;
+};
+
+// The organ mesh of a segment: the cage the builder made and how the mesh was bound to it.
+void print_mesh_info(std::FILE* out, const World& world, std::size_t segment);
 
 }  // namespace haustra::cli

@@ -46,20 +46,20 @@ struct SegmentInfo {
 // How the cage around a segment's organ mesh came out (docs/decisions/0017-cage-builder.md).
 struct CageReport {
   std::size_t rings = 0, bead_rings = 0, middle_rings = 0;
-  std::size_t dropped_rings = 0;          // rings taken out of the cage where it folded (beads stay)
+  std::size_t dropped_rings = 0;          // middle rings taken out where longer quads were needed
   std::size_t ring_vertices = 0;          // m per ring
   std::size_t vertices = 0, triangles = 0;
   double clearance = 0.0;                 // m asked between mesh and cage
   // How far ring vertices went beyond their template (the bead's radius), m; negative: inside it.
   double inflation_min = 0.0, inflation_mean = 0.0, inflation_max = 0.0;
   int iterations = 0;                     // inflation passes
-  std::size_t held_at_bends = 0;          // ring vertices held back on the inner side of a bend
-  double tightest_bend = 0.0;             // m: the smallest bend radius at a ring
-  // Embree's final verification: all zero for a cage that embeds the mesh.
+  double tightest_bend = 0.0;             // m: the smallest bend radius of the rest rod at a ring
+  // Embree's final verification in the binding pose, where the weights are computed: all zero for
+  // a cage that embeds the mesh.
   std::size_t mesh_vertices_outside = 0, crossing_edges = 0, self_intersections = 0;
-  // Cage edges through the cage of a part of the organ more than 4 radii away along the rod:
-  // loops of the organ that touch. The cage is then the union of its parts (allowed).
-  std::size_t touching_loops = 0;
+  // The same cage at the curved rest pose: mesh vertices outside it where the organ bends more
+  // tightly than its own radius or its loops touch (for the record; the binding does not use it).
+  std::size_t rest_pose_outside = 0;
   double seconds = 0.0;
 };
 
@@ -76,6 +76,9 @@ struct SkinReport {
   double max_dropped_mass = 0.0;          // Σ|w| of the rings left out by localization, worst vertex
   double mean_dropped_mass = 0.0;
   double rest_error = 0.0;                // m: skinned rest pose vs the input mesh (float rounding)
+  // m: how far the binding-pose weights, carried to the rings' curved rest poses, would put a
+  // vertex from where it is; taken up by the binding so the rest pose is exact (worst vertex).
+  double max_rest_correction = 0.0;
   double seconds = 0.0;                   // to compute the weights
 };
 
@@ -176,6 +179,11 @@ class World {
   [[nodiscard]] std::span<const double> section_lengths() const;  // per node: section k at node k
   [[nodiscard]] kernels::Pose base_pose(std::size_t segment) const;
 
+  // Sets a segment's configuration directly: its base pose and node strains (4 per node, κ1 κ2 τ ε),
+  // then rebuilds its nodes, rings and mesh. For studies, tests and hosts that replay or drive a
+  // rod themselves; the next step() continues from here.
+  void pose_rod(std::size_t segment, const kernels::Pose& base, std::span<const double> strains);
+
   // External load on one node (global node index), world frame, held until changed.
   void set_external_load(std::size_t node, const Eigen::Vector3d& force,
                          const Eigen::Vector3d& moment);
@@ -204,9 +212,9 @@ class World {
   void set_instrument_grasp(std::size_t instrument, bool closed);
   [[nodiscard]] InstrumentReading instrument(std::size_t instrument) const;
 
-  // Organ meshes. Positions and normals are float SoA buffers over all segments' meshes (each
-  // segment's range in mesh(s).vertices; the gaps between ranges are padding), updated at the end
-  // of every step and valid until the next one. Triangles index those buffers.
+  // Organ meshes. Positions and normals are float SoA buffers over all segments' meshes, one
+  // after the other (each segment's range in mesh(s).vertices, in the order of its input mesh),
+  // updated at the end of every step and valid until the next one. Triangles index those buffers.
   [[nodiscard]] const MeshInfo& mesh(std::size_t segment) const;
   [[nodiscard]] std::size_t mesh_buffer_size() const;
   [[nodiscard]] kernels::Vec3View<const float> mesh_positions() const;

@@ -9,9 +9,10 @@
 // blend skinning has the same shape (b_g its joint weights, A_g = b_g R_gᵀ(x − c_g)), so one
 // kernel serves both.
 //
-// Layout: vertices in blocks of kSkinLanes; for each block and each of `slots` rings per vertex,
-// kSkinLanes ring indices and 4 × kSkinLanes coefficients (b, Ax, Ay, Az), lane-contiguous. Padding
-// lanes and unused slots carry zero coefficients.
+// Layout: vertices in blocks of kSkinLanes that share the same `slots` rings (the binding sorts
+// vertices by their ring set, so a ring's delta is broadcast to all lanes and the sum is plain
+// 8-wide FMAs, no gathers); per block and slot one ring index and 4 × kSkinLanes coefficients
+// (b, Ax, Ay, Az), lane-contiguous; per lane the mesh vertex it writes (kNoVertex for padding).
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
@@ -21,17 +22,19 @@ namespace haustra::kernels {
 
 inline constexpr std::size_t kSkinLanes = 8;
 inline constexpr std::size_t kSkinCoefficients = 4;  // b, Ax, Ay, Az
+inline constexpr std::uint32_t kNoVertex = 0xFFFFFFFFU;
 
 struct SkinBindingView {
-  std::size_t slots = 0;                       // rings per vertex
+  std::size_t slots = 0;                          // rings per vertex
   std::span<const float> rest_x, rest_y, rest_z;  // blocks × kSkinLanes
-  std::span<const std::uint32_t> ring;         // blocks × slots × kSkinLanes
-  std::span<const float> coefficient;          // blocks × slots × 4 × kSkinLanes
+  std::span<const std::uint32_t> vertex;          // blocks × kSkinLanes: output index, or kNoVertex
+  std::span<const std::uint32_t> ring;            // blocks × slots
+  std::span<const float> coefficient;             // blocks × slots × 4 × kSkinLanes
   [[nodiscard]] std::size_t blocks() const { return rest_x.size() / kSkinLanes; }
 };
 
 struct FloatVec3Out {
-  std::span<float> x, y, z;  // blocks × kSkinLanes (padding lanes written too)
+  std::span<float> x, y, z;  // indexed by mesh vertex
 };
 
 // Blocks [first, first + count) of the binding; ring_delta: kRingDeltaFloats per ring.

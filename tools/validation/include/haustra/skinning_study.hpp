@@ -1,0 +1,39 @@
+#pragma once
+// The localization study of docs/skinning.md: how many rings each mesh vertex keeps (K) against
+// what it costs and how far the mesh lands from full mean value coordinates, over extreme rod
+// poses, with linear-blend skinning beside it (the paper's Fig. 6b: the collapsing joint).
+#include <string>
+#include <vector>
+
+namespace haustra::validation {
+
+struct SkinningStudyRow {
+  std::string method;          // "MVC, K = 4", "MVC, all rings", "linear blend"
+  int rings_per_vertex = 0;    // 0: all
+  double slots = 0.0;          // rings per vertex actually stored
+  double bytes_per_vertex = 0.0;
+  double skin_us = 0.0;        // median skinning time per frame, µs
+  double rest_error = 0.0;     // m, max over vertices
+  double max_error = 0.0;      // m, against full MVC over the posed frames
+  double p99_error = 0.0;      // m
+  // m, against carrying each vertex rigidly with the rod's frame at its own arc length (what a
+  // tube whose cross-sections stay rigid and square to the centreline does)
+  double transport_max = 0.0, transport_p99 = 0.0;
+  double bend_volume_change = 0.0;  // relative, 90° bend
+  double twist_volume_change = 0.0; // relative, 90° twist
+  double mean_dropped_mass = 0.0;
+};
+
+struct SkinningStudy {
+  std::string organ;  // what was posed
+  std::size_t vertices = 0, rings = 0;
+  double mesh_size = 0.0;  // m, bounding-box diagonal
+  std::vector<std::string> poses;
+  std::vector<SkinningStudyRow> rows;
+  double transport_bend_volume_change = 0.0, transport_twist_volume_change = 0.0;
+};
+
+SkinningStudy run_skinning_study();
+std::string skinning_markdown(const SkinningStudy& study);
+
+}  // namespace haustra::validation
