@@ -96,7 +96,7 @@ TEST_CASE("grasp-pull at rest: the instrument carries exactly the weight the flo
   CHECK((r.filtered_force - r.force).norm() < 1e-3 * weight);
 }
 
-TEST_CASE("a host drives an instrument: grasp in reach, hold, release; closing on air grasps nothing") {
+TEST_CASE("a host drives an instrument: grasp in reach, hold, release, and closing on air grasps nothing") {
   auto w = grasp_pull();
   for (int f = 0; f < 5; ++f) w->step();
   // Far from the rod: closing grasps nothing.

@@ -182,7 +182,7 @@ TEST_CASE("MVC are continuous as a point approaches a face, an edge and a vertex
   }
 }
 
-TEST_CASE("MVC are invariant under similarity maps; an affine map is reproduced exactly") {
+TEST_CASE("MVC are invariant under similarity maps, and an affine map is reproduced exactly") {
   const Cage c = haustra::test::u_tube(10, 7, 0.9, 0.4);
   Mvc mvc(c);
   std::mt19937 rng(21);

@@ -271,7 +271,7 @@ TEST_CASE("the CT colon: cage built around its own mesh, embedded, bound with di
   CHECK(info.skin.rest_error < 1e-6);
 }
 
-TEST_CASE("localization study: error falls with K; MVC follows rigid cross-sections closer than linear blend") {
+TEST_CASE("localization study: error falls with K, and MVC follows rigid cross-sections closer than linear blend") {
   const validation::SkinningStudy s = validation::run_skinning_study();
   REQUIRE(s.rows.size() == 7);
   CHECK(s.rows[0].max_error == 0.0);  // full MVC against itself

@@ -6,7 +6,7 @@
 
 #include "haustra/error.hpp"
 #include "haustra/kernels/broad_phase.hpp"
-#include "embree_scene.hpp"
+#include "haustra/embree_scene.hpp"
 #include "static_meshes.hpp"
 #include "world_model.hpp"
 

@@ -10,7 +10,7 @@
 #include <numbers>
 #include <set>
 
-#include "embree_scene.hpp"
+#include "haustra/embree_scene.hpp"
 #include "haustra/error.hpp"
 #include "haustra/kernels/contact_geometry.hpp"
 #include "haustra/rod_curve.hpp"

@@ -1,4 +1,4 @@
-#include "embree_scene.hpp"
+#include "haustra/embree_scene.hpp"
 
 #include <fmt/format.h>
 
@@ -10,7 +10,7 @@
 #include "haustra/error.hpp"
 #include "haustra/kernels/contact_geometry.hpp"
 
-namespace haustra::detail {
+namespace haustra {
 namespace {
 
 void check(RTCDevice device, const char* what) {
@@ -82,6 +82,8 @@ EmbreeScene::Hit EmbreeScene::first_hit(const Eigen::Vector3d& origin, const Eig
   h.geometry = rh.hit.geomID;
   h.triangle = rh.hit.primID;
   h.distance = rh.ray.tfar;
+  h.u = rh.hit.u;
+  h.v = rh.hit.v;
   return h;
 }
 
@@ -126,7 +128,7 @@ bool EmbreeScene::on_closest(RTCPointQueryFunctionArguments* args) {
       kernels::closest_point_on_triangle(q->p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
   const double d = (q->p - c).norm();
   if (d >= q->best.distance) return false;
-  q->best = {true, args->geomID, args->primID, d};
+  q->best = {true, args->geomID, args->primID, d, 0.0, 0.0};
   // Embree culls in float: pad the shrinking radius by float rounding so nothing nearer is lost.
   const double pad = 8.0 * std::numeric_limits<float>::epsilon() * (q->p.cwiseAbs().maxCoeff() + d);
   args->query->radius = std::nextafter(static_cast<float>(d + pad), std::numeric_limits<float>::infinity());
@@ -156,4 +158,4 @@ void EmbreeScene::commit() {
   check(device_, "building the scene");
 }
 
-}  // namespace haustra::detail
+}  // namespace haustra

@@ -13,7 +13,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "embree_scene.hpp"
+#include "haustra/embree_scene.hpp"
 #include "haustra/world_desc.hpp"
 
 namespace haustra::detail {

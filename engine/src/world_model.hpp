@@ -9,7 +9,7 @@
 #include <memory>
 
 #include "cage_builder.hpp"
-#include "embree_scene.hpp"
+#include "haustra/embree_scene.hpp"
 #include "haustra/kernels/pose.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/rod_pose_buffer.hpp"

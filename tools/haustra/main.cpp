@@ -1,6 +1,7 @@
 // haustra: the command line. `haustra run SCENE` steps a scene and reports per-stage timings;
 // `haustra validate` runs the reference cases against analytic and independent solutions.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -10,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "haustra/error.hpp"
+#include "haustra/render.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/stability.hpp"
 #include "haustra/validation.hpp"
@@ -175,6 +177,69 @@ int validate(bool json, const std::string& assets) {
   return failed == 0 ? 0 : kExitFailedCase;
 }
 
+struct RenderCommand {
+  std::string scene;
+  std::vector<int> frames{0};
+  std::vector<std::string> sets;
+  std::vector<std::string> overlays;
+  std::string colour = "tissue";
+  int width = 960, height = 600, columns = 0;
+  std::vector<double> view;
+  std::string out = "render.png";
+};
+
+// Runs the scene and renders the chosen frames (a contact sheet when there are several), with one
+// camera framing all of them.
+int render_frames(const RenderCommand& c) {
+  SceneDesc scene = load_scene(c.scene, c.sets);
+  std::vector<int> frames = c.frames;
+  std::sort(frames.begin(), frames.end());
+  frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
+  if (frames.empty() || frames.front() < 0) throw Error(ErrorCode::invalid_argument, "--frames: expected frame numbers >= 0");
+  render::RenderOptions o;
+  o.width = c.width;
+  o.height = c.height;
+  for (const auto& name : c.overlays) {
+    if (name == "beads") o.overlays.beads = true;
+    else if (name == "cage") o.overlays.cage = true;
+    else if (name == "centreline") o.overlays.centreline = true;
+    else if (name == "contacts") o.overlays.contacts = true;
+    else throw Error(ErrorCode::invalid_argument, fmt::format("--overlay {}: expected beads, cage, centreline or contacts", name));
+  }
+  o.overlays.colour = c.colour == "strain" ? render::Colouring::strain
+                      : c.colour == "penetration" ? render::Colouring::penetration
+                                                  : render::Colouring::tissue;
+  if (c.view.size() == 3) o.view_from = Eigen::Vector3d(c.view[0], c.view[1], c.view[2]);
+  // Pass 1: where everything goes over the frames asked for.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = Eigen::Vector3d::Constant(-1e300);
+  {
+    std::unique_ptr<World> w = create_world(scene);
+    for (int f = 0; f <= frames.back(); ++f) {
+      if (std::find(frames.begin(), frames.end(), f) != frames.end()) render::grow_bounds(*w, lo, hi);
+      if (f < frames.back()) w->step();
+    }
+  }
+  o.camera = render::fit_camera(lo, hi, o.view_from, 35.0, static_cast<double>(o.width) / o.height);
+  // Pass 2: the same run (deterministic), rendered.
+  std::unique_ptr<World> w = create_world(scene);
+  std::vector<render::Image> tiles;
+  for (int f = 0; f <= frames.back(); ++f) {
+    if (std::find(frames.begin(), frames.end(), f) != frames.end()) {
+      const render::Picture p = render::render(*w, scene.world, o);
+      tiles.push_back(p.image);
+      if (o.overlays.colour != render::Colouring::tissue)
+        fmt::print("frame {}: colour overlay from {:.4g} to {:.4g}\n", f, p.colour_min, p.colour_max);
+    }
+    if (f < frames.back()) w->step();
+  }
+  const int columns = c.columns > 0 ? c.columns : std::min<int>(static_cast<int>(tiles.size()), 3);
+  const render::Image out = tiles.size() == 1 ? tiles.front() : render::contact_sheet(tiles, columns);
+  out.save_png(c.out);
+  fmt::print("wrote {} ({} frame{}: {})\n", std::filesystem::absolute(c.out).lexically_normal().string(), tiles.size(),
+             tiles.size() == 1 ? "" : "s", fmt::join(frames, ", "));
+  return 0;
+}
+
 int skinning(bool markdown) {
   const validation::SkinningStudy study = validation::run_skinning_study();
   if (markdown) {
@@ -246,12 +311,27 @@ int main(int argc, char** argv) {
       "skinning", "localization study: rings kept per mesh vertex against cost and error, and linear-blend skinning");
   skinning_cmd->add_flag("--markdown", skinning_markdown, "print the table of docs/skinning.md");
 
+  RenderCommand rc;
+  CLI::App* render_cmd = app.add_subcommand("render", "run a scene and ray-cast chosen frames to a PNG (a contact sheet for several)");
+  render_cmd->add_option("scene", rc.scene, "scene file (TOML)")->required()->check(CLI::ExistingFile);
+  render_cmd->add_option("--frames", rc.frames, "frames to render, e.g. --frames 0 60 270")->expected(1, -1);
+  render_cmd->add_option("--set", rc.sets, "override a scene value")->take_all();
+  render_cmd->add_option("--overlay", rc.overlays, "beads, cage, centreline, contacts")->expected(1, -1);
+  render_cmd->add_option("--colour", rc.colour, "tissue, strain (bending, 1/m) or penetration (beads)")
+      ->check(CLI::IsMember({"tissue", "strain", "penetration"}));
+  render_cmd->add_option("--width", rc.width, "pixels")->check(CLI::Range(16, 8192));
+  render_cmd->add_option("--height", rc.height, "pixels")->check(CLI::Range(16, 8192));
+  render_cmd->add_option("--columns", rc.columns, "contact sheet columns");
+  render_cmd->add_option("--view", rc.view, "direction from the subject to the camera, x y z")->expected(3);
+  render_cmd->add_option("--out", rc.out, "PNG file");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*run_cmd) return run(ro);
     if (*validate_cmd) return validate(json, assets);
     if (*stability_cmd) return stability(markdown);
     if (*skinning_cmd) return skinning(skinning_markdown);
+    if (*render_cmd) return render_frames(rc);
   } catch (const haustra::Error& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return e.code() == haustra::ErrorCode::unstable ? kExitUnstable : kExitBadInput;

@@ -1,6 +1,7 @@
 #pragma once
 // An Embree device and scene of static triangle meshes, built once (environment obstacles, cages,
-// organ meshes for checks and rendering) and then queried from any thread.
+// organ meshes for checks, pictures) and then queried from any thread: first hits along rays,
+// winding numbers (inside tests) and closest points.
 //
 // Why commits run on the calling thread only: Debian's Embree schedules its BVH build on oneTBB,
 // in the caller's arena. Neither library is built with ThreadSanitizer, so memory that a builder
@@ -16,7 +17,7 @@
 #include <span>
 #include <vector>
 
-namespace haustra::detail {
+namespace haustra {
 
 class EmbreeScene {
  public:
@@ -39,6 +40,7 @@ class EmbreeScene {
     bool found = false;
     unsigned geometry = 0, triangle = 0;
     double distance = 0.0;  // along the ray, or to the closest point
+    double u = 0.0, v = 0.0;  // ray hits: barycentric coordinates of vertices 1 and 2 of the triangle
   };
   // The first triangle a ray meets in (t_near, t_far); direction need not be unit (t scales with it).
   [[nodiscard]] Hit first_hit(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_near,
@@ -71,4 +73,4 @@ class EmbreeScene {
   std::vector<Mesh> meshes_;
 };
 
-}  // namespace haustra::detail
+}  // namespace haustra
