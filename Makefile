@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo test test-release test-asan test-tsan bench validate stability-doc skinning-doc clean
+.PHONY: all deps configure build demo test test-release test-asan test-tsan bench validate stability-doc skinning-doc figures clean
 
 all: build
 
@@ -54,6 +54,11 @@ validate: build
 stability-doc: build
 	@$(BIN)/haustra stability --markdown > docs/stability.md
 	@echo "wrote $(abspath docs/stability.md)"
+
+# Regenerates every picture in docs/figures/ (captions in docs/figures/README.md).
+figures: build
+	@./scripts/install-deps.sh --figures
+	@./scripts/figures.sh
 
 # Regenerates docs/skinning.md's table (the localization study).
 skinning-doc: build

@@ -12,6 +12,10 @@ packages=(
   # instruction-count gate and sanitizer runtimes
   valgrind
 )
+# `make figures` plots with Debian's matplotlib (run by /usr/bin/python3).
+if [[ "${1:-}" == "--figures" ]]; then
+  packages+=(python3-matplotlib)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -240,6 +240,37 @@ int render_frames(const RenderCommand& c) {
   return 0;
 }
 
+// The paper's Fig. 6: the organ with its beads, the cage around it, and one sharp bend skinned
+// by linear blending (the collapsing joint) and by the cage.
+int figure_cage(const std::string& out, int width, int height) {
+  const std::vector<validation::StudyPose> poses = validation::study_poses();
+  auto world = [](SkinningMethod m) { return World::create(validation::study_organ(m, 4)); };
+  const std::unique_ptr<World> mvc = world(SkinningMethod::mean_value), lbs = world(SkinningMethod::linear_blend);
+  const WorldDesc desc = validation::study_organ(SkinningMethod::mean_value, 4);
+  render::RenderOptions o;
+  o.width = width;
+  o.height = height;
+  o.view_from = Eigen::Vector3d(0.3, -1.0, 0.8);
+  std::vector<render::Image> tiles;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = Eigen::Vector3d::Constant(-1e300);
+  render::grow_bounds(*mvc, lo, hi);
+  lbs->pose_rod(0, lbs->base_pose(0), poses.front().strain);
+  render::grow_bounds(*lbs, lo, hi);
+  o.camera = render::fit_camera(lo, hi, o.view_from, 35.0, static_cast<double>(width) / height);
+  o.overlays.beads = true;
+  tiles.push_back(render::render(*mvc, desc, o).image);  // (a) the organ and its beads
+  o.overlays.beads = false;
+  o.overlays.cage = true;
+  tiles.push_back(render::render(*mvc, desc, o).image);  // (b) the cage
+  o.overlays.cage = false;
+  tiles.push_back(render::render(*lbs, desc, o).image);  // (c) linear blend, bent
+  mvc->pose_rod(0, mvc->base_pose(0), poses.front().strain);
+  tiles.push_back(render::render(*mvc, desc, o).image);  // (d) the cage's MVC, bent
+  render::contact_sheet(tiles, 2).save_png(out);
+  fmt::print("wrote {}\n", std::filesystem::absolute(out).lexically_normal().string());
+  return 0;
+}
+
 int skinning(bool markdown) {
   const validation::SkinningStudy study = validation::run_skinning_study();
   if (markdown) {
@@ -325,6 +356,10 @@ int main(int argc, char** argv) {
   render_cmd->add_option("--view", rc.view, "direction from the subject to the camera, x y z")->expected(3);
   render_cmd->add_option("--out", rc.out, "PNG file");
 
+  std::string figure_out = "fig6-cage.png";
+  CLI::App* figure_cmd = app.add_subcommand("figure-cage", "the paper's Fig. 6: beads, cage, linear blend and MVC under a sharp bend");
+  figure_cmd->add_option("--out", figure_out, "PNG file");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*run_cmd) return run(ro);
@@ -332,6 +367,7 @@ int main(int argc, char** argv) {
     if (*stability_cmd) return stability(markdown);
     if (*skinning_cmd) return skinning(skinning_markdown);
     if (*render_cmd) return render_frames(rc);
+    if (*figure_cmd) return figure_cage(figure_out, 720, 480);
   } catch (const haustra::Error& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return e.code() == haustra::ErrorCode::unstable ? kExitUnstable : kExitBadInput;

@@ -19,7 +19,9 @@ constexpr int kTimingRepeats = 40;
 
 // A straight procedural rectum, 30 cm, radius 2 cm, 11 beads 3 cm apart, a 10,000-vertex mesh, in
 // a world of its own with the given skinning.
-WorldDesc organ(SkinningMethod method, int rings_per_vertex) {
+}  // namespace
+
+WorldDesc study_organ(SkinningMethod method, int rings_per_vertex) {
   WorldDesc w;
   w.gravity.setZero();
   w.threads = 1;
@@ -40,10 +42,9 @@ WorldDesc organ(SkinningMethod method, int rings_per_vertex) {
   return w;
 }
 
-struct Pose {
-  std::string name;
-  std::vector<double> strain;  // 4 per node
-};
+namespace {
+
+using Pose = StudyPose;
 
 // Strains with a curvature κ2 (bend) and torsion τ over [from, to] of the rod's length.
 Pose shaped(const std::string& name, double from, double to, double kappa, double tau) {
@@ -58,7 +59,9 @@ Pose shaped(const std::string& name, double from, double to, double kappa, doubl
   return p;
 }
 
-std::vector<Pose> poses() {
+}  // namespace
+
+std::vector<StudyPose> study_poses() {
   const double pi = std::numbers::pi;
   // Beads sit every 3 cm (s = 0, 3, …, 30 cm): the 90° bend lies wholly between two of them.
   return {shaped("90° bend over 6.3 cm from a bead (bend radius 4 cm, twice the organ's; 43° between beads)", 0.15,
@@ -67,6 +70,8 @@ std::vector<Pose> poses() {
           shaped("90° twist over 6 cm", 0.12, 0.18, 0.0, 0.5 * pi / 0.06),
           shaped("helix: 90° bend and 90° twist over 9 cm", 0.105, 0.195, 0.5 * pi / 0.09, 0.5 * pi / 0.09)};
 }
+
+namespace {
 
 std::vector<Eigen::Vector3d> positions(const World& w) {
   const MeshInfo& m = w.mesh(0);
@@ -133,7 +138,7 @@ std::vector<Eigen::Vector3d> transported(const World& w, const Transport& t, con
 SkinningStudy run_skinning_study() {
   SkinningStudy study;
   study.organ = "a straight procedural rectum, 30 cm, radius 2 cm, 61 nodes, 11 beads 3 cm apart, 10,000-vertex mesh";
-  const std::vector<Pose> ps = poses();
+  const std::vector<Pose> ps = study_poses();
   for (const Pose& p : ps) study.poses.push_back(p.name);
   struct Variant {
     std::string name;
@@ -149,7 +154,7 @@ SkinningStudy run_skinning_study() {
                                          {"linear blend (2 beads)", SkinningMethod::linear_blend, 2}};
   std::vector<std::vector<Eigen::Vector3d>> reference;  // full MVC per pose
   for (const Variant& v : variants) {
-    std::unique_ptr<World> w = World::create(organ(v.method, v.k));
+    std::unique_ptr<World> w = World::create(study_organ(v.method, v.k));
     const MeshInfo& info = w->mesh(0);
     study.vertices = info.vertices.count;
     study.rings = info.cage.rings;

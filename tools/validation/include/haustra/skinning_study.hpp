@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "haustra/world_desc.hpp"
+
 namespace haustra::validation {
 
 struct SkinningStudyRow {
@@ -34,6 +36,15 @@ struct SkinningStudy {
 };
 
 SkinningStudy run_skinning_study();
+
+// The study's organ (a straight procedural rectum, 30 cm, 11 beads, 10,000 vertices) with the
+// given skinning, and its poses (node strains, 4 per node; the first is the 90° bend).
+WorldDesc study_organ(SkinningMethod method, int rings_per_vertex);
+struct StudyPose {
+  std::string name;
+  std::vector<double> strain;
+};
+std::vector<StudyPose> study_poses();
 std::string skinning_markdown(const SkinningStudy& study);
 
 }  // namespace haustra::validation

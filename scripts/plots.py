@@ -1,0 +1,142 @@
+#!/usr/bin/python3
+"""Plots for docs/figures (Debian's python3-matplotlib; run with /usr/bin/python3).
+
+  plots.py fig4 RUN_DIR OUT.png   the paper's Fig. 4 from a run of scenes/sag.toml: both rods'
+                                  final centrelines with the quartic beam curve and the catenary
+  plots.py fig2 OUT.png           the paper's Fig. 2: EXP2 against Hooke, stress against strain
+  plots.py run RUN_DIR PREFIX     from any run's frames.csv: penetration, instrument force and
+                                  per-stage time against frame (PREFIX-contacts.png, ...)
+"""
+import csv
+import json
+import math
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+G = 9.81
+
+
+def catenary(length, span):
+    """y(x) of the catenary of a given length hanging between two points at equal height."""
+    lo, hi = 1e-6, 1e6  # 2a sinh(span / 2a) = length, solved for a by bisection on a log scale
+    for _ in range(200):
+        a = math.sqrt(lo * hi)
+        if 2 * a * math.sinh(span / (2 * a)) > length:
+            lo = a
+        else:
+            hi = a
+    a = math.sqrt(lo * hi)
+    return lambda x: a * math.cosh((x - span / 2) / a) - a * math.cosh(span / (2 * a))
+
+
+def fig4(run, out):
+    """Both rods' shapes, each over its own midspan sag, against the two analytic shapes."""
+    s = json.load(open(f"{run}/summary.json"))
+    fig, ax = plt.subplots(figsize=(8, 4.2))
+    for seg, colour in zip(s["segments"], ["tab:blue", "tab:red"]):
+        p = seg["final_node_positions_m"]
+        xs = [q[0] - p[0][0] for q in p]
+        zs = [q[2] - p[0][2] for q in p]
+        span = xs[-1]
+        sag = -min(zs)
+        grid = [span * i / 200 for i in range(201)]
+        if seg["name"] == "elastic":
+            q = seg["linear_density_kg_per_m"] * G
+            b = seg["bending_stiffness_Nm2"]
+            ref = [-q * x * x * (span - x) ** 2 / (24 * b) for x in grid]
+            label = "clamped beam q x²(L−x)²/24B"
+        else:
+            length = sum(math.dist(p[i], p[i + 1]) for i in range(len(p) - 1))
+            y = catenary(length, span)
+            ref = [y(x) for x in grid]
+            label = "catenary of the same length and span"
+        ref_sag = -min(ref)
+        ax.plot(xs, [z / sag for z in zs], "o", ms=3, color=colour,
+                label=f"{seg['name']} rod, haustra (sag {1e3 * sag:.3g} mm)")
+        ax.plot(grid, [z / ref_sag for z in ref], "-", color=colour, label=f"{label} (sag {1e3 * ref_sag:.3g} mm)")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("height / midspan sag")
+    ax.set_title("Rods held at both ends under gravity (paper Fig. 4)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out, dpi=130)
+
+
+def fig2(out):
+    # The paper gives no EXP2 parameters; these are illustrative: gamma = 20 kPa initial slope,
+    # alpha = 8, and beta chosen so that Hooke's E = 33.2 kPa is the least-squares fit over 0-25 %.
+    e_hooke, gamma, alpha = 33.2e3, 20e3, 8.0
+    strains = [0.25 * i / 100 for i in range(101)]
+    f = [math.exp(alpha * e * e) - 1 for e in strains]
+    beta = sum((e_hooke - gamma) * e * fi for e, fi in zip(strains, f)) / sum(fi * fi for fi in f)
+    grid = [0.5 * i / 200 for i in range(201)]
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    ax.plot([100 * e for e in grid], [1e-3 * (beta * (math.exp(alpha * e * e) - 1) + gamma * e) for e in grid], "-",
+            label=f"EXP2: β(e^(αε²)−1)+γε, α={alpha:g}, β={beta / 1e3:.1f} kPa, γ={gamma / 1e3:g} kPa")
+    ax.plot([100 * e for e in grid], [1e-3 * e_hooke * e for e in grid], "--", label="Hooke: E ε, E = 33.2 kPa")
+    ax.axvline(25, color="grey", lw=0.8)
+    ax.set_xlabel("strain (%)")
+    ax.set_ylabel("stress (kPa)")
+    ax.set_title("Linear and EXP2 tissue laws (paper Fig. 2)")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out, dpi=130)
+
+
+def run_plots(run, prefix):
+    rows = list(csv.DictReader(open(f"{run}/frames.csv")))
+    frame = [int(r["frame"]) for r in rows]
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    ax.plot(frame, [1e3 * float(r["max_environment_depth_m"]) for r in rows], label="deepest into the environment")
+    ax.plot(frame, [1e3 * float(r["max_bead_overlap_m"]) for r in rows], label="deepest between beads")
+    ax.set_xlabel("frame")
+    ax.set_ylabel("penetration (mm)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(f"{prefix}-penetration.png", dpi=120)
+    forces = [k for k in rows[0] if k.startswith("instrument") and k.endswith("_fz")]
+    if forces:
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        for k in forces:
+            name = k[: -len("_fz")]
+            mag = [math.sqrt(sum(float(r[f"{name}_f{c}"]) ** 2 for c in "xyz")) for r in rows]
+            ax.plot(frame, mag, label=f"{name}: |force| (N)")
+        ax.set_xlabel("frame")
+        ax.set_ylabel("force on the instrument (N)")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(f"{prefix}-force.png", dpi=120)
+    stages = [k[: -len("_us")] for k in rows[0] if k.endswith("_us") and k != "wall_us"]
+    stages = [st for st in stages if any(float(r[f"{st}_us"]) > 0 for r in rows)]
+    fig, ax = plt.subplots(figsize=(7, 3.8))
+    bottom = [0.0] * len(rows)
+    for st in stages:
+        v = [float(r[f"{st}_us"]) for r in rows]
+        ax.fill_between(frame, bottom, [b + x for b, x in zip(bottom, v)], step="mid", label=st)
+        bottom = [b + x for b, x in zip(bottom, v)]
+    ax.set_xlabel("frame")
+    ax.set_ylabel("time per frame (µs), stacked by stage")
+    ax.legend(fontsize=6, ncol=3)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(f"{prefix}-stages.png", dpi=120)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) >= 2 and sys.argv[1] == "fig4":
+        fig4(sys.argv[2], sys.argv[3])
+    elif len(sys.argv) >= 2 and sys.argv[1] == "fig2":
+        fig2(sys.argv[2])
+    elif len(sys.argv) >= 2 and sys.argv[1] == "run":
+        run_plots(sys.argv[2], sys.argv[3])
+    else:
+        print(__doc__)
+        sys.exit(2)
