@@ -197,6 +197,17 @@ TEST_CASE("haustra run grasps and pulls the CT colon and writes its deformed mes
   CHECK(r.out.find("mean value coordinates: 4 rings per vertex") != std::string::npos);
   CHECK(r.out.find("grasping segment 0") != std::string::npos);
   for (const char* f : {"frame_00000.ply", "frame_00020.ply", "frame_00040.ply"}) CHECK(fs::exists(dir / "mesh" / f));
+  // The centreline and the beads of the same frames as CSV: a header, then 3 frames × 167 nodes
+  // and 3 frames × 55 beads.
+  auto lines = [](const fs::path& p) {
+    std::ifstream in(p);
+    std::string line;
+    int n = 0;
+    while (std::getline(in, line)) ++n;
+    return n;
+  };
+  CHECK(lines(dir / "centreline.csv") == 1 + 3 * 167);
+  CHECK(lines(dir / "beads.csv") == 1 + 3 * 55);
   // Each file and the animation load back through assimp with the mesh's vertex count; the
   // animation has one morph target per recorded frame, and the last differs from the first.
   Assimp::Importer importer;

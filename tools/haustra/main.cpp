@@ -97,6 +97,10 @@ int run(const RunOptions& o) {
   if (!o.out.empty() && any_mesh && o.mesh_every > 0)
     meshes = std::make_unique<cli::MeshRecorder>(*world, std::filesystem::path(o.out) / "mesh", o.mesh_format);
   if (meshes) meshes->record(*world);
+  // The centreline and the beads every mesh_every frames, as CSV.
+  std::unique_ptr<cli::TrackRecorder> tracks;
+  if (!o.out.empty() && o.mesh_every > 0) tracks = std::make_unique<cli::TrackRecorder>(std::filesystem::path(o.out));
+  if (tracks) tracks->record(*world);
   ProgressBar bar(scene.frames, !o.quiet);
   std::string status = "ok";
   std::string error;
@@ -112,7 +116,9 @@ int run(const RunOptions& o) {
       break;
     }
     record.add(world->last_profile(), *world);
-    if (meshes && ((f + 1) % o.mesh_every == 0 || f + 1 == scene.frames)) meshes->record(*world);
+    const bool keep = o.mesh_every > 0 && ((f + 1) % o.mesh_every == 0 || f + 1 == scene.frames);
+    if (meshes && keep) meshes->record(*world);
+    if (tracks && keep) tracks->record(*world);
     bar.update(f + 1);
   }
   if (!o.quiet) {
@@ -131,6 +137,9 @@ int run(const RunOptions& o) {
                "penetrations and instrument forces), frames.csv (per-frame times, contacts, forces), nodes.csv "
                "(final nodes and strains)\n",
                std::filesystem::absolute(dir).lexically_normal().string());
+    if (tracks)
+      fmt::print("centreline and beads every {} frames: {}, {}\n", o.mesh_every, (dir / "centreline.csv").string(),
+                 (dir / "beads.csv").string());
     if (meshes) {
       meshes->finish(dir / "mesh.glb");
       fmt::print("deformed meshes: {} frames in {}/ ({}), all of them animated in {}\n", meshes->frames(),
@@ -322,7 +331,8 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--set", ro.sets, "override a scene value, e.g. --set segment.nodes=333")->take_all();
   run_cmd->add_option("--out", ro.out, "directory for summary.json, frames.csv and nodes.csv");
   run_cmd->add_flag("--quiet", ro.quiet, "no progress bar or timing table");
-  run_cmd->add_option("--mesh-every", ro.mesh_every, "with --out: write the deformed organ mesh every N frames (0: never)")
+  run_cmd->add_option("--mesh-every", ro.mesh_every,
+                      "with --out: write the deformed organ mesh, the centreline and the beads every N frames (0: never)")
       ->check(CLI::NonNegativeNumber);
   run_cmd->add_option("--mesh-format", ro.mesh_format, "ply, obj or stl")->check(CLI::IsMember({"ply", "obj", "stl"}));
 

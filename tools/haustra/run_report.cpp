@@ -1,5 +1,7 @@
 #include "run_report.hpp"
 
+#include "haustra/error.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -325,6 +327,35 @@ void MeshRecorder::record(const World& world) {
   }
   save_mesh(dir_ / fmt::format("frame_{:05d}.{}", world.frame(), format_), mesh_, normals);
   animation_.add_frame(world.time(), x, y, z);
+}
+
+TrackRecorder::TrackRecorder(const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  centreline_.open(dir / "centreline.csv");
+  beads_.open(dir / "beads.csv");
+  if (!centreline_ || !beads_) throw Error(ErrorCode::io, fmt::format("{}: cannot write centreline.csv and beads.csv", dir.string()));
+  centreline_ << "frame,time_s,segment,node,x_m,y_m,z_m\n";
+  beads_ << "frame,time_s,bead,segment,node,x_m,y_m,z_m,radius_m\n";
+}
+
+void TrackRecorder::record(const World& world) {
+  const auto p = world.node_positions();
+  for (std::size_t s = 0; s < world.segment_count(); ++s) {
+    const Range r = world.segment(s).nodes;
+    for (std::size_t k = 0; k < r.count; ++k) {
+      const Eigen::Vector3d x = p.get(r.offset + k);
+      centreline_ << fmt::format("{},{:.6f},{},{},{:.9g},{:.9g},{:.9g}\n", world.frame(), world.time(), world.segment(s).name, k,
+                                 x.x(), x.y(), x.z());
+    }
+  }
+  for (std::size_t b = 0; b < world.bead_count(); ++b) {
+    const std::uint32_t node = world.bead_nodes()[b];
+    std::size_t s = 0;
+    while (s + 1 < world.segment_count() && node >= world.segment(s).nodes.offset + world.segment(s).nodes.count) ++s;
+    const Eigen::Vector3d x = p.get(node);
+    beads_ << fmt::format("{},{:.6f},{},{},{},{:.9g},{:.9g},{:.9g},{:.9g}\n", world.frame(), world.time(), b, world.segment(s).name,
+                          node - world.segment(s).nodes.offset, x.x(), x.y(), x.z(), world.bead_radii()[b]);
+  }
 }
 
 void MeshRecorder::finish(const std::filesystem::path& glb) { animation_.write_glb(glb); }

@@ -2,6 +2,7 @@
 // What `haustra run` measures while it steps a world, and how it reports it: the per-stage timing
 // table on the terminal, summary.json and the CSV files in --out.
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,16 @@ class MeshRecorder {
   std::vector<std::uint32_t> used_;  // world vertex index of each written vertex
   TriangleMesh mesh_;                // triangles over the written vertices
   MeshAnimation animation_;
+};
+
+// The centreline (every node) and the beads of chosen frames, as two CSV files in a directory.
+class TrackRecorder {
+ public:
+  explicit TrackRecorder(const std::filesystem::path& dir);
+  void record(const World& world);
+
+ private:
+  std::ofstream centreline_, beads_;
 };
 
 // The organ mesh of a segment: the cage the builder made and how the mesh was bound to it.
