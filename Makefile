@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo test test-release test-asan test-tsan bench validate stability-doc skinning-doc figures clean
+.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench validate stability-doc skinning-doc figures clean
 
 all: build
 
@@ -24,11 +24,20 @@ demo: build
 	@echo
 	@echo "demo outputs: $(abspath $(DEMO_OUT))/ (summary.json, frames.csv, nodes.csv, mesh/ deformed meshes, mesh.glb animation)"
 
-# Release tests, then the whole suite under ASan+UBSan and the threaded tests under TSan.
-test: test-release test-asan test-tsan
+# Release tests and the instruction-count gate, then the whole suite under ASan+UBSan and the
+# threaded tests under TSan.
+test: test-release test-gate test-asan test-tsan
 
 test-release: build
 	@ctest --preset release -j $(JOBS)
+
+# Instructions of one `drop` step and one 10k-vertex skinning against bench/baselines (callgrind).
+test-gate: build
+	@./scripts/instruction-gate.sh
+
+# Records the current instruction counts as the gate's baseline.
+gate-baseline: build
+	@./scripts/instruction-gate.sh --update
 
 # The sanitizer builds compile only what their tests run (the test binary and the CLI it drives).
 test-asan: deps

@@ -313,3 +313,27 @@ TEST_CASE("skinned meshes and their normals are bit-identical with 1 and 2 threa
     CHECK(finite);
   }
 }
+
+TEST_CASE("vertex normals: unit, area-weighted, equal to a double-precision sum over each vertex's triangles") {
+  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/demo.toml");
+  std::unique_ptr<World> w = create_world(scene);
+  for (int f = 0; f < 30; ++f) w->step();
+  const auto p = w->mesh_positions();
+  const auto n = w->mesh_normals();
+  const std::size_t count = w->mesh(0).vertices.count;
+  std::vector<Eigen::Vector3d> sum(count, Eigen::Vector3d::Zero());
+  for (const auto& t : w->mesh_triangles()) {
+    const Eigen::Vector3d a(p.x[t[0]], p.y[t[0]], p.z[t[0]]), b(p.x[t[1]], p.y[t[1]], p.z[t[1]]), c(p.x[t[2]], p.y[t[2]], p.z[t[2]]);
+    const Eigen::Vector3d face = (b - a).cross(c - a);
+    for (std::uint32_t v : t) sum[v] += face;
+  }
+  double worst = 0.0, unit = 0.0;
+  for (std::size_t v = 0; v < count; ++v) {
+    const Eigen::Vector3d mine(n.x[v], n.y[v], n.z[v]);
+    unit = std::max(unit, std::abs(mine.norm() - 1.0));
+    worst = std::max(worst, (mine - sum[v].normalized()).norm());
+  }
+  MESSAGE("normals: unit to " << unit << ", within " << worst << " of the double-precision reference");
+  CHECK(unit < 1e-6);
+  CHECK(worst < 1e-4);
+}

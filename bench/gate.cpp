@@ -1,0 +1,46 @@
+// The instruction-count gate's workloads: one step of `drop` and one skinning of a 10,000-vertex
+// mesh, with callgrind instrumenting and collecting only around them (valgrind --instr-atstart=no
+// --collect-atstart=no: the set-up runs at near native speed). One thread, warmed up first, so
+// the count is the same on every run of the same binary.
+#include <valgrind/callgrind.h>
+
+#include <cstdio>
+#include <string>
+
+#include "haustra/scene.hpp"
+#include "haustra/skinning_study.hpp"
+#include "haustra/world.hpp"
+
+int main(int argc, char** argv) {
+  using namespace haustra;
+  const std::string workload = argc > 1 ? argv[1] : "";
+  if (workload == "drop-frame") {
+    SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/drop.toml");
+    scene.world.threads = 1;
+    std::unique_ptr<World> w = create_world(scene);
+    for (int f = 0; f < 60; ++f) w->step();  // fallen onto the floor: contacts in play
+    CALLGRIND_START_INSTRUMENTATION;
+    CALLGRIND_TOGGLE_COLLECT;
+    w->step();
+    CALLGRIND_TOGGLE_COLLECT;
+    CALLGRIND_STOP_INSTRUMENTATION;
+    std::printf("drop frame %llu, %zu contacts touching\n", static_cast<unsigned long long>(w->frame()), w->contacts().touching);
+    return 0;
+  }
+  if (workload == "skin-10k") {
+    WorldDesc d = validation::study_organ(SkinningMethod::mean_value, 4);
+    d.threads = 1;
+    std::unique_ptr<World> w = World::create(d);
+    const auto poses = validation::study_poses();
+    w->pose_rod(0, w->base_pose(0), poses[1].strain);
+    CALLGRIND_START_INSTRUMENTATION;
+    CALLGRIND_TOGGLE_COLLECT;
+    w->pose_rod(0, w->base_pose(0), poses[0].strain);  // forward sweep, rings, skinning
+    CALLGRIND_TOGGLE_COLLECT;
+    CALLGRIND_STOP_INSTRUMENTATION;
+    std::printf("skinned %zu vertices\n", w->mesh(0).vertices.count);
+    return 0;
+  }
+  std::fprintf(stderr, "usage: haustra_gate drop-frame|skin-10k\n");
+  return 2;
+}
