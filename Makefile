@@ -54,7 +54,8 @@ test-tsan: deps
 bench: build
 	@$(BIN)/haustra_bench --benchmark_out=build/release/bench.json --benchmark_out_format=json
 	@$(BIN)/haustra_bench_collision --benchmark_out=build/release/bench_collision.json --benchmark_out_format=json
-	@echo "benchmark results: $(abspath build/release/bench.json) $(abspath build/release/bench_collision.json)"
+	@$(BIN)/haustra_bench_mesh --benchmark_out=build/release/bench_mesh.json --benchmark_out_format=json
+	@echo "benchmark results: $(abspath build/release/bench.json) $(abspath build/release/bench_collision.json) $(abspath build/release/bench_mesh.json)"
 
 validate: build
 	@$(BIN)/haustra validate

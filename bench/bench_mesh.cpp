@@ -1,0 +1,114 @@
+// Google Benchmark: skinning the organ mesh (the rigid-group kernel and its scalar reference) from
+// 10,000 to 1,000,000 vertices beside a STREAM triad in the same run, so that bytes per second can
+// be set against what this machine streams; and whole frames of `drop` with and without a mesh.
+#include <benchmark/benchmark.h>
+
+#include <random>
+#include <vector>
+
+#include "haustra/kernels/cage_rings.hpp"
+#include "haustra/kernels/skinning.hpp"
+#include "haustra/scene.hpp"
+#include "haustra/world.hpp"
+
+namespace {
+
+using namespace haustra;
+using namespace haustra::kernels;
+
+constexpr std::size_t kSlots = 4;
+
+// Bytes one skinned vertex moves: rest position, output index, K rings' 4 coefficients (and the
+// ring index shared by 8 lanes), the written position.
+constexpr double kBytesPerVertex = 12.0 + 4.0 + kSlots * 16.0 + kSlots * 4.0 / 8.0 + 12.0;
+
+struct Binding {
+  std::vector<float> rx, ry, rz, coef, delta, ox, oy, oz;
+  std::vector<std::uint32_t> vertex, ring;
+  std::size_t blocks;
+  explicit Binding(std::size_t vertices) : blocks((vertices + kSkinLanes - 1) / kSkinLanes) {
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    const std::size_t rings = 109;  // the CT colon's cage
+    rx.resize(blocks * kSkinLanes);
+    ry.resize(rx.size());
+    rz.resize(rx.size());
+    ox.resize(rx.size());
+    oy.resize(rx.size());
+    oz.resize(rx.size());
+    vertex.resize(rx.size());
+    for (std::size_t i = 0; i < rx.size(); ++i) {
+      rx[i] = u(rng);
+      ry[i] = u(rng);
+      rz[i] = u(rng);
+      vertex[i] = static_cast<std::uint32_t>(i);  // vertices in ring-set order, as the binding packs them
+    }
+    coef.resize(blocks * kSlots * kSkinCoefficients * kSkinLanes);
+    for (auto& c : coef) c = 0.25f * u(rng);
+    ring.resize(blocks * kSlots);
+    for (std::size_t b = 0; b < blocks; ++b)
+      for (std::size_t s = 0; s < kSlots; ++s) ring[b * kSlots + s] = static_cast<std::uint32_t>((b * rings / blocks + s) % rings);
+    delta.resize(kRingDeltaFloats * rings);
+    for (auto& d : delta) d = 0.01f * u(rng);
+  }
+  [[nodiscard]] SkinBindingView view() const { return {kSlots, rx, ry, rz, vertex, ring, coef}; }
+};
+
+void counters(benchmark::State& state, double vertices) {
+  state.counters["vertices/s"] = benchmark::Counter(vertices * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["bytes/s"] =
+      benchmark::Counter(kBytesPerVertex * vertices * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+void BM_SkinRigidGroups(benchmark::State& state) {
+  Binding b(static_cast<std::size_t>(state.range(0)));
+  for (auto _ : state) {
+    skin_rigid_groups(b.view(), b.delta, 0, b.blocks, {b.ox, b.oy, b.oz});
+    benchmark::DoNotOptimize(b.ox.data());
+    benchmark::ClobberMemory();
+  }
+  counters(state, static_cast<double>(state.range(0)));
+}
+
+void BM_SkinScalarReference(benchmark::State& state) {
+  Binding b(static_cast<std::size_t>(state.range(0)));
+  for (auto _ : state) {
+    skin_rigid_groups_reference(b.view(), b.delta, {b.ox, b.oy, b.oz});
+    benchmark::DoNotOptimize(b.ox.data());
+    benchmark::ClobberMemory();
+  }
+  counters(state, static_cast<double>(state.range(0)));
+}
+
+// STREAM triad over float arrays: the machine's streaming bandwidth, measured in the same run.
+void BM_StreamTriad(benchmark::State& state) {
+  const auto n = static_cast<std::size_t>(state.range(0));
+  std::vector<float> a(n, 0.0f), b(n, 1.0f), c(n, 2.0f);
+  const float s = 0.5f;
+  for (auto _ : state) {
+    for (std::size_t i = 0; i < n; ++i) a[i] = b[i] + s * c[i];
+    benchmark::DoNotOptimize(a.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["bytes/s"] = benchmark::Counter(12.0 * static_cast<double>(n) * static_cast<double>(state.iterations()),
+                                                 benchmark::Counter::kIsRate);
+}
+
+void BM_FrameDrop(benchmark::State& state) {
+  std::vector<std::string> sets;
+  if (state.range(0) != 0) sets.emplace_back("segment.mesh.source=procedural");
+  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/drop.toml", sets);
+  scene.world.threads = 1;
+  std::unique_ptr<World> w = create_world(scene);
+  for (int f = 0; f < 60; ++f) w->step();
+  for (auto _ : state) w->step();
+  state.counters["mesh vertices"] = static_cast<double>(w->mesh_buffer_size());
+}
+
+}  // namespace
+
+BENCHMARK(BM_SkinRigidGroups)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SkinScalarReference)->Arg(10'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StreamTriad)->Arg(1'000'000)->Arg(10'000'000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_FrameDrop)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond)->Iterations(200);
+BENCHMARK_MAIN();
