@@ -4,8 +4,8 @@
   plots.py fig4 RUN_DIR OUT.png   the paper's Fig. 4 from a run of scenes/sag.toml: both rods'
                                   final centrelines with the quartic beam curve and the catenary
   plots.py fig2 OUT.png           the paper's Fig. 2: EXP2 against Hooke, stress against strain
-  plots.py run RUN_DIR PREFIX     from any run's frames.csv: penetration, instrument force and
-                                  per-stage time against frame (PREFIX-contacts.png, ...)
+  plots.py run RUN_DIR PREFIX     from any run's frames.csv: penetration, instrument force, energy
+                                  and per-stage time against frame (PREFIX-penetration.png, ...)
 """
 import csv
 import json
@@ -114,6 +114,19 @@ def run_plots(run, prefix):
         ax.grid(alpha=0.3)
         fig.tight_layout()
         fig.savefig(f"{prefix}-force.png", dpi=120)
+    if "elastic_energy_J" in rows[0]:
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        elastic = [float(r["elastic_energy_J"]) for r in rows]
+        gravity = [float(r["gravity_energy_J"]) for r in rows]
+        ax.plot(frame, [1e3 * e for e in elastic], label="elastic (stored by elastic strain components)")
+        ax.plot(frame, [1e3 * (g - gravity[0]) for g in gravity], label="weight's potential, from frame 0")
+        ax.plot(frame, [1e3 * (e + g - gravity[0]) for e, g in zip(elastic, gravity)], label="sum")
+        ax.set_xlabel("frame")
+        ax.set_ylabel("energy (mJ)")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(f"{prefix}-energy.png", dpi=120)
     stages = [k[: -len("_us")] for k in rows[0] if k.endswith("_us") and k != "wall_us"]
     stages = [st for st in stages if any(float(r[f"{st}_us"]) > 0 for r in rows)]
     fig, ax = plt.subplots(figsize=(7, 3.8))

@@ -537,6 +537,27 @@ std::span<const kernels::RingPose> World::ring_poses(std::size_t segment) const 
   return std::span<const kernels::RingPose>(impl_->state.mesh.ring_pose).subspan(m.ring_offset, m.cage.ring_station.size());
 }
 
+Energy World::energy() const {
+  const detail::WorldModel& m = impl_->model;
+  const detail::WorldState& st = impl_->state;
+  Energy e;
+  for (const detail::SegmentModel& seg : m.segments) {
+    const std::size_t off = seg.node_offset, n = seg.node_count;
+    for (std::size_t c = 0; c < 4; ++c) {
+      if (seg.stiffness[c] == 0.0) continue;
+      auto dq = [&](std::size_t k) { return st.now.strain[4 * (off + k) + c] - m.rest_strain[4 * (off + k) + c]; };
+      double quad = 0.0;  // Δqᵀ M Δq with the hat functions' mass matrix
+      for (std::size_t k = 0; k + 1 < n; ++k) {
+        const double h = m.section_length[off + k];
+        quad += h / 3.0 * (dq(k) * dq(k) + dq(k + 1) * dq(k + 1)) + h / 3.0 * dq(k) * dq(k + 1);
+      }
+      e.elastic += 0.5 * seg.stiffness[c] * quad;
+    }
+    for (std::size_t k = 0; k < n; ++k) e.gravity -= m.node_mass[off + k] * m.gravity.dot(st.now.position.view().get(off + k));
+  }
+  return e;
+}
+
 const FrameProfile& World::last_profile() const { return impl_->profile; }
 std::span<const Event> World::events() const { return impl_->events; }
 int World::threads() const { return impl_->scheduler.threads(); }

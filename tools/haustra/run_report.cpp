@@ -26,6 +26,7 @@ const char* solver_name(SolverMode m) { return m == SolverMode::newton ? "newton
 void RunRecord::add(const FrameProfile& p, const World& world) {
   has_beads_ = world.bead_count() > 0;
   contacts_.push_back(world.contacts());
+  energy_.push_back(world.energy());
   std::vector<InstrumentReading> readings;
   for (std::size_t i = 0; i < world.instrument_count(); ++i) readings.push_back(world.instrument(i));
   instruments_.push_back(std::move(readings));
@@ -226,6 +227,7 @@ void RunRecord::write_frames_csv(const std::filesystem::path& file) const {
   if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write", file.string()));
   out << "frame,wall_us,substeps,newton,retries";
   for (std::size_t s = 0; s < kStageCount; ++s) out << ',' << stage_name(static_cast<Stage>(s)) << "_us";
+  out << ",elastic_energy_J,gravity_energy_J";
   if (has_beads_) out << ",touching,max_environment_depth_m,max_bead_overlap_m";
   const std::size_t instruments = instruments_.empty() ? 0 : instruments_.front().size();
   for (std::size_t i = 0; i < instruments; ++i)
@@ -234,6 +236,7 @@ void RunRecord::write_frames_csv(const std::filesystem::path& file) const {
   for (std::size_t f = 0; f < frames(); ++f) {
     out << f << ',' << frame_seconds_[f] * 1e6 << ',' << substeps_[f] << ',' << int{newton_[f]} << ',' << retries_[f];
     for (std::size_t s = 0; s < kStageCount; ++s) out << ',' << stage_seconds_[s][f] * 1e6;
+    out << ',' << energy_[f].elastic << ',' << energy_[f].gravity;
     if (has_beads_)
       out << ',' << contacts_[f].touching << ',' << contacts_[f].max_environment_depth << ','
           << contacts_[f].max_bead_overlap;

@@ -38,6 +38,7 @@ class RunRecord {
   std::vector<int> substeps_, retries_;
   std::vector<char> newton_;
   std::vector<ContactReport> contacts_;
+  std::vector<Energy> energy_;
   std::vector<std::vector<InstrumentReading>> instruments_;
   bool has_beads_ = false;
 };

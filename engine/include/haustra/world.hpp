@@ -140,6 +140,15 @@ struct InstrumentReading {
   Eigen::Vector3d filtered_torque = Eigen::Vector3d::Zero();
 };
 
+// Energies of the current configuration, J: what the elastic strain components store
+// (½ Σ k_c Δqᵀ M Δq over elastic and Kelvin–Voigt components; viscous ones store none) and the
+// potential of the rod's weight (−Σ m_k g·r_k, zero at the origin).
+struct Energy {
+  double elastic = 0.0;
+  double gravity = 0.0;
+  [[nodiscard]] double total() const { return elastic + gravity; }
+};
+
 struct Event {
   enum class Kind : std::uint8_t { recovered, unstable };
   Kind kind = Kind::recovered;
@@ -224,6 +233,8 @@ class World {
   [[nodiscard]] std::vector<Eigen::Vector3d> cage_vertices(std::size_t segment) const;
   [[nodiscard]] std::span<const std::array<std::uint32_t, 3>> cage_triangles(std::size_t segment) const;
   [[nodiscard]] std::span<const kernels::RingPose> ring_poses(std::size_t segment) const;
+
+  [[nodiscard]] Energy energy() const;
 
   [[nodiscard]] const FrameProfile& last_profile() const;
   [[nodiscard]] std::span<const Event> events() const;
