@@ -17,12 +17,16 @@ count() {
   local out
   out=$(mktemp)
   valgrind --tool=callgrind --instr-atstart=no --collect-atstart=no --callgrind-out-file="$out" "$gate" "$1" >/dev/null 2>&1
-  awk '/^(summary|totals):/ {print $2; exit}' "$out"
+  # "totals" is what was collected (with --collect-atstart=no, "summary" stays 0).
+  awk '/^totals:/ {print $2; exit}' "$out"
   rm -f "$out"
 }
 
 declare -A now
-for w in drop-frame skin-10k; do now[$w]=$(count "$w"); done
+for w in drop-frame skin-10k; do
+  now[$w]=$(count "$w")
+  [[ "${now[$w]:-0}" -gt 0 ]] || { echo "instruction-gate: callgrind counted nothing for $w" >&2; exit 1; }
+done
 
 if [[ "${1:-}" == "--update" ]]; then
   {
