@@ -20,6 +20,18 @@ import matplotlib.pyplot as plt  # noqa: E402
 G = 9.81
 
 
+def finish(fig, ax, xlabel, ylabel, out, title=None, legend_size=8, dpi=120):
+    """Labels, legend, grid, tight layout, saved."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    if title:
+        ax.set_title(title)
+    ax.legend(fontsize=legend_size)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out, dpi=dpi)
+
+
 def catenary(length, span):
     """y(x) of the catenary of a given length hanging between two points at equal height."""
     lo, hi = 1e-6, 1e6  # 2a sinh(span / 2a) = length, solved for a by bisection on a log scale
@@ -58,13 +70,7 @@ def fig4(run, out):
         ax.plot(xs, [z / sag for z in zs], "o", ms=3, color=colour,
                 label=f"{seg['name']} rod, haustra (sag {1e3 * sag:.3g} mm)")
         ax.plot(grid, [z / ref_sag for z in ref], "-", color=colour, label=f"{label} (sag {1e3 * ref_sag:.3g} mm)")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("height / midspan sag")
-    ax.set_title("Rods held at both ends under gravity (paper Fig. 4)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out, dpi=130)
+    finish(fig, ax, "x (m)", "height / midspan sag", out, "Rods held at both ends under gravity (paper Fig. 4)", dpi=130)
 
 
 def fig2(out):
@@ -80,13 +86,7 @@ def fig2(out):
             label=f"EXP2: β(e^(αε²)−1)+γε, α={alpha:g}, β={beta / 1e3:.1f} kPa, γ={gamma / 1e3:g} kPa")
     ax.plot([100 * e for e in grid], [1e-3 * e_hooke * e for e in grid], "--", label="Hooke: E ε, E = 33.2 kPa")
     ax.axvline(25, color="grey", lw=0.8)
-    ax.set_xlabel("strain (%)")
-    ax.set_ylabel("stress (kPa)")
-    ax.set_title("Linear and EXP2 tissue laws (paper Fig. 2)")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out, dpi=130)
+    finish(fig, ax, "strain (%)", "stress (kPa)", out, "Linear and EXP2 tissue laws (paper Fig. 2)", legend_size=7, dpi=130)
 
 
 def run_plots(run, prefix):
@@ -95,12 +95,7 @@ def run_plots(run, prefix):
     fig, ax = plt.subplots(figsize=(7, 3.5))
     ax.plot(frame, [1e3 * float(r["max_environment_depth_m"]) for r in rows], label="deepest into the environment")
     ax.plot(frame, [1e3 * float(r["max_bead_overlap_m"]) for r in rows], label="deepest between beads")
-    ax.set_xlabel("frame")
-    ax.set_ylabel("penetration (mm)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(f"{prefix}-penetration.png", dpi=120)
+    finish(fig, ax, "frame", "penetration (mm)", f"{prefix}-penetration.png")
     forces = [k for k in rows[0] if k.startswith("instrument") and k.endswith("_fz")]
     if forces:
         fig, ax = plt.subplots(figsize=(7, 3.5))
@@ -108,12 +103,7 @@ def run_plots(run, prefix):
             name = k[: -len("_fz")]
             mag = [math.sqrt(sum(float(r[f"{name}_f{c}"]) ** 2 for c in "xyz")) for r in rows]
             ax.plot(frame, mag, label=f"{name}: |force| (N)")
-        ax.set_xlabel("frame")
-        ax.set_ylabel("force on the instrument (N)")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-        fig.tight_layout()
-        fig.savefig(f"{prefix}-force.png", dpi=120)
+        finish(fig, ax, "frame", "force on the instrument (N)", f"{prefix}-force.png")
     if "elastic_energy_J" in rows[0]:
         fig, ax = plt.subplots(figsize=(7, 3.5))
         elastic = [float(r["elastic_energy_J"]) for r in rows]
@@ -121,12 +111,7 @@ def run_plots(run, prefix):
         ax.plot(frame, [1e3 * e for e in elastic], label="elastic (stored by elastic strain components)")
         ax.plot(frame, [1e3 * (g - gravity[0]) for g in gravity], label="weight's potential, from frame 0")
         ax.plot(frame, [1e3 * (e + g - gravity[0]) for e, g in zip(elastic, gravity)], label="sum")
-        ax.set_xlabel("frame")
-        ax.set_ylabel("energy (mJ)")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-        fig.tight_layout()
-        fig.savefig(f"{prefix}-energy.png", dpi=120)
+        finish(fig, ax, "frame", "energy (mJ)", f"{prefix}-energy.png")
     stages = [k[: -len("_us")] for k in rows[0] if k.endswith("_us") and k != "wall_us"]
     stages = [st for st in stages if any(float(r[f"{st}_us"]) > 0 for r in rows)]
     fig, ax = plt.subplots(figsize=(7, 3.8))
@@ -135,12 +120,7 @@ def run_plots(run, prefix):
         v = [float(r[f"{st}_us"]) for r in rows]
         ax.fill_between(frame, bottom, [b + x for b, x in zip(bottom, v)], step="mid", label=st)
         bottom = [b + x for b, x in zip(bottom, v)]
-    ax.set_xlabel("frame")
-    ax.set_ylabel("time per frame (µs), stacked by stage")
-    ax.legend(fontsize=6, ncol=3)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(f"{prefix}-stages.png", dpi=120)
+    finish(fig, ax, "frame", "time per frame (µs), stacked by stage", f"{prefix}-stages.png", legend_size=6)
 
 
 if __name__ == "__main__":

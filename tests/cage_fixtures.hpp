@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <span>
 #include <vector>
 
 namespace haustra::test {
@@ -85,11 +86,13 @@ inline double signed_volume(const Cage& c) {
   return v;
 }
 
-// Winding number of a closed cage around p (1 inside, 0 outside), from solid angles.
-inline double winding_number(const Cage& c, const Eigen::Vector3d& p) {
+// Σ of the solid angles the triangles subtend at p, over 4π (van Oosterom and Strackee): 1 inside a
+// closed, outward-oriented surface, 0 outside. Independent of any closest-point or normal logic.
+inline double winding_number(std::span<const Eigen::Vector3d> vertices, std::span<const std::array<std::uint32_t, 3>> triangles,
+                             const Eigen::Vector3d& p) {
   double total = 0.0;
-  for (const auto& t : c.triangles) {
-    const Eigen::Vector3d a = c.vertices[t[0]] - p, b = c.vertices[t[1]] - p, d = c.vertices[t[2]] - p;
+  for (const auto& t : triangles) {
+    const Eigen::Vector3d a = vertices[t[0]] - p, b = vertices[t[1]] - p, d = vertices[t[2]] - p;
     const double la = a.norm(), lb = b.norm(), ld = d.norm();
     const double num = a.dot(b.cross(d));
     const double den = la * lb * ld + a.dot(b) * ld + b.dot(d) * la + d.dot(a) * lb;
@@ -97,5 +100,7 @@ inline double winding_number(const Cage& c, const Eigen::Vector3d& p) {
   }
   return total / (4.0 * std::numbers::pi);
 }
+
+inline double winding_number(const Cage& c, const Eigen::Vector3d& p) { return winding_number(c.vertices, c.triangles, p); }
 
 }  // namespace haustra::test

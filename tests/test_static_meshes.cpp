@@ -2,6 +2,8 @@
 // inside/outside decision against the generalized winding number.
 #include <doctest/doctest.h>
 
+#include "cage_fixtures.hpp"
+
 #include <numbers>
 #include <random>
 
@@ -21,19 +23,7 @@ double brute_force_distance(const TriangleMesh& m, const Eigen::Vector3d& p) {
   return best;
 }
 
-// Σ of the solid angles the triangles subtend at p, over 4π (van Oosterom and Strackee): 1 inside a
-// closed, outward-oriented mesh, 0 outside. Independent of any closest-point or normal logic.
-double winding_number(const TriangleMesh& m, const Eigen::Vector3d& p) {
-  double total = 0.0;
-  for (const auto& t : m.triangles) {
-    const Eigen::Vector3d a = m.vertices[t[0]] - p, b = m.vertices[t[1]] - p, c = m.vertices[t[2]] - p;
-    const double la = a.norm(), lb = b.norm(), lc = c.norm();
-    const double numerator = a.dot(b.cross(c));
-    const double denominator = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
-    total += 2.0 * std::atan2(numerator, denominator);
-  }
-  return total / (4.0 * std::numbers::pi);
-}
+double winding_number(const TriangleMesh& m, const Eigen::Vector3d& p) { return test::winding_number(m.vertices, m.triangles, p); }
 
 detail::StaticMeshes build(const TriangleMesh& m) {
   return detail::StaticMeshes(std::vector<MeshObstacleDesc>{{"mesh", "test", m.vertices, m.triangles}});

@@ -1,6 +1,7 @@
 #pragma once
 // The per-frame part of a world (MuJoCo's mjData): everything a step writes. Allocated once at
 // creation; a step never allocates.
+#include <type_traits>
 #include <vector>
 
 #include "haustra/kernels/broad_phase.hpp"
@@ -14,16 +15,25 @@
 
 namespace haustra::detail {
 
-struct Vec3Buffer {
-  std::vector<double> x, y, z;
+// Three parallel arrays (x[], y[], z[]): node quantities in double, mesh vertices in float.
+template <class T>
+struct Vec3BufferOf {
+  std::vector<T> x, y, z;
   void resize(std::size_t n) {
-    x.assign(n, 0.0);
-    y.assign(n, 0.0);
-    z.assign(n, 0.0);
+    x.assign(n, T{0});
+    y.assign(n, T{0});
+    z.assign(n, T{0});
   }
-  [[nodiscard]] kernels::Vec3View<double> view() { return {x, y, z}; }
-  [[nodiscard]] kernels::Vec3View<const double> view() const { return {x, y, z}; }
+  [[nodiscard]] kernels::Vec3View<T> view() { return {x, y, z}; }
+  [[nodiscard]] kernels::Vec3View<const T> view() const { return {x, y, z}; }
+  [[nodiscard]] kernels::FloatVec3Out out()
+    requires std::is_same_v<T, float>
+  {
+    return {x, y, z};
+  }
 };
+using Vec3Buffer = Vec3BufferOf<double>;
+using FloatVec3Buffer = Vec3BufferOf<float>;
 
 struct RotationBuffer {
   std::vector<double> w, x, y, z;
@@ -116,16 +126,6 @@ struct CollisionState {
   Vec3Buffer bead_force;                          // sum over its contacts
   std::vector<Eigen::Matrix3d> bead_stiffness;    // −∂force/∂centre, normal part
   ContactReport report;
-};
-
-struct FloatVec3Buffer {
-  std::vector<float> x, y, z;
-  void resize(std::size_t n) {
-    x.assign(n, 0.0f);
-    y.assign(n, 0.0f);
-    z.assign(n, 0.0f);
-  }
-  [[nodiscard]] kernels::FloatVec3Out out() { return {x, y, z}; }
 };
 
 // The organ meshes' per-frame state: ring poses and how they moved, skinned vertices and normals.
