@@ -1,7 +1,6 @@
 #include "cage_builder.hpp"
 
 #include <fmt/format.h>
-#include <oneapi/tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
@@ -14,6 +13,7 @@
 #include "haustra/error.hpp"
 #include "haustra/kernels/contact_geometry.hpp"
 #include "haustra/rod_curve.hpp"
+#include "scheduler.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -96,7 +96,7 @@ std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleM
     point[i] = curve.pose_at(length * static_cast<double>(i) / static_cast<double>(samples)).position;
   const std::size_t n = mesh.vertices.size();
   std::vector<double> s(n, 0.0);
-  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t v) {
+  parallel_each(n, [&](std::size_t v) {
     const Eigen::Vector3d& x = mesh.vertices[v];
     double best = kInf, best_s = 0.0;
     for (std::size_t i = 0; i < samples; ++i) {
@@ -130,7 +130,7 @@ std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleM
     s.swap(next);
   }
   std::vector<Eigen::Vector3d> out(n);
-  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t v) {
+  parallel_each(n, [&](std::size_t v) {
     const kernels::Pose pose = curve.pose_at(s[v]);
     const Eigen::Vector3d o = pose.rotation.conjugate() * (mesh.vertices[v] - pose.position);
     out[v] = Eigen::Vector3d(o.x(), o.y(), s[v] + o.z());
@@ -230,13 +230,13 @@ Problems find_problems(std::span<const Eigen::Vector3d> cage_vertices, std::span
   scene.commit();
   Problems p;
   std::vector<std::uint8_t> outside(mesh_vertices.size(), 0);
-  tbb::parallel_for(std::size_t{0}, mesh_vertices.size(), [&](std::size_t v) {
+  parallel_each(mesh_vertices.size(), [&](std::size_t v) {
     outside[v] = scene.inside(mesh_vertices[v]) ? 0 : 1;
   });
   for (std::size_t v = 0; v < outside.size(); ++v)
     if (outside[v] != 0) p.outside.push_back(static_cast<std::uint32_t>(v));
   std::vector<std::int64_t> hit(mesh_edges.size(), -1);
-  tbb::parallel_for(std::size_t{0}, mesh_edges.size(), [&](std::size_t e) {
+  parallel_each(mesh_edges.size(), [&](std::size_t e) {
     unsigned tri = 0;
     if (segment_hits(scene, mesh_vertices[mesh_edges[e][0]], mesh_vertices[mesh_edges[e][1]], [](unsigned) { return false; }, tri))
       hit[e] = tri;

@@ -1,6 +1,7 @@
 #pragma once
 // Runs a per-segment stage over all segments, on oneTBB inside an arena of the world's width.
 // Each call writes only its segment's slice, so the result does not depend on the thread count.
+#include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/partitioner.h>
@@ -28,6 +29,28 @@ inline void task_begin() {}
 inline void task_end() {}
 inline void tasks_joined() {}
 #endif
+
+// Model building's parallel loops (cages, weights): fn(first, last) over [0, count) in blocks of
+// `grain`, on the caller's arena, with the same TSan statement of oneTBB's ordering as the stages.
+// Each index is computed alone, so the result does not depend on how the range was split.
+template <class F>
+void parallel_blocks(std::size_t count, std::size_t grain, F&& fn) {
+  const auto body = [&fn](const tbb::blocked_range<std::size_t>& r) {
+    task_begin();
+    fn(r.begin(), r.end());
+    task_end();
+  };
+  task_dispatch();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, grain), body);
+  tasks_joined();
+}
+
+template <class F>
+void parallel_each(std::size_t count, F&& fn) {
+  parallel_blocks(count, 64, [&fn](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) fn(i);
+  });
+}
 
 class Scheduler {
  public:

@@ -1,7 +1,5 @@
 #include "skin_binding.hpp"
 
-#include <oneapi/tbb/blocked_range.h>
-#include <oneapi/tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
@@ -9,6 +7,7 @@
 #include <numeric>
 
 #include "haustra/kernels/mean_value_coordinates.hpp"
+#include "scheduler.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -107,11 +106,11 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
   std::vector<VertexStats> stats(mesh.vertices.size());
   std::vector<std::vector<std::pair<std::uint32_t, double>>> rows(csr != nullptr ? mesh.vertices.size() : 0);
 
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.vertices.size(), 64), [&](const tbb::blocked_range<std::size_t>& range) {
+  parallel_blocks(mesh.vertices.size(), 64, [&](std::size_t first, std::size_t last) {
     std::vector<double> scratch(4 * n), w(n), mass(rings), weight(rings);
     std::vector<Eigen::Vector3d> moment(rings);
     std::vector<std::uint32_t> order(rings);
-    for (std::size_t v = range.begin(); v != range.end(); ++v) {
+    for (std::size_t v = first; v != last; ++v) {
       const kernels::MvcResult r = kernels::mean_value_coordinates(cage.mesh_binding[v], view, frame, scratch, w);
       std::fill(mass.begin(), mass.end(), 0.0);
       std::fill(weight.begin(), weight.end(), 0.0);
@@ -202,7 +201,7 @@ SkinBinding bind_linear_blend(const CageModel& cage, const TriangleMesh& mesh, S
     if (cage.ring_bead[g] >= 0) joints.push_back(static_cast<std::uint32_t>(g));
   Slots slots;
   slots.resize(mesh.vertices.size(), 2);
-  tbb::parallel_for(std::size_t{0}, mesh.vertices.size(), [&](std::size_t v) {
+  parallel_each(mesh.vertices.size(), [&](std::size_t v) {
     const Eigen::Vector3d& x = mesh.vertices[v];
     double best = std::numeric_limits<double>::infinity(), best_t = 0.0;
     std::size_t best_j = 0;
