@@ -1,7 +1,7 @@
 #pragma once
 // Runs a per-segment stage over all segments, on oneTBB inside an arena of the world's width.
 // Each call writes only its segment's slice, so the result does not depend on the thread count.
-#include <oneapi/tbb/blocked_range.h>
+#include <algorithm>
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/partitioner.h>
@@ -35,13 +35,16 @@ inline void tasks_joined() {}
 // Each index is computed alone, so the result does not depend on how the range was split.
 template <class F>
 void parallel_blocks(std::size_t count, std::size_t grain, F&& fn) {
-  const auto body = [&fn](const tbb::blocked_range<std::size_t>& r) {
+  // One task per block, by index, like Scheduler::for_each: the body never reads oneTBB's range
+  // objects, and the simple partitioner does no work balancing that TSan could not follow.
+  const std::size_t blocks = (count + grain - 1) / grain;
+  const auto body = [&fn, count, grain](std::size_t b) {
     task_begin();
-    fn(r.begin(), r.end());
+    fn(b * grain, std::min(count, (b + 1) * grain));
     task_end();
   };
   task_dispatch();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, grain), body);
+  tbb::parallel_for(std::size_t{0}, blocks, body, tbb::simple_partitioner{});
   tasks_joined();
 }
 
