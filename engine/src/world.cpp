@@ -558,6 +558,10 @@ Energy World::energy() const {
   return e;
 }
 
+std::span<const std::uint32_t> World::cage_vertex_rings(std::size_t segment) const {
+  return impl_->model.meshes_of.at(segment).cage.vertex_ring;
+}
+
 const FrameProfile& World::last_profile() const { return impl_->profile; }
 std::span<const Event> World::events() const { return impl_->events; }
 int World::threads() const { return impl_->scheduler.threads(); }

@@ -249,8 +249,8 @@ int render_frames(const RenderCommand& c) {
   return 0;
 }
 
-// The paper's Fig. 6: the organ with its beads, the cage around it, and one sharp bend skinned
-// by linear blending (the collapsing joint) and by the cage.
+// The paper's Fig. 6: (a) the organ with its beads, (b) the cross-section templates, (c) the tight
+// cage, (d) the final cage, and one sharp bend skinned (e) by linear blending and (f) by the cage.
 int figure_cage(const std::string& out, int width, int height) {
   const std::vector<validation::StudyPose> poses = validation::study_poses();
   auto world = [](SkinningMethod m) { return World::create(validation::study_organ(m, 4)); };
@@ -269,13 +269,42 @@ int figure_cage(const std::string& out, int width, int height) {
   o.overlays.beads = true;
   tiles.push_back(render::render(*mvc, desc, o).image);  // (a) the organ and its beads
   o.overlays.beads = false;
+  // (b) the cross-section templates: a ring of m vertices on every bead's surface (and halfway
+  // between beads), in its station's frame; (c) the tight cage joining them, before inflation.
+  const double bead_radius = desc.segments[0].beads.radius;
+  const auto rings = mvc->ring_poses(0);
+  const auto ring_of = mvc->cage_vertex_rings(0);
+  const std::vector<Eigen::Vector3d> cage = mvc->cage_vertices(0);
+  std::vector<Eigen::Vector3d> tight(cage.size());
+  for (std::size_t j = 0; j < cage.size(); ++j) {
+    const kernels::RingPose& r = rings[ring_of[j]];
+    Eigen::Vector3d offset = r.rotation.transpose() * (cage[j] - r.centre);
+    const double radial = offset.head<2>().norm();
+    offset = radial > 1e-9 ? Eigen::Vector3d(bead_radius * offset.x() / radial, bead_radius * offset.y() / radial, 0.0)
+                           : Eigen::Vector3d(0.0, 0.0, offset.z() > 0.0 ? 0.5 * bead_radius : -0.5 * bead_radius);
+    tight[j] = r.centre + r.rotation * offset;
+  }
+  std::vector<std::vector<Eigen::Vector3d>> templates(rings.size());
+  for (std::size_t j = 0; j < cage.size(); ++j)
+    if (std::abs((rings[ring_of[j]].rotation.transpose() * (tight[j] - rings[ring_of[j]].centre)).z()) < 1e-12)
+      templates[ring_of[j]].push_back(tight[j]);
+  for (auto& t : templates)
+    if (!t.empty()) t.push_back(t.front());  // closed rings
+  o.wires = templates;
+  tiles.push_back(render::render(*mvc, desc, o).image);
+  std::vector<std::vector<Eigen::Vector3d>> edges;
+  for (const auto& t : mvc->cage_triangles(0))
+    for (int i = 0; i < 3; ++i) edges.push_back({tight[t[static_cast<std::size_t>(i)]], tight[t[static_cast<std::size_t>((i + 1) % 3)]]});
+  o.wires = edges;
+  tiles.push_back(render::render(*mvc, desc, o).image);
+  o.wires.clear();
   o.overlays.cage = true;
-  tiles.push_back(render::render(*mvc, desc, o).image);  // (b) the cage
+  tiles.push_back(render::render(*mvc, desc, o).image);  // (d) the final cage, pushed out around the mesh
   o.overlays.cage = false;
-  tiles.push_back(render::render(*lbs, desc, o).image);  // (c) linear blend, bent
+  tiles.push_back(render::render(*lbs, desc, o).image);  // (e) linear blend, bent
   mvc->pose_rod(0, mvc->base_pose(0), poses.front().strain);
-  tiles.push_back(render::render(*mvc, desc, o).image);  // (d) the cage's MVC, bent
-  render::contact_sheet(tiles, 2).save_png(out);
+  tiles.push_back(render::render(*mvc, desc, o).image);  // (f) the cage's MVC, bent
+  render::contact_sheet(tiles, 3).save_png(out);
   fmt::print("wrote {}\n", std::filesystem::absolute(out).lexically_normal().string());
   return 0;
 }

@@ -233,6 +233,8 @@ class World {
   [[nodiscard]] std::vector<Eigen::Vector3d> cage_vertices(std::size_t segment) const;
   [[nodiscard]] std::span<const std::array<std::uint32_t, 3>> cage_triangles(std::size_t segment) const;
   [[nodiscard]] std::span<const kernels::RingPose> ring_poses(std::size_t segment) const;
+  // Per cage vertex, the ring that carries it (an index into ring_poses(segment)).
+  [[nodiscard]] std::span<const std::uint32_t> cage_vertex_rings(std::size_t segment) const;
 
   [[nodiscard]] Energy energy() const;
 

@@ -168,7 +168,7 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
   const double size = std::max((b.hi - b.lo).norm(), 0.05);
 
   std::vector<Geometry> geoms;
-  const bool overlay = o.overlays.beads || o.overlays.cage || o.overlays.centreline;
+  const bool overlay = o.overlays.beads || o.overlays.cage || o.overlays.centreline || !o.wires.empty();
   const Rgb tissue{0.80f, 0.42f, 0.40f};
   const auto nodes = world.node_positions();
 
@@ -278,6 +278,13 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
       edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
       for (const auto& [a, c] : edges) add_tube(g, {cv[a], cv[c]}, 0.0012 * size / 0.5, 6);
     }
+    if (!g.triangles.empty()) geoms.push_back(std::move(g));
+  }
+  if (!o.wires.empty()) {
+    Geometry g;
+    g.material = {Shows::cage, {0.15f, 0.35f, 0.95f}, 1.0f, 0.2f, false};
+    for (const auto& w : o.wires)
+      for (std::size_t i = 0; i + 1 < w.size(); ++i) add_tube(g, {w[i], w[i + 1]}, 0.0012 * size / 0.5, 6);
     if (!g.triangles.empty()) geoms.push_back(std::move(g));
   }
   if (o.overlays.contacts) {

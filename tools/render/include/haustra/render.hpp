@@ -41,6 +41,8 @@ struct RenderOptions {
   Eigen::Vector3d view_from = Eigen::Vector3d(1.0, -1.6, 0.9);  // direction from the target to a fitted eye
   Overlays overlays;
   int samples = 2;               // per pixel side (2: 4 rays per pixel)
+  // Extra polylines drawn as thin wires (the cage's colour): templates, construction lines.
+  std::vector<std::vector<Eigen::Vector3d>> wires;
   bool shadows = true;
 };
 
