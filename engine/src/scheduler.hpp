@@ -62,9 +62,11 @@ class Scheduler {
 
   [[nodiscard]] int threads() const { return threads_; }
 
+  // parallel = false runs the tasks inline: for stages whose whole work costs less than handing
+  // it to another thread (a few tens of µs).
   template <class F>
-  void for_each(std::size_t count, F&& fn) {
-    if (count <= 1 || threads_ == 1) {
+  void for_each(std::size_t count, F&& fn, bool parallel = true) {
+    if (count <= 1 || threads_ == 1 || !parallel) {
       for (std::size_t i = 0; i < count; ++i) fn(i);
       return;
     }

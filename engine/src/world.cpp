@@ -46,6 +46,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 constexpr std::size_t kMaxEvents = 1024;
+constexpr std::size_t kParallelMeshVertices = 50'000;
 constexpr int kGoodFramesBeforeRelaxing = 120;  // robust mode: calm frames before halving substeps again
 
 double seconds_since(Clock::time_point t0) {
@@ -92,13 +93,17 @@ struct World::Impl {
   void follow_rod() {
     if (!model.any_mesh) return;
     run_stage(Stage::cage, [&](std::size_t s) { detail::stage_cage(model, state, s); });
+    // Below ~50,000 vertices a chunk takes a few µs: dispatching it costs more than it saves.
+    const bool parallel = model.mesh_vertex_total >= kParallelMeshVertices;
     time_stage(Stage::skin, [&] {
-      scheduler.for_each(model.skin_chunks.size(), [&](std::size_t c) { detail::stage_skin(model, state, c); });
+      scheduler.for_each(model.skin_chunks.size(), [&](std::size_t c) { detail::stage_skin(model, state, c); }, parallel);
     });
     if (!model.normal_chunks.empty())
       time_stage(Stage::normals, [&] {
-        scheduler.for_each(detail::face_chunks(model), [&](std::size_t c) { detail::stage_face_normals(model, state, c); });
-        scheduler.for_each(model.normal_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, state, c); });
+        scheduler.for_each(detail::face_chunks(model), [&](std::size_t c) { detail::stage_face_normals(model, state, c); },
+                           parallel);
+        scheduler.for_each(model.normal_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, state, c); },
+                           parallel);
       });
   }
 
