@@ -216,7 +216,7 @@ TEST_CASE("contact scenes give bit-identical results with 1 and 2 threads") {
         same_contacts &= a[i].bead == b[i].bead && a[i].other == b[i].other && a[i].kind == b[i].kind &&
                          a[i].force == b[i].force;
     }
-    INFO(c.scene);
+    INFO(std::string(c.scene));
     CHECK(same_contacts);
     CHECK(one->contacts().touching > 0);
     const std::vector<double> p1 = positions(*one), p2 = positions(*two);
