@@ -40,8 +40,12 @@ StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
         const Eigen::Vector3d e2 = (corners[(i + 2) % 3] - corners[i]).normalized();
         const double angle = std::acos(std::clamp(e1.dot(e2), -1.0, 1.0));
         if (std::isfinite(angle)) mesh.vertex_normal[t[static_cast<std::size_t>(i)]] += angle * mesh.face_normal.back();
-        mesh.edge_normal[edge_key(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)])] +=
-            mesh.face_normal.back();
+        // try_emplace with zero: a default Eigen vector is uninitialized (this once made the edge
+        // pseudo-normals, and so which side of the bolster a bead was on, vary from run to run).
+        mesh.edge_normal
+            .try_emplace(edge_key(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)]),
+                         Eigen::Vector3d::Zero())
+            .first->second += mesh.face_normal.back();
       }
     }
     embree_->add_triangles(mesh.vertices, mesh.triangles);
