@@ -337,3 +337,10 @@ TEST_CASE("vertex normals: unit, area-weighted, equal to a double-precision sum 
   CHECK(unit < 1e-6);
   CHECK(worst < 1e-4);
 }
+
+TEST_CASE("mesh accessors name a bad segment index") {
+  auto w = World::create(straight_organ(4, 1000));
+  CHECK_THROWS_WITH_AS((void)w->cage_vertices(3), doctest::Contains("segment index 3 out of range"), Error);
+  CHECK_THROWS_WITH_AS((void)w->ring_poses(1), doctest::Contains("segment index 1"), Error);
+  CHECK(w->cage_vertices(0).size() == w->mesh(0).cage.vertices);
+}

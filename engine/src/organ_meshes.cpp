@@ -98,7 +98,6 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
 
     SegmentMesh& out = m.meshes_of[si];
     out.enabled = true;
-    out.normals = d.normals;
     out.info.enabled = true;
     out.info.source = d.source == MeshSource::procedural ? "procedural" : d.file;
     CageBuildInput in{.rest = rest_poses[si].view(),
@@ -138,7 +137,6 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
         m.normal_chunks.push_back({static_cast<std::uint32_t>(si), out.vertex_offset + first,
                                    std::min(chunk_vertices, meshes[si].vertices.size() - first)});
     m.any_mesh = true;
-    m.any_normals = m.any_normals || d.normals;
     meshes[si] = TriangleMesh{};  // the binding keeps what stepping needs
   }
   // Triangles around each vertex (CSR), for normals summed in a fixed order.

@@ -340,6 +340,13 @@ struct World::Impl {
     profile.frame_seconds = seconds_since(t0);
   }
 
+  const detail::SegmentMesh& mesh_of(std::size_t segment) const {
+    if (segment >= model.segments.size())
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("segment index {} out of range (the world has {})", segment, model.segments.size()));
+    return model.meshes_of[segment];
+  }
+
   std::size_t attachment_index(std::size_t segment, std::size_t attachment) const {
     if (segment >= model.segments.size())
       throw Error(ErrorCode::invalid_argument,
@@ -527,10 +534,10 @@ kernels::Vec3View<const float> World::mesh_normals() const {
 }
 std::span<const std::array<std::uint32_t, 3>> World::mesh_triangles() const { return impl_->model.mesh_triangles; }
 std::span<const std::array<std::uint32_t, 3>> World::cage_triangles(std::size_t segment) const {
-  return impl_->model.meshes_of.at(segment).cage.triangles;
+  return impl_->mesh_of(segment).cage.triangles;
 }
 std::vector<Eigen::Vector3d> World::cage_vertices(std::size_t segment) const {
-  const detail::SegmentMesh& m = impl_->model.meshes_of.at(segment);
+  const detail::SegmentMesh& m = impl_->mesh_of(segment);
   if (!m.enabled) return {};
   std::vector<Eigen::Vector3d> out(m.cage.offset.size());
   kernels::cage_vertices(std::span(impl_->state.mesh.ring_pose).subspan(m.ring_offset, m.cage.ring_station.size()),
@@ -538,7 +545,7 @@ std::vector<Eigen::Vector3d> World::cage_vertices(std::size_t segment) const {
   return out;
 }
 std::span<const kernels::RingPose> World::ring_poses(std::size_t segment) const {
-  const detail::SegmentMesh& m = impl_->model.meshes_of.at(segment);
+  const detail::SegmentMesh& m = impl_->mesh_of(segment);
   return std::span<const kernels::RingPose>(impl_->state.mesh.ring_pose).subspan(m.ring_offset, m.cage.ring_station.size());
 }
 
@@ -564,7 +571,7 @@ Energy World::energy() const {
 }
 
 std::span<const std::uint32_t> World::cage_vertex_rings(std::size_t segment) const {
-  return impl_->model.meshes_of.at(segment).cage.vertex_ring;
+  return impl_->mesh_of(segment).cage.vertex_ring;
 }
 
 const FrameProfile& World::last_profile() const { return impl_->profile; }

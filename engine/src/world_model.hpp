@@ -73,7 +73,6 @@ struct BeadModel {
 // world's buffers.
 struct SegmentMesh {
   bool enabled = false;
-  bool normals = false;
   MeshInfo info;
   CageModel cage;
   SkinBinding binding;
@@ -133,7 +132,6 @@ struct WorldModel {
   std::vector<SkinChunk> skin_chunks;
   std::vector<NormalChunk> normal_chunks;
   bool any_mesh = false;
-  bool any_normals = false;
 
   std::vector<Eigen::Vector3d> initial_attachment_target;
   std::vector<Eigen::Quaterniond> initial_attachment_rotation;

@@ -250,11 +250,9 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
         if (c.kind == ContactKind::bead) depth[c.other] = std::max(depth[c.other], c.depth / world.bead_radii()[c.other]);
       }
     for (std::size_t i = 0; i < world.bead_count(); ++i) {
-      const std::size_t first = g.vertices.size();
       add_sphere(g, nodes.get(world.bead_nodes()[i]), world.bead_radii()[i], 10);
       if (o.overlays.colour == Colouring::penetration)
         g.colours.resize(g.vertices.size(), colormap(depth[i] / 0.05));  // 0 … 5 % of the radius
-      (void)first;
     }
     if (o.overlays.colour == Colouring::penetration && !depth.empty()) {
       pic.colour_min = *std::min_element(depth.begin(), depth.end());
