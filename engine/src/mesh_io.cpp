@@ -13,7 +13,13 @@
 namespace haustra {
 
 TriangleMesh load_mesh(const std::filesystem::path& file) {
-  if (!std::filesystem::exists(file)) throw Error(ErrorCode::io, fmt::format("{}: no such mesh file", file.string()));
+  std::error_code ec;
+  const auto bytes = std::filesystem::file_size(file, ec);
+  if (ec) throw Error(ErrorCode::io, fmt::format("{}: no such mesh file ({})", file.string(), ec.message()));
+  if (bytes > kMaxMeshFileBytes)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("{}: {:.1f} GiB, more than the {} GiB the engine reads as a mesh; decimate the mesh",
+                            file.string(), static_cast<double>(bytes) / (1 << 30), kMaxMeshFileBytes >> 30));
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(file.string(), aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
                                                               aiProcess_PreTransformVertices);
@@ -25,10 +31,7 @@ TriangleMesh load_mesh(const std::filesystem::path& file) {
     const auto base = static_cast<std::uint32_t>(mesh.vertices.size());
     for (unsigned v = 0; v < am->mNumVertices; ++v) {
       const aiVector3D& p = am->mVertices[v];
-      const Eigen::Vector3d q(p.x, p.y, p.z);
-      if (!q.allFinite())
-        throw Error(ErrorCode::invalid_geometry, fmt::format("{}: mesh {} vertex {} is not finite", file.string(), m, v));
-      mesh.vertices.push_back(q);
+      mesh.vertices.emplace_back(p.x, p.y, p.z);
     }
     for (unsigned f = 0; f < am->mNumFaces; ++f) {
       const aiFace& face = am->mFaces[f];
@@ -36,8 +39,7 @@ TriangleMesh load_mesh(const std::filesystem::path& file) {
       mesh.triangles.push_back({base + face.mIndices[0], base + face.mIndices[1], base + face.mIndices[2]});
     }
   }
-  if (mesh.triangles.empty())
-    throw Error(ErrorCode::invalid_geometry, fmt::format("{}: the file holds no triangles", file.string()));
+  check_mesh(mesh, file.string());
   return mesh;
 }
 

@@ -66,11 +66,6 @@ std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const WorldMo
         fail(e.code(), where + ".file", e.what());
       }
       for (auto& v : mesh.vertices) v = d.scale * v + d.translate;
-      for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
-        for (std::uint32_t v : mesh.triangles[t])
-          if (v >= mesh.vertices.size())
-            fail(ErrorCode::invalid_geometry, where + ".file",
-                 fmt::format("{}: triangle {} uses vertex {} of {}", d.file, t, v, mesh.vertices.size()));
     }
   }
   return meshes;
@@ -113,7 +108,13 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
       in.bead_node.push_back(m.beads.node[b] - seg.node_offset);
       in.bead_radius.push_back(m.beads.radius[b]);
     }
-    out.cage = build_cage(in, out.info.cage);
+    try {
+      out.cage = build_cage(in, out.info.cage);
+    } catch (const FieldError& e) {
+      // Name the mesh too: the field points at the scene, the detail at what is wrong with the file.
+      if (d.source == MeshSource::procedural) throw;
+      throw FieldError(e.code(), e.field(), fmt::format("{} (mesh {})", e.detail(), d.file));
+    }
     out.binding = d.skinning == SkinningMethod::mean_value
                       ? bind_mean_value(out.cage, meshes[si], d.rings_per_vertex, out.info.skin)
                       : bind_linear_blend(out.cage, meshes[si], out.info.skin);

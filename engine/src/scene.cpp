@@ -45,8 +45,10 @@ class Reader {
  public:
   explicit Reader(std::string file) : file_(std::move(file)) {}
 
-  [[noreturn]] void fail(const toml::node* node, const std::string& path, const std::string& detail) const {
-    throw FieldError(ErrorCode::parse, path, detail, fmt::format("{}: {}: {}", where(file_, node), path, detail));
+  // code: parse for what the scene file itself gets wrong; a file it names keeps its own error's code.
+  [[noreturn]] void fail(const toml::node* node, const std::string& path, const std::string& detail,
+                         ErrorCode code = ErrorCode::parse) const {
+    throw FieldError(code, path, detail, fmt::format("{}: {}: {}", where(file_, node), path, detail));
   }
 
   [[noreturn]] void fail_at(const toml::source_region& source, const std::string& path, const std::string& detail) const {
@@ -226,7 +228,7 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
   if (d.source == MeshSource::file) {
     if (file_node == nullptr) r.fail(&t, path + ".file", "a mesh with source = \"file\" needs file = \"path\"");
     d.file = (scene_dir / r.string(t, "file", path + ".file", "")).string();
-    if (!std::filesystem::exists(d.file)) r.fail(file_node, path + ".file", fmt::format("{}: no such mesh file", d.file));
+    if (!std::filesystem::exists(d.file)) r.fail(file_node, path + ".file", fmt::format("{}: no such mesh file", d.file), ErrorCode::io);
   } else if (file_node != nullptr) {
     r.fail(file_node, path + ".file", "only a mesh with source = \"file\" reads a file");
   }
@@ -299,7 +301,7 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
         s.rest.centreline = std::move(c.points);
         s.rest.centreline_source = f.string();
       } catch (const Error& e) {
-        r.fail(file_node, rp + ".file", e.what());
+        r.fail(file_node, rp + ".file", e.what(), e.code());
       }
     } else if (file_node != nullptr) {
       r.fail(file_node, rp + ".file", "only a rest shape with shape = \"centreline\" reads a file");
@@ -412,7 +414,7 @@ void read_environment(const Reader& r, const toml::table& t, const std::filesyst
       d.triangles = std::move(mesh.triangles);
       d.source = f.string();
     } catch (const Error& e) {
-      r.fail(file_node, p + ".file", e.what());
+      r.fail(file_node, p + ".file", e.what(), e.code());
     }
     return d;
   });

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace haustra {
@@ -16,9 +17,20 @@ struct TriangleMesh {
   std::vector<std::array<std::uint32_t, 3>> triangles;
 };
 
-// Throws Error{io} (cannot read), Error{parse} (assimp's message), or Error{invalid_geometry}
-// (no triangles, non-finite coordinates, indices out of range), naming the file.
+// The largest mesh the engine takes (indices are 32-bit; skinning data grows ~100 bytes a vertex).
+inline constexpr std::size_t kMaxMeshVertices = std::size_t{1} << 24;
+// And the largest file it will hand to a reader.
+inline constexpr std::uintmax_t kMaxMeshFileBytes = std::uintmax_t{2} << 30;
+
+// Throws Error{io} (cannot read), Error{parse} (assimp's message), Error{invalid_argument} (a file
+// or mesh beyond the limits above) or Error{invalid_geometry} (what check_mesh finds), naming the file.
 TriangleMesh load_mesh(const std::filesystem::path& file);
+
+// What the engine relies on in a mesh: triangles, finite vertices, indices in range, no triangle
+// that repeats a vertex or has no area, no edge shared by more than two triangles, neighbouring
+// triangles wound the same way. Open boundaries are allowed (a bowel segment is a tube). Throws
+// Error{invalid_geometry} naming `where`, the triangle and its vertices.
+void check_mesh(const TriangleMesh& mesh, const std::string& where);
 
 // True when every edge is shared by exactly two triangles (the mesh bounds a volume).
 bool is_closed(const TriangleMesh& mesh);
