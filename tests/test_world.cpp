@@ -241,3 +241,73 @@ TEST_CASE("energy: a uniform bend stores B kappa^2 L / 2, a raised rod's weight 
   const double expected = 0.5 * (info.bending_stiffness * kappa * kappa + info.torsion_stiffness * tau * tau) * info.length;
   CHECK(w->energy().elastic == doctest::Approx(expected).epsilon(1e-12));
 }
+
+TEST_CASE("a host that pushes too hard: the frame is refused, nodes and mesh buffers keep the last good frame") {
+  // A world with an organ mesh, stepped by the paper's lagged scheme; after a few good frames the
+  // host pulls the tip, which that scheme cannot hold for an elastic rod (it diverges). With
+  // on_instability = "stop" the step throws Error{unstable}; everything a host reads must still be
+  // the last good frame, bit for bit, and finite.
+  const SceneDesc scene = parse_scene(R"(
+[world]
+gravity = [0.0, 0.0, 0.0]
+[solver]
+mode = "lagged"
+on_instability = "stop"
+[[segment]]
+name = "colon"
+nodes = 41
+radius = 0.02
+[segment.rest]
+length = 0.6
+[segment.law]
+bending = "elastic"
+torsion = "elastic"
+[segment.beads]
+count = 14
+[segment.mesh]
+source = "procedural"
+[segment.mesh.procedural]
+vertices = 3000
+)",
+                                      std::string(HAUSTRA_SOURCE_DIR) + "/scenes/test.toml");
+  auto w = create_world(scene);
+  w->set_external_load(w->node_count() - 1, Eigen::Vector3d(0.0, 0.0, 1e-3), Eigen::Vector3d::Zero());
+  for (int f = 0; f < 5; ++f) w->step();
+  auto mesh_copy = [&] {
+    std::vector<float> out;
+    for (const auto view : {w->mesh_positions(), w->mesh_normals()})
+      for (std::size_t v = 0; v < w->mesh_buffer_size(); ++v) out.insert(out.end(), {view.x[v], view.y[v], view.z[v]});
+    return out;
+  };
+  const std::vector<double> nodes_before = positions(*w);
+  const std::vector<float> mesh_before = mesh_copy();
+  REQUIRE(mesh_before.size() == 6 * w->mesh_buffer_size());
+  w->set_external_load(w->node_count() - 1, Eigen::Vector3d(5.0, 0.0, 0.0), Eigen::Vector3d::Zero());
+  bool threw = false;
+  try {
+    w->step();
+  } catch (const Error& e) {
+    threw = true;
+    CHECK(e.code() == ErrorCode::unstable);
+    const std::string msg = e.what();
+    CHECK(msg.find("segment 'colon'") != std::string::npos);
+    CHECK(msg.find("node ") != std::string::npos);
+    CHECK(msg.find("stage '") != std::string::npos);
+    CHECK(msg.find("last good frame") != std::string::npos);
+  }
+  REQUIRE(threw);
+  CHECK(w->frame() == 5);
+  const std::vector<double> nodes_after = positions(*w);
+  const std::vector<float> mesh_after = mesh_copy();
+  CHECK(std::memcmp(nodes_before.data(), nodes_after.data(), nodes_before.size() * sizeof(double)) == 0);
+  CHECK(std::memcmp(mesh_before.data(), mesh_after.data(), mesh_before.size() * sizeof(float)) == 0);
+  for (float x : mesh_after) REQUIRE(std::isfinite(x));
+  REQUIRE_FALSE(w->events().empty());
+  CHECK(w->events().back().kind == Event::Kind::unstable);
+  CHECK(w->events().back().frame == 5);
+  // The host takes the force back and the world steps on from its last good frame.
+  w->set_external_load(w->node_count() - 1, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  w->step();
+  CHECK(w->frame() == 6);
+  for (double x : positions(*w)) CHECK(std::isfinite(x));
+}

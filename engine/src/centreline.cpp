@@ -71,7 +71,7 @@ void check_centreline_points(const std::vector<Eigen::Vector3d>& points, const s
   }
   // A path that meets itself: two segments that are not neighbours closer than 1 % of the mean
   // point spacing (a real organ's loops lie a diameter apart). Pairs whose bounding spheres are
-  // apart are skipped, so a CT centreline of ~1,400 points costs a few milliseconds.
+  // apart skip the exact distance.
   const std::size_t n = points.size() - 1;
   const double touch = 0.01 * length / static_cast<double>(n);
   for (std::size_t i = 0; i + 2 < n; ++i) {
