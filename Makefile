@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench validate stability-doc skinning-doc figures clean
+.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench validate stability-doc skinning-doc figures soak clean
 
 all: build
 
@@ -42,7 +42,7 @@ gate-baseline: build
 # The sanitizer builds compile only what their tests run (the test binary and the CLI it drives).
 test-asan: deps
 	@cmake --preset asan >/dev/null
-	@cmake --build --preset asan -j $(JOBS) --target haustra_tests haustra
+	@cmake --build --preset asan -j $(JOBS) --target haustra_tests haustra haustra_soak
 	@ctest --preset asan -j $(JOBS)
 
 # TSan checks what runs on more than one thread: stepping worlds with 2 threads.
@@ -74,6 +74,16 @@ figures: build
 skinning-doc: build
 	@$(BIN)/haustra skinning --markdown > docs/skinning-table.md
 	@echo "wrote $(abspath docs/skinning-table.md)"
+
+# The long soak (docs/reliability.md): 1,000,000 frames of grasp and release on `drop`, about
+# 25 minutes on one core; samples in out/soak/soak.csv, plots in docs/figures/soak-*.png.
+SOAK_FRAMES ?= 1000000
+soak: build
+	@./scripts/install-deps.sh --figures
+	@mkdir -p out/soak
+	@$(BIN)/haustra_soak --frames $(SOAK_FRAMES) --out out/soak/soak.csv
+	@/usr/bin/python3 scripts/plots.py soak out/soak/soak.csv docs/figures/soak
+	@echo "soak samples: $(abspath out/soak/soak.csv); plots: $(abspath docs/figures)/soak-memory.png, soak-energy.png"
 
 clean:
 	rm -rf build out

@@ -6,6 +6,8 @@
   plots.py fig2 OUT.png           the paper's Fig. 2: EXP2 against Hooke, stress against strain
   plots.py run RUN_DIR PREFIX     from any run's frames.csv: penetration, instrument force, energy
                                   and per-stage time against frame (PREFIX-penetration.png, ...)
+  plots.py soak SOAK.csv PREFIX   from haustra_soak's samples: memory (PREFIX-memory.png) and
+                                  energy with its allowed band (PREFIX-energy.png) against frame
 """
 import csv
 import json
@@ -123,6 +125,22 @@ def run_plots(run, prefix):
     finish(fig, ax, "frame", "time per frame (µs), stacked by stage", f"{prefix}-stages.png", legend_size=6)
 
 
+def soak_plots(samples, prefix):
+    with open(samples) as f:
+        rows = list(csv.DictReader(f))
+    frame = [int(r["frame"]) for r in rows]
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    ax.plot(frame, [int(r["resident_kib"]) / 1024 for r in rows], label="resident memory (MiB)")
+    ax.plot(frame, [int(r["heap_bytes"]) / 2**20 for r in rows], label="heap in use (MiB)")
+    ax.set_ylim(bottom=0)
+    finish(fig, ax, "frame", "MiB", f"{prefix}-memory.png")
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    ax.plot(frame, [float(r["total_J"]) for r in rows], ".", markersize=2, label="energy at the sample (elastic + gravity)")
+    ax.plot(frame, [float(r["energy_low_J"]) for r in rows], "k--", linewidth=0.8, label="allowed band")
+    ax.plot(frame, [float(r["energy_high_J"]) for r in rows], "k--", linewidth=0.8)
+    finish(fig, ax, "frame", "J", f"{prefix}-energy.png")
+
+
 if __name__ == "__main__":
     if len(sys.argv) >= 2 and sys.argv[1] == "fig4":
         fig4(sys.argv[2], sys.argv[3])
@@ -130,6 +148,8 @@ if __name__ == "__main__":
         fig2(sys.argv[2])
     elif len(sys.argv) >= 2 and sys.argv[1] == "run":
         run_plots(sys.argv[2], sys.argv[3])
+    elif len(sys.argv) >= 2 and sys.argv[1] == "soak":
+        soak_plots(sys.argv[2], sys.argv[3])
     else:
         print(__doc__)
         sys.exit(2)
