@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench validate stability-doc skinning-doc figures soak clean
+.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench validate stability-doc skinning-doc figures soak fuzz clean
 
 all: build
 
@@ -84,6 +84,14 @@ soak: build
 	@$(BIN)/haustra_soak --frames $(SOAK_FRAMES) --out out/soak/soak.csv
 	@/usr/bin/python3 scripts/plots.py soak out/soak/soak.csv docs/figures/soak
 	@echo "soak samples: $(abspath out/soak/soak.csv); plots: $(abspath docs/figures)/soak-memory.png, soak-energy.png"
+
+# libFuzzer on the scene reader, the centreline reader and mesh loading (clang from Debian), each
+# for FUZZ_SECONDS (300); see scripts/fuzz.sh for where inputs and crashes go.
+fuzz:
+	@./scripts/install-deps.sh --fuzz
+	@cmake --preset fuzz >/dev/null
+	@cmake --build --preset fuzz -j $(JOBS) --target haustra_fuzz_scene haustra_fuzz_centreline haustra_fuzz_mesh
+	@./scripts/fuzz.sh
 
 clean:
 	rm -rf build out

@@ -12,10 +12,13 @@ packages=(
   # instruction-count gate and sanitizer runtimes
   valgrind
 )
-# `make figures` plots with Debian's matplotlib (run by /usr/bin/python3).
-if [[ "${1:-}" == "--figures" ]]; then
-  packages+=(python3-matplotlib)
-fi
+for extra in "$@"; do
+  case "$extra" in
+    --figures) packages+=(python3-matplotlib) ;;          # `make figures`, `make soak`: Debian's matplotlib
+    --fuzz) packages+=(clang libclang-rt-14-dev) ;;        # `make fuzz`: clang and its libFuzzer runtime
+    *) echo "install-deps: unknown option $extra (expected --figures or --fuzz)" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do

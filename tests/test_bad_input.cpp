@@ -240,8 +240,12 @@ std::vector<BadInput> catalogue(const Scratch& s) {
                  {"segment[0].mesh", "from the rod", "in metres (scale)"}),
       scene_in(s, "[[segment]]\nnodes = 21\n[segment.beads]\ncount = 11\n[segment.mesh]\nfile = \"m-away.obj\"\nscale = -1.0\n",
                ErrorCode::invalid_argument, {"scene.toml:7", "segment[0].mesh.scale", "positive scale"}),
-      organ_mesh(s, "m-text.obj", "this is not a mesh\n\x01\x02", ErrorCode::invalid_geometry,
-                 {"segment[0].mesh.file", "holds no triangles"}),
+      organ_mesh(s, "m-noface.off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 3 2\n", ErrorCode::parse,
+                 {"segment[0].mesh.file", "cannot read the mesh"}),  // found by fuzzing: assimp aborted
+      organ_mesh(s, "m-tetra.ply", "ply\nformat ascii 1.0\nelement vertex 0\nend_header\n", ErrorCode::invalid_argument,
+                 {"'.ply' meshes are not read", ".obj, .stl, .off, .gltf, .glb"}),  // assimp's PLY reader hangs
+      organ_mesh(s, "m-text.obj", "this is not a mesh\n\x01\x02", ErrorCode::parse,
+                 {"segment[0].mesh.file", "cannot read the mesh", "At least one mesh"}),
       scene_in(s, "[[segment]]\nnodes = 21\n[segment.beads]\ncount = 11\n[segment.mesh]\nfile = \"absent.obj\"\n",
                ErrorCode::io, {"scene.toml:6", "absent.obj", "no such mesh file"}),
       {"a mesh file larger than the engine reads",

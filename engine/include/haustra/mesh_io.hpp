@@ -1,6 +1,7 @@
 #pragma once
-// Triangle meshes from any format assimp reads (OBJ, PLY, STL, glTF, FBX, ...), with the node
-// transforms applied, polygons triangulated and identical vertices joined.
+// Triangle meshes read through assimp (OBJ, STL, OFF, glTF: see kMeshFormats), with the node
+// transforms applied, polygons triangulated and identical vertices joined; written as OBJ, PLY,
+// STL or glTF.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
@@ -8,6 +9,7 @@
 #include <filesystem>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace haustra {
@@ -16,6 +18,9 @@ struct TriangleMesh {
   std::vector<Eigen::Vector3d> vertices;
   std::vector<std::array<std::uint32_t, 3>> triangles;
 };
+
+// The mesh formats the engine reads (lower case), all through assimp.
+inline constexpr std::array<std::string_view, 5> kMeshFormats = {".obj", ".stl", ".off", ".gltf", ".glb"};
 
 // The largest mesh the engine takes (indices are 32-bit; skinning data grows ~100 bytes a vertex).
 inline constexpr std::size_t kMaxMeshVertices = std::size_t{1} << 24;
