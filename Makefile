@@ -39,10 +39,13 @@ test-gate: build
 gate-baseline: build
 	@./scripts/instruction-gate.sh --update
 
-# The sanitizer builds compile only what their tests run (the test binary and the CLI it drives).
+# The sanitizer builds compile only what their tests run (the test binary, the CLI it drives, the
+# soak and the fuzz replayers), with line tables only (-g1): enough for a report's stack, and a
+# third less compile time than full debug information.
 test-asan: deps
 	@cmake --preset asan >/dev/null
-	@cmake --build --preset asan -j $(JOBS) --target haustra_tests haustra haustra_soak
+	@cmake --build --preset asan -j $(JOBS) --target haustra_tests haustra haustra_soak haustra_fuzz_scene \
+	  haustra_fuzz_centreline haustra_fuzz_mesh
 	@ctest --preset asan -j $(JOBS)
 
 # TSan checks what runs on more than one thread: stepping worlds with 2 threads.

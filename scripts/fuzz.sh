@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# `make fuzz`: runs each libFuzzer target (fuzz/) for FUZZ_SECONDS (default 300), all at once.
+# `make fuzz`: runs each libFuzzer target (fuzz/) for FUZZ_SECONDS (default 300), all at once;
+# `scripts/fuzz.sh mesh` runs one.
 # New inputs go to out/fuzz/<target>/ and are then merged into the committed corpus
 # fuzz/corpus/<target>/ only where they add coverage. A crash leaves out/fuzz/<target>-crash-*:
 # copy it into tests/fuzz-regressions/<target>/, fix the bug, and the replay test keeps it fixed.
@@ -7,9 +8,11 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${FUZZ_SECONDS:-300}
 bin=build/fuzz/bin
-targets=(scene centreline mesh)
+targets=("${@:-scene}")
+[[ $# -gt 0 ]] || targets=(scene centreline mesh)
 mkdir -p out/fuzz
-export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:allocator_may_return_null=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+export LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp:print_suppressions=0
 pids=()
 for t in "${targets[@]}"; do
   mkdir -p "out/fuzz/$t"

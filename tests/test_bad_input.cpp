@@ -244,6 +244,8 @@ std::vector<BadInput> catalogue(const Scratch& s) {
                  {"segment[0].mesh.file", "cannot read the mesh"}),  // found by fuzzing: assimp aborted
       organ_mesh(s, "m-tetra.ply", "ply\nformat ascii 1.0\nelement vertex 0\nend_header\n", ErrorCode::invalid_argument,
                  {"'.ply' meshes are not read", ".obj, .stl, .off, .gltf, .glb"}),  // assimp's PLY reader hangs
+      organ_mesh(s, "m-claims.off", "OFF\n40000000000 4 0\n0 0 0\n1 0 0\n", ErrorCode::parse,
+                 {"claims 4e+10 vertices and 4 faces", "bytes can hold"}),  // found by fuzzing: a 45 GB allocation
       organ_mesh(s, "m-text.obj", "this is not a mesh\n\x01\x02", ErrorCode::parse,
                  {"segment[0].mesh.file", "cannot read the mesh", "At least one mesh"}),
       scene_in(s, "[[segment]]\nnodes = 21\n[segment.beads]\ncount = 11\n[segment.mesh]\nfile = \"absent.obj\"\n",

@@ -224,7 +224,8 @@ grasp = true
 }
 
 TEST_CASE("--set overrides any value, everywhere or in one segment, and is checked like the file") {
-  const std::string two = std::string(kMinimal) + "\n[[segment]]\nname = \"b\"\nnodes = 11\n";
+  std::string two = kMinimal;
+  two += "\n[[segment]]\nname = \"b\"\nnodes = 11\n";
   SceneDesc s = parse_scene(two, "t.toml", std::vector<std::string>{"segment.nodes=33"});
   CHECK(s.world.segments.at(0).nodes == 33);
   CHECK(s.world.segments.at(1).nodes == 33);

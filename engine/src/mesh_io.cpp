@@ -5,8 +5,13 @@
 
 #include <algorithm>
 #include <cctype>
+#include <fstream>
+#include <new>
+#include <sstream>
+#include <vector>
 
 #include <assimp/Exporter.hpp>
+#include <assimp/importerdesc.h>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -15,6 +20,54 @@
 #include "haustra/error.hpp"
 
 namespace haustra {
+namespace {
+
+// An OFF header states its counts up front and assimp allocates them before reading a vertex: a
+// header claiming 10²⁵ vertices (found by fuzzing) asked for 45 GB. Each vertex needs at least
+// "0 0 0\n" and each face "3 0 1 2\n", so counts the file cannot hold are refused here.
+void check_off_counts(const std::filesystem::path& file, std::uintmax_t bytes) {
+  std::ifstream in(file);
+  std::string word;
+  in >> word;  // "OFF" (or a variant such as "COFF"), possibly fused with the counts
+  if (!in || word.find("OFF") == std::string::npos) return;  // not an OFF header: the reader will say so
+  double vertices = 0.0, faces = 0.0;
+  if (!(in >> vertices >> faces)) return;
+  if (!(vertices >= 0.0) || !(faces >= 0.0) || 6.0 * vertices + 8.0 * faces > static_cast<double>(bytes) + 64.0)
+    throw Error(ErrorCode::parse, fmt::format("{}: the OFF header claims {:.6g} vertices and {:.6g} faces, more than "
+                                              "its {} bytes can hold",
+                                              file.string(), vertices, faces, bytes));
+}
+
+// While alive, the importer knows only the readers of kMeshFormats. An extension alone does not
+// choose the reader: when the named format's reader declines a file, assimp tries every reader on
+// the content, so a file called .glb holding a PLY header would still reach the PLY reader (found
+// by fuzzing). The readers taken out are given back before the importer is destroyed, which
+// deletes them.
+class AllowedReadersOnly {
+ public:
+  explicit AllowedReadersOnly(Assimp::Importer& importer) : importer_(importer) {
+    for (std::size_t i = 0; i < importer.GetImporterCount(); ++i) {
+      const aiImporterDesc* desc = importer.GetImporterInfo(i);
+      std::istringstream extensions(desc != nullptr && desc->mFileExtensions != nullptr ? desc->mFileExtensions : "");
+      bool allowed = false;
+      for (std::string e; extensions >> e;)
+        allowed = allowed || std::find(kMeshFormats.begin(), kMeshFormats.end(), "." + e) != kMeshFormats.end();
+      if (!allowed) removed_.push_back(importer.GetImporter(i));
+    }
+    for (Assimp::BaseImporter* r : removed_) importer.UnregisterLoader(r);
+  }
+  ~AllowedReadersOnly() {
+    for (Assimp::BaseImporter* r : removed_) importer_.RegisterLoader(r);
+  }
+  AllowedReadersOnly(const AllowedReadersOnly&) = delete;
+  AllowedReadersOnly& operator=(const AllowedReadersOnly&) = delete;
+
+ private:
+  Assimp::Importer& importer_;
+  std::vector<Assimp::BaseImporter*> removed_;
+};
+
+}  // namespace
 
 TriangleMesh load_mesh(const std::filesystem::path& file) {
   // Only formats whose readers in Debian's assimp survive fuzzing (docs/decisions/0023).
@@ -33,11 +86,20 @@ TriangleMesh load_mesh(const std::filesystem::path& file) {
                 fmt::format("{}: {:.1f} GiB, more than the {} GiB the engine reads as a mesh; decimate the mesh",
                             file.string(), static_cast<double>(bytes) / (1 << 30), kMaxMeshFileBytes >> 30));
   Assimp::Importer importer;
+  const AllowedReadersOnly allowed(importer);
   // Validation first: Debian's assimp is built with assertions, and a malformed face (an OFF face
   // with no vertices, found by fuzzing) would otherwise abort the process inside triangulation.
-  const aiScene* scene =
-      importer.ReadFile(file.string(), aiProcess_ValidateDataStructure | aiProcess_Triangulate |
-                                           aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices);
+  check_off_counts(file, bytes);  // any extension: assimp picks a reader by content too
+  const aiScene* scene = nullptr;
+  try {
+    scene = importer.ReadFile(file.string(), aiProcess_ValidateDataStructure | aiProcess_Triangulate |
+                                                 aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices);
+  } catch (const std::bad_alloc&) {
+    throw Error(ErrorCode::parse,
+                fmt::format("{}: reading it needs more memory than there is: is the file what it says it is?", file.string()));
+  } catch (const std::exception& e) {
+    throw Error(ErrorCode::parse, fmt::format("{}: cannot read the mesh: {}", file.string(), e.what()));
+  }
   if (scene == nullptr)
     throw Error(ErrorCode::parse, fmt::format("{}: cannot read the mesh: {}", file.string(), importer.GetErrorString()));
   TriangleMesh mesh;
