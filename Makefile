@@ -45,7 +45,7 @@ gate-baseline: build
 test-asan: deps
 	@cmake --preset asan >/dev/null
 	@cmake --build --preset asan -j $(JOBS) --target haustra_tests haustra haustra_soak haustra_fuzz_scene \
-	  haustra_fuzz_centreline haustra_fuzz_mesh
+	  haustra_fuzz_centreline haustra_fuzz_mesh haustra_fuzz_c_api haustra_c_api_tests
 	@ctest --preset asan -j $(JOBS)
 
 # TSan checks what runs on more than one thread: stepping worlds with 2 threads.
@@ -88,12 +88,14 @@ soak: build
 	@/usr/bin/python3 scripts/plots.py soak out/soak/soak.csv docs/figures/soak
 	@echo "soak samples: $(abspath out/soak/soak.csv); plots: $(abspath docs/figures)/soak-memory.png, soak-energy.png"
 
-# libFuzzer on the scene reader, the centreline reader and mesh loading (clang from Debian), each
+# libFuzzer on the scene reader, the centreline reader, mesh loading and C API call sequences
+# (clang from Debian), each
 # for FUZZ_SECONDS (300); see scripts/fuzz.sh for where inputs and crashes go.
 fuzz:
 	@./scripts/install-deps.sh --fuzz
 	@cmake --preset fuzz >/dev/null
-	@cmake --build --preset fuzz -j $(JOBS) --target haustra_fuzz_scene haustra_fuzz_centreline haustra_fuzz_mesh
+	@cmake --build --preset fuzz -j $(JOBS) --target haustra_fuzz_scene haustra_fuzz_centreline haustra_fuzz_mesh \
+	  haustra_fuzz_c_api
 	@./scripts/fuzz.sh
 
 clean:

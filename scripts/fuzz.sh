@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 seconds=${FUZZ_SECONDS:-300}
 bin=build/fuzz/bin
 targets=("${@:-scene}")
-[[ $# -gt 0 ]] || targets=(scene centreline mesh)
+[[ $# -gt 0 ]] || targets=(scene centreline mesh c_api)
 mkdir -p out/fuzz
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:allocator_may_return_null=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp:print_suppressions=0

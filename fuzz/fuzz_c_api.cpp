@@ -1,0 +1,143 @@
+// Fuzz target: random sequences of C API calls on a small world — steps, host loads and
+// instrument poses with any bit pattern (NaN, infinities, huge values), grasps, reads of every
+// buffer, stale and made-up handles, NULL pointers, destroy and re-create. Every call must return a
+// status; after every OK step every buffer a host reads must be finite.
+#include <haustra/haustra.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+
+namespace {
+
+struct Input {
+  const std::uint8_t* data;
+  std::size_t size;
+  std::size_t at = 0;
+  bool empty() const { return at >= size; }
+  std::uint8_t byte() { return at < size ? data[at++] : 0; }
+  double number() {
+    // Half the time a plausible value, half the time any bit pattern.
+    if (byte() & 1) return (static_cast<int>(byte()) - 128) / 256.0;
+    std::uint64_t bits = 0;
+    for (int i = 0; i < 8; ++i) bits = (bits << 8) | byte();
+    double d;
+    std::memcpy(&d, &bits, sizeof d);
+    return d;
+  }
+};
+
+void require(bool ok, const char* what) {
+  if (!ok) {
+    __builtin_trap();  // a finding: make libFuzzer keep the input
+  }
+  (void)what;
+}
+
+void check_finite(haustra_world* w) {
+  haustra_vec3_view nodes{};
+  require(haustra_world_node_positions(w, &nodes) == HAUSTRA_OK, "node view");
+  for (std::size_t k = 0; k < nodes.count; ++k)
+    require(std::isfinite(nodes.x[k]) && std::isfinite(nodes.y[k]) && std::isfinite(nodes.z[k]), "finite nodes");
+  haustra_vec3f_view mesh{}, normals{};
+  require(haustra_world_mesh_positions(w, &mesh) == HAUSTRA_OK, "mesh view");
+  require(haustra_world_mesh_normals(w, &normals) == HAUSTRA_OK, "normal view");
+  for (std::size_t v = 0; v < mesh.count; ++v)
+    require(std::isfinite(mesh.x[v]) && std::isfinite(mesh.y[v]) && std::isfinite(mesh.z[v]) &&
+                std::isfinite(normals.x[v]) && std::isfinite(normals.y[v]) && std::isfinite(normals.z[v]),
+            "finite mesh");
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  Input in{data, size};
+  // Building the mesh's cage and weights is most of an input's time under the sanitizers, so one
+  // input in eight gets the world with a mesh, the rest the same world without one.
+  const char* scene = (in.byte() % 8 == 0) ? HAUSTRA_SOURCE_DIR "/fuzz/c_api_world.toml"
+                                           : HAUSTRA_SOURCE_DIR "/fuzz/c_api_world_no_mesh.toml";
+  haustra_world* w = nullptr;
+  if (haustra_world_create_from_scene(scene, 1, &w) != HAUSTRA_OK) std::abort();
+  haustra_world* stale = nullptr;
+  int steps = 0;
+  while (!in.empty() && steps < 40) {
+    const std::size_t index = in.byte() % 4;  // 0 is valid for nodes and the instrument; 1..3 mostly not
+    double a[3] = {in.number(), in.number(), in.number()};
+    double b[3] = {in.number(), in.number(), in.number()};
+    haustra_world* target = w;
+    switch (in.byte() % 16) {
+      case 0:
+      case 1:
+      case 2: {
+        const haustra_status s = haustra_world_step(w);
+        require(s == HAUSTRA_OK || s == HAUSTRA_UNSTABLE, "step status");
+        require(s == HAUSTRA_OK || std::strstr(haustra_last_error(), "last good frame") != nullptr, "unstable message");
+        check_finite(w);
+        ++steps;
+        break;
+      }
+      case 3: {
+        const haustra_status s = haustra_world_set_node_load(w, index * 5, a, b);
+        require(s == HAUSTRA_OK || s == HAUSTRA_INVALID_ARGUMENT, "load status");
+        break;
+      }
+      case 4: {
+        const haustra_status s = haustra_world_set_instrument_pose(w, index, a, b);
+        require(s == HAUSTRA_OK || s == HAUSTRA_INVALID_ARGUMENT, "pose status");
+        break;
+      }
+      case 5:
+        require(haustra_world_set_instrument_grasp(w, index, in.byte() & 1) == (index == 0 ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT),
+                "grasp status");
+        break;
+      case 6: {
+        haustra_instrument_reading r{};
+        require(haustra_world_instrument(w, index, &r) == (index == 0 ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT), "reading");
+        break;
+      }
+      case 7: {
+        haustra_counts c{};
+        haustra_triangles_view t{};
+        require(haustra_world_counts(w, &c) == HAUSTRA_OK, "counts");
+        require(haustra_world_mesh_triangles(w, &t) == HAUSTRA_OK && t.count == c.mesh_triangles, "triangles");
+        for (std::size_t i = 0; i < 3 * t.count; ++i) require(t.indices[i] < c.mesh_vertices, "index range");
+        break;
+      }
+      case 8: {
+        haustra_profile p{};
+        double seconds = 0.0;
+        std::uint64_t frame = 0;
+        require(haustra_world_profile(w, &p) == HAUSTRA_OK, "profile");
+        require(haustra_world_time(w, &seconds, &frame) == HAUSTRA_OK, "time");
+        break;
+      }
+      case 9:  // destroy and re-create; the old handle becomes stale
+        require(haustra_world_destroy(w) == HAUSTRA_OK, "destroy");
+        stale = w;
+        w = nullptr;
+        if (haustra_world_create_from_scene(scene, 1, &w) != HAUSTRA_OK) std::abort();
+        break;
+      case 10:
+        target = stale != nullptr && stale != w ? stale : nullptr;
+        require(haustra_world_step(target) == HAUSTRA_INVALID_HANDLE, "stale handle");
+        break;
+      case 11: {
+        haustra_world* made_up = reinterpret_cast<haustra_world*>(&in);
+        haustra_counts c{};
+        require(haustra_world_counts(made_up, &c) == HAUSTRA_INVALID_HANDLE, "made-up handle");
+        break;
+      }
+      case 12:
+        require(haustra_world_node_positions(w, nullptr) == HAUSTRA_INVALID_ARGUMENT, "NULL out");
+        require(haustra_world_set_instrument_pose(w, 0, nullptr, b) == HAUSTRA_INVALID_ARGUMENT, "NULL tip");
+        break;
+      default:
+        check_finite(w);
+        break;
+    }
+  }
+  require(haustra_world_destroy(w) == HAUSTRA_OK, "final destroy");
+  return 0;
+}
