@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "haustra/error.hpp"
+#include "minimal_scene.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
 
@@ -49,15 +50,7 @@ class Scratch {
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 constexpr double inf = std::numeric_limits<double>::infinity();
 
-const char* kMinimal = R"(
-[scene]
-name = "t"
-[[segment]]
-name = "a"
-nodes = 11
-[segment.rest]
-length = 0.5
-)";
+const char* const kMinimal = test::kMinimalScene;
 
 BadInput scene(const std::string& text, std::vector<std::string> words, ErrorCode code = ErrorCode::parse) {
   return {"scene:\n" + text, [text] { create_world(parse_scene(text, kScenes / "test.toml")); }, code, std::move(words)};

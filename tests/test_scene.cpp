@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "haustra/error.hpp"
+#include "minimal_scene.hpp"
 #include "haustra/scene.hpp"
 
 using namespace haustra;
@@ -24,15 +25,7 @@ std::string error_of(const std::string& text, std::vector<std::string> sets = {}
   return "";
 }
 
-const char* kMinimal = R"(
-[scene]
-name = "t"
-[[segment]]
-name = "a"
-nodes = 11
-[segment.rest]
-length = 0.5
-)";
+const char* const kMinimal = test::kMinimalScene;
 
 }  // namespace
 
