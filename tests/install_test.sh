@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Installs the build into a scratch prefix, then builds the C host example against it twice — with
+# the plain cc line of the README and with find_package(haustra) — and runs it for 10 s of
+# simulated time at 1 kHz with its haptic and render threads.
+set -euo pipefail
+build=$1 source=$2
+scratch=$(mktemp -d)
+trap 'rm -rf "$scratch"' EXIT
+cmake --install "$build" --prefix "$scratch/prefix" >/dev/null
+prefix=$scratch/prefix
+cc -std=c99 -Wall -Wextra -Werror "$source/tools/examples/haptic_host.c" -I"$prefix/include" -L"$prefix/lib" \
+  -Wl,-rpath,"$prefix/lib" -lhaustra -lpthread -lm -o "$scratch/haptic_host"
+cmake -S "$source/tools/examples" -B "$scratch/consumer" -DCMAKE_PREFIX_PATH="$prefix" >/dev/null
+cmake --build "$scratch/consumer" >/dev/null
+test -x "$scratch/consumer/haptic_host"
+"$scratch/haptic_host" "$source/scenes/haptic-host.toml" 10
