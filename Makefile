@@ -45,7 +45,7 @@ gate-baseline: build
 test-asan: deps
 	@cmake --preset asan >/dev/null
 	@cmake --build --preset asan -j $(JOBS) --target haustra_tests haustra haustra_soak haustra_fuzz_scene \
-	  haustra_fuzz_centreline haustra_fuzz_mesh haustra_fuzz_c_api haustra_c_api_tests
+	  haustra_fuzz_centreline haustra_fuzz_mesh haustra_fuzz_c_api haustra_c_api_tests haustra_example_build_world
 	@ctest --preset asan -j $(JOBS)
 
 # TSan checks what runs on more than one thread: stepping worlds with 2 threads.
