@@ -40,8 +40,9 @@ gate-baseline: build
 	@./scripts/instruction-gate.sh --update
 
 # The sanitizer builds compile only what their tests run (the test binary, the CLI it drives, the
-# soak and the fuzz replayers), with line tables only (-g1): enough for a report's stack, and a
-# third less compile time than full debug information.
+# soak and the fuzz replayers), with line tables only (-g1: enough for a report's stack, a third
+# less compile time than full debug information) and as unity builds (the libraries' files in
+# batches of 8: Eigen and fmt parsed once per batch).
 test-asan: deps
 	@cmake --preset asan >/dev/null
 	@cmake --build --preset asan -j $(JOBS) --target haustra_tests haustra haustra_soak haustra_fuzz_scene \

@@ -285,7 +285,13 @@ TEST_CASE("localization study: error falls with K, and MVC follows rigid cross-s
 }
 
 TEST_CASE("skinned meshes and their normals are bit-identical with 1 and 2 threads") {
+  // Under a sanitizer the procedural organ alone: building the CT colon's binding four times is
+  // most of this test's time there, and the same paths run with the procedural mesh.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  for (const char* name : {"demo"}) {
+#else
   for (const char* name : {"demo", "anatomy-grasp"}) {
+#endif
     auto world = [&](int threads) {
       SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml");
       scene.world.threads = threads;
