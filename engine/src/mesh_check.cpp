@@ -1,4 +1,4 @@
-// What the engine requires of a triangle mesh it loads (docs/decisions/0022-mesh-requirements.md).
+// What the engine requires of a triangle mesh it loads (docs/decisions/0022-input-requirements-and-error-codes.md).
 #include <fmt/format.h>
 
 #include <algorithm>

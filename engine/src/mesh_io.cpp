@@ -23,7 +23,7 @@ namespace haustra {
 namespace {
 
 // An OFF header states its counts up front and assimp allocates them before reading a vertex: a
-// header claiming 10²⁵ vertices (found by fuzzing) asked for 45 GB. Each vertex needs at least
+// header claiming 10²⁷ faces (found by fuzzing) asked for 45 GB. Each vertex needs at least
 // "0 0 0\n" and each face "3 0 1 2\n", so counts the file cannot hold are refused here.
 void check_off_counts(const std::filesystem::path& file, std::uintmax_t bytes) {
   std::ifstream in(file);
