@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
+#include <fstream>
 #include <fmt/format.h>
 
+#include "checkpoint.hpp"
 #include "collision.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "instruments.hpp"
@@ -67,9 +70,7 @@ struct World::Impl {
     int substeps;
     bool newton;
   };
-  Rung base{1, false};     // what the scene asked for
-  Rung current{1, false};  // what the robust mode runs now
-  int good_frames = 0;
+  Rung base{1, false};  // what the scene asked for; the rung it runs now is in the state
   bool any_free_base = false;
   bool any_constraints = false;
 
@@ -80,7 +81,8 @@ struct World::Impl {
     guard.resize(model.segments.size());
     events.reserve(kMaxEvents);
     base = {model.solver.substeps, model.solver.mode == SolverMode::newton};
-    current = base;
+    state.robust_substeps = base.substeps;
+    state.robust_newton = base.newton;
     for (const auto& s : model.segments) {
       any_free_base |= s.base_mode == BaseMode::free;
       any_constraints |= s.constraint_rows > 0;
@@ -271,7 +273,7 @@ struct World::Impl {
     if (!model.instruments.empty())
       time_stage(Stage::instruments, [&] { detail::stage_instruments(model, state, state.time + model.dt); });
     state.frame_start.copy_from(state.now);
-    Rung rung = current;
+    Rung rung{state.robust_substeps, state.robust_newton};
     std::size_t first_segment = model.segments.size();
     GuardResult first{};
     Rung first_rung = rung;
@@ -319,13 +321,14 @@ struct World::Impl {
                .out;
       *std::min(it, e.text.data() + cap) = '\0';
       record(e);
-      current = rung;
-      good_frames = 0;
-    } else if (current.substeps > base.substeps && ++good_frames >= kGoodFramesBeforeRelaxing) {
+      state.robust_substeps = rung.substeps;
+      state.robust_newton = rung.newton;
+      state.robust_good_frames = 0;
+    } else if (state.robust_substeps > base.substeps && ++state.robust_good_frames >= kGoodFramesBeforeRelaxing) {
       // Extra substeps are shed again after a calm spell. Newton, once engaged, stays: the scheme
       // that diverged here would diverge again from the same kind of state.
-      current.substeps = std::max(base.substeps, current.substeps / 2);
-      good_frames = 0;
+      state.robust_substeps = std::max(base.substeps, state.robust_substeps / 2);
+      state.robust_good_frames = 0;
     }
     if (model.beads.size() > 0 || !model.instruments.empty())
       time_stage(Stage::report, [&] {
@@ -568,6 +571,50 @@ Energy World::energy() const {
     for (std::size_t k = 0; k < n; ++k) e.gravity -= m.node_mass[off + k] * m.gravity.dot(st.now.position.view().get(off + k));
   }
   return e;
+}
+
+std::vector<std::byte> World::save_checkpoint() const { return detail::save_checkpoint(impl_->model, impl_->state); }
+
+void World::restore_checkpoint(std::span<const std::byte> bytes, const std::string& source) {
+  detail::restore_checkpoint(impl_->model, impl_->state, bytes, source);
+  impl_->state.frame_start.copy_from(impl_->state.now);
+  impl_->profile = FrameProfile{};
+  impl_->follow_rod();
+}
+
+void World::save_checkpoint_file(const std::string& path) const {
+  const std::vector<std::byte> bytes = save_checkpoint();
+  const std::filesystem::path target(path);
+  std::filesystem::path temp = target;
+  temp += ".partial";
+  {
+    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot open '{}' for writing", path, temp.string()));
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    out.close();
+    if (!out) {
+      std::error_code ignored;
+      std::filesystem::remove(temp, ignored);
+      throw Error(ErrorCode::io, fmt::format("checkpoint '{}': writing {} bytes failed (disk full?)", path, bytes.size()));
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(temp, target, ec);
+  if (ec) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot rename '{}' over it: {}", path, temp.string(), ec.message()));
+}
+
+void World::restore_checkpoint_file(const std::string& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot read it: {}", path, ec.message()));
+  // A checkpoint holds a few hundred bytes per node and bead: 1 GiB is far beyond any world.
+  constexpr std::uintmax_t kMaxBytes = std::uintmax_t{1} << 30;
+  if (size > kMaxBytes) throw Error(ErrorCode::parse, fmt::format("checkpoint '{}': {} bytes is not a checkpoint of this engine", path, size));
+  std::vector<std::byte> bytes(size);
+  std::ifstream in(path, std::ios::binary);
+  in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size));
+  if (!in) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': reading {} bytes failed", path, size));
+  restore_checkpoint(bytes, path);
 }
 
 std::span<const std::uint32_t> World::cage_vertex_rings(std::size_t segment) const {

@@ -160,6 +160,12 @@ struct WorldState {
   std::vector<InstrumentState> instruments;
   MeshState mesh;
 
+  // The robust mode's rung (how frames are attempted now) and the calm frames since it last
+  // climbed: a frame's outcome depends on them, so they are state, not settings.
+  int robust_substeps = 1;
+  bool robust_newton = false;
+  int robust_good_frames = 0;
+
   std::uint64_t frame = 0;
   double time = 0.0;
 };

@@ -3,6 +3,7 @@
 // frame by frame. Buffers are structure-of-arrays, contiguous across all segments; a segment is an
 // offset+count range into them. Views returned here stay valid until the next call to step().
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string_view>
 #include <memory>
@@ -237,6 +238,17 @@ class World {
   [[nodiscard]] std::span<const std::uint32_t> cage_vertex_rings(std::size_t segment) const;
 
   [[nodiscard]] Energy energy() const;
+
+  // Checkpoints: everything a later frame depends on, as bytes (docs/decisions/0026-checkpoints.md).
+  // Restoring into a world built from the same scene and stepping on gives the same bits as never
+  // having stopped. A checkpoint of another model, a damaged or truncated one, is refused with
+  // Error{parse} naming `source`, and the world is left as it was. Restoring rebuilds the meshes;
+  // views stay where they were. Events and the profile are not part of it.
+  [[nodiscard]] std::vector<std::byte> save_checkpoint() const;
+  void restore_checkpoint(std::span<const std::byte> bytes, const std::string& source = "(memory)");
+  // The same through a file: written whole to a temporary beside it, then renamed over it.
+  void save_checkpoint_file(const std::string& path) const;
+  void restore_checkpoint_file(const std::string& path);
 
   [[nodiscard]] const FrameProfile& last_profile() const;
   [[nodiscard]] std::span<const Event> events() const;

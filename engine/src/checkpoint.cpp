@@ -1,0 +1,280 @@
+#include "checkpoint.hpp"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <concepts>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#include "haustra/error.hpp"
+
+namespace haustra::detail {
+namespace {
+
+constexpr std::array<char, 8> kMagic = {'H', 'A', 'U', 'S', 'T', 'R', 'C', 'K'};
+constexpr std::uint32_t kFormatVersion = 1;
+
+std::uint64_t fnv1a(std::span<const std::byte> bytes, std::uint64_t h = 0xcbf29ce484222325ull) {
+  for (std::byte b : bytes) {
+    h ^= static_cast<std::uint64_t>(b);
+    h *= 0x100000001b3ull;
+  }
+  return h;
+}
+
+// What a checkpoint must match: the model's sizes, and a hash of the numbers that define its
+// rod (rest shape, sections, masses, bead radii, time step). A checkpoint of another scene, or of
+// the same scene with another node count or material, is refused by name rather than misread.
+struct ModelHeader {
+  std::uint64_t segments = 0, nodes = 0, beads = 0, attachments = 0, instruments = 0, mesh_vertices = 0;
+  std::uint64_t fingerprint = 0;
+  bool operator==(const ModelHeader&) const = default;
+};
+
+ModelHeader header_of(const WorldModel& m) {
+  ModelHeader h{m.segments.size(), m.node_total,         m.beads.size(),
+                m.attachment_total, m.instruments.size(), m.mesh_vertex_total};
+  auto hash_doubles = [](std::uint64_t seed, const std::vector<double>& v) {
+    return fnv1a(std::as_bytes(std::span(v)), seed);
+  };
+  std::uint64_t f = fnv1a(std::as_bytes(std::span(&m.dt, 1)));
+  for (const SegmentModel& s : m.segments) {
+    const std::array<std::uint64_t, 3> sizes{s.node_count, s.bead_count, s.attachments.size()};
+    f = fnv1a(std::as_bytes(std::span(sizes)), f);
+    f = fnv1a(std::as_bytes(std::span(s.stiffness)), f);
+    f = fnv1a(std::as_bytes(std::span(s.viscosity)), f);
+  }
+  f = hash_doubles(f, m.rest_strain);
+  f = hash_doubles(f, m.section_length);
+  f = hash_doubles(f, m.node_mass);
+  f = hash_doubles(f, m.beads.radius);
+  h.fingerprint = f;
+  return h;
+}
+
+std::string describe(const ModelHeader& h) {
+  return fmt::format("{} segment{}, {} nodes, {} beads, {} attachment slots, {} instruments, {} mesh vertices",
+                     h.segments, h.segments == 1 ? "" : "s", h.nodes, h.beads, h.attachments, h.instruments,
+                     h.mesh_vertices);
+}
+
+template <class T, class U>
+concept StateOf = std::same_as<std::remove_const_t<T>, U>;
+
+// The fields of each record the state holds, listed once for saving and for restoring.
+template <class Io, StateOf<kernels::Pose> P>
+void visit_members(Io& io, P& p) {
+  io(p.rotation), io(p.position);
+}
+template <class Io, StateOf<AttachmentState> A>
+void visit_members(Io& io, A& a) {
+  io(a.active), io(a.node), io(a.hold_frame), io(a.target), io(a.target_rotation), io(a.force), io(a.moment);
+}
+template <class Io, StateOf<InstrumentState> I>
+void visit_members(Io& io, I& in) {
+  io(in.tip), io(in.axis), io(in.frame), io(in.closed), io(in.scripted), io(in.grasping), io(in.grasp_segment),
+      io(in.grasp_attachment), io(in.grasp_bead), io(in.grasp_offset), io(in.grasp_rotation), io(in.force),
+      io(in.torque), io(in.filtered_force), io(in.filtered_torque);
+}
+template <class Io, StateOf<ContactReport> R>
+void visit_members(Io& io, R& r) {
+  io(r.candidates), io(r.touching), io(r.max_environment_depth), io(r.max_environment_depth_ratio),
+      io(r.max_bead_overlap), io(r.max_bead_overlap_ratio);
+}
+// Appends values as raw little-endian bytes (the checkpoint is for the machine that wrote it, or
+// one of the same byte order; the header's magic would not match otherwise).
+class Writer {
+ public:
+  std::vector<std::byte> bytes;
+
+  template <class T>
+    requires std::is_arithmetic_v<T>
+  void operator()(const T& v) {
+    const auto* p = reinterpret_cast<const std::byte*>(&v);
+    bytes.insert(bytes.end(), p, p + sizeof(T));
+  }
+  template <class Derived>
+  void operator()(const Eigen::MatrixBase<Derived>& m) {
+    for (Eigen::Index i = 0; i < m.size(); ++i) (*this)(static_cast<double>(m.derived().data()[i]));
+  }
+  void operator()(const Eigen::Quaterniond& q) { (*this)(q.coeffs()); }
+  template <class T>
+    requires requires(Writer& w, const T& t) { visit_members(w, t); }
+  void operator()(const T& record) {
+    visit_members(*this, record);
+  }
+  template <class T>
+  void operator()(const std::vector<T>& v) {
+    (*this)(static_cast<std::uint64_t>(v.size()));
+    for (const T& e : v) (*this)(e);
+  }
+};
+
+// Reads what Writer wrote. Every size must equal the state's (the model fixes them) and every
+// number must be finite. With apply = false it only checks, so nothing is written until the whole
+// checkpoint has been read once.
+class Reader {
+ public:
+  Reader(std::span<const std::byte> bytes, bool apply, const std::string& source)
+      : bytes_(bytes), apply_(apply), source_(source) {}
+
+  template <class T>
+    requires std::is_arithmetic_v<T>
+  void operator()(T& v) {
+    if (bytes_.size() - at_ < sizeof(T)) fail("ends early");
+    T read;
+    std::memcpy(&read, bytes_.data() + at_, sizeof(T));
+    at_ += sizeof(T);
+    if constexpr (std::is_floating_point_v<T>)
+      if (!std::isfinite(read)) fail(fmt::format("holds a non-finite number at byte {}", at_ - sizeof(T)));
+    if (apply_) v = read;
+  }
+  void operator()(bool& v) {
+    std::uint8_t byte = 0;
+    const bool apply = apply_;
+    apply_ = true;
+    (*this)(byte);
+    apply_ = apply;
+    if (byte > 1) fail(fmt::format("holds {} where a flag (0 or 1) belongs", byte));
+    if (apply_) v = byte != 0;
+  }
+  template <class Derived>
+  void operator()(Eigen::MatrixBase<Derived>& m) {
+    for (Eigen::Index i = 0; i < m.size(); ++i) (*this)(m.derived().data()[i]);
+  }
+  void operator()(Eigen::Quaterniond& q) { (*this)(q.coeffs()); }
+  template <class T>
+    requires requires(Reader& r, T& t) { visit_members(r, t); }
+  void operator()(T& record) {
+    visit_members(*this, record);
+  }
+  template <class T>
+  void operator()(std::vector<T>& v) {
+    std::uint64_t n = 0;
+    const bool apply = apply_;
+    apply_ = true;
+    (*this)(n);
+    apply_ = apply;
+    if (n != v.size()) fail(fmt::format("has an array of {} entries where this world has {}", n, v.size()));
+    for (T& e : v) (*this)(e);
+  }
+  [[nodiscard]] bool at_end() const { return at_ == bytes_.size(); }
+  [[noreturn]] void fail(const std::string& what) const {
+    throw Error(ErrorCode::parse, fmt::format("checkpoint '{}': the state {}; it was not restored", source_, what));
+  }
+
+ private:
+  std::span<const std::byte> bytes_;
+  std::size_t at_ = 0;
+  bool apply_;
+  const std::string& source_;
+};
+
+// Every part of the state a later frame reads before writing it. The rest is either scratch of
+// one substep or derived from these (meshes, the frame-start snapshot) and rebuilt on restore.
+template <class Io, class State>
+void visit_state(Io& io, State& st) {
+  auto vec3 = [&](auto& b) { io(b.x), io(b.y), io(b.z); };
+  auto rot = [&](auto& b) { io(b.w), io(b.x), io(b.y), io(b.z); };
+  auto& now = st.now;
+  io(now.strain);
+  vec3(now.position);
+  rot(now.rotation);
+  vec3(now.mid_position);
+  rot(now.mid_rotation);
+  io(now.base);
+  io(now.attachment);
+  vec3(st.external_force);
+  vec3(st.external_moment);
+  io(st.base_twist);
+  io(st.base_resistance);
+  io(st.strain_before_update);
+  io(st.collision.bead_motion);
+  io(st.collision.report);
+  io(st.instruments);
+  io(st.robust_substeps), io(st.robust_newton), io(st.robust_good_frames);
+  io(st.frame), io(st.time);
+}
+
+// Indices a corrupt or hand-made checkpoint could put out of range.
+void check_indices(const WorldModel& model, const WorldState& st, const Reader& reader) {
+  for (const SegmentModel& seg : model.segments)
+    for (std::size_t a = 0; a < seg.attachments.size(); ++a)
+      if (st.now.attachment[seg.attachment_offset + a].node >= seg.node_count)
+        reader.fail(fmt::format("attaches node {} of segment '{}', which has {}",
+                                st.now.attachment[seg.attachment_offset + a].node, seg.info.name, seg.node_count));
+  for (const InstrumentState& in : st.instruments) {
+    if (!in.grasping) continue;
+    if (in.grasp_segment >= model.segments.size() || in.grasp_attachment >= model.attachment_total ||
+        in.grasp_bead >= model.beads.size())
+      reader.fail("has an instrument grasping a segment, slot or bead this world does not have");
+  }
+  if (st.robust_substeps < 1 || st.robust_substeps > std::max(model.solver.max_substeps, model.solver.substeps))
+    reader.fail(fmt::format("runs {} substeps, outside 1..{}", st.robust_substeps, model.solver.max_substeps));
+}
+
+}  // namespace
+
+std::vector<std::byte> save_checkpoint(const WorldModel& model, const WorldState& state) {
+  Writer payload;
+  visit_state(payload, state);
+  Writer out;
+  for (char c : kMagic) out(c);
+  out(kFormatVersion);
+  const ModelHeader h = header_of(model);
+  out(h.segments), out(h.nodes), out(h.beads), out(h.attachments), out(h.instruments), out(h.mesh_vertices);
+  out(h.fingerprint);
+  out(static_cast<std::uint64_t>(payload.bytes.size()));
+  out.bytes.insert(out.bytes.end(), payload.bytes.begin(), payload.bytes.end());
+  out(fnv1a(payload.bytes));
+  return out.bytes;
+}
+
+void restore_checkpoint(const WorldModel& model, WorldState& state, std::span<const std::byte> bytes,
+                        const std::string& source) {
+  auto refuse = [&](const std::string& what) {
+    throw Error(ErrorCode::parse, fmt::format("checkpoint '{}': {}; the world was left as it was", source, what));
+  };
+  Reader head(bytes, true, source);
+  std::array<char, 8> magic{};
+  if (bytes.size() < magic.size()) refuse(fmt::format("{} bytes is too short for a haustra checkpoint", bytes.size()));
+  for (char& c : magic) head(c);
+  if (magic != kMagic) refuse("not a haustra checkpoint (it does not start with HAUSTRCK)");
+  std::uint32_t version = 0;
+  head(version);
+  if (version != kFormatVersion)
+    refuse(fmt::format("format version {}, this build reads version {}", version, kFormatVersion));
+  ModelHeader h;
+  head(h.segments), head(h.nodes), head(h.beads), head(h.attachments), head(h.instruments), head(h.mesh_vertices);
+  head(h.fingerprint);
+  const ModelHeader mine = header_of(model);
+  if (h != mine) {
+    if (h.fingerprint != mine.fingerprint && describe(h) == describe(mine))
+      refuse("saved from a world of the same sizes but another rod (rest shape, sections, masses, stiffness, bead radii "
+             "or time step differ); restore it into a world built from the same scene");
+    refuse(fmt::format("saved from a world of {}; this world has {}", describe(h), describe(mine)));
+  }
+  std::uint64_t size = 0;
+  head(size);
+  const std::size_t header_bytes = magic.size() + sizeof version + 8 * sizeof(std::uint64_t);
+  if (bytes.size() != header_bytes + size + sizeof(std::uint64_t))
+    refuse(fmt::format("{} bytes where its header promises {}", bytes.size(), header_bytes + size + 8));
+  const std::span<const std::byte> payload = bytes.subspan(header_bytes, size);
+  std::uint64_t checksum = 0;
+  std::memcpy(&checksum, bytes.data() + header_bytes + size, sizeof checksum);
+  if (checksum != fnv1a(payload)) refuse("its checksum does not match its contents (the file is damaged)");
+
+  // Read once into a copy and check it whole; only then into the state, whose buffers (and the
+  // views a host holds of them) stay where they are.
+  WorldState staged = state;
+  Reader check(payload, true, source);
+  visit_state(check, staged);
+  if (!check.at_end()) check.fail("is longer than this world's state");
+  check_indices(model, staged, check);
+  Reader apply(payload, true, source);
+  visit_state(apply, state);
+}
+
+}  // namespace haustra::detail

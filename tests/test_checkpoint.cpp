@@ -1,0 +1,152 @@
+// Checkpoints: save → restore → step equals uninterrupted stepping, bit for bit; a checkpoint that
+// does not belong to the world is refused by name and leaves the world as it was.
+#include <doctest/doctest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "haustra/error.hpp"
+#include "haustra/scene.hpp"
+#include "haustra/world.hpp"
+
+using namespace haustra;
+
+namespace {
+
+std::unique_ptr<World> scene_world(const std::string& name, std::vector<std::string> sets = {}) {
+  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
+  scene.world.threads = 1;
+  return create_world(scene);
+}
+
+// Everything a host can read after a frame, as bits: nodes, frames, mesh, normals, instruments.
+std::vector<unsigned char> outputs(const World& w) {
+  std::vector<unsigned char> out;
+  auto put = [&](const auto* data, std::size_t n) {
+    const auto* p = reinterpret_cast<const unsigned char*>(data);
+    out.insert(out.end(), p, p + n * sizeof(*data));
+  };
+  const auto p = w.node_positions();
+  put(p.x.data(), p.x.size()), put(p.y.data(), p.y.size()), put(p.z.data(), p.z.size());
+  const auto r = w.node_rotations();
+  put(r.w.data(), r.w.size()), put(r.x.data(), r.x.size());
+  const auto s = w.strains();
+  put(s.data.data(), s.data.size());
+  const auto m = w.mesh_positions();
+  put(m.x.data(), m.x.size()), put(m.z.data(), m.z.size());
+  const auto n = w.mesh_normals();
+  put(n.y.data(), n.y.size());
+  for (std::size_t i = 0; i < w.instrument_count(); ++i) {
+    const InstrumentReading ir = w.instrument(i);
+    put(ir.force.data(), 3), put(ir.filtered_force.data(), 3), put(ir.tip.data(), 3);
+    const int grasping = ir.grasping ? 1 : 0;
+    put(&grasping, 1);
+  }
+  const double t = w.time();
+  put(&t, 1);
+  return out;
+}
+
+// Steps `before` frames, checkpoints, steps `after` more; a second world restores the checkpoint
+// and steps `after`: both must agree bit for bit at every one of those frames.
+void check_round_trip(const std::string& scene, int before, int after, std::vector<std::string> sets = {}) {
+  auto original = scene_world(scene, sets);
+  for (int f = 0; f < before; ++f) original->step();
+  const std::vector<std::byte> checkpoint = original->save_checkpoint();
+  auto restored = scene_world(scene, sets);
+  restored->restore_checkpoint(checkpoint, scene);
+  CHECK(restored->frame() == original->frame());
+  CHECK(outputs(*restored) == outputs(*original));
+  for (int f = 0; f < after; ++f) {
+    original->step();
+    restored->step();
+    INFO(scene << ": frame " << original->frame());
+    REQUIRE(outputs(*restored) == outputs(*original));
+  }
+}
+
+}  // namespace
+
+TEST_CASE("checkpoint, restore and step on: the same bits as never having stopped") {
+  // A free rod on the floor with beads, self-contact, a grasper closing and lifting, the filter,
+  // Newton with extra iterations, and a 10,000-vertex mesh; saved mid-grasp (frame 45: the jaws
+  // closed at 36) and while lifting.
+  SUBCASE("demo: grasp, contacts, mesh") { check_round_trip("demo", 45, 30); }
+  SUBCASE("grasp-pull, saved before the grasp") { check_round_trip("grasp-pull", 20, 30); }
+  // The lagged scheme with the robust mode's state (its rung, calm frames) and clamped ropes.
+  SUBCASE("ropes, lagged") { check_round_trip("ropes", 25, 25, {"solver.mode=lagged"}); }
+}
+
+TEST_CASE("restoring into the same world rewinds it") {
+  auto w = scene_world("grasp-pull");
+  for (int f = 0; f < 30; ++f) w->step();
+  const std::vector<std::byte> at30 = w->save_checkpoint();
+  for (int f = 0; f < 20; ++f) w->step();
+  const std::vector<unsigned char> at50 = outputs(*w);
+  w->restore_checkpoint(at30);
+  CHECK(w->frame() == 30);
+  for (int f = 0; f < 20; ++f) w->step();
+  CHECK(outputs(*w) == at50);
+}
+
+TEST_CASE("a checkpoint file round-trips, and a refused one leaves the world as it was") {
+  const auto dir = std::filesystem::temp_directory_path() / "haustra-checkpoint-test";
+  std::filesystem::create_directories(dir);
+  const std::string file = (dir / "grasp.ckpt").string();
+  auto w = scene_world("grasp-pull");
+  for (int f = 0; f < 40; ++f) w->step();
+  w->save_checkpoint_file(file);
+  CHECK_FALSE(std::filesystem::exists(file + ".partial"));
+  for (int f = 0; f < 10; ++f) w->step();
+  const std::vector<unsigned char> at50 = outputs(*w);
+  auto copy = scene_world("grasp-pull");
+  copy->restore_checkpoint_file(file);
+  for (int f = 0; f < 10; ++f) copy->step();
+  CHECK(outputs(*copy) == at50);
+
+  const std::vector<std::byte> good = w->save_checkpoint();
+  auto refused = [&](std::span<const std::byte> bytes, const std::string& words) {
+    const std::vector<unsigned char> before = outputs(*w);
+    const std::uint64_t frame = w->frame();
+    try {
+      w->restore_checkpoint(bytes, "bad.ckpt");
+      FAIL("restore accepted a bad checkpoint: " << words);
+    } catch (const Error& e) {
+      CHECK(e.code() == ErrorCode::parse);
+      const std::string what = e.what();
+      INFO(what);
+      CHECK(what.find("bad.ckpt") != std::string::npos);
+      CHECK(what.find(words) != std::string::npos);
+    }
+    CHECK(w->frame() == frame);
+    CHECK(outputs(*w) == before);
+  };
+  SUBCASE("another scene") { refused(scene_world("ropes")->save_checkpoint(), "saved from a world of"); }
+  SUBCASE("the same sizes, another rod") {
+    refused(scene_world("grasp-pull", {"segment[0].youngs_modulus=50000", "segment[0].wall_thickness=0.004"})
+                ->save_checkpoint(),
+            "another rod");
+  }
+  SUBCASE("truncated") { refused(std::span(good).first(good.size() - 9), "promises"); }
+  SUBCASE("empty") { refused({}, "too short"); }
+  SUBCASE("not a checkpoint") {
+    std::vector<std::byte> text(200, std::byte{'x'});
+    refused(text, "not a haustra checkpoint");
+  }
+  SUBCASE("one byte flipped") {
+    std::vector<std::byte> damaged = good;
+    damaged[good.size() / 2] ^= std::byte{0x40};
+    refused(damaged, "checksum");
+  }
+  SUBCASE("a missing file is an I/O error naming it") {
+    try {
+      w->restore_checkpoint_file((dir / "missing.ckpt").string());
+      FAIL("restored a missing file");
+    } catch (const Error& e) {
+      CHECK(e.code() == ErrorCode::io);
+      CHECK(std::string(e.what()).find("missing.ckpt") != std::string::npos);
+    }
+  }
+  std::filesystem::remove_all(dir);
+}
