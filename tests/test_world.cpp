@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "allocation_counter.hpp"
+#include "host_job_pool.hpp"
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
@@ -20,12 +21,19 @@ std::vector<double> positions(const World& w) {
   return out;
 }
 
-std::vector<double> run_scene(const std::string& name, int threads, int frames, std::vector<std::string> sets = {}) {
+std::vector<double> run_scene(const std::string& name, int threads, int frames, std::vector<std::string> sets = {},
+                              HostJobPool* pool = nullptr) {
   SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
   scene.world.threads = threads;
+  if (pool != nullptr) scene.world.jobs = {&HostJobPool::enqueue, &HostJobPool::wait, pool, threads};
   auto w = create_world(scene);
   for (int f = 0; f < frames; ++f) w->step();
-  return positions(*w);
+  std::vector<double> out = positions(*w);
+  // The meshes too, where the scene has them (their skinning and normals run on the scheduler).
+  const auto m = w->mesh_positions();
+  const auto n = w->mesh_normals();
+  for (std::size_t v = 0; v < w->mesh_buffer_size(); ++v) out.insert(out.end(), {m.x[v], m.y[v], m.z[v], n.x[v]});
+  return out;
 }
 
 WorldDesc rod_world(SolverMode mode, int nodes = 41) {
@@ -49,6 +57,25 @@ TEST_CASE("the same scene gives bit-identical positions with 1 and 2 threads") {
       INFO(scene << " " << mode);
       REQUIRE(one.size() == two.size());
       CHECK(std::memcmp(one.data(), two.data(), one.size() * sizeof(double)) == 0);
+    }
+  }
+}
+
+TEST_CASE("a host job system's threads give the same bits as oneTBB's threads and one thread") {
+  // Six clamped ropes, and two segments in contact with each other: every scheduled stage runs on
+  // the host's pool, split into 2 and 3 ranges.
+  for (const std::string scene : {"ropes", "two-segments"}) {
+    const int frames = 30;
+    const std::vector<double> one = run_scene(scene, 1, frames);
+    const std::vector<double> tbb_two = run_scene(scene, 2, frames);
+    for (int workers : {2, 3}) {
+      HostJobPool pool(workers);
+      const std::vector<double> host = run_scene(scene, workers, frames, {}, &pool);
+      INFO(scene << " with " << workers << " host workers");
+      CHECK(pool.tasks_run() > 0);
+      REQUIRE(one.size() == host.size());
+      CHECK(std::memcmp(one.data(), host.data(), one.size() * sizeof(double)) == 0);
+      CHECK(std::memcmp(tbb_two.data(), host.data(), one.size() * sizeof(double)) == 0);
     }
   }
 }

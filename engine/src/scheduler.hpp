@@ -7,6 +7,8 @@
 #include <oneapi/tbb/partitioner.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include "haustra/world_desc.hpp"
+
 #if defined(__SANITIZE_THREAD__)
 #include <sanitizer/tsan_interface.h>
 #endif
@@ -57,8 +59,10 @@ void parallel_each(std::size_t count, F&& fn) {
 
 class Scheduler {
  public:
-  explicit Scheduler(int threads)
-      : threads_(threads > 0 ? threads : tbb::info::default_concurrency()), arena_(threads_) {}
+  explicit Scheduler(int threads, const JobSystemDesc& jobs = {})
+      : threads_(jobs.enabled() ? std::max(1, jobs.workers) : threads > 0 ? threads : tbb::info::default_concurrency()),
+        jobs_(jobs),
+        arena_(jobs.enabled() ? 1 : threads_) {}
 
   [[nodiscard]] int threads() const { return threads_; }
 
@@ -76,13 +80,38 @@ class Scheduler {
       fn(i);
       task_end();
     };
+    if (jobs_.enabled()) {
+      run_on_host(count, fn);
+      return;
+    }
     task_dispatch();
     arena_.execute([&] { tbb::parallel_for(std::size_t{0}, count, body, tbb::simple_partitioner{}); });
     tasks_joined();
   }
 
  private:
+  // The indices split into at most `workers` contiguous ranges, each one task of the host's.
+  template <class F>
+  void run_on_host(std::size_t count, F& fn) {
+    struct Batch {
+      F* fn;
+    } batch{&fn};
+    const JobSystemDesc::Task task = [](void* data, std::size_t first, std::size_t last) {
+      task_begin();
+      F& f = *static_cast<Batch*>(data)->fn;
+      for (std::size_t i = first; i < last; ++i) f(i);
+      task_end();
+    };
+    const std::size_t ranges = std::min(count, static_cast<std::size_t>(threads_));
+    task_dispatch();
+    for (std::size_t r = 0; r < ranges; ++r)
+      jobs_.enqueue(jobs_.host, task, &batch, r * count / ranges, (r + 1) * count / ranges);
+    jobs_.wait(jobs_.host);
+    tasks_joined();
+  }
+
   int threads_;
+  JobSystemDesc jobs_;
   tbb::task_arena arena_;
 };
 

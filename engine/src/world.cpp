@@ -74,7 +74,8 @@ struct World::Impl {
   bool any_free_base = false;
   bool any_constraints = false;
 
-  explicit Impl(detail::WorldModel m, int threads) : model(std::move(m)), scheduler(threads) {
+  explicit Impl(detail::WorldModel m, int threads, const JobSystemDesc& jobs)
+      : model(std::move(m)), scheduler(threads, jobs) {
     detail::init_world_state(model, state);
     detail::init_collision_state(model, state);
     detail::init_instruments(model, state);
@@ -363,7 +364,11 @@ struct World::Impl {
 };
 
 std::unique_ptr<World> World::create(const WorldDesc& desc) {
-  return std::unique_ptr<World>(new World(std::make_unique<Impl>(detail::build_world_model(desc), desc.threads)));
+  if (desc.jobs.enabled() != (desc.jobs.wait != nullptr))
+    throw Error(ErrorCode::invalid_argument, "jobs: a host job system needs both enqueue and wait (or neither)");
+  if (desc.jobs.enabled() && (desc.jobs.workers < 1 || desc.jobs.workers > 1024))
+    throw Error(ErrorCode::invalid_argument, fmt::format("jobs.workers = {}: expected 1 to 1024", desc.jobs.workers));
+  return std::unique_ptr<World>(new World(std::make_unique<Impl>(detail::build_world_model(desc), desc.threads, desc.jobs)));
 }
 
 World::World(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}

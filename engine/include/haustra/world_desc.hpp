@@ -4,6 +4,7 @@
 // gives one; docs/decisions/ explains the others.
 #include <Eigen/Core>
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <numbers>
 #include <optional>
@@ -257,12 +258,27 @@ struct FilterDesc {
   double zeta_scale = 1.0;  // ζ = zeta_scale × π / (16 EA), the paper's regulator
 };
 
+// A host's own job system, used instead of oneTBB to run a step's parallel stages
+// (docs/decisions/0027-host-job-system.md). A stage hands over a batch of ranges with enqueue and
+// then calls wait once; the host runs each range's task on whichever of its threads it likes. Every
+// index writes its own slice of the state, so the results are the same bits as with oneTBB or one
+// thread. The task never throws. Both callbacks are called from the thread that steps the world.
+struct JobSystemDesc {
+  using Task = void (*)(void* task_data, std::size_t first, std::size_t last);
+  void (*enqueue)(void* host, Task task, void* task_data, std::size_t first, std::size_t last) = nullptr;
+  void (*wait)(void* host) = nullptr;  // returns once every range enqueued since the last wait has run
+  void* host = nullptr;
+  int workers = 2;  // how many ranges a batch is split into (the host's worker count)
+  [[nodiscard]] bool enabled() const { return enqueue != nullptr; }
+};
+
 struct WorldDesc {
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};
   double dt = 1.0 / 60.0;
   SolverDesc solver;
   FilterDesc filter;
   int threads = 0;  // 0: all hardware threads
+  JobSystemDesc jobs;  // when set, the step's parallel stages run on the host's jobs, not oneTBB
   std::vector<SegmentDesc> segments;
   ContactDesc contact;
   EnvironmentDesc environment;
