@@ -52,7 +52,7 @@ test-asan: deps
 # TSan checks what runs on more than one thread: stepping worlds with 2 threads.
 test-tsan: deps
 	@cmake --preset tsan >/dev/null
-	@cmake --build --preset tsan -j $(JOBS) --target haustra_tests haustra
+	@cmake --build --preset tsan -j $(JOBS) --target haustra_tests haustra haustra_c_api_tests
 	@ctest --preset tsan -j $(JOBS) -R "thread"
 
 bench: build

@@ -4,9 +4,15 @@
 #include <doctest/doctest.h>
 #include <haustra/haustra.h>
 
+#include "host_job_pool.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <atomic>
+#include <map>
+#include <thread>
+#include <vector>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -216,6 +222,11 @@ TEST_CASE("C API: wrong handles, NULL pointers, bad values and calls after destr
     CHECK(haustra_world_set_instrument_grasp(h, 0, 1) == HAUSTRA_INVALID_HANDLE);
     CHECK(haustra_world_instrument(h, 0, &r) == HAUSTRA_INVALID_HANDLE);
     CHECK(haustra_world_profile(h, &p) == HAUSTRA_INVALID_HANDLE);
+    haustra_frame fr{};
+    CHECK(haustra_world_acquire_frame(h, &fr) == HAUSTRA_INVALID_HANDLE);
+    CHECK(haustra_world_release_frame(h) == HAUSTRA_INVALID_HANDLE);
+    CHECK(haustra_world_save_checkpoint(h, "/tmp/x.ckpt") == HAUSTRA_INVALID_HANDLE);
+    CHECK(haustra_world_restore_checkpoint(h, "/tmp/x.ckpt") == HAUSTRA_INVALID_HANDLE);
     CHECK(haustra_world_destroy(h) == HAUSTRA_INVALID_HANDLE);
   }
 
@@ -297,4 +308,297 @@ torsion = "elastic"
   REQUIRE(haustra_world_set_node_load(w, 40, none, none) == HAUSTRA_OK);
   CHECK(haustra_world_step(w) == HAUSTRA_OK);
   CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
+}
+
+namespace {
+
+// Node and mesh buffers of a world, as bits.
+std::vector<unsigned char> buffer_bits(const haustra_world* w) {
+  std::vector<unsigned char> out;
+  auto put = [&](const auto* data, size_t n) {
+    const auto* b = reinterpret_cast<const unsigned char*>(data);
+    out.insert(out.end(), b, b + n * sizeof(*data));
+  };
+  haustra_vec3_view n{};
+  haustra_vec3f_view m{}, nn{};
+  REQUIRE(haustra_world_node_positions(w, &n) == HAUSTRA_OK);
+  REQUIRE(haustra_world_mesh_positions(w, &m) == HAUSTRA_OK);
+  REQUIRE(haustra_world_mesh_normals(w, &nn) == HAUSTRA_OK);
+  put(n.x, n.count), put(n.y, n.count), put(n.z, n.count);
+  put(m.x, m.count), put(m.y, m.count), put(m.z, m.count), put(nn.x, nn.count);
+  return out;
+}
+
+std::uint64_t fnv(const void* data, size_t bytes, std::uint64_t h = 1469598103934665603ull) {
+  const auto* b = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < bytes; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  return h;
+}
+
+std::uint64_t frame_hash(const haustra_vec3_view& n, const haustra_vec3f_view& m) {
+  std::uint64_t h = fnv(n.x, n.count * sizeof(double));
+  h = fnv(n.z, n.count * sizeof(double), h);
+  return fnv(m.z, m.count * sizeof(float), h);
+}
+
+// Two segments side by side over a floor, falling onto it and onto each other.
+const char* kTwoSegments = R"(
+[world]
+dt = 0.01
+[[environment.plane]]
+name = "floor"
+point = [0.0, 0.0, 0.0]
+[[segment]]
+name = "a"
+nodes = 31
+base = "free"
+base_position = [0.0, 0.0, 0.05]
+radius = 0.02
+[segment.rest]
+length = 0.5
+[segment.beads]
+count = 12
+[segment.mesh]
+source = "procedural"
+[segment.mesh.procedural]
+vertices = 1500
+[[segment]]
+name = "b"
+nodes = 31
+base = "free"
+base_position = [0.25, -0.25, 0.1]
+base_tangent = [0.0, 1.0, 0.0]
+radius = 0.02
+[segment.rest]
+length = 0.5
+[segment.beads]
+count = 12
+)";
+
+}  // namespace
+
+TEST_CASE("C API: a world from definitions alone, no scene file") {
+  haustra_world_def def;
+  REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+  CHECK(def.struct_size == sizeof(haustra_world_def));
+  CHECK(def.dt == doctest::Approx(1.0 / 60.0));
+  CHECK(def.gravity[2] == doctest::Approx(-9.81));
+  CHECK(def.newton == 1);
+  CHECK(def.recover == 1);
+  def.threads = 1;
+  def.floor = 1;
+  def.floor_height = -0.3;
+
+  haustra_segment_def seg[2];
+  REQUIRE(haustra_segment_def_default(&seg[0]) == HAUSTRA_OK);
+  REQUIRE(haustra_segment_def_default(&seg[1]) == HAUSTRA_OK);
+  CHECK(seg[0].nodes == 167);
+  CHECK(seg[0].youngs_modulus == doctest::Approx(33.2e3));
+  // A clamped cantilever with beads and a procedural organ.
+  seg[0].name = "cantilever";
+  seg[0].nodes = 21;
+  seg[0].length = 0.4;
+  seg[0].beads = 8;
+  seg[0].mesh = 1;
+  seg[0].mesh_vertices = 1500;
+  // A free rod along a measured-style polyline: an L in the floor's plane, above it.
+  const double polyline[] = {0.0, 0.3, 0.0, 0.2, 0.3, 0.0, 0.3, 0.35, 0.0, 0.3, 0.5, 0.0};
+  seg[1].name = "free";
+  seg[1].nodes = 25;
+  seg[1].centreline = polyline;
+  seg[1].centreline_points = 4;
+  seg[1].free_base = 1;
+  seg[1].beads = 10;
+
+  haustra_world* w = nullptr;
+  REQUIRE(haustra_world_create(&def, seg, 2, &w) == HAUSTRA_OK);
+  haustra_counts c{};
+  REQUIRE(haustra_world_counts(w, &c) == HAUSTRA_OK);
+  CHECK(c.segments == 2);
+  CHECK(c.nodes == 46);
+  CHECK(c.beads == 18);
+  CHECK(c.mesh_vertices > 1000);
+  haustra_vec3_view n{};
+  REQUIRE(haustra_world_node_positions(w, &n) == HAUSTRA_OK);
+  CHECK(n.x[20] == doctest::Approx(0.4));          // the cantilever's tip at rest
+  CHECK(n.y[45] == doctest::Approx(0.5).epsilon(1e-6));  // the polyline's end
+  for (int f = 0; f < 120; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  CHECK(n.z[20] < -0.05);                          // the cantilever sags
+  double lowest = 1.0;
+  for (size_t k = 21; k < 46; ++k) lowest = std::min(lowest, n.z[k]);
+  CHECK(lowest < -0.2);                            // the free rod fell towards the floor...
+  CHECK(lowest > -0.3 - 0.02);                     // ...and the floor holds it (bead radius 0.02)
+  CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
+
+  // Bad definitions: each refused with the field named, nothing created.
+  haustra_world* none = nullptr;
+  haustra_world_def bad_def = def;
+  bad_def.struct_size = 8;
+  CHECK(haustra_world_create(&bad_def, seg, 2, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("def.struct_size = 8"));
+  CHECK(haustra_world_create(nullptr, seg, 2, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_world_create(&def, nullptr, 2, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("segments is NULL"));
+  CHECK(haustra_world_create(&def, seg, 2, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  haustra_segment_def bad[2] = {seg[0], seg[1]};
+  bad[1].radius = 20.0;  // millimetres by mistake
+  CHECK(haustra_world_create(&def, bad, 2, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("segment[1].radius"));
+  bad[1] = seg[1];
+  bad[1].struct_size = 0;
+  CHECK(haustra_world_create(&def, bad, 2, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("segments[1].struct_size"));
+  bad[1] = seg[1];
+  const double doubled[] = {0.0, 0.3, 0.0, 0.0, 0.3, 0.0, 0.3, 0.5, 0.0};
+  bad[1].centreline = doubled;
+  bad[1].centreline_points = 3;
+  CHECK(haustra_world_create(&def, bad, 2, &none) == HAUSTRA_INVALID_GEOMETRY);
+  CHECK(says("segments[1].centreline"));
+  bad[1] = seg[1];
+  bad[1].mesh = 7;
+  CHECK(haustra_world_create(&def, bad, 2, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("segments[1].mesh = 7"));
+  bad[1].mesh = 2;
+  bad[1].mesh_file = "/no/such/organ.obj";
+  CHECK(haustra_world_create(&def, bad, 2, &none) == HAUSTRA_IO);
+  CHECK(says("/no/such/organ.obj"));
+  haustra_world_def bad_jobs = def;
+  bad_jobs.jobs.enqueue = &HostJobPool::enqueue;  // without wait
+  CHECK(haustra_world_create(&bad_jobs, seg, 2, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("enqueue and wait"));
+  CHECK(none == nullptr);
+  CHECK(haustra_world_def_default(nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_segment_def_default(nullptr) == HAUSTRA_INVALID_ARGUMENT);
+}
+
+TEST_CASE("C API: the same bits with 1 thread, 2 threads and the host job system's threads") {
+  const SceneFile scene(kTwoSegments);
+  auto run = [&](int threads, HostJobPool* pool) {
+    haustra_world_def def;
+    REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+    def.threads = threads;
+    if (pool != nullptr) def.jobs = haustra_job_system{&HostJobPool::enqueue, &HostJobPool::wait, pool, threads};
+    haustra_world* w = nullptr;
+    REQUIRE(haustra_world_create_from_scene_def(scene.path.c_str(), &def, &w) == HAUSTRA_OK);
+    for (int f = 0; f < 40; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+    const std::vector<unsigned char> bits = buffer_bits(w);
+    REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+    return bits;
+  };
+  const std::vector<unsigned char> one = run(1, nullptr);
+  CHECK(run(2, nullptr) == one);
+  HostJobPool pool(2);
+  CHECK(run(2, &pool) == one);
+  CHECK(pool.tasks_run() > 0);
+  haustra_world* none = nullptr;
+  CHECK(haustra_world_create_from_scene_def(nullptr, nullptr, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_world_create_from_scene_def(scene.path.c_str(), nullptr, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+}
+
+TEST_CASE("C API: a render thread reads completed frames while the world steps (double-buffered)") {
+  const SceneFile scene(kTwoSegments);
+  constexpr int kFrames = 150;
+  // The reference: what every frame holds, from a world stepped alone.
+  std::map<uint64_t, uint64_t> expected;
+  {
+    haustra_world* w = nullptr;
+    REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &w) == HAUSTRA_OK);
+    for (int f = 0; f <= kFrames; ++f) {
+      haustra_vec3_view n{};
+      haustra_vec3f_view m{};
+      REQUIRE(haustra_world_node_positions(w, &n) == HAUSTRA_OK);
+      REQUIRE(haustra_world_mesh_positions(w, &m) == HAUSTRA_OK);
+      expected[static_cast<uint64_t>(f)] = frame_hash(n, m);
+      if (f < kFrames) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+    }
+    REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+  }
+  haustra_world_def def;
+  REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+  def.threads = 1;
+  def.double_buffered = 1;
+  haustra_world* w = nullptr;
+  REQUIRE(haustra_world_create_from_scene_def(scene.path.c_str(), &def, &w) == HAUSTRA_OK);
+  std::atomic<bool> stepping{true};
+  std::atomic<int> reads{0}, wrong{0}, went_back{0}, failures{0};
+  std::thread render([&] {
+    uint64_t last = 0;
+    while (stepping.load()) {
+      haustra_frame fr{};
+      if (haustra_world_acquire_frame(w, &fr) != HAUSTRA_OK) {
+        failures += 1;
+        continue;
+      }
+      // Whole frames only: what the reader holds is exactly some completed frame, and stays so
+      // while the world steps on.
+      const uint64_t before = frame_hash(fr.nodes, fr.mesh_positions);
+      std::this_thread::yield();
+      if (frame_hash(fr.nodes, fr.mesh_positions) != before || expected.at(fr.frame) != before) wrong += 1;
+      if (fr.frame < last) went_back += 1;
+      last = fr.frame;
+      reads += 1;
+      if (haustra_world_release_frame(w) != HAUSTRA_OK) failures += 1;
+    }
+  });
+  for (int f = 0; f < kFrames; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  stepping = false;
+  render.join();
+  CHECK(reads.load() > 0);
+  CHECK(wrong.load() == 0);
+  CHECK(went_back.load() == 0);
+  CHECK(failures.load() == 0);
+  haustra_frame last{};
+  REQUIRE(haustra_world_acquire_frame(w, &last) == HAUSTRA_OK);
+  CHECK(last.frame == kFrames);
+  CHECK(last.time == doctest::Approx(kFrames * 0.01));
+  CHECK(haustra_world_acquire_frame(w, &last) == HAUSTRA_INVALID_ARGUMENT);  // twice without release
+  CHECK(says("already acquired"));
+  REQUIRE(haustra_world_release_frame(w) == HAUSTRA_OK);
+  CHECK(haustra_world_release_frame(w) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("no frame is acquired"));
+  CHECK(haustra_world_acquire_frame(w, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+
+  haustra_world* single = nullptr;
+  REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &single) == HAUSTRA_OK);
+  haustra_frame fr{};
+  CHECK(haustra_world_acquire_frame(single, &fr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("double_buffered"));
+  CHECK(haustra_world_release_frame(single) == HAUSTRA_INVALID_ARGUMENT);
+  REQUIRE(haustra_world_destroy(single) == HAUSTRA_OK);
+}
+
+TEST_CASE("C API: checkpoint to a file, restore, step on: the same bits") {
+  const SceneFile scene(kTwoSegments);
+  const std::string file =
+      (std::filesystem::temp_directory_path() / ("haustra-c-api-" + std::to_string(::getpid()) + ".ckpt")).string();
+  haustra_world* w = nullptr;
+  REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &w) == HAUSTRA_OK);
+  for (int f = 0; f < 20; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  REQUIRE(haustra_world_save_checkpoint(w, file.c_str()) == HAUSTRA_OK);
+  for (int f = 0; f < 20; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  const std::vector<unsigned char> at40 = buffer_bits(w);
+  REQUIRE(haustra_world_restore_checkpoint(w, file.c_str()) == HAUSTRA_OK);
+  uint64_t frame = 0;
+  REQUIRE(haustra_world_time(w, nullptr, &frame) == HAUSTRA_OK);
+  CHECK(frame == 20);
+  for (int f = 0; f < 20; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  CHECK(buffer_bits(w) == at40);
+
+  // Refusals: NULL, a missing file, another world's checkpoint; the world is left as it was.
+  CHECK(haustra_world_save_checkpoint(w, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_world_restore_checkpoint(w, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_world_restore_checkpoint(w, "/no/such/file.ckpt") == HAUSTRA_IO);
+  CHECK(says("/no/such/file.ckpt"));
+  CHECK(haustra_world_save_checkpoint(w, "/no/such/dir/file.ckpt") == HAUSTRA_IO);
+  const SceneFile other(kScene);
+  haustra_world* o = nullptr;
+  REQUIRE(haustra_world_create_from_scene(other.path.c_str(), 1, &o) == HAUSTRA_OK);
+  CHECK(haustra_world_restore_checkpoint(o, file.c_str()) == HAUSTRA_PARSE);
+  CHECK(says("saved from a world of 2 segments"));
+  REQUIRE(haustra_world_time(o, nullptr, &frame) == HAUSTRA_OK);
+  CHECK(frame == 0);
+  REQUIRE(haustra_world_destroy(o) == HAUSTRA_OK);
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+  std::filesystem::remove(file);
 }

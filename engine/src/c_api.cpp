@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <exception>
 #include <memory>
@@ -12,12 +14,87 @@
 #include <string>
 #include <unordered_set>
 
+#include "haustra/centreline.hpp"
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
 
+namespace {
+
+// Triple-buffered copies of what a renderer reads (docs/decisions/0029-double-buffered-output.md).
+// The stepping thread fills `back` and swaps it with `ready`; the reader swaps `ready` into
+// `reading` when there is something new. Only index swaps happen under the lock, so neither side
+// waits on the other's copying, and the slot a reader holds is never written.
+class PublishedFrames {
+ public:
+  struct Slot {
+    std::uint64_t frame = 0;
+    double time = 0.0;
+    std::vector<double> x, y, z;
+    std::vector<float> px, py, pz, nx, ny, nz;
+  };
+
+  explicit PublishedFrames(const haustra::World& w) {
+    for (Slot& s : slots_) {
+      for (auto* v : {&s.x, &s.y, &s.z}) v->resize(w.node_count());
+      for (auto* v : {&s.px, &s.py, &s.pz, &s.nx, &s.ny, &s.nz}) v->resize(w.mesh_buffer_size());
+    }
+    publish(w);
+  }
+
+  void publish(const haustra::World& w) {  // the stepping thread
+    Slot& s = slots_[back_];
+    s.frame = w.frame();
+    s.time = w.time();
+    const auto n = w.node_positions();
+    std::copy(n.x.begin(), n.x.end(), s.x.begin());
+    std::copy(n.y.begin(), n.y.end(), s.y.begin());
+    std::copy(n.z.begin(), n.z.end(), s.z.begin());
+    const auto p = w.mesh_positions();
+    std::copy(p.x.begin(), p.x.end(), s.px.begin());
+    std::copy(p.y.begin(), p.y.end(), s.py.begin());
+    std::copy(p.z.begin(), p.z.end(), s.pz.begin());
+    const auto m = w.mesh_normals();
+    std::copy(m.x.begin(), m.x.end(), s.nx.begin());
+    std::copy(m.y.begin(), m.y.end(), s.ny.begin());
+    std::copy(m.z.begin(), m.z.end(), s.nz.begin());
+    std::lock_guard lock(mutex_);
+    std::swap(back_, ready_);
+    fresh_ = true;
+  }
+
+  const Slot& acquire() {  // the reading thread
+    std::lock_guard lock(mutex_);
+    if (held_)
+      throw haustra::Error(haustra::ErrorCode::invalid_argument,
+                           "a frame is already acquired: call haustra_world_release_frame before acquiring the next");
+    if (fresh_) {
+      std::swap(ready_, reading_);
+      fresh_ = false;
+    }
+    held_ = true;
+    return slots_[reading_];
+  }
+
+  void release() {
+    std::lock_guard lock(mutex_);
+    if (!held_)
+      throw haustra::Error(haustra::ErrorCode::invalid_argument, "no frame is acquired: call haustra_world_acquire_frame first");
+    held_ = false;
+  }
+
+ private:
+  std::array<Slot, 3> slots_;
+  std::mutex mutex_;
+  int back_ = 0, ready_ = 1, reading_ = 2;
+  bool fresh_ = false, held_ = false;
+};
+
+}  // namespace
+
 struct haustra_world {
   std::unique_ptr<haustra::World> world;
+  std::unique_ptr<PublishedFrames> frames;  // double-buffered worlds only
 };
 
 namespace {
@@ -42,13 +119,15 @@ struct HandleError {
   std::string message;
 };
 
-haustra::World& live(const haustra_world* w) {
+haustra_world& live_handle(haustra_world* w) {
   std::lock_guard lock(g_registry_mutex);
   if (w == nullptr) throw HandleError{"the world handle is NULL"};
   if (registry().count(w) == 0)
     throw HandleError{fmt::format("{} is not a live world (never created, or already destroyed)", fmt::ptr(w))};
-  return *w->world;
+  return *w;
 }
+
+haustra::World& live(const haustra_world* w) { return *live_handle(const_cast<haustra_world*>(w)).world; }
 
 template <class T>
 T& required(T* p, const char* name) {
@@ -88,6 +167,95 @@ haustra_status guarded(const char* function, F&& body) noexcept {
   }
 }
 
+haustra_world* make_handle(std::unique_ptr<haustra::World> world, bool double_buffered) {
+  auto handle = std::make_unique<haustra_world>();
+  handle->world = std::move(world);
+  if (double_buffered) handle->frames = std::make_unique<PublishedFrames>(*handle->world);
+  std::lock_guard lock(g_registry_mutex);
+  registry().insert(handle.get());
+  return handle.release();
+}
+
+const haustra_world_def& checked_def(const haustra_world_def& d) {
+  if (d.struct_size != sizeof(haustra_world_def))
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("def.struct_size = {}: expected {} (fill it with haustra_world_def_default first; a "
+                            "different size means a header of another haustra version)",
+                            d.struct_size, sizeof(haustra_world_def)));
+  return d;
+}
+
+// The run-time settings: threads, or the host's job system.
+void apply_runtime(const haustra_world_def& d, haustra::WorldDesc& w) {
+  if (d.threads < 0 || d.threads > 1024)
+    throw Error(ErrorCode::invalid_argument, fmt::format("def.threads = {}: expected 0 (all cores) to 1024", d.threads));
+  w.threads = d.threads;
+  if ((d.jobs.enqueue == nullptr) != (d.jobs.wait == nullptr))
+    throw Error(ErrorCode::invalid_argument, "def.jobs: enqueue and wait are both needed (or neither, for oneTBB)");
+  if (d.jobs.enqueue != nullptr) {
+    if (d.jobs.workers < 1 || d.jobs.workers > 1024)
+      throw Error(ErrorCode::invalid_argument, fmt::format("def.jobs.workers = {}: expected 1 to 1024", d.jobs.workers));
+    w.jobs = {d.jobs.enqueue, d.jobs.wait, d.jobs.host, d.jobs.workers};
+  }
+}
+
+haustra::SegmentDesc segment_desc(const haustra_segment_def& d, std::size_t i) {
+  const std::string where = fmt::format("segments[{}]", i);
+  if (d.struct_size != sizeof(haustra_segment_def))
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("{}.struct_size = {}: expected {} (fill it with haustra_segment_def_default first)", where,
+                            d.struct_size, sizeof(haustra_segment_def)));
+  haustra::SegmentDesc s;
+  s.name = d.name != nullptr ? std::string(d.name) : fmt::format("segment{}", i);
+  s.nodes = d.nodes;
+  if (d.centreline != nullptr || d.centreline_points > 0) {
+    if (d.centreline == nullptr) throw Error(ErrorCode::invalid_argument, where + ".centreline is NULL");
+    if (d.centreline_points > 10'000'000)
+      throw Error(ErrorCode::invalid_argument, fmt::format("{}.centreline_points = {}: too many", where, d.centreline_points));
+    s.rest.kind = haustra::RestShapeKind::centreline;
+    for (size_t k = 0; k < d.centreline_points; ++k)
+      s.rest.centreline.emplace_back(d.centreline[3 * k], d.centreline[3 * k + 1], d.centreline[3 * k + 2]);
+    s.rest.centreline_source = where + ".centreline";
+    haustra::check_centreline_points(s.rest.centreline, where + ".centreline");
+  } else {
+    s.rest.length = d.length;
+    s.base_position = finite_vec3(d.base_position, (where + ".base_position").c_str());
+    s.base_tangent = finite_vec3(d.base_tangent, (where + ".base_tangent").c_str());
+  }
+  s.base = d.free_base != 0 ? haustra::BaseMode::free : haustra::BaseMode::clamped;
+  if (d.drag >= 0.0) s.drag = d.drag;
+  s.cross_section.radius = d.radius;
+  s.cross_section.wall_thickness = d.wall_thickness;
+  s.material.youngs_modulus = d.youngs_modulus;
+  s.material.density = d.density;
+  if (d.beads < 0) throw Error(ErrorCode::invalid_argument, fmt::format("{}.beads = {}: expected 0 or more", where, d.beads));
+  if (d.beads > 0) {
+    s.beads.enabled = true;
+    s.beads.count = d.beads;
+    s.beads.radius = d.bead_radius;
+  }
+  switch (d.mesh) {
+    case 0: break;
+    case 1:
+      s.mesh.enabled = true;
+      s.mesh.source = haustra::MeshSource::procedural;
+      s.mesh.procedural.vertices = d.mesh_vertices;
+      break;
+    case 2:
+      if (d.mesh_file == nullptr) throw Error(ErrorCode::invalid_argument, where + ".mesh = 2 needs mesh_file");
+      s.mesh.enabled = true;
+      s.mesh.source = haustra::MeshSource::file;
+      s.mesh.file = d.mesh_file;
+      s.mesh.scale = d.mesh_scale;
+      break;
+    default:
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("{}.mesh = {}: expected 0 (none), 1 (procedural) or 2 (mesh_file)", where, d.mesh));
+  }
+  s.mesh.rings_per_vertex = d.rings_per_vertex;
+  return s;
+}
+
 void copy3(const Eigen::Vector3d& v, double out[3]) {
   for (int i = 0; i < 3; ++i) out[i] = v[i];
 }
@@ -124,13 +292,90 @@ haustra_status haustra_world_create_from_scene(const char* scene_path, int threa
       throw Error(ErrorCode::invalid_argument, fmt::format("threads = {}: expected 0 (all cores) to 1024", threads));
     haustra::SceneDesc scene = haustra::load_scene(scene_path);
     scene.world.threads = threads;
-    auto handle = std::make_unique<haustra_world>();
-    handle->world = haustra::create_world(scene);
-    {
-      std::lock_guard lock(g_registry_mutex);
-      registry().insert(handle.get());
+    *out = make_handle(haustra::create_world(scene), false);
+  });
+}
+
+haustra_status haustra_world_create_from_scene_def(const char* scene_path, const haustra_world_def* def,
+                                                   haustra_world** out) {
+  return guarded("haustra_world_create_from_scene_def", [&] {
+    required(out, "out");
+    if (scene_path == nullptr) throw Error(ErrorCode::invalid_argument, "scene_path is NULL");
+    haustra_world_def defaults;
+    haustra_world_def_default(&defaults);
+    const haustra_world_def& d = def != nullptr ? checked_def(*def) : defaults;
+    haustra::SceneDesc scene = haustra::load_scene(scene_path);
+    apply_runtime(d, scene.world);
+    *out = make_handle(haustra::create_world(scene), d.double_buffered != 0);
+  });
+}
+
+haustra_status haustra_world_def_default(haustra_world_def* def) {
+  return guarded("haustra_world_def_default", [&] {
+    haustra_world_def& d = required(def, "def");
+    const haustra::WorldDesc w;
+    d = haustra_world_def{};
+    d.struct_size = sizeof(haustra_world_def);
+    d.dt = w.dt;
+    for (int i = 0; i < 3; ++i) d.gravity[i] = w.gravity[i];
+    d.threads = 0;
+    d.jobs.workers = 2;
+    d.newton = w.solver.mode == haustra::SolverMode::newton ? 1 : 0;
+    d.iterations = w.solver.iterations;
+    d.substeps = w.solver.substeps;
+    d.recover = w.solver.on_instability == haustra::InstabilityPolicy::recover ? 1 : 0;
+    d.self_contact = w.contact.self ? 1 : 0;
+  });
+}
+
+haustra_status haustra_segment_def_default(haustra_segment_def* def) {
+  return guarded("haustra_segment_def_default", [&] {
+    haustra_segment_def& d = required(def, "def");
+    const haustra::SegmentDesc s;
+    d = haustra_segment_def{};
+    d.struct_size = sizeof(haustra_segment_def);
+    d.nodes = s.nodes;
+    d.length = s.rest.length;
+    for (int i = 0; i < 3; ++i) {
+      d.base_position[i] = s.base_position[i];
+      d.base_tangent[i] = s.base_tangent[i];
     }
-    *out = handle.release();
+    d.drag = -1.0;
+    d.radius = s.cross_section.radius;
+    d.wall_thickness = s.cross_section.wall_thickness;
+    d.youngs_modulus = s.material.youngs_modulus;
+    d.density = s.material.density;
+    d.mesh_vertices = s.mesh.procedural.vertices;
+    d.mesh_scale = 1.0;
+    d.rings_per_vertex = s.mesh.rings_per_vertex;
+  });
+}
+
+haustra_status haustra_world_create(const haustra_world_def* def, const haustra_segment_def* segments,
+                                    size_t segment_count, haustra_world** out) {
+  return guarded("haustra_world_create", [&] {
+    required(out, "out");
+    const haustra_world_def& d = checked_def(required(def, "def"));
+    if (segments == nullptr && segment_count > 0) throw Error(ErrorCode::invalid_argument, "segments is NULL");
+    if (segment_count > 100'000)
+      throw Error(ErrorCode::invalid_argument, fmt::format("segment_count = {}: expected at most 100,000", segment_count));
+    haustra::WorldDesc w;
+    w.dt = d.dt;
+    w.gravity = Eigen::Vector3d(d.gravity[0], d.gravity[1], d.gravity[2]);
+    w.solver.mode = d.newton != 0 ? haustra::SolverMode::newton : haustra::SolverMode::lagged;
+    w.solver.iterations = d.iterations;
+    w.solver.substeps = d.substeps;
+    w.solver.on_instability = d.recover != 0 ? haustra::InstabilityPolicy::recover : haustra::InstabilityPolicy::stop;
+    w.contact.self = d.self_contact != 0;
+    if (d.floor != 0) {
+      haustra::PlaneDesc floor;
+      floor.name = "floor";
+      floor.point = Eigen::Vector3d(0.0, 0.0, d.floor_height);
+      w.environment.planes.push_back(floor);
+    }
+    apply_runtime(d, w);
+    for (size_t i = 0; i < segment_count; ++i) w.segments.push_back(segment_desc(segments[i], i));
+    *out = make_handle(haustra::World::create(w), d.double_buffered != 0);
   });
 }
 
@@ -147,7 +392,11 @@ haustra_status haustra_world_destroy(haustra_world* world) {
 }
 
 haustra_status haustra_world_step(haustra_world* world) {
-  return guarded("haustra_world_step", [&] { live(world).step(); });
+  return guarded("haustra_world_step", [&] {
+    haustra_world& h = live_handle(world);
+    h.world->step();
+    if (h.frames) h.frames->publish(*h.world);
+  });
 }
 
 haustra_status haustra_world_counts(const haustra_world* world, haustra_counts* out) {
@@ -259,6 +508,47 @@ haustra_status haustra_world_profile(const haustra_world* world, haustra_profile
     o.retries = p.retries;
     o.newton = p.newton ? 1 : 0;
     required(out, "out") = o;
+  });
+}
+
+haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* out) {
+  return guarded("haustra_world_acquire_frame", [&] {
+    haustra_world& h = live_handle(world);
+    haustra_frame& o = required(out, "out");
+    if (!h.frames)
+      throw Error(ErrorCode::invalid_argument, "this world was not created with double_buffered = 1 (haustra_world_def)");
+    const PublishedFrames::Slot& s = h.frames->acquire();
+    o = haustra_frame{s.frame,
+                      s.time,
+                      {s.x.data(), s.y.data(), s.z.data(), s.x.size()},
+                      {s.px.data(), s.py.data(), s.pz.data(), s.px.size()},
+                      {s.nx.data(), s.ny.data(), s.nz.data(), s.nx.size()}};
+  });
+}
+
+haustra_status haustra_world_release_frame(haustra_world* world) {
+  return guarded("haustra_world_release_frame", [&] {
+    haustra_world& h = live_handle(world);
+    if (!h.frames)
+      throw Error(ErrorCode::invalid_argument, "this world was not created with double_buffered = 1 (haustra_world_def)");
+    h.frames->release();
+  });
+}
+
+haustra_status haustra_world_save_checkpoint(const haustra_world* world, const char* path) {
+  return guarded("haustra_world_save_checkpoint", [&] {
+    const haustra::World& w = live(world);
+    if (path == nullptr) throw Error(ErrorCode::invalid_argument, "path is NULL");
+    w.save_checkpoint_file(path);
+  });
+}
+
+haustra_status haustra_world_restore_checkpoint(haustra_world* world, const char* path) {
+  return guarded("haustra_world_restore_checkpoint", [&] {
+    haustra_world& h = live_handle(world);
+    if (path == nullptr) throw Error(ErrorCode::invalid_argument, "path is NULL");
+    h.world->restore_checkpoint_file(path);
+    if (h.frames) h.frames->publish(*h.world);
   });
 }
 

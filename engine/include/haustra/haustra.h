@@ -11,7 +11,13 @@
  *   own buffers: no copies. They stay valid until the next haustra_world_step() or
  *   haustra_world_destroy() of that world. Layout: structure of arrays, x[i], y[i], z[i].
  * - Threads: one world may be used by one thread at a time; different worlds are independent.
- *   haustra_last_error() is per thread.
+ *   The exception is a world created with double_buffered = 1: one other thread (a render
+ *   thread) may call haustra_world_acquire_frame / haustra_world_release_frame while the world
+ *   steps, and reads the last completed frame without blocking the stepping thread.
+ *   A host job system's callbacks are called from the thread that steps the world; its tasks may
+ *   run on any thread. haustra_last_error() is per thread.
+ * - Structs a host fills (haustra_world_def, haustra_segment_def) start with struct_size; fill
+ *   them with their _default() function first, then change what differs.
  * - Units: metres, seconds, newtons, radians; world frame.
  */
 #ifndef HAUSTRA_H
@@ -32,7 +38,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 1
+#define HAUSTRA_ABI_VERSION 2
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -97,6 +103,68 @@ typedef struct haustra_profile {
   int newton;
 } haustra_profile;
 
+/* A host's own job system (instead of oneTBB): a step hands it ranges of independent work with
+ * enqueue, then calls wait once, which returns when every range enqueued since the last wait has
+ * run. task(task_data, first, last) never fails. workers: how many ranges a batch is split into. */
+typedef void (*haustra_task_fn)(void* task_data, size_t first, size_t last);
+typedef struct haustra_job_system {
+  void (*enqueue)(void* host, haustra_task_fn task, void* task_data, size_t first, size_t last);
+  void (*wait)(void* host);
+  void* host;
+  int workers;
+} haustra_job_system;
+
+/* A world built without a scene file; also the run-time settings of one built from a scene. */
+typedef struct haustra_world_def {
+  size_t struct_size;       /* sizeof(haustra_world_def), set by haustra_world_def_default */
+  double dt;                /* s per frame; default 1/60 */
+  double gravity[3];        /* m/s²; default (0, 0, -9.81) */
+  int threads;              /* 0: all cores (default), 1: the stepping thread only, n: n */
+  haustra_job_system jobs;  /* enqueue == NULL (default): oneTBB with `threads` */
+  int newton;               /* 1 (default): Newton; 0: the paper's lagged scheme */
+  int iterations;           /* per substep; default 1 */
+  int substeps;             /* per frame; default 1 */
+  int recover;              /* 1 (default): redo an unstable frame with Newton and more substeps; 0: stop */
+  int floor;                /* 1: a floor plane z = floor_height; default 0 */
+  double floor_height;      /* m */
+  int self_contact;         /* 1 (default): beads of one segment collide */
+  int double_buffered;      /* 1: publish every frame for haustra_world_acquire_frame; default 0 */
+} haustra_world_def;
+
+/* One segment: a rod along a centreline (or straight), its beads, and its organ mesh. */
+typedef struct haustra_segment_def {
+  size_t struct_size;         /* sizeof(haustra_segment_def), set by haustra_segment_def_default */
+  const char* name;           /* NULL: "segment<i>" */
+  int nodes;                  /* default 167 (the paper's) */
+  const double* centreline;   /* x, y, z per point (m), from the base; NULL: straight, see below */
+  size_t centreline_points;
+  double length;              /* m, when straight; default 1.66 */
+  double base_position[3];    /* m, when straight; default the origin */
+  double base_tangent[3];     /* when straight; default +x */
+  int free_base;              /* 0 (default): node 0 is clamped; 1: the rod moves freely in a viscous medium */
+  double drag;                /* N·s/m² per metre; < 0 (default): 4 for a free base, 0 for a clamped one */
+  double radius;              /* m; default 0.02 */
+  double wall_thickness;      /* m; default 0.003 */
+  double youngs_modulus;      /* Pa; default 33.2e3 (the paper's) */
+  double density;             /* kg/m³; default 1050 */
+  int beads;                  /* beads spread over the nodes; 0 (default): none */
+  double bead_radius;         /* m; 0 (default): the radius */
+  int mesh;                   /* 0 (default): none; 1: procedural organ; 2: mesh_file */
+  int mesh_vertices;          /* procedural: about this many; default 10,000 */
+  const char* mesh_file;      /* .obj .stl .off .gltf .glb, at the rod's rest pose */
+  double mesh_scale;          /* file units to metres; default 1 */
+  int rings_per_vertex;       /* mean value coordinates kept per vertex; default 4; 0: all */
+} haustra_segment_def;
+
+/* The last completed frame, for a render thread (double_buffered worlds). */
+typedef struct haustra_frame {
+  uint64_t frame;
+  double time;
+  haustra_vec3_view nodes;
+  haustra_vec3f_view mesh_positions;
+  haustra_vec3f_view mesh_normals;
+} haustra_frame;
+
 /* Version and ABI. */
 HAUSTRA_API const char* haustra_version(void);
 HAUSTRA_API haustra_status haustra_check_abi(int abi_version);
@@ -107,6 +175,16 @@ HAUSTRA_API const char* haustra_stage_name(int stage);
 
 /* Worlds. threads: 0 for all cores, 1 for the calling thread only, n for n. */
 HAUSTRA_API haustra_status haustra_world_create_from_scene(const char* scene_path, int threads, haustra_world** out);
+/* The same with run-time settings from `def` (threads, jobs, double_buffered; its other fields are
+ * the scene's). def may be NULL: the defaults. */
+HAUSTRA_API haustra_status haustra_world_create_from_scene_def(const char* scene_path, const haustra_world_def* def,
+                                                               haustra_world** out);
+HAUSTRA_API haustra_status haustra_world_def_default(haustra_world_def* def);
+HAUSTRA_API haustra_status haustra_segment_def_default(haustra_segment_def* def);
+/* A world from definitions alone: segments[0..segment_count). Errors name the segment and field
+ * ("segments[1].radius"). */
+HAUSTRA_API haustra_status haustra_world_create(const haustra_world_def* def, const haustra_segment_def* segments,
+                                                size_t segment_count, haustra_world** out);
 HAUSTRA_API haustra_status haustra_world_destroy(haustra_world* world);
 /* One frame of the scene's dt. HAUSTRA_UNSTABLE: the frame was refused and every buffer still
  * holds the last good frame (the message names segment, node and stage); the world can step on. */
@@ -130,6 +208,18 @@ HAUSTRA_API haustra_status haustra_world_set_instrument_grasp(haustra_world* wor
 HAUSTRA_API haustra_status haustra_world_instrument(const haustra_world* world, size_t instrument,
                                                     haustra_instrument_reading* out);
 HAUSTRA_API haustra_status haustra_world_profile(const haustra_world* world, haustra_profile* out);
+
+/* Double-buffered output (worlds created with double_buffered = 1). acquire gives the last
+ * completed frame; its views stay valid, and unchanged, until release, however many frames the
+ * world steps meanwhile. One acquire at a time; never blocks the stepping thread. */
+HAUSTRA_API haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* out);
+HAUSTRA_API haustra_status haustra_world_release_frame(haustra_world* world);
+
+/* Checkpoints: the world's state to a file and back. Stepping on from a restore gives the same
+ * bits as never having stopped. A checkpoint of another model, or a damaged one, is refused
+ * (HAUSTRA_PARSE) and the world is left as it was. Restoring moves the time back or forth. */
+HAUSTRA_API haustra_status haustra_world_save_checkpoint(const haustra_world* world, const char* path);
+HAUSTRA_API haustra_status haustra_world_restore_checkpoint(haustra_world* world, const char* path);
 
 #ifdef __cplusplus
 }
