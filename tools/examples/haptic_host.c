@@ -1,8 +1,8 @@
 /* A C host of haustra, as a surgical simulator would be: a haptic thread steps the world at 1 kHz
  * of simulated time, moves a grasper down onto the organ, grasps it, lifts it and lets go, and
  * reads the force on the grasper every frame; a render thread wakes 60 times a second and reads
- * the organ's mesh buffers. One world is used by one thread at a time, so the two share a mutex:
- * the render thread reads the last completed frame between two steps.
+ * the organ's mesh. The world is double-buffered: the render thread acquires the last completed
+ * frame and reads it while the haptic thread steps on, neither waiting for the other.
  *
  *   cc haptic_host.c -I$PREFIX/include -L$PREFIX/lib -Wl,-rpath,$PREFIX/lib -lhaustra -lpthread -lm
  *   ./a.out scenes/haptic-host.toml [seconds]
@@ -16,7 +16,7 @@
 #include <time.h>
 
 typedef struct Shared {
-  pthread_mutex_t lock;
+  pthread_mutex_t lock; /* guards `done` only */
   haustra_world* world;
   int done;
   /* Written by the render thread. */
@@ -42,21 +42,21 @@ static void* render_loop(void* arg) {
   for (;;) {
     nanosleep(&frame, NULL);
     pthread_mutex_lock(&sh->lock);
-    if (sh->done) {
-      pthread_mutex_unlock(&sh->lock);
-      break;
-    }
-    haustra_vec3f_view mesh;
-    if (haustra_world_mesh_positions(sh->world, &mesh) == HAUSTRA_OK) {
+    const int done = sh->done;
+    pthread_mutex_unlock(&sh->lock);
+    if (done) break;
+    haustra_frame shown;
+    if (haustra_world_acquire_frame(sh->world, &shown) == HAUSTRA_OK) {
       float lowest = 1e30f;
-      for (size_t v = 0; v < mesh.count; ++v) {
-        if (!isfinite(mesh.x[v]) || !isfinite(mesh.y[v]) || !isfinite(mesh.z[v])) sh->bad_vertices++;
-        if (mesh.z[v] < lowest) lowest = mesh.z[v];
+      for (size_t v = 0; v < shown.mesh_positions.count; ++v) {
+        const float x = shown.mesh_positions.x[v], y = shown.mesh_positions.y[v], z = shown.mesh_positions.z[v];
+        if (!isfinite(x) || !isfinite(y) || !isfinite(z)) sh->bad_vertices++;
+        if (z < lowest) lowest = z;
       }
+      haustra_world_release_frame(sh->world);
       sh->lowest_vertex = lowest;
       sh->mesh_reads++;
     }
-    pthread_mutex_unlock(&sh->lock);
   }
   return NULL;
 }
@@ -68,8 +68,12 @@ int main(int argc, char** argv) {
   if (s != HAUSTRA_OK) return fail("haustra_check_abi", s);
 
   Shared sh = {PTHREAD_MUTEX_INITIALIZER, NULL, 0, 0, 0.0f, 0};
-  s = haustra_world_create_from_scene(scene, 1, &sh.world);
-  if (s != HAUSTRA_OK) return fail("haustra_world_create_from_scene", s);
+  haustra_world_def def;
+  haustra_world_def_default(&def);
+  def.threads = 1;          /* the haptic thread steps alone */
+  def.double_buffered = 1;  /* the render thread reads completed frames */
+  s = haustra_world_create_from_scene_def(scene, &def, &sh.world);
+  if (s != HAUSTRA_OK) return fail("haustra_world_create_from_scene_def", s);
   haustra_counts counts;
   haustra_world_counts(sh.world, &counts);
   printf("haustra %s: %zu nodes, %zu beads, %zu mesh vertices\n", haustra_version(), counts.nodes, counts.beads,
@@ -95,14 +99,12 @@ int main(int argc, char** argv) {
     if (time < 1.0) tip[2] = smooth(park[2], gz, time);
     else if (time < 7.0) tip[2] = smooth(gz, gz + 0.06, (time - 1.0) / 2.0);
     else tip[2] = smooth(gz + 0.06, park[2], (time - 7.0) / 1.0);
-    pthread_mutex_lock(&sh.lock);
     haustra_world_set_instrument_pose(sh.world, 0, tip, up);
     haustra_world_set_instrument_grasp(sh.world, 0, time >= 1.0 && time < 7.0);
     s = haustra_world_step(sh.world);
     haustra_instrument_reading r;
     haustra_world_instrument(sh.world, 0, &r);
     haustra_world_time(sh.world, &time, &frame);
-    pthread_mutex_unlock(&sh.lock);
     if (s != HAUSTRA_OK) {
       status = fail("haustra_world_step", s);
       break;
