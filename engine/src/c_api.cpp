@@ -19,7 +19,8 @@
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
 
-namespace {
+// Not in an anonymous namespace: haustra_world (a global type) holds one.
+namespace haustra::c_api {
 
 // Triple-buffered copies of what a renderer reads (docs/decisions/0029-double-buffered-output.md).
 // The stepping thread fills `back` and swaps it with `ready`; the reader swaps `ready` into
@@ -90,7 +91,9 @@ class PublishedFrames {
   bool fresh_ = false, held_ = false;
 };
 
-}  // namespace
+}  // namespace haustra::c_api
+
+using haustra::c_api::PublishedFrames;
 
 struct haustra_world {
   std::unique_ptr<haustra::World> world;
