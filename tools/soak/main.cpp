@@ -114,10 +114,100 @@ struct Options {
   std::uint64_t warmup_cycles = 4;
   int threads = 1;
   std::string out;
+  std::uint64_t checkpoint_every = 0;  // frames between checkpoints (0: none)
+  std::string checkpoint_dir;          // where: soak-<frame>.ckpt and its .host sidecar, the last two kept
+  std::string resume;                  // a checkpoint to start from (its .host sidecar beside it)
+  std::size_t trace = 600;             // frames of per-frame detail kept, written out when a check breaks
   double energy_factor = 4.0;        // every frame within [low / factor, high * factor]
   double energy_drift = 0.25;        // end mean against start mean
   std::size_t heap_slack = 64 << 10; // bytes the heap may grow after warm-up (stdio buffers and the like)
 };
+
+// One frame's detail, kept for the last `trace` frames and written out when a check breaks: which
+// part of the energy moved, what touched, whether the robust mode stepped in.
+struct TraceRow {
+  std::uint64_t frame = 0;
+  double elastic = 0.0, gravity = 0.0;
+  std::size_t touching = 0;
+  double bead_overlap = 0.0, floor_depth = 0.0;
+  int substeps = 1, retries = 0;
+  bool grasping = false;
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+  double lowest = 0.0, highest = 0.0, max_axial = 0.0;
+  std::size_t max_axial_node = 0;
+};
+
+TraceRow trace_row(const World& w, std::uint64_t f, const Grasper& g) {
+  TraceRow r;
+  r.frame = f;
+  const Energy e = w.energy();
+  r.elastic = e.elastic;
+  r.gravity = e.gravity;
+  r.touching = w.contacts().touching;
+  r.bead_overlap = w.contacts().max_bead_overlap_ratio;
+  r.floor_depth = w.contacts().max_environment_depth_ratio;
+  r.substeps = w.last_profile().substeps;
+  r.retries = w.last_profile().retries;
+  r.grasping = w.instrument(0).grasping;
+  r.tip = g.tip;
+  const auto p = w.node_positions();
+  r.lowest = std::numeric_limits<double>::infinity();
+  r.highest = -r.lowest;
+  for (std::size_t k = 0; k < w.node_count(); ++k) {
+    r.lowest = std::min(r.lowest, p.z[k]);
+    r.highest = std::max(r.highest, p.z[k]);
+  }
+  const auto q = w.strains();
+  const auto q0 = w.rest_strains();
+  for (std::size_t k = 0; k < w.node_count(); ++k) {
+    const double d = std::abs(q.data[4 * k + 3] - q0.data[4 * k + 3]);
+    if (d > r.max_axial) r.max_axial = d, r.max_axial_node = k;
+  }
+  return r;
+}
+
+void write_trace(const std::string& path, const std::vector<TraceRow>& ring, std::uint64_t last_frame) {
+  std::ofstream out(path);
+  out << "frame,elastic_J,gravity_J,total_J,touching,max_bead_overlap_ratio,max_environment_depth_ratio,substeps,"
+         "retries,grasping,tip_x,tip_y,tip_z,lowest_node_z,highest_node_z,max_axial_strain_change,at_node\n";
+  const std::size_t n = ring.size();
+  for (std::uint64_t f = last_frame + 1 >= n ? last_frame + 1 - n : 0; f <= last_frame; ++f) {
+    const TraceRow& r = ring[f % n];
+    if (r.frame != f) continue;
+    out << fmt::format("{},{:.9g},{:.9g},{:.9g},{},{:.6g},{:.6g},{},{},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{}\n",
+                       r.frame, r.elastic, r.gravity, r.elastic + r.gravity, r.touching, r.bead_overlap, r.floor_depth,
+                       r.substeps, r.retries, r.grasping ? 1 : 0, r.tip.x(), r.tip.y(), r.tip.z(), r.lowest, r.highest,
+                       r.max_axial, r.max_axial_node);
+  }
+}
+
+// The host's own state beside a checkpoint of the world: the grasper and the soak's bookkeeping.
+struct HostState {
+  Grasper grasper;
+  double low = 0.0, high = 0.0;
+  std::uint64_t grasps = 0;
+  bool was_grasping = false;
+};
+
+void save_host(const std::string& path, const HostState& h) {
+  std::ofstream out(path);
+  out.precision(17);
+  for (const Eigen::Vector3d* v : {&h.grasper.park, &h.grasper.previous_park, &h.grasper.grip, &h.grasper.tip})
+    out << v->x() << ' ' << v->y() << ' ' << v->z() << '\n';
+  out << h.low << ' ' << h.high << ' ' << h.grasps << ' ' << (h.was_grasping ? 1 : 0) << '\n';
+}
+
+HostState load_host(const std::string& path) {
+  std::ifstream in(path);
+  HostState h;
+  int was = 0;
+  for (Eigen::Vector3d* v : {&h.grasper.park, &h.grasper.previous_park, &h.grasper.grip, &h.grasper.tip})
+    in >> v->x() >> v->y() >> v->z();
+  in >> h.low >> h.high >> h.grasps >> was;
+  if (!in) throw Error(ErrorCode::parse, fmt::format("{}: expected the soak's host state beside the checkpoint", path));
+  h.was_grasping = was != 0;
+  return h;
+}
 
 int soak(const Options& o) {
   SceneDesc scene = load_scene(o.scene);
@@ -130,6 +220,19 @@ int soak(const Options& o) {
   auto w = create_world(scene);
   const std::size_t target = w->segment(0).nodes.offset + w->segment(0).nodes.count / 2;
   Grasper g;
+  std::uint64_t first_frame = 0;
+  HostState resumed;
+  if (!o.resume.empty()) {
+    w->restore_checkpoint_file(o.resume);
+    resumed = load_host(o.resume + ".host");
+    g = resumed.grasper;
+    first_frame = w->frame();
+    fmt::print("resumed from {} at frame {}\n", o.resume, first_frame);
+  }
+  std::vector<TraceRow> ring(std::max<std::size_t>(o.trace, 1));
+  std::vector<std::string> checkpoints;
+  if (!o.checkpoint_dir.empty()) std::filesystem::create_directories(o.checkpoint_dir);
+  const std::string trace_path = (o.out.empty() ? std::string("soak") : o.out) + ".trace.csv";
 
   std::ofstream csv;
   if (!o.out.empty()) {
@@ -145,19 +248,37 @@ int soak(const Options& o) {
   long resident_at_warmup = 0;
   std::uint64_t grasps = 0;
   bool was_grasping = false;
+  if (!o.resume.empty()) {
+    low = resumed.low, high = resumed.high, grasps = resumed.grasps, was_grasping = resumed.was_grasping;
+    heap_at_warmup = heap_in_use();  // a resumed run measures the heap from its own start
+    resident_at_warmup = resident_kib();
+  }
   std::vector<double> sampled;  // energy at the samples after warm-up, for the drift check
   sampled.reserve(static_cast<std::size_t>(o.frames / o.sample) + 2);
   auto window_start = std::chrono::steady_clock::now();
-  for (std::uint64_t f = 0; f < o.frames; ++f) {
+  for (std::uint64_t f = first_frame; f < o.frames; ++f) {
+    if (o.checkpoint_every > 0 && !o.checkpoint_dir.empty() && f > first_frame && f % o.checkpoint_every == 0) {
+      const std::string path = fmt::format("{}/soak-{:07}.ckpt", o.checkpoint_dir, f);
+      w->save_checkpoint_file(path);
+      save_host(path + ".host", {g, low, high, grasps, was_grasping});
+      checkpoints.push_back(path);
+      if (checkpoints.size() > 2) {
+        std::filesystem::remove(checkpoints.front());
+        std::filesystem::remove(checkpoints.front() + ".host");
+        checkpoints.erase(checkpoints.begin());
+      }
+    }
     drive(*w, g, f, target);
     w->step();
     if (!state_finite(*w)) {
+      write_trace(trace_path, ring, f - 1);
       fmt::print(stderr, "soak: frame {}: a node or mesh position is not finite\n", f);
       return kExitBroken;
     }
     const bool grasping = w->instrument(0).grasping;
     grasps += (grasping && !was_grasping) ? 1 : 0;
     was_grasping = grasping;
+    if (o.trace > 0) ring[f % ring.size()] = trace_row(*w, f, g);
     const double e = w->energy().total();
     if (f >= kCycle && f < warmup) {  // the first cycle is the release from hanging: not the steady cycle
       low = std::min(low, e);
@@ -171,6 +292,10 @@ int soak(const Options& o) {
     if (f >= warmup && (e < floor_energy || e > ceiling_energy)) {
       fmt::print(stderr, "soak: frame {}: energy {:.6g} J left [{:.6g}, {:.6g}] J ({} times the warm-up's [{:.6g}, "
                          "{:.6g}] J)\n", f, e, floor_energy, ceiling_energy, o.energy_factor, low, high);
+      if (o.trace > 0) {
+        write_trace(trace_path, ring, f);
+        fmt::print(stderr, "soak: the last {} frames in {}\n", o.trace, trace_path);
+      }
       return kExitBroken;
     }
     if ((f + 1) % o.sample == 0 || f + 1 == o.frames) {
@@ -236,6 +361,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--threads", o.threads, "worker threads")->capture_default_str();
   app.add_option("--out", o.out, "CSV of the samples");
+  app.add_option("--checkpoint-every", o.checkpoint_every, "frames between checkpoints (needs --checkpoint-dir)");
+  app.add_option("--checkpoint-dir", o.checkpoint_dir, "directory for checkpoints; the last two are kept");
+  app.add_option("--resume", o.resume, "start from this checkpoint (and its .host file)");
+  app.add_option("--trace", o.trace, "frames of per-frame detail written to <out>.trace.csv when a check breaks")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
     return soak(o);
