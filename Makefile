@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench validate stability-doc skinning-doc figures soak fuzz clean
+.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench bench-peers validate stability-doc skinning-doc figures soak fuzz clean
 
 all: build
 
@@ -60,6 +60,14 @@ bench: build
 	@$(BIN)/haustra_bench_collision --benchmark_out=build/release/bench_collision.json --benchmark_out_format=json
 	@$(BIN)/haustra_bench_mesh --benchmark_out=build/release/bench_mesh.json --benchmark_out_format=json
 	@echo "benchmark results: $(abspath build/release/bench.json) $(abspath build/release/bench_collision.json) $(abspath build/release/bench_mesh.json)"
+
+# The same rope in haustra, Bullet and MuJoCo (Debian's), time per frame next to stretch and
+# floor penetration. Optional: installs libbullet-dev and libmujoco-dev first.
+bench-peers:
+	@./scripts/install-deps.sh --peers
+	@cmake --preset release >/dev/null
+	@cmake --build --preset release -j $(JOBS) --target haustra_bench_peers
+	@$(BIN)/haustra_bench_peers
 
 validate: build
 	@$(BIN)/haustra validate

@@ -16,7 +16,8 @@ for extra in "$@"; do
   case "$extra" in
     --figures) packages+=(python3-matplotlib) ;;          # `make figures`, `make soak`: Debian's matplotlib
     --fuzz) packages+=(clang libclang-rt-14-dev) ;;        # `make fuzz`: clang and its libFuzzer runtime
-    *) echo "install-deps: unknown option $extra (expected --figures or --fuzz)" >&2; exit 2 ;;
+    --peers) packages+=(libbullet-dev libmujoco-dev) ;;    # `make bench-peers`: Bullet 3.24 and MuJoCo 2.2
+    *) echo "install-deps: unknown option $extra (expected --figures, --fuzz or --peers)" >&2; exit 2 ;;
   esac
 done
 
