@@ -612,6 +612,45 @@ double attachment_miss(const WorldModel& model, const WorldState& state, std::si
   return worst;
 }
 
+Energy segment_energy(const WorldModel& model, std::span<const double> strain, kernels::Vec3View<const double> position,
+                      std::size_t segment) {
+  const SegmentModel& seg = model.segments[segment];
+  const std::size_t off = seg.node_offset, n = seg.node_count;
+  Energy e;
+  for (std::size_t c = 0; c < 4; ++c) {
+    if (seg.stiffness[c] == 0.0) continue;
+    auto dq = [&](std::size_t k) { return strain[4 * (off + k) + c] - model.rest_strain[4 * (off + k) + c]; };
+    double quad = 0.0;  // Δqᵀ M Δq with the hat functions' mass matrix
+    for (std::size_t k = 0; k + 1 < n; ++k) {
+      const double h = model.section_length[off + k];
+      quad += h / 3.0 * (dq(k) * dq(k) + dq(k + 1) * dq(k + 1)) + h / 3.0 * dq(k) * dq(k + 1);
+    }
+    e.elastic += 0.5 * seg.stiffness[c] * quad;
+  }
+  for (std::size_t k = 0; k < n; ++k) e.gravity -= model.node_mass[off + k] * model.gravity.dot(position.get(off + k));
+  return e;
+}
+
+namespace {
+
+// Nothing outside works on the segment this frame: no attachment or grasp holds it, no instrument
+// touches it, the host loads none of its nodes. Its support (a clamped base), the floor and other
+// static shapes, its own viscous flow, the medium and the filter can only take energy out.
+bool passive(const WorldModel& model, const WorldState& state, std::size_t segment) {
+  const SegmentModel& seg = model.segments[segment];
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a)
+    if (state.now.attachment[seg.attachment_offset + a].active) return false;
+  for (const ContactCandidate& c : state.collision.candidates)
+    if (c.kind == ContactKind::instrument && model.beads.segment[c.bead] == segment) return false;
+  const auto f = state.external_force.view();
+  const auto m = state.external_moment.view();
+  for (std::size_t k = seg.node_offset; k < seg.node_offset + seg.node_count; ++k)
+    if (f.get(k).squaredNorm() > 0.0 || m.get(k).squaredNorm() > 0.0) return false;
+  return true;
+}
+
+}  // namespace
+
 GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
   const SegmentModel& seg = model.segments[segment];
   const SolverDesc& lim = model.solver;
@@ -660,6 +699,24 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
   if (miss > lim.max_attachment_error)
     return {false, k, Stage::constraints, "attachment's distance from its target (segment lengths)", miss,
             lim.max_attachment_error};
+  // A passive segment that flows (a viscous or Kelvin–Voigt component) cannot gain energy in a
+  // frame: the flow, the medium and the filter (first order: it stores no momentum) only take it
+  // out. One that does has jumped to a spurious equilibrium — a soft rope asked to flow far in one
+  // step can curl up instead of falling — and the robust mode redoes the frame with more substeps,
+  // which shortens the flow. (A purely elastic rod's quasi-static solution does not depend on the
+  // step, so substeps could not help it; it is not checked.) Allowance: 0.1 % of the energy in play
+  // (its weight over its length), for rounding and for what the penalty contacts give back.
+  const bool flows = std::any_of(seg.viscosity.begin(), seg.viscosity.end(), [](double eta) { return eta > 0.0; });
+  if (flows && passive(model, state, segment)) {
+    const double before = segment_energy(model, state.frame_start.strain, state.frame_start.position.view(), segment).total();
+    const double after = segment_energy(model, state.now.strain, state.now.position.view(), segment).total();
+    double weight = 0.0;
+    for (std::size_t node = off; node < off + n; ++node) weight += model.node_mass[node];
+    const double allowance = 1e-3 * (std::abs(before) + weight * model.gravity.norm() * seg.info.length) + 1e-12;
+    if (after - before > allowance)
+      return {false, 0, Stage::solve, "energy gained in a frame nothing external worked on (J)", after - before,
+              allowance};
+  }
   if (!p.newton) {
     const LaggedRatios r = lagged_contraction(model, state, segment, p);
     if (r.elastic > kMaxElasticContraction)

@@ -47,6 +47,12 @@ Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, s
 void stage_forward_sweep(const WorldModel& model, WorldState& state, std::size_t segment);
 void stage_filter(const WorldModel& model, WorldState& state, std::size_t segment);
 
+// A segment's potential energy in a configuration (strains 4 per node and node positions, the
+// world's arrays): what its elastic and Kelvin–Voigt components store, ½ Σ k_c Δqᵀ M Δq, and its
+// weight's −Σ m_k g·r_k.
+Energy segment_energy(const WorldModel& model, std::span<const double> strain, kernels::Vec3View<const double> position,
+                      std::size_t segment);
+
 struct GuardResult {
   bool ok = true;
   std::size_t node = 0;

@@ -558,22 +558,12 @@ std::span<const kernels::RingPose> World::ring_poses(std::size_t segment) const 
 }
 
 Energy World::energy() const {
-  const detail::WorldModel& m = impl_->model;
-  const detail::WorldState& st = impl_->state;
   Energy e;
-  for (const detail::SegmentModel& seg : m.segments) {
-    const std::size_t off = seg.node_offset, n = seg.node_count;
-    for (std::size_t c = 0; c < 4; ++c) {
-      if (seg.stiffness[c] == 0.0) continue;
-      auto dq = [&](std::size_t k) { return st.now.strain[4 * (off + k) + c] - m.rest_strain[4 * (off + k) + c]; };
-      double quad = 0.0;  // Δqᵀ M Δq with the hat functions' mass matrix
-      for (std::size_t k = 0; k + 1 < n; ++k) {
-        const double h = m.section_length[off + k];
-        quad += h / 3.0 * (dq(k) * dq(k) + dq(k + 1) * dq(k + 1)) + h / 3.0 * dq(k) * dq(k + 1);
-      }
-      e.elastic += 0.5 * seg.stiffness[c] * quad;
-    }
-    for (std::size_t k = 0; k < n; ++k) e.gravity -= m.node_mass[off + k] * m.gravity.dot(st.now.position.view().get(off + k));
+  for (std::size_t s = 0; s < impl_->model.segments.size(); ++s) {
+    const Energy es =
+        detail::segment_energy(impl_->model, impl_->state.now.strain, impl_->state.now.position.view(), s);
+    e.elastic += es.elastic;
+    e.gravity += es.gravity;
   }
   return e;
 }
