@@ -2,14 +2,14 @@
 # The instruction-count gate: instructions executed by one step of `drop` and one skinning of a
 # 10,000-vertex mesh (bench/gate.cpp), counted by callgrind, against bench/baselines/instructions.txt.
 # Counts are repeatable for the same binary whatever else the machine is doing; the gate fails when
-# a workload executes more than TOLERANCE (2 %) over its baseline.
+# a workload executes more than TOLERANCE (3 %) over its baseline.
 #   scripts/instruction-gate.sh            check (part of `make test`)
 #   scripts/instruction-gate.sh --update   record the current counts as the baseline
 set -euo pipefail
 cd "$(dirname "$0")/.."
 gate=build/release/bin/haustra_gate
 baseline=bench/baselines/instructions.txt
-tolerance_percent=2
+tolerance_percent=3
 [[ -x "$gate" ]] || { echo "instruction-gate: build first ($gate is missing)" >&2; exit 1; }
 command -v valgrind >/dev/null || { echo "instruction-gate: valgrind is missing (scripts/install-deps.sh installs it)" >&2; exit 1; }
 

@@ -633,20 +633,35 @@ Energy segment_energy(const WorldModel& model, std::span<const double> strain, k
 
 namespace {
 
-// Nothing outside works on the segment this frame: no attachment or grasp holds it, no instrument
-// touches it, the host loads none of its nodes. Its support (a clamped base), the floor and other
-// static shapes, its own viscous flow, the medium and the filter can only take energy out.
-bool passive(const WorldModel& model, const WorldState& state, std::size_t segment) {
+// What outside work the segment may have received this frame, J, or a negative value when it
+// cannot be bounded (an instrument touching it, a host load, an attachment switched on or off).
+// Attachments and grasps work through the motion of the node they hold: at most the larger of the
+// force at the frame's start and end times the distance the node moved (and likewise for a held
+// frame's moment and turn). A clamped base, the floor and other static shapes do no work; the segment's own
+// flow, the medium and the filter only take energy out.
+double outside_work_bound(const WorldModel& model, const WorldState& state, std::size_t segment) {
   const SegmentModel& seg = model.segments[segment];
-  for (std::size_t a = 0; a < seg.attachments.size(); ++a)
-    if (state.now.attachment[seg.attachment_offset + a].active) return false;
+  double work = 0.0;
+  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
+    const AttachmentState& now = state.now.attachment[seg.attachment_offset + a];
+    const AttachmentState& start = state.frame_start.attachment[seg.attachment_offset + a];
+    if (now.active != start.active || now.node != start.node) return -1.0;
+    if (!now.active) continue;
+    const std::size_t node = seg.node_offset + now.node;
+    const double moved = (state.now.position.view().get(node) - state.frame_start.position.view().get(node)).norm();
+    work += std::max(now.force.norm(), start.force.norm()) * moved;
+    if (now.hold_frame) {
+      const Eigen::Quaterniond turn = state.now.rotation.view().get(node) * state.frame_start.rotation.view().get(node).conjugate();
+      work += std::max(now.moment.norm(), start.moment.norm()) * kernels::rotation_log(turn).norm();
+    }
+  }
   for (const ContactCandidate& c : state.collision.candidates)
-    if (c.kind == ContactKind::instrument && model.beads.segment[c.bead] == segment) return false;
+    if (c.kind == ContactKind::instrument && model.beads.segment[c.bead] == segment) return -1.0;
   const auto f = state.external_force.view();
   const auto m = state.external_moment.view();
   for (std::size_t k = seg.node_offset; k < seg.node_offset + seg.node_count; ++k)
-    if (f.get(k).squaredNorm() > 0.0 || m.get(k).squaredNorm() > 0.0) return false;
-  return true;
+    if (f.get(k).squaredNorm() > 0.0 || m.get(k).squaredNorm() > 0.0) return -1.0;
+  return work;
 }
 
 }  // namespace
@@ -699,23 +714,29 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
   if (miss > lim.max_attachment_error)
     return {false, k, Stage::constraints, "attachment's distance from its target (segment lengths)", miss,
             lim.max_attachment_error};
-  // A passive segment that flows (a viscous or Kelvin–Voigt component) cannot gain energy in a
-  // frame: the flow, the medium and the filter (first order: it stores no momentum) only take it
-  // out. One that does has jumped to a spurious equilibrium — a soft rope asked to flow far in one
-  // step can curl up instead of falling — and the robust mode redoes the frame with more substeps,
-  // which shortens the flow. (A purely elastic rod's quasi-static solution does not depend on the
-  // step, so substeps could not help it; it is not checked.) Allowance: 0.1 % of the energy in play
-  // (its weight over its length), for rounding and for what the penalty contacts give back.
+  // A segment that flows (a viscous or Kelvin–Voigt component) cannot gain more energy in a frame
+  // than the outside worked on it: its flow, the medium and the filter (first order: it stores no
+  // momentum) only take energy out. One that does has jumped to a spurious equilibrium — a soft
+  // rope asked to flow far in one step curls up instead of falling; a lifted pile pins a bead deep
+  // in the floor and stretches a section 150 % — and the robust mode redoes the frame with more
+  // substeps, which shortens the flow. (A purely elastic rod's quasi-static solution does not depend
+  // on the step, so substeps could not help it; it is not checked.) Allowance: 0.1 % of the energy
+  // in play (its weight over its length), for rounding and for what penalty contacts give back.
   const bool flows = std::any_of(seg.viscosity.begin(), seg.viscosity.end(), [](double eta) { return eta > 0.0; });
-  if (flows && passive(model, state, segment)) {
-    const double before = segment_energy(model, state.frame_start.strain, state.frame_start.position.view(), segment).total();
-    const double after = segment_energy(model, state.now.strain, state.now.position.view(), segment).total();
-    double weight = 0.0;
-    for (std::size_t node = off; node < off + n; ++node) weight += model.node_mass[node];
-    const double allowance = 1e-3 * (std::abs(before) + weight * model.gravity.norm() * seg.info.length) + 1e-12;
-    if (after - before > allowance)
-      return {false, 0, Stage::solve, "energy gained in a frame nothing external worked on (J)", after - before,
-              allowance};
+  if (flows) {
+    const double work = outside_work_bound(model, state, segment);
+    if (work >= 0.0) {
+      const double before =
+          segment_energy(model, state.frame_start.strain, state.frame_start.position.view(), segment).total();
+      const double after = segment_energy(model, state.now.strain, state.now.position.view(), segment).total();
+      double weight = 0.0;
+      for (std::size_t node = off; node < off + n; ++node) weight += model.node_mass[node];
+      const double allowance =
+          work + 1e-3 * (std::abs(before) + weight * model.gravity.norm() * seg.info.length) + 1e-12;
+      if (after - before > allowance)
+        return {false, 0, Stage::solve, "energy gained beyond the work done on it in the frame (J)", after - before,
+                allowance};
+    }
   }
   if (!p.newton) {
     const LaggedRatios r = lagged_contraction(model, state, segment, p);
