@@ -1,14 +1,19 @@
 // Fuzz target: random sequences of C API calls on a small world — steps, host loads and
 // instrument poses with any bit pattern (NaN, infinities, huge values), grasps, reads of every
-// buffer, stale and made-up handles, NULL pointers, destroy and re-create. Every call must return a
-// status; after every OK step every buffer a host reads must be finite.
+// buffer, stale and made-up handles, NULL pointers, destroy and re-create, checkpoints saved and
+// restored (and damaged ones refused), double-buffered frames acquired and released. Every call
+// must return a status; after every OK step every buffer a host reads must be finite.
 #include <haustra/haustra.h>
 
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <string>
+#include <unistd.h>
 
 namespace {
 
@@ -58,8 +63,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // input in eight gets the world with a mesh, the rest the same world without one.
   const char* scene = (in.byte() % 8 == 0) ? HAUSTRA_SOURCE_DIR "/fuzz/c_api_world.toml"
                                            : HAUSTRA_SOURCE_DIR "/fuzz/c_api_world_no_mesh.toml";
+  haustra_world_def def;
+  if (haustra_world_def_default(&def) != HAUSTRA_OK) std::abort();
+  def.threads = 1;
+  def.double_buffered = in.byte() & 1;
   haustra_world* w = nullptr;
-  if (haustra_world_create_from_scene(scene, 1, &w) != HAUSTRA_OK) std::abort();
+  if (haustra_world_create_from_scene_def(scene, &def, &w) != HAUSTRA_OK) std::abort();
+  const std::string checkpoint = "/tmp/haustra-fuzz-" + std::to_string(::getpid()) + ".ckpt";
+  bool saved = false, acquired = false;
   haustra_world* stale = nullptr;
   int steps = 0;
   while (!in.empty() && steps < 40) {
@@ -117,7 +128,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         require(haustra_world_destroy(w) == HAUSTRA_OK, "destroy");
         stale = w;
         w = nullptr;
-        if (haustra_world_create_from_scene(scene, 1, &w) != HAUSTRA_OK) std::abort();
+        acquired = saved = false;  // a checkpoint of the old world fits the new one too, but start clean
+        if (haustra_world_create_from_scene_def(scene, &def, &w) != HAUSTRA_OK) std::abort();
         break;
       case 10:
         target = stale != nullptr && stale != w ? stale : nullptr;
@@ -133,11 +145,44 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         require(haustra_world_node_positions(w, nullptr) == HAUSTRA_INVALID_ARGUMENT, "NULL out");
         require(haustra_world_set_instrument_pose(w, 0, nullptr, b) == HAUSTRA_INVALID_ARGUMENT, "NULL tip");
         break;
+      case 13:  // save, or restore what was saved: the same world takes it back
+        if (!saved || (in.byte() & 1)) {
+          require(haustra_world_save_checkpoint(w, checkpoint.c_str()) == HAUSTRA_OK, "save");
+          saved = true;
+        } else {
+          require(haustra_world_restore_checkpoint(w, checkpoint.c_str()) == HAUSTRA_OK, "restore");
+          check_finite(w);
+        }
+        break;
+      case 14: {  // a damaged checkpoint: refused, the world untouched and finite
+        std::ofstream(checkpoint + ".bad", std::ios::binary)
+            .write(reinterpret_cast<const char*>(data + in.at), static_cast<std::streamsize>(size - in.at));
+        const haustra_status s = haustra_world_restore_checkpoint(w, (checkpoint + ".bad").c_str());
+        require(s == HAUSTRA_PARSE || s == HAUSTRA_IO, "damaged checkpoint refused");
+        check_finite(w);
+        break;
+      }
+      case 15: {  // frames: valid only on a double-buffered world, one acquire at a time
+        haustra_frame f{};
+        if (!acquired) {
+          const haustra_status s = haustra_world_acquire_frame(w, &f);
+          require(s == (def.double_buffered ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT), "acquire");
+          acquired = s == HAUSTRA_OK;
+          for (std::size_t k = 0; acquired && k < f.nodes.count; ++k) require(std::isfinite(f.nodes.z[k]), "finite frame");
+        } else {
+          require(haustra_world_release_frame(w) == HAUSTRA_OK, "release");
+          acquired = false;
+        }
+        break;
+      }
       default:
         check_finite(w);
         break;
     }
   }
+  if (acquired) require(haustra_world_release_frame(w) == HAUSTRA_OK, "final release");
   require(haustra_world_destroy(w) == HAUSTRA_OK, "final destroy");
+  std::remove(checkpoint.c_str());
+  std::remove((checkpoint + ".bad").c_str());
   return 0;
 }
