@@ -3,6 +3,7 @@
 #include <benchmark/benchmark.h>
 
 #include <random>
+#include <string>
 #include <vector>
 
 #include "haustra/kernels/block_tridiagonal.hpp"
@@ -98,8 +99,44 @@ void BM_Frame(benchmark::State& state, SolverMode mode) {
   set_counters(state, static_cast<std::size_t>(s.nodes));
 }
 
+// Many segments at once: rows of the `drop` rod (167 nodes, 55 beads) lying side by side on a
+// floor 1 mm further apart than their beads are wide, so neighbours touch as they settle. Args:
+// segments, threads. Per node and per bead costs should stay flat as segments grow, and 2 threads
+// should approach twice the speed of 1 once there are enough segments to share.
+void BM_Segments(benchmark::State& state) {
+  WorldDesc d;
+  d.threads = static_cast<int>(state.range(1));
+  PlaneDesc floor;
+  floor.name = "floor";
+  d.environment.planes.push_back(floor);
+  const auto count = static_cast<std::size_t>(state.range(0));
+  const std::size_t per_row = 16;
+  for (std::size_t i = 0; i < count; ++i) {
+    SegmentDesc s;
+    s.name = "segment" + std::to_string(i);
+    s.rest.length = 1.0;
+    s.base_position = {1.1 * static_cast<double>(i / per_row), 0.041 * static_cast<double>(i % per_row), 0.0202};
+    s.beads.enabled = true;
+    s.beads.count = 55;
+    s.beads.radius = 0.02;
+    d.segments.push_back(s);
+  }
+  auto w = World::create(d);
+  for (int f = 0; f < 3; ++f) w->step();
+  for (auto _ : state) w->step();
+  const double frames = static_cast<double>(state.iterations());
+  state.counters["nodes/s"] = benchmark::Counter(static_cast<double>(w->node_count()) * frames, benchmark::Counter::kIsRate);
+  state.counters["beads/s"] = benchmark::Counter(static_cast<double>(w->bead_count()) * frames, benchmark::Counter::kIsRate);
+}
+
 }  // namespace
 
+BENCHMARK(BM_Segments)
+    ->ArgsProduct({{1, 4, 16, 64, 256}, {1, 2}})
+    ->ArgNames({"segments", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.5)
+    ->UseRealTime();  // two threads: wall time is what a host waits
 BENCHMARK(BM_ForwardSweep)->RangeMultiplier(4)->Range(16, 16384);
 BENCHMARK(BM_BackwardSweep)->RangeMultiplier(4)->Range(16, 16384);
 BENCHMARK(BM_MassSolve)->RangeMultiplier(4)->Range(16, 16384);
