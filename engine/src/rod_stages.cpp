@@ -655,8 +655,11 @@ double outside_work_bound(const WorldModel& model, const WorldState& state, std:
       work += std::max(now.moment.norm(), start.moment.norm()) * kernels::rotation_log(turn).norm();
     }
   }
-  for (const ContactCandidate& c : state.collision.candidates)
-    if (c.kind == ContactKind::instrument && model.beads.segment[c.bead] == segment) return -1.0;
+  // The segment's own beads' contacts (the per-bead lists), not every candidate of the world.
+  const CollisionState& cs = state.collision;
+  for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count && !cs.bead_contact_start.empty(); ++b)
+    for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e)
+      if (cs.candidates[cs.bead_contact[e] >> 1].kind == ContactKind::instrument) return -1.0;
   const auto f = state.external_force.view();
   const auto m = state.external_moment.view();
   for (std::size_t k = seg.node_offset; k < seg.node_offset + seg.node_count; ++k)
