@@ -164,6 +164,8 @@ void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& init
     SegmentModel& seg = m.segments[si];
     const BeadsDesc& b = desc.segments[si].beads;
     seg.bead_offset = beads.size();
+    for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p)
+      m.pieces[p].bead_offset = beads.size();
     if (!b.enabled) continue;
     const std::string where = fmt::format("segment[{}].beads", si);
     const std::span<const double> h = std::span<const double>(m.section_length).subspan(seg.node_offset, seg.node_count - 1);
@@ -176,17 +178,29 @@ void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& init
     }
     if ((b.radius != 0.0 ? 1 : 0) + (b.radius_profile.empty() ? 0 : 1) + (b.radius_from_mesh ? 1 : 0) > 1)
       fail(where, "give one of radius, radius_profile or radius = \"mesh\"");
-    if (b.radius_from_mesh && meshes[si].triangles.empty())
+    const TriangleMesh& own_mesh = meshes[seg.first_piece];  // only a single piece may take radii from it
+    if (b.radius_from_mesh && own_mesh.triangles.empty())
       fail(where + ".radius", "radius = \"mesh\" needs the segment's organ mesh ([segment.mesh])");
     std::unique_ptr<EmbreeScene> wall;
     if (b.radius_from_mesh) {
       wall = std::make_unique<EmbreeScene>();
-      wall->add_triangles(meshes[si].vertices, meshes[si].triangles);
+      wall->add_triangles(own_mesh.vertices, own_mesh.triangles);
       wall->commit();
     }
+    // A chain places its beads piece by piece (a joint node gets one bead).
+    std::vector<std::size_t> rod_nodes;
+    for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p) {
+      const SegmentPiece& piece = m.pieces[p];
+      SegmentModel span_of_piece;
+      span_of_piece.node_count = piece.info.nodes.count;
+      for (std::size_t k : bead_nodes(b, span_of_piece, h.subspan(piece.first_node, piece.info.nodes.count - 1), where))
+        rod_nodes.push_back(piece.first_node + k);
+    }
+    std::sort(rod_nodes.begin(), rod_nodes.end());
+    rod_nodes.erase(std::unique(rod_nodes.begin(), rod_nodes.end()), rod_nodes.end());
     double arc = 0.0;
     std::size_t last = 0;
-    for (std::size_t k : bead_nodes(b, seg, h, where)) {
+    for (std::size_t k : rod_nodes) {
       for (; last < k; ++last) arc += h[last];
       const double fraction = arc / seg.info.length;
       double r = !b.radius_profile.empty() ? profile_radius(b.radius_profile, fraction)
@@ -204,6 +218,21 @@ void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& init
       beads.modulus.push_back(desc.segments[si].material.youngs_modulus);
     }
     seg.bead_count = beads.size() - seg.bead_offset;
+    // Each piece's beads: those on its nodes, a joint's going to the later piece.
+    for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p) {
+      SegmentPiece& piece = m.pieces[p];
+      const bool last_piece = p + 1 == seg.first_piece + seg.piece_count;
+      const std::size_t end = piece.first_node + piece.info.nodes.count - (last_piece ? 0 : 1);
+      piece.bead_offset = beads.size();
+      for (std::size_t bead = seg.bead_offset; bead < seg.bead_offset + seg.bead_count; ++bead) {
+        const std::size_t k = beads.node[bead] - seg.node_offset;
+        if (k < piece.first_node) continue;
+        if (k >= end) break;
+        piece.bead_offset = std::min(piece.bead_offset, bead);
+        ++piece.bead_count;
+      }
+      if (piece.bead_count == 0) piece.bead_offset = seg.bead_offset + seg.bead_count;
+    }
   }
   // Rest-pose exclusions: pairs of one segment whose spheres overlap or touch at rest.
   const std::size_t nb = beads.size();

@@ -5,12 +5,14 @@
 
 namespace haustra::detail {
 
-void stage_cage(const WorldModel& model, WorldState& state, std::size_t segment) {
-  const SegmentMesh& mesh = model.meshes_of[segment];
+void stage_cage(const WorldModel& model, WorldState& state, std::size_t piece) {
+  const SegmentMesh& mesh = model.meshes_of[piece];
   if (!mesh.enabled) return;
   const std::size_t rings = mesh.cage.ring_station.size();
   const std::span<kernels::RingPose> pose = std::span(state.mesh.ring_pose).subspan(mesh.ring_offset, rings);
-  kernels::ring_poses(segment_views(model, state, segment).poses, mesh.cage.ring_station, pose);
+  const SegmentPiece& p = model.pieces[piece];
+  kernels::ring_poses(segment_views(model, state, p.rod).poses.subview(p.first_node, p.info.nodes.count),
+                      mesh.cage.ring_station, pose);
   kernels::ring_deltas(mesh.cage.ring_rest, pose,
                        std::span(state.mesh.ring_delta).subspan(kernels::kRingDeltaFloats * mesh.ring_offset,
                                                                kernels::kRingDeltaFloats * rings));
@@ -18,7 +20,7 @@ void stage_cage(const WorldModel& model, WorldState& state, std::size_t segment)
 
 void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk) {
   const SkinChunk& c = model.skin_chunks[chunk];
-  const SegmentMesh& mesh = model.meshes_of[c.segment];
+  const SegmentMesh& mesh = model.meshes_of[c.piece];
   const std::size_t n = mesh.binding.vertices;
   auto part = [&](std::vector<float>& v) { return std::span(v).subspan(mesh.vertex_offset, n); };
   const std::size_t rings = mesh.cage.ring_station.size();

@@ -41,18 +41,22 @@ double mesh_cross_section_radius(const EmbreeScene& wall, const kernels::Pose& s
   return hits[hits.size() / 2];
 }
 
-std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const WorldModel& m) {
-  std::vector<TriangleMesh> meshes(desc.segments.size());
-  for (std::size_t si = 0; si < desc.segments.size(); ++si) {
+std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
+                                            const WorldModel& m) {
+  std::vector<TriangleMesh> meshes(m.pieces.size());
+  for (std::size_t pi = 0; pi < m.pieces.size(); ++pi) {
+    const SegmentPiece& piece = m.pieces[pi];
+    const std::size_t si = piece.rod;
     const OrganMeshDesc& d = desc.segments[si].mesh;
     if (!d.enabled) continue;
     const std::string where = fmt::format("segment[{}].mesh", si);
-    const SegmentModel& seg = m.segments[si];
-    TriangleMesh& mesh = meshes[si];
+    TriangleMesh& mesh = meshes[pi];
     if (d.source == MeshSource::procedural) {
-      const RodCurve curve(std::span<const double>(m.section_length).subspan(seg.node_offset, seg.node_count - 1),
-                           std::span<const double>(m.rest_strain).subspan(4 * seg.node_offset, 4 * seg.node_count),
-                           seg.initial_base);
+      const std::size_t off = piece.info.nodes.offset, n = piece.info.nodes.count;
+      const kernels::RodPoses<const double> rest = rest_poses[si].view();
+      const RodCurve curve(std::span<const double>(m.section_length).subspan(off, n - 1),
+                           std::span<const double>(m.rest_strain).subspan(4 * off, 4 * n),
+                           {rest.node_rotation.get(piece.first_node), rest.node_position.get(piece.first_node)});
       mesh = procedural_organ(curve, d.procedural, desc.segments[si].cross_section.radius, where + ".procedural");
     } else {
       if (d.file.empty()) fail(ErrorCode::invalid_argument, where + ".file", "a mesh from a file needs file = \"path\"");
@@ -73,13 +77,23 @@ std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const WorldMo
 
 void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
                        std::vector<TriangleMesh>& meshes, WorldModel& m) {
-  m.meshes_of.assign(desc.segments.size(), SegmentMesh{});
-  for (std::size_t si = 0; si < desc.segments.size(); ++si) {
+  m.meshes_of.assign(m.pieces.size(), SegmentMesh{});
+  for (std::size_t pi = 0; pi < m.pieces.size(); ++pi) {
+    const SegmentPiece& piece = m.pieces[pi];
+    const std::size_t si = piece.rod;
     const SegmentDesc& sd = desc.segments[si];
     const OrganMeshDesc& d = sd.mesh;
     if (!d.enabled) continue;
     const std::string where = fmt::format("segment[{}].mesh", si);
     const SegmentModel& seg = m.segments[si];
+    const std::size_t off = piece.info.nodes.offset, n = piece.info.nodes.count;
+    // A piece's cage takes the rod's beads on its nodes, its joints' included.
+    std::size_t first_bead = seg.bead_offset, end_bead = seg.bead_offset;
+    for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
+      const std::size_t node = m.beads.node[b];
+      if (node < off) first_bead = b + 1;
+      if (node < off + n) end_bead = b + 1;
+    }
     if (d.rings_per_vertex < 0 || d.rings_per_vertex > 4096)
       fail(ErrorCode::invalid_argument, where + ".rings_per_vertex",
            fmt::format("expected 0 (all rings) or a count up to 4096, got {}", d.rings_per_vertex));
@@ -87,25 +101,27 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
       fail(ErrorCode::invalid_argument, where + ".cage.clearance",
            fmt::format("expected a clearance in [0, {}] m (0: 5 % of the radius), got {}", sd.cross_section.radius,
                        d.cage.clearance));
-    if (seg.bead_count < 2)
+    if (end_bead < first_bead + 2)
       fail(ErrorCode::invalid_argument, where,
-           "the cage is built from the beads: give the segment at least two beads ([segment.beads])");
+           seg.piece_count > 1 ? "the cage is built from the beads: give each piece of the chain at least two beads "
+                                 "([segment.beads])"
+                               : "the cage is built from the beads: give the segment at least two beads ([segment.beads])");
 
-    SegmentMesh& out = m.meshes_of[si];
+    SegmentMesh& out = m.meshes_of[pi];
     out.enabled = true;
     out.info.enabled = true;
     out.info.source = d.source == MeshSource::procedural ? "procedural" : d.file;
-    CageBuildInput in{.rest = rest_poses[si].view(),
-                      .section_length = std::span<const double>(m.section_length).subspan(seg.node_offset, seg.node_count - 1),
-                      .rest_strain = std::span<const double>(m.rest_strain).subspan(4 * seg.node_offset, 4 * seg.node_count),
+    CageBuildInput in{.rest = rest_poses[si].view().subview(piece.first_node, n),
+                      .section_length = std::span<const double>(m.section_length).subspan(off, n - 1),
+                      .rest_strain = std::span<const double>(m.rest_strain).subspan(4 * off, 4 * n),
                       .bead_node = {},
                       .bead_radius = {},
-                      .mesh = &meshes[si],
+                      .mesh = &meshes[pi],
                       .desc = d.cage,
                       .clearance = d.cage.clearance > 0.0 ? d.cage.clearance : 0.05 * sd.cross_section.radius,
                       .where = where};
-    for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
-      in.bead_node.push_back(m.beads.node[b] - seg.node_offset);
+    for (std::size_t b = first_bead; b < end_bead; ++b) {
+      in.bead_node.push_back(m.beads.node[b] - off);
       in.bead_radius.push_back(m.beads.radius[b]);
     }
     try {
@@ -116,29 +132,29 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
       throw FieldError(e.code(), e.field(), fmt::format("{} (mesh {})", e.detail(), d.file));
     }
     out.binding = d.skinning == SkinningMethod::mean_value
-                      ? bind_mean_value(out.cage, meshes[si], d.rings_per_vertex, out.info.skin)
-                      : bind_linear_blend(out.cage, meshes[si], out.info.skin);
+                      ? bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, out.info.skin)
+                      : bind_linear_blend(out.cage, meshes[pi], out.info.skin);
 
     out.ring_offset = m.ring_total;
     m.ring_total += out.cage.ring_station.size();
     out.vertex_offset = m.mesh_vertex_total;
-    m.mesh_vertex_total += meshes[si].vertices.size();
+    m.mesh_vertex_total += meshes[pi].vertices.size();
     out.triangle_offset = m.mesh_triangles.size();
-    for (const auto& t : meshes[si].triangles)
+    for (const auto& t : meshes[pi].triangles)
       m.mesh_triangles.push_back({static_cast<std::uint32_t>(out.vertex_offset + t[0]),
                                   static_cast<std::uint32_t>(out.vertex_offset + t[1]),
                                   static_cast<std::uint32_t>(out.vertex_offset + t[2])});
-    out.info.vertices = {out.vertex_offset, meshes[si].vertices.size()};
-    out.info.triangles = {out.triangle_offset, meshes[si].triangles.size()};
+    out.info.vertices = {out.vertex_offset, meshes[pi].vertices.size()};
+    out.info.triangles = {out.triangle_offset, meshes[pi].triangles.size()};
     for (std::size_t first = 0; first < out.binding.blocks(); first += kChunkBlocks)
-      m.skin_chunks.push_back({static_cast<std::uint32_t>(si), first, std::min(kChunkBlocks, out.binding.blocks() - first)});
+      m.skin_chunks.push_back({static_cast<std::uint32_t>(pi), first, std::min(kChunkBlocks, out.binding.blocks() - first)});
     const std::size_t chunk_vertices = kChunkBlocks * kernels::kSkinLanes;
     if (d.normals)
-      for (std::size_t first = 0; first < meshes[si].vertices.size(); first += chunk_vertices)
-        m.normal_chunks.push_back({static_cast<std::uint32_t>(si), out.vertex_offset + first,
-                                   std::min(chunk_vertices, meshes[si].vertices.size() - first)});
+      for (std::size_t first = 0; first < meshes[pi].vertices.size(); first += chunk_vertices)
+        m.normal_chunks.push_back({static_cast<std::uint32_t>(pi), out.vertex_offset + first,
+                                   std::min(chunk_vertices, meshes[pi].vertices.size() - first)});
     m.any_mesh = true;
-    meshes[si] = TriangleMesh{};  // the binding keeps what stepping needs
+    meshes[pi] = TriangleMesh{};  // the binding keeps what stepping needs
   }
   // Triangles around each vertex (CSR), for normals summed in a fixed order.
   m.vertex_triangle_start.assign(m.mesh_vertex_total + 1, 0);

@@ -265,7 +265,7 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
   r.check_keys(t, path,
                {"name", "nodes", "rest", "law", "base", "base_position", "base_tangent", "base_normal", "drag", "radius",
                 "wall_thickness", "youngs_modulus", "poisson_ratio", "density", "linear_density", "relaxation_time",
-                "attachment", "load", "beads", "mesh"});
+                "attachment", "load", "beads", "mesh", "chain"});
   SegmentDesc s;
   s.name = r.string(t, "name", path + ".name", path);
   s.nodes = r.integer(t, "nodes", path + ".nodes", s.nodes);
@@ -335,6 +335,10 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
     s.beads.radius_profile = r.pairs(*beads, "radius_profile", bp + ".radius_profile");
   }
   if (const toml::table* mesh = r.table(t, "mesh", path + ".mesh")) s.mesh = read_organ_mesh(r, *mesh, path + ".mesh", scene_dir);
+  if (const toml::table* chain = r.table(t, "chain", path + ".chain")) {
+    r.check_keys(*chain, path + ".chain", {"pieces"});
+    s.chain_pieces = r.integer(*chain, "pieces", path + ".chain.pieces", s.chain_pieces);
+  }
   const auto attachments = r.tables(t, "attachment", path + ".attachment");
   for (std::size_t i = 0; i < attachments.size(); ++i) {
     const toml::table& a = *attachments[i];

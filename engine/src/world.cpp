@@ -13,6 +13,7 @@
 #include "mesh_stages.hpp"
 #include "rod_stages.hpp"
 #include "scheduler.hpp"
+#include "state_carry_over.hpp"
 #include "world_model.hpp"
 #include "world_state.hpp"
 
@@ -59,6 +60,7 @@ double seconds_since(Clock::time_point t0) {
 }  // namespace
 
 struct World::Impl {
+  WorldDesc desc;  // what the model was built from: adding or removing a segment rebuilds it
   detail::WorldModel model;
   detail::WorldState state;
   detail::Scheduler scheduler;
@@ -74,8 +76,8 @@ struct World::Impl {
   bool any_free_base = false;
   bool any_constraints = false;
 
-  explicit Impl(detail::WorldModel m, int threads, const JobSystemDesc& jobs)
-      : model(std::move(m)), scheduler(threads, jobs) {
+  Impl(WorldDesc d, detail::WorldModel m)
+      : desc(std::move(d)), model(std::move(m)), scheduler(desc.threads, desc.jobs) {
     detail::init_world_state(model, state);
     detail::init_collision_state(model, state);
     detail::init_instruments(model, state);
@@ -95,7 +97,9 @@ struct World::Impl {
   // a mesh; skinning splits into fixed chunks so any thread count gives the same bits.
   void follow_rod() {
     if (!model.any_mesh) return;
-    run_stage(Stage::cage, [&](std::size_t s) { detail::stage_cage(model, state, s); });
+    time_stage(Stage::cage, [&] {
+      scheduler.for_each(model.pieces.size(), [&](std::size_t piece) { detail::stage_cage(model, state, piece); });
+    });
     // Below ~50,000 vertices a chunk takes a few µs: dispatching it costs more than it saves.
     const bool parallel = model.mesh_vertex_total >= kParallelMeshVertices;
     time_stage(Stage::skin, [&] {
@@ -226,16 +230,26 @@ struct World::Impl {
 
   // Writes "frame F: segment 'S' (i), node K: <what failed> after stage 'X' with N substeps" into
   // `out` without allocating; returns the end of what was written.
+  // The API's segment (a piece of a chain, or the whole rod) that holds node `node` of rod `rod`,
+  // and the node's index in it; a joint node counts as the later piece's base.
+  [[nodiscard]] std::pair<std::size_t, std::size_t> piece_of(std::size_t rod, std::size_t node) const {
+    const detail::SegmentModel& seg = model.segments[rod];
+    std::size_t p = seg.first_piece + seg.piece_count - 1;
+    while (p > seg.first_piece && model.pieces[p].first_node > node) --p;
+    return {p, node - model.pieces[p].first_node};
+  }
+
   template <class It>
   It describe(It out, std::size_t max, std::size_t s, const GuardResult& g, int n) const {
-    const auto name = std::string_view(model.segments[s].info.name);
+    const auto [piece, node] = piece_of(s, g.node);
+    const auto name = std::string_view(model.pieces[piece].info.name);
     if (g.limit > 0.0)
       return fmt::format_to_n(out, max, "frame {}: segment '{}' ({}), node {}: {} {:.4g} exceeds the limit {:.4g} after stage '{}' with {} substep{}",
-                              state.frame, name, s, g.node, g.quantity, g.value, g.limit, stage_name(g.stage), n,
+                              state.frame, name, piece, node, g.quantity, g.value, g.limit, stage_name(g.stage), n,
                               n == 1 ? "" : "s")
           .out;
     return fmt::format_to_n(out, max, "frame {}: segment '{}' ({}), node {}: {} after stage '{}' with {} substep{}",
-                            state.frame, name, s, g.node, g.quantity, stage_name(g.stage), n, n == 1 ? "" : "s")
+                            state.frame, name, piece, node, g.quantity, stage_name(g.stage), n, n == 1 ? "" : "s")
         .out;
   }
 
@@ -243,8 +257,7 @@ struct World::Impl {
     Event e;
     e.kind = kind;
     e.frame = state.frame;
-    e.segment = s;
-    e.node = g.node;
+    std::tie(e.segment, e.node) = piece_of(s, g.node);
     e.stage = g.stage;
     e.substeps = n;
     return e;
@@ -344,21 +357,26 @@ struct World::Impl {
     profile.frame_seconds = seconds_since(t0);
   }
 
-  const detail::SegmentMesh& mesh_of(std::size_t segment) const {
-    if (segment >= model.segments.size())
+  // The API's segment `segment` (a piece of the model), or an error naming the range.
+  const detail::SegmentPiece& piece(std::size_t segment) const {
+    if (segment >= model.pieces.size())
       throw Error(ErrorCode::invalid_argument,
-                  fmt::format("segment index {} out of range (the world has {})", segment, model.segments.size()));
+                  fmt::format("segment index {} out of range (the world has {})", segment, model.pieces.size()));
+    return model.pieces[segment];
+  }
+
+  const detail::SegmentMesh& mesh_of(std::size_t segment) const {
+    piece(segment);
     return model.meshes_of[segment];
   }
 
+  // Attachments belong to rods: every piece of a chain addresses its chain's attachments.
   std::size_t attachment_index(std::size_t segment, std::size_t attachment) const {
-    if (segment >= model.segments.size())
-      throw Error(ErrorCode::invalid_argument,
-                  fmt::format("segment index {} out of range (the world has {})", segment, model.segments.size()));
-    const auto& seg = model.segments[segment];
+    const auto& seg = model.segments[piece(segment).rod];
     if (attachment >= seg.attachments.size())
       throw Error(ErrorCode::invalid_argument, fmt::format("segment '{}' has {} attachments, asked for index {}",
-                                                           seg.info.name, seg.attachments.size(), attachment));
+                                                           model.pieces[segment].info.name, seg.attachments.size(),
+                                                           attachment));
     return seg.attachment_offset + attachment;
   }
 };
@@ -368,19 +386,55 @@ std::unique_ptr<World> World::create(const WorldDesc& desc) {
     throw Error(ErrorCode::invalid_argument, "jobs: a host job system needs both enqueue and wait (or neither)");
   if (desc.jobs.enabled() && (desc.jobs.workers < 1 || desc.jobs.workers > 1024))
     throw Error(ErrorCode::invalid_argument, fmt::format("jobs.workers = {}: expected 1 to 1024", desc.jobs.workers));
-  return std::unique_ptr<World>(new World(std::make_unique<Impl>(detail::build_world_model(desc), desc.threads, desc.jobs)));
+  return std::unique_ptr<World>(new World(std::make_unique<Impl>(desc, detail::build_world_model(desc))));
+}
+
+// The new model is built first: a description it refuses leaves the world as it was.
+void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map) {
+  auto fresh = std::make_unique<Impl>(next, detail::build_world_model(next));
+  detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, rod_map);
+  fresh->events = impl_->events;
+  fresh->follow_rod();
+  fresh->profile = FrameProfile{};
+  impl_ = std::move(fresh);
+}
+
+std::size_t World::add_segment(const SegmentDesc& segment) {
+  WorldDesc next = impl_->desc;
+  next.segments.push_back(segment);
+  std::vector<std::size_t> rod_map(impl_->model.segments.size());
+  for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
+  const std::size_t first = impl_->model.pieces.size();
+  rebuild(std::move(next), rod_map);
+  return first;
+}
+
+void World::remove_segment(std::size_t segment) {
+  const detail::SegmentPiece& piece = impl_->piece(segment);
+  const detail::SegmentModel& rod = impl_->model.segments[piece.rod];
+  if (piece.first_node != 0)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("segment '{}' is a piece of the chain '{}': a chain is removed whole, through its first "
+                            "segment '{}'",
+                            piece.info.name, rod.info.name, impl_->model.pieces[rod.first_piece].info.name));
+  WorldDesc next = impl_->desc;
+  next.segments.erase(next.segments.begin() + static_cast<std::ptrdiff_t>(piece.rod));
+  std::vector<std::size_t> rod_map(impl_->model.segments.size());
+  for (std::size_t r = 0; r < rod_map.size(); ++r)
+    rod_map[r] = r < piece.rod ? r : r == piece.rod ? detail::kRodRemoved : r - 1;
+  rebuild(std::move(next), rod_map);
 }
 
 World::World(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 World::~World() = default;
 
 void World::step() { impl_->step(); }
-std::size_t World::segment_count() const { return impl_->model.segments.size(); }
+std::size_t World::segment_count() const { return impl_->model.pieces.size(); }
 std::size_t World::node_count() const { return impl_->model.node_total; }
-const SegmentInfo& World::segment(std::size_t index) const {
-  if (index >= impl_->model.segments.size())
-    throw Error(ErrorCode::invalid_argument, fmt::format("segment index {} out of range", index));
-  return impl_->model.segments[index].info;
+const SegmentInfo& World::segment(std::size_t index) const { return impl_->piece(index).info; }
+std::size_t World::chain_of(std::size_t segment) const {
+  const detail::SegmentPiece& p = impl_->piece(segment);
+  return impl_->model.segments[p.rod].first_piece;
 }
 double World::dt() const { return impl_->model.dt; }
 std::uint64_t World::frame() const { return impl_->state.frame; }
@@ -395,15 +449,20 @@ kernels::StrainView<const double> World::rest_strains() const {
 }
 std::span<const double> World::section_lengths() const { return impl_->model.section_length; }
 kernels::Pose World::base_pose(std::size_t segment) const {
-  if (segment >= impl_->model.segments.size())
-    throw Error(ErrorCode::invalid_argument, fmt::format("segment index {} out of range", segment));
-  return impl_->state.now.base[segment];
+  const detail::SegmentPiece& p = impl_->piece(segment);
+  if (p.first_node == 0) return impl_->state.now.base[p.rod];
+  const std::size_t node = p.info.nodes.offset;  // a chained piece's base is its predecessor's tip
+  return {impl_->state.now.rotation.view().get(node), impl_->state.now.position.view().get(node)};
 }
 
 void World::pose_rod(std::size_t segment, const kernels::Pose& base, std::span<const double> strains) {
   auto& m = impl_->model;
-  if (segment >= m.segments.size())
-    throw Error(ErrorCode::invalid_argument, fmt::format("segment index {} out of range", segment));
+  const detail::SegmentPiece& piece = impl_->piece(segment);
+  if (piece.first_node != 0)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("segment '{}' is a later piece of the chain '{}': pose the chain through its first piece",
+                            piece.info.name, m.segments[piece.rod].info.name));
+  segment = piece.rod;
   const detail::SegmentModel& seg = m.segments[segment];
   if (strains.size() != 4 * seg.node_count)
     throw Error(ErrorCode::invalid_argument, fmt::format("segment '{}' needs {} strains (4 per node), got {}", seg.info.name,
@@ -457,9 +516,8 @@ Eigen::Vector3d World::attachment_moment(std::size_t segment, std::size_t attach
 
 std::size_t World::bead_count() const { return impl_->model.beads.size(); }
 Range World::beads(std::size_t segment) const {
-  if (segment >= impl_->model.segments.size())
-    throw Error(ErrorCode::invalid_argument, fmt::format("segment index {} out of range", segment));
-  return {impl_->model.segments[segment].bead_offset, impl_->model.segments[segment].bead_count};
+  const detail::SegmentPiece& p = impl_->piece(segment);
+  return {p.bead_offset, p.bead_count};
 }
 std::span<const double> World::bead_radii() const { return impl_->model.beads.radius; }
 std::span<const std::uint32_t> World::bead_nodes() const { return impl_->model.beads.node; }
@@ -505,9 +563,8 @@ InstrumentReading World::instrument(std::size_t instrument) const {
   r.closed = s.closed;
   r.grasping = s.grasping;
   if (s.grasping) {
-    r.grasped_segment = s.grasp_segment;
     const detail::AttachmentState& as = impl_->state.now.attachment[s.grasp_attachment];
-    r.grasped_node = as.node;
+    std::tie(r.grasped_segment, r.grasped_node) = impl_->piece_of(s.grasp_segment, as.node);
     r.grasp_attachment = s.grasp_attachment - impl_->model.segments[s.grasp_segment].attachment_offset;
     r.grasp_target = as.target;
   }
@@ -526,11 +583,7 @@ void check_instrument(const World::Impl& impl, std::size_t i) {
 }
 }  // namespace
 
-const MeshInfo& World::mesh(std::size_t segment) const {
-  if (segment >= impl_->model.segments.size())
-    throw Error(ErrorCode::invalid_argument, fmt::format("segment index {} out of range", segment));
-  return impl_->model.meshes_of[segment].info;
-}
+const MeshInfo& World::mesh(std::size_t segment) const { return impl_->mesh_of(segment).info; }
 std::size_t World::mesh_buffer_size() const { return impl_->model.mesh_vertex_total; }
 kernels::Vec3View<const float> World::mesh_positions() const {
   const auto& p = impl_->state.mesh.position;

@@ -105,6 +105,19 @@ WorldModel build_world_model(const WorldDesc& desc) {
     const std::string where = fmt::format("segment[{}]", si);
     if (!names.insert(d.name).second) fail(where + ".name", fmt::format("the name '{}' is used twice", d.name));
     check_int(where + ".nodes", d.nodes, 2, 10'000'000);
+    check_int(where + ".chain.pieces", d.chain_pieces, 1, 4096);
+    const auto pieces = static_cast<std::size_t>(d.chain_pieces);
+    if (pieces > 1) {
+      if (static_cast<long long>(pieces) * (d.nodes - 1) + 1 > 10'000'000)
+        fail(where + ".chain.pieces", fmt::format("{} pieces of {} nodes: at most 10,000,000 nodes per chain",
+                                                  pieces, d.nodes));
+      if (d.mesh.enabled && d.mesh.source == MeshSource::file)
+        fail(where + ".mesh.file", "a chain's pieces each get a procedural mesh; a mesh file covers one segment");
+      if (d.beads.radius_from_mesh)
+        fail(where + ".beads.radius", "radius = \"mesh\" is for a segment with a mesh file, not a chain");
+      if (!d.beads.nodes.empty())
+        fail(where + ".beads.nodes", "a chain's beads are given per piece by count or spacing, not as a node list");
+    }
     if (d.rest.kind != RestShapeKind::centreline)
       check_positive(where + ".rest.length", d.rest.length, "m", 1000.0);
     check_vector(where + ".base_position", d.base_position, false);
@@ -126,12 +139,15 @@ WorldModel build_world_model(const WorldDesc& desc) {
     else
       check_range(where + ".drag", drag, 0.0, 1e9, "a drag in N·s/m²");
 
-    RestShape rest = build_rest_shape(d, where);
+    // A chain is one rod of K·(nodes − 1) + 1 nodes.
+    SegmentDesc whole = d;
+    whole.nodes = static_cast<int>(pieces) * (d.nodes - 1) + 1;
+    RestShape rest = build_rest_shape(whole, where);
 
     SegmentModel seg;
     seg.info.name = d.name;
     seg.node_offset = m.node_total;
-    seg.node_count = static_cast<std::size_t>(d.nodes);
+    seg.node_count = static_cast<std::size_t>(whole.nodes);
     seg.info.nodes = {seg.node_offset, seg.node_count};
     seg.info.length = rest.length;
     seg.mean_section = rest.length / static_cast<double>(seg.sections());
@@ -250,10 +266,29 @@ WorldModel build_world_model(const WorldDesc& desc) {
       seg.constraint_scratch_offset = m.constraint_scratch_total;
       m.constraint_scratch_total += 4 * n * (2 * seg.constraint_rows + (d.base == BaseMode::free ? 6 : 0));
     }
+    seg.first_piece = m.pieces.size();
+    seg.piece_count = pieces;
+    const auto piece_nodes = static_cast<std::size_t>(d.nodes);
+    for (std::size_t p = 0; p < pieces; ++p) {
+      SegmentPiece piece;
+      piece.info = seg.info;
+      piece.rod = si;
+      if (pieces > 1) {
+        piece.info.name = fmt::format("{}-{}", d.name, p + 1);
+        if (!names.insert(piece.info.name).second)
+          fail(where + ".name", fmt::format("its piece '{}' takes a name already used", piece.info.name));
+        piece.first_node = p * (piece_nodes - 1);
+        piece.info.nodes = {seg.node_offset + piece.first_node, piece_nodes};
+        piece.info.length = 0.0;
+        for (std::size_t kk = 0; kk + 1 < piece_nodes; ++kk)
+          piece.info.length += rest.section_length[piece.first_node + kk];
+      }
+      m.pieces.push_back(std::move(piece));
+    }
     m.node_total += n;
     m.segments.push_back(std::move(seg));
   }
-  std::vector<TriangleMesh> meshes = load_organ_meshes(desc, m);
+  std::vector<TriangleMesh> meshes = load_organ_meshes(desc, rest_poses, m);
   build_beads(desc, initial_positions, rest_poses, meshes, m);
   bind_organ_meshes(desc, rest_poses, meshes, m);
   return m;

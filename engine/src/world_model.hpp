@@ -32,6 +32,8 @@ struct AttachmentModel {
   [[nodiscard]] std::size_t rows() const { return hold_frame ? 6 : 3; }
 };
 
+// One rod, solved as a whole: a segment, or a chain of segments (its pieces; decision 0030). The
+// stages that solve and collide see rods; what the API calls a segment is a SegmentPiece.
 struct SegmentModel {
   SegmentInfo info;
   std::size_t node_offset = 0;
@@ -50,7 +52,20 @@ struct SegmentModel {
   std::size_t constraint_scratch_offset = 0;
   std::size_t bead_offset = 0;   // into the world's bead arrays
   std::size_t bead_count = 0;
+  std::size_t first_piece = 0;   // into WorldModel::pieces
+  std::size_t piece_count = 1;
   [[nodiscard]] std::size_t sections() const { return node_count - 1; }
+};
+
+// What the API calls a segment: a whole rod, or one piece of a chained rod. Pieces of a chain
+// share their joint nodes (the tip node of one is the base node of the next), so their node ranges
+// overlap by one; their beads do not (a bead on a joint node belongs to the later piece).
+struct SegmentPiece {
+  SegmentInfo info;              // its name, global node range and rest length; the rod's stiffnesses
+  std::size_t rod = 0;           // into WorldModel::segments
+  std::size_t first_node = 0;    // local to the rod
+  std::size_t bead_offset = 0;   // into the world's bead arrays
+  std::size_t bead_count = 0;
 };
 
 class StaticMeshes;
@@ -84,13 +99,13 @@ struct SegmentMesh {
 // Skinning and normals run over fixed chunks of blocks, so the work splits the same way whatever
 // the thread count (each vertex is computed alone: any split gives the same bits).
 struct SkinChunk {
-  std::uint32_t segment = 0;
+  std::uint32_t piece = 0;
   std::size_t first_block = 0;  // local to the segment's binding
   std::size_t blocks = 0;
 };
 
 struct NormalChunk {
-  std::uint32_t segment = 0;
+  std::uint32_t piece = 0;
   std::size_t first_vertex = 0;  // world mesh vertex
   std::size_t vertices = 0;
 };
@@ -100,7 +115,8 @@ struct WorldModel {
   double dt = 0.0;
   SolverDesc solver;
   FilterDesc filter;
-  std::vector<SegmentModel> segments;
+  std::vector<SegmentModel> segments;  // the rods
+  std::vector<SegmentPiece> pieces;    // the API's segments, in rod order
   std::size_t node_total = 0;
   std::size_t attachment_total = 0;
   std::size_t constraint_scratch_total = 0;
@@ -123,7 +139,7 @@ struct WorldModel {
   std::shared_ptr<const StaticMeshes> meshes;
   std::vector<InstrumentDesc> instruments;  // keyframes sorted, axes unit length
 
-  // Organ meshes (one entry per segment, disabled where a segment has none).
+  // Organ meshes (one entry per piece, disabled where a piece has none).
   std::vector<SegmentMesh> meshes_of;
   std::size_t ring_total = 0;
   std::size_t mesh_vertex_total = 0;
@@ -149,7 +165,8 @@ void build_environment(const WorldDesc& desc, WorldModel& m);
 
 // Organ meshes: loaded or generated around each segment's rest pose before the beads (a bead may
 // take its radius from the mesh), then caged and bound once the beads exist.
-std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const WorldModel& m);
+std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
+                                            const WorldModel& m);
 void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
                        std::vector<TriangleMesh>& meshes, WorldModel& m);
 // The median distance from a station to the mesh wall over a ring of rays in its (d1, d2) plane;

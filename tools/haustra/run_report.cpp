@@ -279,7 +279,7 @@ void print_mesh_info(std::FILE* out, const World& world, std::size_t segment) {
              "    embedding (Embree, binding pose): {} mesh vertices outside, {} mesh edges crossing, {} cage "
              "self-intersections; at the curved rest pose {} outside; tightest bend {}\n",
              c.mesh_vertices_outside, c.crossing_edges, c.self_intersections, c.rest_pose_outside,
-             std::isfinite(c.tightest_bend) ? fmt::format("{:.1f} mm", 1e3 * c.tightest_bend) : "none (straight)");
+             std::isfinite(c.tightest_bend) && c.tightest_bend < 1e3 ? fmt::format("{:.1f} mm", 1e3 * c.tightest_bend) : "none (straight)");
   if (k.method == SkinningMethod::mean_value)
     fmt::print(out,
                "    mean value coordinates: {} rings per vertex; min weight {:.3g}; negative mass max {:.3g}, mean {:.3g} "

@@ -175,9 +175,14 @@ class World {
   // robust mode (if enabled) cannot recover, Error{unstable} is thrown naming segment, node, stage.
   void step();
 
+  // Segments in the order of the description, a chain's pieces one after another. Pieces of a
+  // chain share their joint nodes (segment(i).nodes overlap by one), so node_count() is below the
+  // sum of the segments' counts when there are chains.
   [[nodiscard]] std::size_t segment_count() const;
   [[nodiscard]] std::size_t node_count() const;  // all segments
   [[nodiscard]] const SegmentInfo& segment(std::size_t index) const;
+  // The first segment of the chain a segment belongs to (itself when it is not chained).
+  [[nodiscard]] std::size_t chain_of(std::size_t segment) const;
   [[nodiscard]] double dt() const;
   [[nodiscard]] std::uint64_t frame() const;
   [[nodiscard]] double time() const;
@@ -191,13 +196,15 @@ class World {
 
   // Sets a segment's configuration directly: its base pose and node strains (4 per node, κ1 κ2 τ ε),
   // then rebuilds its nodes, rings and mesh. For studies, tests and hosts that replay or drive a
-  // rod themselves; the next step() continues from here.
+  // rod themselves; the next step() continues from here. A chain is posed whole, through its first
+  // segment, with 4 strains for every node of the chain.
   void pose_rod(std::size_t segment, const kernels::Pose& base, std::span<const double> strains);
 
   // External load on one node (global node index), world frame, held until changed.
   void set_external_load(std::size_t node, const Eigen::Vector3d& force,
                          const Eigen::Vector3d& moment);
-  // Attachments are numbered per segment in the order of SegmentDesc::attachments.
+  // Attachments are numbered per segment in the order of SegmentDesc::attachments (then one grasp
+  // slot per instrument); every piece of a chain addresses the chain's attachments.
   void set_attachment_target(std::size_t segment, std::size_t attachment,
                              const Eigen::Vector3d& position);
   void set_attachment_target_rotation(std::size_t segment, std::size_t attachment,
@@ -250,6 +257,14 @@ class World {
   void save_checkpoint_file(const std::string& path) const;
   void restore_checkpoint_file(const std::string& path);
 
+  // Between frames, a segment (or a chain: all its pieces) joins the world, or leaves it
+  // (docs/decisions/0031-add-remove-segments.md). The model is rebuilt (as long as creating the
+  // world took); every other segment keeps its state and steps on as if nothing had changed. A
+  // description the builder refuses leaves the world as it was. Indices of the segments after a
+  // removed one move down; views into the world's buffers are invalidated.
+  std::size_t add_segment(const SegmentDesc& segment);  // returns the new segment's index
+  void remove_segment(std::size_t segment);  // a chain goes whole, named by its first segment
+
   [[nodiscard]] const FrameProfile& last_profile() const;
   [[nodiscard]] std::span<const Event> events() const;
   [[nodiscard]] int threads() const;
@@ -258,6 +273,7 @@ class World {
 
  private:
   explicit World(std::unique_ptr<Impl> impl);
+  void rebuild(WorldDesc next, std::span<const std::size_t> rod_map);
   std::unique_ptr<Impl> impl_;
 };
 

@@ -156,6 +156,12 @@ struct SegmentDesc {
   std::vector<PointLoadDesc> loads;
   BeadsDesc beads;
   OrganMeshDesc mesh;
+  // Chained end to end (docs/decisions/0030-chains-as-one-rod.md): above 1, the rod runs as this
+  // many segments "<name>-1" .. "<name>-K", each of `nodes` nodes and `beads`, with its own
+  // procedural mesh; the tip node of one is the base node of the next (position and frame), and
+  // the chain's Newton system is solved as one. The rest shape and `rest.length` cover the whole
+  // chain; attachments' and loads' node indices count along the whole chain (K·(nodes−1)+1 nodes).
+  int chain_pieces = 1;
 };
 
 enum class BroadPhase : std::uint8_t { automatic, brute, grid, sweep };

@@ -96,6 +96,11 @@ struct RodPoses {
   RotationView<T> mid_rotation;   // N
 
   [[nodiscard]] std::size_t node_count() const { return node_position.size(); }
+  // Nodes [first, first + count) and the sections between them.
+  [[nodiscard]] RodPoses subview(std::size_t first, std::size_t count) const {
+    return {node_position.subview(first, count), node_rotation.subview(first, count),
+            mid_position.subview(first, count - 1), mid_rotation.subview(first, count - 1)};
+  }
   operator RodPoses<const T>() const  // NOLINT(google-explicit-constructor)
     requires(!std::is_const_v<T>)
   {

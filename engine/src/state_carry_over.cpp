@@ -1,0 +1,75 @@
+#include "state_carry_over.hpp"
+
+#include <algorithm>
+
+namespace haustra::detail {
+namespace {
+
+template <class T>
+void copy_range(const std::vector<T>& from, std::size_t from_offset, std::vector<T>& to, std::size_t to_offset,
+                std::size_t count) {
+  std::copy_n(from.begin() + static_cast<std::ptrdiff_t>(from_offset), count,
+              to.begin() + static_cast<std::ptrdiff_t>(to_offset));
+}
+
+void copy_vec3(const Vec3Buffer& from, std::size_t fo, Vec3Buffer& to, std::size_t tofs, std::size_t n) {
+  copy_range(from.x, fo, to.x, tofs, n);
+  copy_range(from.y, fo, to.y, tofs, n);
+  copy_range(from.z, fo, to.z, tofs, n);
+}
+
+void copy_rotation(const RotationBuffer& from, std::size_t fo, RotationBuffer& to, std::size_t tofs, std::size_t n) {
+  copy_range(from.w, fo, to.w, tofs, n);
+  copy_range(from.x, fo, to.x, tofs, n);
+  copy_range(from.y, fo, to.y, tofs, n);
+  copy_range(from.z, fo, to.z, tofs, n);
+}
+
+}  // namespace
+
+void carry_over_state(const WorldModel& from_model, const WorldState& from, const WorldModel& to_model,
+                      WorldState& to, std::span<const std::size_t> rod_map) {
+  for (std::size_t r = 0; r < rod_map.size(); ++r) {
+    if (rod_map[r] == kRodRemoved) continue;
+    const SegmentModel& a = from_model.segments[r];
+    const SegmentModel& b = to_model.segments[rod_map[r]];
+    const std::size_t n = a.node_count, fo = a.node_offset, tofs = b.node_offset;
+    copy_range(from.now.strain, 4 * fo, to.now.strain, 4 * tofs, 4 * n);
+    copy_range(from.strain_before_update, 4 * fo, to.strain_before_update, 4 * tofs, 4 * n);
+    copy_vec3(from.now.position, fo, to.now.position, tofs, n);
+    copy_rotation(from.now.rotation, fo, to.now.rotation, tofs, n);
+    copy_vec3(from.now.mid_position, fo, to.now.mid_position, tofs, n);
+    copy_rotation(from.now.mid_rotation, fo, to.now.mid_rotation, tofs, n);
+    copy_vec3(from.external_force, fo, to.external_force, tofs, n);
+    copy_vec3(from.external_moment, fo, to.external_moment, tofs, n);
+    to.now.base[rod_map[r]] = from.now.base[r];
+    to.base_twist[rod_map[r]] = from.base_twist[r];
+    to.base_resistance[rod_map[r]] = from.base_resistance[r];
+    copy_range(from.now.attachment, a.attachment_offset, to.now.attachment, b.attachment_offset, a.attachments.size());
+    copy_range(from.collision.bead_motion, a.bead_offset, to.collision.bead_motion, b.bead_offset, a.bead_count);
+  }
+  to.collision.report = from.collision.report;
+  to.robust_substeps = from.robust_substeps;
+  to.robust_newton = from.robust_newton;
+  to.robust_good_frames = from.robust_good_frames;
+  to.frame = from.frame;
+  to.time = from.time;
+  to.instruments = from.instruments;
+  for (InstrumentState& in : to.instruments) {
+    if (!in.grasping) continue;
+    const std::size_t old_rod = in.grasp_segment;
+    const std::size_t new_rod = rod_map[old_rod];
+    if (new_rod == kRodRemoved) {  // what it held is gone: the jaws hold nothing
+      in.grasping = false;
+      continue;
+    }
+    const SegmentModel& a = from_model.segments[old_rod];
+    const SegmentModel& b = to_model.segments[new_rod];
+    in.grasp_segment = new_rod;
+    in.grasp_attachment = in.grasp_attachment - a.attachment_offset + b.attachment_offset;
+    in.grasp_bead = static_cast<std::uint32_t>(in.grasp_bead - a.bead_offset + b.bead_offset);
+  }
+  to.frame_start.copy_from(to.now);
+}
+
+}  // namespace haustra::detail

@@ -1,0 +1,271 @@
+// Chained segments (decision 0030) and segments added or removed between frames (decision 0031).
+// Oracles: a chain against the single rod of the same nodes and beads, bit for bit; a world that
+// gains or loses a far-away segment against a world that never had it, bit for bit.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "haustra/error.hpp"
+#include "haustra/scene.hpp"
+#include "haustra/world.hpp"
+
+using namespace haustra;
+
+namespace {
+
+SceneDesc scene_file(const std::string& name) {
+  SceneDesc s = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml");
+  s.world.threads = 1;
+  return s;
+}
+
+// `drop` (a rectum falling onto the floor and onto itself) as 7 chained pieces of 25 nodes with
+// 9 beads each, or as the one rod of the same 169 nodes and 57 beads (every third node).
+SceneDesc drop_as(bool chained) {
+  SceneDesc s = scene_file("drop");
+  SegmentDesc& d = s.world.segments.at(0);
+  if (chained) {
+    d.chain_pieces = 7;
+    d.nodes = 25;
+    d.beads.count = 9;
+  } else {
+    d.nodes = 169;
+    d.beads.count = 57;
+  }
+  return s;
+}
+
+bool same_bits(std::span<const double> a, std::span<const double> b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+bool same_nodes(const World& a, const World& b) {
+  const auto pa = a.node_positions(), pb = b.node_positions();
+  const auto ra = a.node_rotations(), rb = b.node_rotations();
+  return same_bits(pa.x, pb.x) && same_bits(pa.y, pb.y) && same_bits(pa.z, pb.z) && same_bits(ra.w, rb.w) &&
+         same_bits(ra.x, rb.x) && same_bits(a.strains().data, b.strains().data);
+}
+
+// Node positions and strains of one segment's nodes.
+std::vector<double> segment_state(const World& w, std::size_t segment) {
+  const Range nodes = w.segment(segment).nodes;
+  std::vector<double> out;
+  const auto p = w.node_positions();
+  const auto q = w.strains();
+  for (std::size_t k = nodes.offset; k < nodes.offset + nodes.count; ++k) {
+    out.insert(out.end(), {p.x[k], p.y[k], p.z[k]});
+    for (std::size_t c = 0; c < 4; ++c) out.push_back(q.at(k, c));
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("a chain steps exactly as the single rod of its nodes: joints hold position and frame") {
+  auto chain = create_world(drop_as(true));
+  auto rod = create_world(drop_as(false));
+  REQUIRE(chain->segment_count() == 7);
+  REQUIRE(rod->segment_count() == 1);
+  REQUIRE(chain->node_count() == 169);
+  REQUIRE(chain->bead_count() == 57);
+  CHECK(std::equal(chain->bead_nodes().begin(), chain->bead_nodes().end(), rod->bead_nodes().begin(),
+                   rod->bead_nodes().end()));
+  std::size_t most_touching = 0;
+  for (int f = 0; f < 150; ++f) {
+    chain->step();
+    rod->step();
+    most_touching = std::max(most_touching, chain->contacts().touching);
+  }
+  CHECK(same_nodes(*chain, *rod));
+  CHECK(most_touching > 10);  // it landed and piled on itself: the joints went through contact
+
+  // Pieces: names, node ranges overlapping by their joint node, beads partitioned, one chain.
+  std::size_t beads = 0;
+  for (std::size_t p = 0; p < 7; ++p) {
+    const SegmentInfo& info = chain->segment(p);
+    CHECK(info.name == "rectum-" + std::to_string(p + 1));
+    CHECK(info.nodes.count == 25);
+    CHECK(info.nodes.offset == 24 * p);
+    CHECK(chain->chain_of(p) == 0);
+    const Range b = chain->beads(p);
+    CHECK(b.offset == beads);
+    beads += b.count;
+    if (p + 1 < 7) {
+      // The next piece's base is this piece's tip, position and frame, after 150 frames of motion.
+      const std::size_t tip = info.nodes.offset + info.nodes.count - 1;
+      const kernels::Pose next = chain->base_pose(p + 1);
+      CHECK(next.position == chain->node_positions().get(tip));
+      CHECK(next.rotation.coeffs() == chain->node_rotations().get(tip).coeffs());
+    }
+  }
+  CHECK(beads == 57);
+}
+
+TEST_CASE("each piece of a chain carries its own mesh, which follows the piece") {
+  SceneDesc s = drop_as(true);
+  SegmentDesc& d = s.world.segments[0];
+  d.mesh.enabled = true;
+  d.mesh.procedural.vertices = 1000;
+  d.mesh.procedural.end_taper = 0.05;
+  auto w = create_world(s);
+  for (int f = 0; f < 60; ++f) w->step();
+  const auto m = w->mesh_positions();
+  std::size_t vertices = 0;
+  double worst = 0.0;
+  for (std::size_t p = 0; p < w->segment_count(); ++p) {
+    const MeshInfo& mesh = w->mesh(p);
+    REQUIRE(mesh.enabled);
+    CHECK(mesh.vertices.offset == vertices);
+    vertices += mesh.vertices.count;
+    const Range nodes = w->segment(p).nodes;
+    // Every vertex stays within the tube around its own piece's nodes (radius 2 cm, haustral
+    // bulges and a node spacing of 1 cm: 3 cm is generous and still far below the 24 cm piece).
+    for (std::size_t v = mesh.vertices.offset; v < mesh.vertices.offset + mesh.vertices.count; ++v) {
+      double nearest = 1e9;
+      const Eigen::Vector3d x(m.x[v], m.y[v], m.z[v]);
+      for (std::size_t k = nodes.offset; k < nodes.offset + nodes.count; ++k)
+        nearest = std::min(nearest, (x - w->node_positions().get(k)).norm());
+      worst = std::max(worst, nearest);
+    }
+  }
+  CHECK(vertices == w->mesh_buffer_size());
+  CHECK(worst < 0.03);
+  CHECK(worst > 0.015);  // the wall, not the centreline: the check measures something
+}
+
+TEST_CASE("the bowel scene: 32 chained segments in a box, touching each other, a grasper lifts a loop") {
+  SceneDesc s = scene_file("bowel");
+  auto w = create_world(s);
+  REQUIRE(w->segment_count() >= 32);
+  for (int f = 0; f < 45; ++f) w->step();  // the grasper closes at 0.5 s (frame 30) and lifts
+  CHECK(w->events().empty());
+  const InstrumentReading g = w->instrument(0);
+  CHECK(g.grasping);
+  CHECK(g.force.norm() > 0.05);  // it holds some of the loop's weight (~30 g)
+  // Inter-segment contact: touching beads of pieces that are not neighbours along the chain.
+  std::size_t between_pieces = 0;
+  const auto bead_nodes = w->bead_nodes();
+  auto piece_of_bead = [&](std::size_t b) {
+    for (std::size_t p = 0; p < w->segment_count(); ++p)
+      if (b >= w->beads(p).offset && b < w->beads(p).offset + w->beads(p).count) return p;
+    return w->segment_count();
+  };
+  for (const Contact& c : w->contact_list()) {
+    if (c.kind != ContactKind::bead || c.depth <= 0.0) continue;
+    const std::size_t a = piece_of_bead(c.bead), b = piece_of_bead(c.other);
+    if (a + 1 < b || b + 1 < a) ++between_pieces;
+    CHECK(bead_nodes[c.bead] != bead_nodes[c.other]);
+  }
+  CHECK(between_pieces > 5);
+  const ContactReport& r = w->contacts();
+  CHECK(r.max_environment_depth_ratio < 0.15);
+  CHECK(r.max_bead_overlap_ratio < 0.15);
+}
+
+TEST_CASE("chains refuse what they cannot do, by name") {
+  auto refuse = [](auto&& change, const std::string& field, const std::string& words) {
+    SceneDesc s = drop_as(true);
+    change(s.world.segments[0]);
+    try {
+      create_world(s);
+      FAIL("accepted");
+    } catch (const Error& e) {
+      CHECK(std::string(e.what()).find(field) != std::string::npos);
+      CHECK(std::string(e.what()).find(words) != std::string::npos);
+    }
+  };
+  refuse([](SegmentDesc& d) { d.chain_pieces = 0; }, "segment[0].chain.pieces", "[1, 4096]");
+  refuse(
+      [](SegmentDesc& d) {
+        d.mesh.enabled = true;
+        d.mesh.source = MeshSource::file;
+        d.mesh.file = "x.obj";
+      },
+      "segment[0].mesh.file", "procedural");
+  refuse(
+      [](SegmentDesc& d) {
+        d.beads.count = 0;
+        d.beads.nodes = {0, 5};
+      },
+      "segment[0].beads.nodes", "per piece");
+
+  auto w = create_world(drop_as(true));
+  const std::vector<double> strains(4 * 169, 0.0);
+  CHECK_THROWS_WITH_AS(w->pose_rod(3, {}, strains), doctest::Contains("later piece of the chain 'rectum'"), Error);
+  CHECK_THROWS_WITH_AS(w->remove_segment(2), doctest::Contains("removed whole, through its first segment 'rectum-1'"),
+                       Error);
+  w->pose_rod(0, w->base_pose(0), std::vector<double>(w->strains().data.begin(), w->strains().data.end()));
+}
+
+TEST_CASE("a segment added between frames leaves the others' motion unchanged, bit for bit") {
+  // Two rectums far apart (3 m), each falling on the floor: neither ever touches the other.
+  SceneDesc one = scene_file("drop");
+  SceneDesc two = one;
+  SegmentDesc far = one.world.segments[0];
+  far.name = "far";
+  far.base_position.y() += 3.0;
+  two.world.segments.push_back(far);
+
+  auto grown = create_world(one);
+  auto alone = create_world(one);
+  auto both = create_world(two);
+  for (int f = 0; f < 40; ++f) {
+    grown->step();
+    alone->step();
+    both->step();
+  }
+  const std::size_t added = grown->add_segment(far);
+  CHECK(added == 1);
+  REQUIRE(grown->segment_count() == 2);
+  CHECK(grown->frame() == 40);
+  CHECK(segment_state(*grown, 0) == segment_state(*alone, 0));
+  // The newcomer starts from its rest pose, as a fresh world's would.
+  auto fresh = create_world(two);
+  CHECK(segment_state(*grown, 1) == segment_state(*fresh, 1));
+  for (int f = 0; f < 40; ++f) {
+    grown->step();
+    alone->step();
+    fresh->step();
+  }
+  CHECK(segment_state(*grown, 0) == segment_state(*alone, 0));
+  CHECK(segment_state(*grown, 1) == segment_state(*fresh, 1));  // it fell as in a fresh world
+
+  // Refused additions leave the world as it was.
+  SegmentDesc bad = far;
+  bad.name = "rectum";
+  CHECK_THROWS_WITH_AS(grown->add_segment(bad), doctest::Contains("used twice"), Error);
+  CHECK(grown->segment_count() == 2);
+  grown->step();
+  alone->step();
+  CHECK(segment_state(*grown, 0) == segment_state(*alone, 0));
+}
+
+TEST_CASE("a segment removed between frames leaves the others stepping on, bit for bit") {
+  SceneDesc one = scene_file("drop");
+  SceneDesc two = one;
+  SegmentDesc far = one.world.segments[0];
+  far.name = "far";
+  far.base_position.y() += 3.0;
+  two.world.segments.insert(two.world.segments.begin(), far);  // the far one first: removal moves the other down
+  auto shrunk = create_world(two);
+  auto alone = create_world(one);
+  for (int f = 0; f < 40; ++f) {
+    shrunk->step();
+    alone->step();
+  }
+  CHECK(segment_state(*shrunk, 1) == segment_state(*alone, 0));
+  shrunk->remove_segment(0);
+  REQUIRE(shrunk->segment_count() == 1);
+  CHECK(shrunk->segment(0).name == "rectum");
+  CHECK(shrunk->node_count() == alone->node_count());
+  for (int f = 0; f < 40; ++f) {
+    shrunk->step();
+    alone->step();
+  }
+  CHECK(same_nodes(*shrunk, *alone));
+  CHECK_THROWS_AS(shrunk->remove_segment(1), Error);
+  shrunk->remove_segment(0);
+  CHECK(shrunk->segment_count() == 0);
+  shrunk->step();  // an empty world steps
+}
