@@ -66,7 +66,7 @@ TEST_CASE("C API: version and ABI check") {
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION) == HAUSTRA_OK);
   CHECK(std::string(haustra_last_error()).empty());
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION + 1) == HAUSTRA_ABI_MISMATCH);
-  CHECK(says("ABI 2"));
+  CHECK(says("ABI 3"));
   CHECK(std::string(haustra_stage_name(0)) == "instruments");
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT - 1) != nullptr);
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT) == nullptr);
@@ -227,6 +227,12 @@ TEST_CASE("C API: wrong handles, NULL pointers, bad values and calls after destr
     CHECK(haustra_world_release_frame(h) == HAUSTRA_INVALID_HANDLE);
     CHECK(haustra_world_save_checkpoint(h, "/tmp/x.ckpt") == HAUSTRA_INVALID_HANDLE);
     CHECK(haustra_world_restore_checkpoint(h, "/tmp/x.ckpt") == HAUSTRA_INVALID_HANDLE);
+    haustra_segment_info si{};
+    CHECK(haustra_world_segment(h, 0, &si) == HAUSTRA_INVALID_HANDLE);
+    haustra_segment_def sd;
+    REQUIRE(haustra_segment_def_default(&sd) == HAUSTRA_OK);
+    CHECK(haustra_world_add_segment(h, &sd, nullptr) == HAUSTRA_INVALID_HANDLE);
+    CHECK(haustra_world_remove_segment(h, 0) == HAUSTRA_INVALID_HANDLE);
     CHECK(haustra_world_destroy(h) == HAUSTRA_INVALID_HANDLE);
   }
 
@@ -242,6 +248,10 @@ TEST_CASE("C API: wrong handles, NULL pointers, bad values and calls after destr
   CHECK(haustra_world_instrument(w, 0, nullptr) == HAUSTRA_INVALID_ARGUMENT);
   CHECK(haustra_world_profile(w, nullptr) == HAUSTRA_INVALID_ARGUMENT);
   CHECK(says("out is NULL"));
+  CHECK(haustra_world_segment(w, 0, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("out is NULL"));
+  CHECK(haustra_world_add_segment(w, nullptr, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("segment is NULL"));
 
   // Indices out of range and values that are not finite.
   CHECK(haustra_world_set_node_load(w, 21, ok3, zero3) == HAUSTRA_INVALID_ARGUMENT);
@@ -258,6 +268,28 @@ TEST_CASE("C API: wrong handles, NULL pointers, bad values and calls after destr
   CHECK(says("non-zero direction"));
   CHECK(haustra_world_set_instrument_grasp(w, 5, 1) == HAUSTRA_INVALID_ARGUMENT);
   CHECK(haustra_world_instrument(w, 5, &r) == HAUSTRA_INVALID_ARGUMENT);
+  haustra_segment_info info{};
+  CHECK(haustra_world_segment(w, 1, &info) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("segment index 1 out of range"));
+  CHECK(haustra_world_remove_segment(w, 1) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("segment index 1 out of range"));
+  {
+    haustra_segment_def bad;
+    REQUIRE(haustra_segment_def_default(&bad) == HAUSTRA_OK);
+    bad.name = "colon";  // taken
+    CHECK(haustra_world_add_segment(w, &bad, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+    CHECK(says("used twice"));
+    bad.name = "other";
+    bad.struct_size = 4;
+    CHECK(haustra_world_add_segment(w, &bad, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+    CHECK(says("struct_size = 4"));
+    REQUIRE(haustra_segment_def_default(&bad) == HAUSTRA_OK);
+    bad.chain_pieces = 0;
+    CHECK(haustra_world_add_segment(w, &bad, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+    CHECK(says("chain.pieces"));
+  }
+  REQUIRE(haustra_world_counts(w, &c) == HAUSTRA_OK);
+  CHECK(c.segments == 1);  // the refused additions added nothing
 
   // The refusals changed nothing: the world steps on from its rest state as if they never came.
   uint64_t frame = 99;
@@ -601,4 +633,92 @@ TEST_CASE("C API: checkpoint to a file, restore, step on: the same bits") {
   REQUIRE(haustra_world_destroy(o) == HAUSTRA_OK);
   REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
   std::filesystem::remove(file);
+}
+
+TEST_CASE("C API: chained segments, each one's info, segments added and removed between frames") {
+  haustra_world_def def;
+  REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+  def.threads = 1;
+  def.floor = 1;
+  def.floor_height = -0.5;
+  def.double_buffered = 1;
+  haustra_segment_def chain;
+  REQUIRE(haustra_segment_def_default(&chain) == HAUSTRA_OK);
+  CHECK(chain.chain_pieces == 1);
+  chain.name = "gut";
+  chain.nodes = 11;
+  chain.chain_pieces = 4;  // 4 × 10 sections: 41 nodes
+  chain.length = 0.4;
+  chain.beads = 6;         // per piece: every second node, 21 in all
+  chain.mesh = 1;
+  chain.mesh_vertices = 1000;
+
+  haustra_world* w = nullptr;
+  REQUIRE(haustra_world_create(&def, &chain, 1, &w) == HAUSTRA_OK);
+  haustra_counts c{};
+  REQUIRE(haustra_world_counts(w, &c) == HAUSTRA_OK);
+  CHECK(c.segments == 4);
+  CHECK(c.nodes == 41);
+  CHECK(c.beads == 21);
+  size_t vertices = 0, beads = 0;
+  for (size_t s = 0; s < 4; ++s) {
+    haustra_segment_info info{};
+    REQUIRE(haustra_world_segment(w, s, &info) == HAUSTRA_OK);
+    CHECK(std::string(info.name) == "gut-" + std::to_string(s + 1));
+    CHECK(info.node_offset == 10 * s);  // joint nodes shared
+    CHECK(info.node_count == 11);
+    CHECK(info.bead_offset == beads);
+    beads += info.bead_count;
+    CHECK(info.mesh_vertex_offset == vertices);
+    CHECK(info.mesh_vertex_count > 500);
+    vertices += info.mesh_vertex_count;
+    CHECK(info.chain == 0);
+    CHECK(info.length == doctest::Approx(0.1));
+  }
+  CHECK(beads == 21);
+  CHECK(vertices == c.mesh_vertices);
+  for (int f = 0; f < 30; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+
+  // A straight rod joins, 1 m away; the chain steps on. A render thread's frame blocks the change.
+  haustra_segment_def rod;
+  REQUIRE(haustra_segment_def_default(&rod) == HAUSTRA_OK);
+  rod.name = "rod";
+  rod.nodes = 21;
+  rod.length = 0.4;
+  rod.base_position[1] = 1.0;
+  haustra_frame frame{};
+  REQUIRE(haustra_world_acquire_frame(w, &frame) == HAUSTRA_OK);
+  CHECK(haustra_world_add_segment(w, &rod, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("release it before adding or removing segments"));
+  REQUIRE(haustra_world_release_frame(w) == HAUSTRA_OK);
+  size_t index = 99;
+  REQUIRE(haustra_world_add_segment(w, &rod, &index) == HAUSTRA_OK);
+  CHECK(index == 4);
+  REQUIRE(haustra_world_counts(w, &c) == HAUSTRA_OK);
+  CHECK(c.segments == 5);
+  CHECK(c.nodes == 62);
+  uint64_t now = 0;
+  REQUIRE(haustra_world_time(w, nullptr, &now) == HAUSTRA_OK);
+  CHECK(now == 30);  // the clock goes on
+  REQUIRE(haustra_world_acquire_frame(w, &frame) == HAUSTRA_OK);  // frames take the new sizes
+  CHECK(frame.nodes.count == 62);
+  CHECK(frame.mesh_positions.count == c.mesh_vertices);
+  CHECK(frame.nodes.y[61] == doctest::Approx(1.0));
+  REQUIRE(haustra_world_release_frame(w) == HAUSTRA_OK);
+  REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+
+  // The chain is removed whole, through its first segment; the rod moves down to index 0.
+  CHECK(haustra_world_remove_segment(w, 2) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("removed whole, through its first segment 'gut-1'"));
+  REQUIRE(haustra_world_remove_segment(w, 0) == HAUSTRA_OK);
+  REQUIRE(haustra_world_counts(w, &c) == HAUSTRA_OK);
+  CHECK(c.segments == 1);
+  CHECK(c.nodes == 21);
+  CHECK(c.mesh_vertices == 0);
+  haustra_segment_info info{};
+  REQUIRE(haustra_world_segment(w, 0, &info) == HAUSTRA_OK);
+  CHECK(std::string(info.name) == "rod");
+  CHECK(info.mesh_vertex_count == 0);
+  REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
 }

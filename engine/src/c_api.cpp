@@ -44,23 +44,27 @@ class PublishedFrames {
   }
 
   void publish(const haustra::World& w) {  // the stepping thread
-    Slot& s = slots_[back_];
-    s.frame = w.frame();
-    s.time = w.time();
-    const auto n = w.node_positions();
-    std::copy(n.x.begin(), n.x.end(), s.x.begin());
-    std::copy(n.y.begin(), n.y.end(), s.y.begin());
-    std::copy(n.z.begin(), n.z.end(), s.z.begin());
-    const auto p = w.mesh_positions();
-    std::copy(p.x.begin(), p.x.end(), s.px.begin());
-    std::copy(p.y.begin(), p.y.end(), s.py.begin());
-    std::copy(p.z.begin(), p.z.end(), s.pz.begin());
-    const auto m = w.mesh_normals();
-    std::copy(m.x.begin(), m.x.end(), s.nx.begin());
-    std::copy(m.y.begin(), m.y.end(), s.ny.begin());
-    std::copy(m.z.begin(), m.z.end(), s.nz.begin());
+    fill(slots_[back_], w);
     std::lock_guard lock(mutex_);
     std::swap(back_, ready_);
+    fresh_ = true;
+  }
+
+  // Segments added or removed (`change` does it): every slot takes the new sizes. It runs under
+  // the lock, so a reader cannot take a slot meanwhile (its acquire waits), and is refused while
+  // the reader holds one.
+  template <class Change>
+  void resize(Change&& change) {
+    std::lock_guard lock(mutex_);
+    if (held_)
+      throw haustra::Error(haustra::ErrorCode::invalid_argument,
+                           "the render thread holds a frame: release it before adding or removing segments");
+    const haustra::World& w = change();
+    for (Slot& s : slots_) {
+      for (auto* v : {&s.x, &s.y, &s.z}) v->resize(w.node_count());
+      for (auto* v : {&s.px, &s.py, &s.pz, &s.nx, &s.ny, &s.nz}) v->resize(w.mesh_buffer_size());
+    }
+    fill(slots_[ready_], w);
     fresh_ = true;
   }
 
@@ -85,6 +89,23 @@ class PublishedFrames {
   }
 
  private:
+  static void fill(Slot& s, const haustra::World& w) {
+    s.frame = w.frame();
+    s.time = w.time();
+    const auto n = w.node_positions();
+    std::copy(n.x.begin(), n.x.end(), s.x.begin());
+    std::copy(n.y.begin(), n.y.end(), s.y.begin());
+    std::copy(n.z.begin(), n.z.end(), s.z.begin());
+    const auto p = w.mesh_positions();
+    std::copy(p.x.begin(), p.x.end(), s.px.begin());
+    std::copy(p.y.begin(), p.y.end(), s.py.begin());
+    std::copy(p.z.begin(), p.z.end(), s.pz.begin());
+    const auto m = w.mesh_normals();
+    std::copy(m.x.begin(), m.x.end(), s.nx.begin());
+    std::copy(m.y.begin(), m.y.end(), s.ny.begin());
+    std::copy(m.z.begin(), m.z.end(), s.nz.begin());
+  }
+
   std::array<Slot, 3> slots_;
   std::mutex mutex_;
   int back_ = 0, ready_ = 1, reading_ = 2;
@@ -256,6 +277,7 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& d, std::size_t i) {
                   fmt::format("{}.mesh = {}: expected 0 (none), 1 (procedural) or 2 (mesh_file)", where, d.mesh));
   }
   s.mesh.rings_per_vertex = d.rings_per_vertex;
+  s.chain_pieces = d.chain_pieces;
   return s;
 }
 
@@ -351,6 +373,7 @@ haustra_status haustra_segment_def_default(haustra_segment_def* def) {
     d.mesh_vertices = s.mesh.procedural.vertices;
     d.mesh_scale = 1.0;
     d.rings_per_vertex = s.mesh.rings_per_vertex;
+    d.chain_pieces = s.chain_pieces;
   });
 }
 
@@ -417,6 +440,50 @@ haustra_status haustra_world_time(const haustra_world* world, double* seconds, u
     if (seconds == nullptr && frame == nullptr) throw Error(ErrorCode::invalid_argument, "seconds and frame are both NULL");
     if (seconds != nullptr) *seconds = w.time();
     if (frame != nullptr) *frame = w.frame();
+  });
+}
+
+haustra_status haustra_world_segment(const haustra_world* world, size_t segment, haustra_segment_info* out) {
+  return guarded("haustra_world_segment", [&] {
+    const haustra::World& w = live(world);
+    haustra_segment_info& o = required(out, "out");
+    const haustra::SegmentInfo& info = w.segment(segment);
+    const haustra::Range beads = w.beads(segment);
+    const haustra::MeshInfo& mesh = w.mesh(segment);
+    o = haustra_segment_info{info.name.c_str(), info.nodes.offset, info.nodes.count, beads.offset, beads.count,
+                             mesh.enabled ? mesh.vertices.offset : 0, mesh.enabled ? mesh.vertices.count : 0,
+                             w.chain_of(segment), info.length};
+  });
+}
+
+haustra_status haustra_world_add_segment(haustra_world* world, const haustra_segment_def* segment, size_t* index) {
+  return guarded("haustra_world_add_segment", [&] {
+    haustra_world& h = live_handle(world);
+    const haustra::SegmentDesc desc = segment_desc(required(segment, "segment"), h.world->segment_count());
+    std::size_t added = 0;
+    auto change = [&]() -> const haustra::World& {
+      added = h.world->add_segment(desc);
+      return *h.world;
+    };
+    if (h.frames)
+      h.frames->resize(change);
+    else
+      change();
+    if (index != nullptr) *index = added;
+  });
+}
+
+haustra_status haustra_world_remove_segment(haustra_world* world, size_t segment) {
+  return guarded("haustra_world_remove_segment", [&] {
+    haustra_world& h = live_handle(world);
+    auto change = [&]() -> const haustra::World& {
+      h.world->remove_segment(segment);
+      return *h.world;
+    };
+    if (h.frames)
+      h.frames->resize(change);
+    else
+      change();
   });
 }
 

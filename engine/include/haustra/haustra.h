@@ -38,7 +38,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 2
+#define HAUSTRA_ABI_VERSION 3
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -154,7 +154,21 @@ typedef struct haustra_segment_def {
   const char* mesh_file;      /* .obj .stl .off .gltf .glb, at the rod's rest pose */
   double mesh_scale;          /* file units to metres; default 1 */
   int rings_per_vertex;       /* mean value coordinates kept per vertex; default 4; 0: all */
+  int chain_pieces;           /* 1 (default); K > 1: the rod runs as K chained segments "<name>-1".."<name>-K"
+                                 of `nodes` nodes, `beads` beads and a procedural mesh each, sharing their
+                                 joint nodes (position and frame) and solved as one rod; centreline or
+                                 length cover the whole chain */
 } haustra_segment_def;
+
+/* One segment as the world holds it (haustra_world_segment). */
+typedef struct haustra_segment_info {
+  const char* name;            /* valid until segments are added or removed, or the world is destroyed */
+  size_t node_offset, node_count;   /* its nodes in the node buffers; a chain's pieces share their joint node */
+  size_t bead_offset, bead_count;   /* its beads (a joint node's bead belongs to the later piece) */
+  size_t mesh_vertex_offset, mesh_vertex_count;  /* its organ mesh's vertices; 0, 0 without one */
+  size_t chain;                /* the first segment of its chain; itself when not chained */
+  double length;               /* m, at rest */
+} haustra_segment_info;
 
 /* The last completed frame, for a render thread (double_buffered worlds). */
 typedef struct haustra_frame {
@@ -191,6 +205,18 @@ HAUSTRA_API haustra_status haustra_world_destroy(haustra_world* world);
 HAUSTRA_API haustra_status haustra_world_step(haustra_world* world);
 HAUSTRA_API haustra_status haustra_world_counts(const haustra_world* world, haustra_counts* out);
 HAUSTRA_API haustra_status haustra_world_time(const haustra_world* world, double* seconds, uint64_t* frame);
+HAUSTRA_API haustra_status haustra_world_segment(const haustra_world* world, size_t segment, haustra_segment_info* out);
+
+/* Between frames (from the thread that steps): a segment, or a chain, joins the world, or leaves
+ * it. The model is rebuilt, costing what creating the world cost; every other segment keeps its
+ * state and steps on as if nothing had changed. Segments after a removed one move down by its
+ * piece count; every view and name obtained before is invalid afterwards. A definition the
+ * builder refuses leaves the world as it was. A chain is removed whole, through its first
+ * segment. Double-buffered worlds: refused while the render thread holds a frame (an acquire
+ * meanwhile waits for the change). `index` (may be NULL) receives the new segment's index. */
+HAUSTRA_API haustra_status haustra_world_add_segment(haustra_world* world, const haustra_segment_def* segment,
+                                                     size_t* index);
+HAUSTRA_API haustra_status haustra_world_remove_segment(haustra_world* world, size_t segment);
 
 /* Buffers, without copies (see Views above). */
 HAUSTRA_API haustra_status haustra_world_node_positions(const haustra_world* world, haustra_vec3_view* out);
