@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench bench-peers validate stability-doc skinning-doc figures soak fuzz clean
+.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench bench-quick bench-peers validate stability-doc skinning-doc figures soak fuzz clean
 
 all: build
 
@@ -52,8 +52,16 @@ test-asan: deps
 # TSan checks what runs on more than one thread: stepping worlds with 2 threads.
 test-tsan: deps
 	@cmake --preset tsan >/dev/null
-	@cmake --build --preset tsan -j $(JOBS) --target haustra_tests haustra haustra_c_api_tests
+	@cmake --build --preset tsan -j $(JOBS) --target haustra_thread_tests haustra_c_api_tests
 	@ctest --preset tsan -j $(JOBS) -R "thread"
+
+# The quick set: every suite at its smallest sizes, briefly (under a minute; for a smoke run in CI).
+QUICK_FILTER = --benchmark_min_time=0.02 --benchmark_filter='(/16$$|/167$$|/55$$|/10000$$|segments:1/|FrameDrop|StreamTriad/1000000$$)'
+bench-quick: build
+	@$(BIN)/haustra_bench $(QUICK_FILTER) --benchmark_out=build/release/bench-quick.json --benchmark_out_format=json
+	@$(BIN)/haustra_bench_collision $(QUICK_FILTER) --benchmark_out=build/release/bench_collision-quick.json --benchmark_out_format=json
+	@$(BIN)/haustra_bench_mesh $(QUICK_FILTER) --benchmark_out=build/release/bench_mesh-quick.json --benchmark_out_format=json
+	@echo "benchmark results: $(abspath build/release)/bench{,_collision,_mesh}-quick.json"
 
 bench: build
 	@$(BIN)/haustra_bench --benchmark_out=build/release/bench.json --benchmark_out_format=json

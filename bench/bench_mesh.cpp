@@ -105,8 +105,44 @@ void BM_FrameDrop(benchmark::State& state) {
   state.counters["mesh vertices"] = static_cast<double>(w->mesh_buffer_size());
 }
 
+// Issue 5's many-segment target: rows of `drop`-sized rods (167 nodes, 55 beads, a 10,000-vertex
+// procedural organ each) side by side on a floor, touching their neighbours. Args: segments, threads.
+void BM_SegmentsWithMesh(benchmark::State& state) {
+  WorldDesc d;
+  d.threads = static_cast<int>(state.range(1));
+  PlaneDesc floor;
+  floor.name = "floor";
+  d.environment.planes.push_back(floor);
+  const auto count = static_cast<std::size_t>(state.range(0));
+  for (std::size_t i = 0; i < count; ++i) {
+    SegmentDesc s;
+    s.name = "segment" + std::to_string(i);
+    s.rest.length = 1.0;
+    s.base_position = {1.1 * static_cast<double>(i / 16), 0.041 * static_cast<double>(i % 16), 0.0202};
+    s.beads.enabled = true;
+    s.beads.count = 55;
+    s.beads.radius = 0.02;
+    s.mesh.enabled = true;
+    s.mesh.procedural.vertices = 10'000;
+    d.segments.push_back(s);
+  }
+  auto w = World::create(d);
+  for (int f = 0; f < 3; ++f) w->step();
+  for (auto _ : state) w->step();
+  const double frames = static_cast<double>(state.iterations());
+  state.counters["nodes/s"] = benchmark::Counter(static_cast<double>(w->node_count()) * frames, benchmark::Counter::kIsRate);
+  state.counters["vertices/s"] =
+      benchmark::Counter(static_cast<double>(w->mesh_buffer_size()) * frames, benchmark::Counter::kIsRate);
+}
+
 }  // namespace
 
+BENCHMARK(BM_SegmentsWithMesh)
+    ->ArgsProduct({{1, 16, 64}, {1, 2}})
+    ->ArgNames({"segments", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(1.0)
+    ->UseRealTime();
 BENCHMARK(BM_SkinRigidGroups)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SkinScalarReference)->Arg(10'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StreamTriad)->Arg(1'000'000)->Arg(10'000'000)->Unit(benchmark::kMicrosecond);

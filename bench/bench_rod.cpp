@@ -7,9 +7,12 @@
 #include <vector>
 
 #include "haustra/kernels/block_tridiagonal.hpp"
+#include "haustra/kernels/cage_rings.hpp"
+#include "haustra/kernels/inertia_filter.hpp"
 #include "haustra/kernels/mass_matrix.hpp"
 #include "haustra/kernels/rod_backward_sweep.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
+#include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/rod_newton.hpp"
 #include "haustra/world.hpp"
 
@@ -53,6 +56,50 @@ void BM_BackwardSweep(benchmark::State& state) {
   for (auto _ : state) {
     rod_backward_sweep(rod.poses(), rod.h, {rod.fx, rod.fy, rod.fz}, {rod.tx, rod.ty, rod.tz}, StrainView<double>{rod.r});
     benchmark::DoNotOptimize(rod.r.data());
+  }
+  set_counters(state, rod.n);
+}
+
+// Node loads: weight plus the host's external force and moment.
+void BM_Loads(benchmark::State& state) {
+  Rod rod(static_cast<std::size_t>(state.range(0)));
+  const std::vector<double> mass(rod.n, 0.01), zero(rod.n, 0.0);
+  std::vector<double> mx(rod.n), my(rod.n), mz(rod.n);
+  for (auto _ : state) {
+    assemble_node_loads(mass, {0.0, 0.0, -9.81}, {zero, zero, zero}, {zero, zero, zero}, {rod.fx, rod.fy, rod.fz},
+                        {mx, my, mz});
+    benchmark::DoNotOptimize(rod.fz.data());
+  }
+  set_counters(state, rod.n);
+}
+
+// The paper's inertia filter (eq. 11–12) between the previous and the estimated node positions.
+void BM_Filter(benchmark::State& state) {
+  Rod rod(static_cast<std::size_t>(state.range(0)));
+  const std::vector<double> mass(rod.n, 0.01);
+  const std::vector<std::uint8_t> exempt(rod.n, 0);
+  std::vector<double> ox(rod.px), oy(rod.py), oz(rod.pz);
+  for (double& z : oz) z -= 0.001;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(inertia_filter({ox, oy, oz}, mass, exempt, 1e-4, 1.0 / 60.0, {rod.px, rod.py, rod.pz},
+                                            {rod.mx, rod.my, rod.mz}));
+  }
+  set_counters(state, rod.n);
+}
+
+// The cage stage: a ring pose at every node and section midpoint, and each ring's motion as the
+// 3×4 float matrix skinning reads.
+void BM_Cage(benchmark::State& state) {
+  Rod rod(static_cast<std::size_t>(state.range(0)));
+  std::vector<std::uint32_t> station(2 * rod.n - 1);
+  for (std::size_t i = 0; i < station.size(); ++i) station[i] = static_cast<std::uint32_t>(i);
+  std::vector<RingPose> rest(station.size()), now(station.size());
+  std::vector<float> delta(kRingDeltaFloats * station.size());
+  ring_poses(rod.poses(), station, rest);
+  for (auto _ : state) {
+    ring_poses(rod.poses(), station, now);
+    ring_deltas(rest, now, delta);
+    benchmark::DoNotOptimize(delta.data());
   }
   set_counters(state, rod.n);
 }
@@ -137,11 +184,17 @@ BENCHMARK(BM_Segments)
     ->Unit(benchmark::kMillisecond)
     ->MinTime(0.5)
     ->UseRealTime();  // two threads: wall time is what a host waits
+BENCHMARK(BM_Loads)->RangeMultiplier(4)->Range(16, 16384);
+BENCHMARK(BM_Filter)->RangeMultiplier(4)->Range(16, 16384);
+BENCHMARK(BM_Cage)->RangeMultiplier(4)->Range(16, 16384);
 BENCHMARK(BM_ForwardSweep)->RangeMultiplier(4)->Range(16, 16384);
 BENCHMARK(BM_BackwardSweep)->RangeMultiplier(4)->Range(16, 16384);
 BENCHMARK(BM_MassSolve)->RangeMultiplier(4)->Range(16, 16384);
 BENCHMARK(BM_NewtonFactor)->RangeMultiplier(4)->Range(16, 4096);
-BENCHMARK_CAPTURE(BM_Frame, lagged, SolverMode::lagged)->Arg(167)->Arg(1000);
-BENCHMARK_CAPTURE(BM_Frame, newton, SolverMode::newton)->Arg(167)->Arg(1000);
+// One segment from 16 to 100,000 nodes: the per-node cost should stay flat.
+BENCHMARK_CAPTURE(BM_Frame, lagged, SolverMode::lagged)->Arg(16)->Arg(167)->Arg(1000)->Arg(10'000)->Arg(100'000)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Frame, newton, SolverMode::newton)->Arg(16)->Arg(167)->Arg(1000)->Arg(10'000)->Arg(100'000)
+    ->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();

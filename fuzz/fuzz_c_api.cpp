@@ -1,7 +1,8 @@
 // Fuzz target: random sequences of C API calls on a small world — steps, host loads and
 // instrument poses with any bit pattern (NaN, infinities, huge values), grasps, reads of every
 // buffer, stale and made-up handles, NULL pointers, destroy and re-create, checkpoints saved and
-// restored (and damaged ones refused), double-buffered frames acquired and released. Every call
+// restored (and damaged ones refused), double-buffered frames acquired and released, segments
+// (and chains) added and removed between frames. Every call
 // must return a status; after every OK step every buffer a host reads must be finite.
 #include <haustra/haustra.h>
 
@@ -78,7 +79,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     double a[3] = {in.number(), in.number(), in.number()};
     double b[3] = {in.number(), in.number(), in.number()};
     haustra_world* target = w;
-    switch (in.byte() % 16) {
+    switch (in.byte() % 18) {
       case 0:
       case 1:
       case 2: {
@@ -173,6 +174,39 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           require(haustra_world_release_frame(w) == HAUSTRA_OK, "release");
           acquired = false;
         }
+        break;
+      }
+      case 16: {  // a small rod or chain joins: any values, refused by name or added
+        haustra_segment_def seg;
+        require(haustra_segment_def_default(&seg) == HAUSTRA_OK, "segment default");
+        const std::string name = "added" + std::to_string(in.byte() % 4);
+        seg.name = name.c_str();
+        seg.nodes = 2 + in.byte() % 12;
+        seg.chain_pieces = in.byte() % 4;  // 0 is refused
+        seg.length = in.number();
+        seg.radius = in.number();
+        for (int i = 0; i < 3; ++i) seg.base_position[i] = a[i];
+        seg.beads = in.byte() % 6;
+        haustra_counts c{};
+        require(haustra_world_counts(w, &c) == HAUSTRA_OK, "counts");
+        if (c.segments > 6) break;
+        size_t added = 0;
+        const haustra_status s = haustra_world_add_segment(w, &seg, &added);
+        require(s == HAUSTRA_OK || s == HAUSTRA_INVALID_ARGUMENT || s == HAUSTRA_INVALID_GEOMETRY, "add status");
+        require(s != HAUSTRA_OK || !acquired, "no change while a frame is held");
+        if (s == HAUSTRA_OK) {
+          require(added == c.segments, "added last");
+          saved = false;  // a checkpoint of the old model no longer fits
+        }
+        check_finite(w);
+        break;
+      }
+      case 17: {  // a segment leaves (a chain only through its first piece)
+        const haustra_status s = haustra_world_remove_segment(w, index);
+        require(s == HAUSTRA_OK || s == HAUSTRA_INVALID_ARGUMENT, "remove status");
+        require(s != HAUSTRA_OK || !acquired, "no change while a frame is held");
+        if (s == HAUSTRA_OK) saved = false;
+        check_finite(w);
         break;
       }
       default:

@@ -722,3 +722,60 @@ TEST_CASE("C API: chained segments, each one's info, segments added and removed 
   REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
   CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
 }
+
+TEST_CASE("C API: segments added and removed while a render thread reads frames") {
+  haustra_world_def def;
+  REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+  def.threads = 2;
+  def.double_buffered = 1;
+  haustra_segment_def seg;
+  REQUIRE(haustra_segment_def_default(&seg) == HAUSTRA_OK);
+  seg.name = "first";
+  seg.nodes = 21;
+  seg.length = 0.4;
+  seg.beads = 7;
+  seg.mesh = 1;
+  seg.mesh_vertices = 1000;
+  haustra_world* w = nullptr;
+  REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
+  std::atomic<bool> stepping{true};
+  std::atomic<int> reads{0}, torn{0};
+  std::thread render([&] {
+    while (stepping.load()) {
+      haustra_frame fr{};
+      if (haustra_world_acquire_frame(w, &fr) != HAUSTRA_OK) continue;
+      // A frame is whole: its node count is one the world had (21 or 42), and every value is set.
+      if (fr.nodes.count != 21 && fr.nodes.count != 42) torn += 1;
+      for (size_t k = 0; k < fr.nodes.count; ++k)
+        if (!std::isfinite(fr.nodes.x[k] + fr.nodes.y[k] + fr.nodes.z[k])) torn += 1;
+      reads += 1;
+      std::this_thread::yield();
+      haustra_world_release_frame(w);
+    }
+  });
+  auto change = [&](auto&& call) {  // refused while the reader holds a frame: try again
+    for (int attempt = 0; attempt < 100000; ++attempt) {
+      const haustra_status s = call();
+      if (s == HAUSTRA_OK) return true;
+      if (!says("release it before")) return false;
+      std::this_thread::yield();
+    }
+    return false;
+  };
+  for (int f = 0; f < 10; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  haustra_segment_def second = seg;
+  second.name = "second";
+  second.base_position[1] = 0.5;
+  CHECK(change([&] { return haustra_world_add_segment(w, &second, nullptr); }));
+  for (int f = 0; f < 10; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  CHECK(change([&] { return haustra_world_remove_segment(w, 0); }));
+  for (int f = 0; f < 10; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  stepping = false;
+  render.join();
+  CHECK(reads.load() > 0);
+  CHECK(torn.load() == 0);
+  haustra_counts c{};
+  REQUIRE(haustra_world_counts(w, &c) == HAUSTRA_OK);
+  CHECK(c.segments == 1);
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+}

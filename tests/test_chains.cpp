@@ -136,6 +136,9 @@ TEST_CASE("each piece of a chain carries its own mesh, which follows the piece")
 
 TEST_CASE("the bowel scene: 32 chained segments in a box, touching each other, a grasper lifts a loop") {
   SceneDesc s = scene_file("bowel");
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  s.world.segments[0].mesh.enabled = false;  // the meshes' cages and weights: most of the time under ASan
+#endif
   auto w = create_world(s);
   REQUIRE(w->segment_count() >= 32);
   for (int f = 0; f < 45; ++f) w->step();  // the grasper closes at 0.5 s (frame 30) and lifts
