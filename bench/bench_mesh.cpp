@@ -105,6 +105,27 @@ void BM_FrameDrop(benchmark::State& state) {
   state.counters["mesh vertices"] = static_cast<double>(w->mesh_buffer_size());
 }
 
+// What each optional stage costs (issue 6: a scene models only what it needs): `drop` with its
+// 10,000-vertex organ mesh, then with one thing switched off. Arg: which. The difference to "all"
+// is what that part of the model costs per frame.
+void BM_StageCost(benchmark::State& state) {
+  static const std::vector<std::vector<std::string>> variants = {
+      {"segment.mesh.source=procedural"},                                  // 0: all
+      {},                                                                  // 1: no mesh
+      {"segment.mesh.source=procedural", "contact.self=false"},            // 2: no self-contact
+      {"segment.mesh.source=procedural", "filter.enabled=false"},          // 3: no inertia filter
+      {"segment.mesh.source=procedural", "segment.law.bending=elastic", "segment.law.torsion=elastic"},  // 4: elastic
+  };
+  const auto which = static_cast<std::size_t>(state.range(0));
+  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/drop.toml", variants[which]);
+  scene.world.threads = 1;
+  std::unique_ptr<World> w = create_world(scene);
+  for (int f = 0; f < 60; ++f) w->step();
+  for (auto _ : state) w->step();
+  static const char* const names[] = {"all", "no mesh", "no self-contact", "no filter", "elastic"};
+  state.SetLabel(names[which]);
+}
+
 // Issue 5's many-segment target: rows of `drop`-sized rods (167 nodes, 55 beads, a 10,000-vertex
 // procedural organ each) side by side on a floor, touching their neighbours. Args: segments, threads.
 void BM_SegmentsWithMesh(benchmark::State& state) {
@@ -143,6 +164,7 @@ BENCHMARK(BM_SegmentsWithMesh)
     ->Unit(benchmark::kMillisecond)
     ->MinTime(1.0)
     ->UseRealTime();
+BENCHMARK(BM_StageCost)->DenseRange(0, 4)->Unit(benchmark::kMicrosecond)->Iterations(150);
 BENCHMARK(BM_SkinRigidGroups)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SkinScalarReference)->Arg(10'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StreamTriad)->Arg(1'000'000)->Arg(10'000'000)->Unit(benchmark::kMicrosecond);

@@ -3,6 +3,8 @@
 // committed corpus and every crash found so far run in `make test` (and under ASan+UBSan there).
 #include <algorithm>
 #include <cstdint>
+#include <cstdlib>
+#include <string>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -11,13 +13,23 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size);
 
+// `--every N FOLDER` replays every N-th file of that folder (in name order): the sanitizer builds
+// take a sample of a large corpus whose every input the release build and the fuzzer itself run.
 int main(int argc, char** argv) {
   std::vector<std::filesystem::path> files;
   for (int i = 1; i < argc; ++i) {
+    std::size_t every = 1;
+    if (std::string(argv[i]) == "--every" && i + 2 < argc) {
+      every = static_cast<std::size_t>(std::max(1, std::atoi(argv[i + 1])));
+      i += 2;
+    }
     const std::filesystem::path p = argv[i];
     if (std::filesystem::is_directory(p)) {
+      std::vector<std::filesystem::path> in_folder;
       for (const auto& e : std::filesystem::directory_iterator(p))
-        if (e.is_regular_file()) files.push_back(e.path());
+        if (e.is_regular_file()) in_folder.push_back(e.path());
+      std::sort(in_folder.begin(), in_folder.end());
+      for (std::size_t k = 0; k < in_folder.size(); k += every) files.push_back(in_folder[k]);
     } else if (std::filesystem::exists(p)) {
       files.push_back(p);
     } else {

@@ -34,7 +34,13 @@ TEST_CASE("every scene in scenes/ loads and builds") {
   for (const auto& entry : std::filesystem::directory_iterator(kScenes)) {
     if (entry.path().extension() != ".toml") continue;
     INFO(entry.path().string());
-    const SceneDesc s = load_scene(entry.path());
+    SceneDesc s = load_scene(entry.path());
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+    // A chain's meshes (32 cages and bindings for `bowel`) are most of the time under ASan; the
+    // release run builds them at full size.
+    for (SegmentDesc& d : s.world.segments)
+      if (d.chain_pieces > 1) d.mesh.procedural.vertices = 1000;
+#endif
     CHECK_FALSE(s.name.empty());
     CHECK(s.frames > 0);
     auto w = create_world(s);
