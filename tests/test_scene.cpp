@@ -37,9 +37,9 @@ TEST_CASE("every scene in scenes/ loads and builds") {
     SceneDesc s = load_scene(entry.path());
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
     // A chain's meshes (32 cages and bindings for `bowel`) are most of the time under ASan; the
-    // release run builds them at full size.
+    // release run builds them.
     for (SegmentDesc& d : s.world.segments)
-      if (d.chain_pieces > 1) d.mesh.procedural.vertices = 1000;
+      if (d.chain_pieces > 1) d.mesh.enabled = false;
 #endif
     CHECK_FALSE(s.name.empty());
     CHECK(s.frames > 0);
