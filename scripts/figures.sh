@@ -17,6 +17,8 @@ $bin render scenes/anatomy-grasp.toml --frames 0 120 239 --view 0 -1 0.35 --out 
 $bin render scenes/anatomy-grasp.toml --frames 0 --overlay cage --view 0 -1 0.35 --out "$out/ct-colon-cage.png"
 # The demo coloured by bending strain, and its beads by penetration.
 $bin render scenes/demo.toml --frames 120 --colour strain --out "$out/demo-strain.png"
+$bin render scenes/bowel.toml --frames 0 150 299 --width 560 --height 440 --columns 3 --view 0.4 -1 0.9 \
+  --out "$out/bowel.png"
 # Fig. 4: elastic (light, small deflection) and viscous rods held at both ends, after 50 s.
 $bin run scenes/sag.toml --quiet --frames 3000 --mesh-every 0 --set "segment[0].linear_density=0.0005" --out "$runs/sag" >/dev/null
 /usr/bin/python3 scripts/plots.py fig4 "$runs/sag" "$out/fig4-sag.png"

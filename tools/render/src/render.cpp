@@ -315,6 +315,9 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
     if (!g.triangles.empty()) geoms.push_back(std::move(g));
   }
   for (const auto& plane : desc.environment.planes) {
+    // A plane seen from behind (the camera outside a box's wall) would hide the subject: left out,
+    // as in a cut-away drawing.
+    if ((pic.camera.eye - plane.point).dot(plane.normal) < 0.0) continue;
     // A square of the plane under the subject, four subject sizes wide.
     Geometry g;
     g.material = {Shows::floor, {0.82f, 0.82f, 0.80f}, 1.0f, 0.0f, true};
