@@ -272,3 +272,36 @@ TEST_CASE("a segment removed between frames leaves the others stepping on, bit f
   CHECK(shrunk->segment_count() == 0);
   shrunk->step();  // an empty world steps
 }
+
+TEST_CASE("a grasp survives a segment added beside it; removing the grasped segment lets it go") {
+  SceneDesc s = scene_file("grasp-pull");
+  SegmentDesc far = s.world.segments[0];
+  far.name = "far";
+  far.base_position.y() += 3.0;
+  auto changed = create_world(s);
+  auto unchanged = create_world(s);
+  for (int f = 0; f < 60; ++f) {  // the jaws close at 0.6 s (frame 36) and lift
+    changed->step();
+    unchanged->step();
+  }
+  REQUIRE(changed->instrument(0).grasping);
+  changed->add_segment(far);
+  CHECK(changed->instrument(0).grasping);
+  CHECK(changed->instrument(0).grasped_segment == 0);
+  for (int f = 0; f < 30; ++f) {
+    changed->step();
+    unchanged->step();
+  }
+  CHECK(segment_state(*changed, 0) == segment_state(*unchanged, 0));
+  CHECK(changed->instrument(0).force == unchanged->instrument(0).force);
+  // A checkpoint of the grown world restores into it, not into the world it grew from.
+  const std::vector<std::byte> grown = changed->save_checkpoint();
+  CHECK_THROWS_AS(unchanged->restore_checkpoint(grown), Error);
+  changed->restore_checkpoint(grown);
+
+  changed->remove_segment(0);  // the grasped one
+  CHECK_FALSE(changed->instrument(0).grasping);
+  CHECK(changed->segment(0).name == "far");
+  for (int f = 0; f < 10; ++f) changed->step();
+  CHECK(changed->events().empty());
+}
