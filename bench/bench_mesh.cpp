@@ -10,6 +10,7 @@
 #include "haustra/kernels/skinning.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
+#include "segment_rows.hpp"
 
 namespace {
 
@@ -126,27 +127,10 @@ void BM_StageCost(benchmark::State& state) {
   state.SetLabel(names[which]);
 }
 
-// Issue 5's many-segment target: rows of `drop`-sized rods (167 nodes, 55 beads, a 10,000-vertex
-// procedural organ each) side by side on a floor, touching their neighbours. Args: segments, threads.
+// Issue 5's many-segment target: `BM_Segments`' rows with a 10,000-vertex procedural organ on
+// each rod. Args: segments, threads.
 void BM_SegmentsWithMesh(benchmark::State& state) {
-  WorldDesc d;
-  d.threads = static_cast<int>(state.range(1));
-  PlaneDesc floor;
-  floor.name = "floor";
-  d.environment.planes.push_back(floor);
-  const auto count = static_cast<std::size_t>(state.range(0));
-  for (std::size_t i = 0; i < count; ++i) {
-    SegmentDesc s;
-    s.name = "segment" + std::to_string(i);
-    s.rest.length = 1.0;
-    s.base_position = {1.1 * static_cast<double>(i / 16), 0.041 * static_cast<double>(i % 16), 0.0202};
-    s.beads.enabled = true;
-    s.beads.count = 55;
-    s.beads.radius = 0.02;
-    s.mesh.enabled = true;
-    s.mesh.procedural.vertices = 10'000;
-    d.segments.push_back(s);
-  }
+  const WorldDesc d = bench::segment_rows(static_cast<std::size_t>(state.range(0)), static_cast<int>(state.range(1)), 10'000);
   auto w = World::create(d);
   for (int f = 0; f < 3; ++f) w->step();
   for (auto _ : state) w->step();

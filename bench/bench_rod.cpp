@@ -16,6 +16,7 @@
 #include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/rod_newton.hpp"
 #include "haustra/world.hpp"
+#include "segment_rows.hpp"
 
 namespace {
 
@@ -164,23 +165,7 @@ void BM_Frame(benchmark::State& state, SolverMode mode) {
 // segments, threads. Per node and per bead costs should stay flat as segments grow, and 2 threads
 // should approach twice the speed of 1 once there are enough segments to share.
 void BM_Segments(benchmark::State& state) {
-  WorldDesc d;
-  d.threads = static_cast<int>(state.range(1));
-  PlaneDesc floor;
-  floor.name = "floor";
-  d.environment.planes.push_back(floor);
-  const auto count = static_cast<std::size_t>(state.range(0));
-  const std::size_t per_row = 16;
-  for (std::size_t i = 0; i < count; ++i) {
-    SegmentDesc s;
-    s.name = "segment" + std::to_string(i);
-    s.rest.length = 1.0;
-    s.base_position = {1.1 * static_cast<double>(i / per_row), 0.041 * static_cast<double>(i % per_row), 0.0202};
-    s.beads.enabled = true;
-    s.beads.count = 55;
-    s.beads.radius = 0.02;
-    d.segments.push_back(s);
-  }
+  const WorldDesc d = bench::segment_rows(static_cast<std::size_t>(state.range(0)), static_cast<int>(state.range(1)));
   auto w = World::create(d);
   for (int f = 0; f < 3; ++f) w->step();
   for (auto _ : state) w->step();

@@ -60,6 +60,14 @@ std::vector<double> segment_state(const World& w, std::size_t segment) {
   return out;
 }
 
+// The scene's first segment again, 3 m away: it never touches the original.
+SegmentDesc far_copy(const SceneDesc& s) {
+  SegmentDesc far = s.world.segments.at(0);
+  far.name = "far";
+  far.base_position.y() += 3.0;
+  return far;
+}
+
 }  // namespace
 
 TEST_CASE("a chain steps exactly as the single rod of its nodes: joints hold position and frame") {
@@ -205,9 +213,7 @@ TEST_CASE("a segment added between frames leaves the others' motion unchanged, b
   // Two rectums far apart (3 m), each falling on the floor: neither ever touches the other.
   SceneDesc one = scene_file("drop");
   SceneDesc two = one;
-  SegmentDesc far = one.world.segments[0];
-  far.name = "far";
-  far.base_position.y() += 3.0;
+  const SegmentDesc far = far_copy(one);
   two.world.segments.push_back(far);
 
   auto grown = create_world(one);
@@ -247,9 +253,7 @@ TEST_CASE("a segment added between frames leaves the others' motion unchanged, b
 TEST_CASE("a segment removed between frames leaves the others stepping on, bit for bit") {
   SceneDesc one = scene_file("drop");
   SceneDesc two = one;
-  SegmentDesc far = one.world.segments[0];
-  far.name = "far";
-  far.base_position.y() += 3.0;
+  const SegmentDesc far = far_copy(one);
   two.world.segments.insert(two.world.segments.begin(), far);  // the far one first: removal moves the other down
   auto shrunk = create_world(two);
   auto alone = create_world(one);
@@ -275,9 +279,7 @@ TEST_CASE("a segment removed between frames leaves the others stepping on, bit f
 
 TEST_CASE("a grasp survives a segment added beside it; removing the grasped segment lets it go") {
   SceneDesc s = scene_file("grasp-pull");
-  SegmentDesc far = s.world.segments[0];
-  far.name = "far";
-  far.base_position.y() += 3.0;
+  const SegmentDesc far = far_copy(s);
   auto changed = create_world(s);
   auto unchanged = create_world(s);
   for (int f = 0; f < 60; ++f) {  // the jaws close at 0.6 s (frame 36) and lift
