@@ -84,10 +84,13 @@ bench-peers:
 validate: build
 	@$(BIN)/haustra validate
 
-# Regenerates docs/stability.md.
+# Regenerates docs/stability.md and its heat map docs/figures/stability-map.png.
 stability-doc: build
-	@$(BIN)/haustra stability --markdown > docs/stability.md
-	@echo "wrote $(abspath docs/stability.md)"
+	@./scripts/install-deps.sh --figures
+	@mkdir -p out
+	@$(BIN)/haustra stability --markdown --csv out/stability.csv > docs/stability.md
+	@/usr/bin/python3 scripts/plots.py stability out/stability.csv docs/figures/stability-map.png
+	@echo "wrote $(abspath docs/stability.md) and $(abspath docs/figures/stability-map.png)"
 
 # Regenerates every picture in docs/figures/ (captions in docs/figures/README.md).
 figures: build

@@ -8,6 +8,9 @@
                                   and per-stage time against frame (PREFIX-penetration.png, ...)
   plots.py soak SOAK.csv PREFIX   from haustra_soak's samples: memory (PREFIX-memory.png) and
                                   energy with its allowed band (PREFIX-energy.png) against frame
+  plots.py stability CELLS.csv OUT.png
+                                  the stability map (haustra stability --csv): one heat map per
+                                  load and law, rows N × E, columns Δt, ok / robust / error
 """
 import csv
 import json
@@ -141,6 +144,44 @@ def soak_plots(samples, prefix):
     finish(fig, ax, "frame", "J", f"{prefix}-energy.png")
 
 
+def stability_map(cells_csv, out):
+    from matplotlib.colors import ListedColormap
+    rows = list(csv.DictReader(open(cells_csv)))
+    loads = ["gravity", "pull", "contact"]
+    titles = {"gravity": "gravity", "pull": "gravity + pull to 100 % strain", "contact": "on a stiff floor"}
+    laws = ["viscous", "elastic"]
+    keys = sorted({(int(r["nodes"]), float(r["youngs_modulus"])) for r in rows})
+    dts = sorted({float(r["dt"]) for r in rows})
+    code = {"lagged": 0, "robust": 1, "error": 2}
+    cmap = ListedColormap(["#4caf50", "#ffc107", "#e53935"])
+    fig, axes = plt.subplots(len(laws), len(loads), figsize=(13, 11), sharey=True)
+    for i, law in enumerate(laws):
+        for j, load in enumerate(loads):
+            ax = axes[i][j]
+            grid = [[math.nan] * len(dts) for _ in keys]
+            for r in rows:
+                if r["load"] != load or r["law"] != law:
+                    continue
+                grid[keys.index((int(r["nodes"]), float(r["youngs_modulus"])))][dts.index(float(r["dt"]))] = code[r["outcome"]]
+            ax.imshow(grid, cmap=cmap, vmin=0, vmax=2, aspect="auto", interpolation="nearest")
+            ax.set_xticks(range(len(dts)))
+            ax.set_xticklabels([f"{d:g}" for d in dts], fontsize=7)
+            ax.set_yticks(range(len(keys)))
+            ax.set_yticklabels([f"N={n}, E={e:g}" for n, e in keys], fontsize=6)
+            ax.set_title(f"{titles[load]}, {law}", fontsize=9)
+            if i == len(laws) - 1:
+                ax.set_xlabel("Δt (s)", fontsize=8)
+    from matplotlib.patches import Patch
+    fig.legend(handles=[Patch(color=cmap(k), label=l) for k, l in
+                        enumerate(["ok: lagged scheme stable", "robust: recovered by Newton / substeps",
+                                   "error: stopped with a named cause"])],
+               loc="lower center", ncol=3, fontsize=9)
+    fig.suptitle("Stability map: the paper's rectum rod, 1 m, clamped (blank: not run at that N)", fontsize=11)
+    fig.tight_layout(rect=(0, 0.04, 1, 0.97))
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+
+
 if __name__ == "__main__":
     if len(sys.argv) >= 2 and sys.argv[1] == "fig4":
         fig4(sys.argv[2], sys.argv[3])
@@ -148,6 +189,8 @@ if __name__ == "__main__":
         fig2(sys.argv[2])
     elif len(sys.argv) >= 2 and sys.argv[1] == "run":
         run_plots(sys.argv[2], sys.argv[3])
+    elif len(sys.argv) >= 2 and sys.argv[1] == "stability":
+        stability_map(sys.argv[2], sys.argv[3])
     elif len(sys.argv) >= 2 and sys.argv[1] == "soak":
         soak_plots(sys.argv[2], sys.argv[3])
     else:

@@ -37,6 +37,7 @@ void check_cells(const std::vector<StabilityCell>& cells) {
 
 TEST_CASE("stability sweep, N = 2 to 2000: finite everywhere, recovered or stopped with a cause") {
   StabilityOptions options;
+  options.loads = {"gravity", "pull"};
   if (kSanitized) options.nodes = {2, 20, 167};
   const std::vector<StabilityCell> cells = stability_sweep(options);
   CHECK(cells.size() == 5 * 4 * options.nodes.size() * 2 * 2);
@@ -57,8 +58,18 @@ TEST_CASE("stability sweep, N = 2 to 2000: finite everywhere, recovered or stopp
   CHECK(weak.detail.find("axial strain") != std::string::npos);
 }
 
+TEST_CASE("stability sweep on a stiff floor, N = 2 and 20: finite everywhere, recovered or stopped with a cause") {
+  StabilityOptions options;
+  options.loads = {"contact"};
+  options.nodes = {2, 20};
+  const std::vector<StabilityCell> cells = stability_sweep(options);
+  CHECK(cells.size() == 5 * 4 * 2 * 2);
+  check_cells(cells);
+}
+
 TEST_CASE("stability sweep, N = 20000: finite everywhere, recovered or stopped with a cause") {
   StabilityOptions options = stability_large_n_options();
+  options.loads = {"gravity", "pull"};
   if (kSanitized) options.youngs_moduli = {33.2e3};
   const std::vector<StabilityCell> cells = stability_sweep(options);
   CHECK(cells.size() == options.youngs_moduli.size() * 2 * 2 * 2);

@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <fstream>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -325,7 +326,7 @@ int skinning(bool markdown) {
   return 0;
 }
 
-int stability(bool markdown) {
+int stability(bool markdown, const std::string& csv) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<validation::StabilityCell> cells = validation::stability_sweep({});
   const std::vector<validation::StabilityCell> large = validation::stability_sweep(validation::stability_large_n_options());
@@ -333,6 +334,13 @@ int stability(bool markdown) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   int bad = 0;
   for (const auto& c : cells) bad += (!c.finite || !c.names_cause) ? 1 : 0;
+  if (!csv.empty()) {  // for the heat map (scripts/plots.py stability)
+    std::ofstream out(csv);
+    out << "nodes,youngs_modulus,dt,load,law,outcome\n";
+    for (const auto& c : cells)
+      out << fmt::format("{},{:g},{:g},{},{},{}\n", c.nodes, c.youngs_modulus, c.dt, c.load, c.law, c.outcome);
+    if (!out) throw Error(ErrorCode::io, fmt::format("cannot write '{}'", csv));
+  }
   if (markdown) {
     fmt::print("{}", validation::stability_markdown(cells));
   } else {
@@ -375,6 +383,8 @@ int main(int argc, char** argv) {
   CLI::App* stability_cmd =
       app.add_subcommand("stability", "sweep E, dt, N and load: where the lagged scheme holds, recovers or stops");
   stability_cmd->add_flag("--markdown", markdown, "print the tables of docs/stability.md");
+  std::string stability_csv;
+  stability_cmd->add_option("--csv", stability_csv, "also write every cell to this CSV file (for the heat map)");
 
   bool skinning_markdown = false;
   CLI::App* skinning_cmd = app.add_subcommand(
@@ -403,7 +413,7 @@ int main(int argc, char** argv) {
   try {
     if (*run_cmd) return run(ro);
     if (*validate_cmd) return validate(json, assets);
-    if (*stability_cmd) return stability(markdown);
+    if (*stability_cmd) return stability(markdown, stability_csv);
     if (*skinning_cmd) return skinning(skinning_markdown);
     if (*render_cmd) return render_frames(rc);
     if (*figure_cmd) return figure_cage(figure_out, 720, 480);

@@ -11,7 +11,8 @@ struct StabilityCell {
   double youngs_modulus = 0.0;  // Pa
   double dt = 0.0;              // s
   int nodes = 0;
-  std::string load;             // "gravity" or "pull" (gravity + a tip pull to 100% strain)
+  std::string load;             // "gravity", "pull" (gravity + a tip pull to 100% strain) or "contact"
+                                // (gravity, lying on a floor with 100× the paper's penalty)
   std::string law;              // "elastic" or "viscous" (bending and torsion; axial elastic)
   int frames = 0;
   std::string outcome;          // "lagged" (stable as the paper runs it), "robust", "error"
@@ -27,6 +28,7 @@ struct StabilityOptions {
   int frames_small = 30;    // N ≤ 200
   int frames_large = 6;     // N > 200
   int max_substeps = 8;     // the robust ladder: lagged, Newton, Newton with 2, 4, 8 substeps
+  std::vector<std::string> loads = {"gravity", "pull", "contact"};
 };
 
 std::vector<StabilityCell> stability_sweep(const StabilityOptions& options);
