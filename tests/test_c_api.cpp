@@ -6,6 +6,7 @@
 
 #include "host_job_pool.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -751,14 +752,16 @@ TEST_CASE("C API: segments added and removed while a render thread reads frames"
       reads += 1;
       std::this_thread::yield();
       haustra_world_release_frame(w);
+      // A renderer draws between frames; a reader that never let go would starve the changes.
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
     }
   });
   auto change = [&](auto&& call) {  // refused while the reader holds a frame: try again
-    for (int attempt = 0; attempt < 100000; ++attempt) {
+    for (int attempt = 0; attempt < 20000; ++attempt) {  // up to ~10 s on a loaded machine
       const haustra_status s = call();
       if (s == HAUSTRA_OK) return true;
       if (!says("release it before")) return false;
-      std::this_thread::yield();
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
     }
     return false;
   };
