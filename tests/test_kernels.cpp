@@ -203,7 +203,8 @@ TEST_CASE("block-tridiagonal solve equals a dense LU") {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   using Block = Eigen::Matrix<double, B, B>;
   std::vector<Block> lo(n), di(n), up(n);
-  std::vector<Eigen::PartialPivLU<Block>> piv(n);
+  std::vector<Block> fill(n);
+  std::vector<std::array<std::uint8_t, B>> swaps(n);
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(B * n, B * n);
   for (std::size_t k = 0; k < n; ++k) {
     for (int i = 0; i < B; ++i)
@@ -225,7 +226,7 @@ TEST_CASE("block-tridiagonal solve equals a dense LU") {
     for (int c = 0; c < cols; ++c)
       for (int i = 0; i < B; ++i) b(static_cast<Eigen::Index>(k * B + i), c) = rhs[k * B * cols + static_cast<std::size_t>(c * B + i)];
   const Eigen::MatrixXd x = dense.partialPivLu().solve(b);
-  BlockTridiagonalView<B> view{lo, di, up, piv};
+  BlockTridiagonalView<B> view{lo, di, up, fill, swaps};
   block_tridiagonal_factor(view);
   block_tridiagonal_solve(view, rhs, cols);
   for (std::size_t k = 0; k < n; ++k)

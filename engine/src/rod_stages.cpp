@@ -11,6 +11,7 @@
 #include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/rod_newton.hpp"
 #include "haustra/kernels/strain_update.hpp"
+#include "haustra/kernels/tissue_law.hpp"
 #include "collision.hpp"
 
 namespace haustra::detail {
@@ -54,6 +55,11 @@ std::array<double, 4> law_total(const SegmentModel& seg, double dt) {
   const kernels::StrainLawCoefficients law = law_of(seg, dt);
   return {law.stiffness[0] + law.rate[0], law.stiffness[1] + law.rate[1], law.stiffness[2] + law.rate[2],
           law.stiffness[3] + law.rate[3]};
+}
+
+kernels::NodalLaw nodal_law_of(const SegmentModel& seg, double dt) {
+  const kernels::StrainLawCoefficients law = law_of(seg, dt);
+  return {law.stiffness, law.rate, seg.exp2, seg.tissue, seg.tube};
 }
 
 std::span<const double> drag_of(const WorldModel& model, const SegmentModel& seg) {
@@ -318,9 +324,17 @@ void stage_newton_jacobian(const WorldModel& model, WorldState& state, std::size
       ws.force_stiffness[model.beads.node[b] - seg.node_offset] += state.collision.bead_stiffness[b];
     stiffness = {ws.force_stiffness, ws.drag_moment_rate};
   }
+  kernels::NodalLawTangent nodal;
+  if (seg.exp2) {
+    // The law at this iterate: its stress serves the residual (stage_newton_solve), its tangent here.
+    kernels::nodal_law_evaluate(v.strain, v.rest, v.strain_start, nodal_law_of(seg, p.dt),
+                                kernels::StrainView<double>{ws.law_stress}, kernels::StrainView<double>{ws.law_tangent},
+                                ws.bend_coupling);
+    nodal = {kernels::StrainView<const double>{ws.law_tangent}, ws.bend_coupling};
+  }
   ws.base_wrench = kernels::rod_newton_assemble(v.poses, v.section_length, v.force, v.moment, law_total(seg, p.dt),
                                                 stiffness, seg.base_mode == BaseMode::free, ws.distal_force.view(),
-                                                ws.distal_moment.view(), ws.system());
+                                                ws.distal_moment.view(), ws.system(), nodal);
   kernels::block_tridiagonal_factor(ws.system());
 }
 
@@ -335,13 +349,18 @@ Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, s
   const kernels::StrainLawCoefficients law = law_of(seg, p.dt);
   const bool free_base = seg.base_mode == BaseMode::free;
 
-  // Residual ρ = R − A (q − q*), q* = (k q̂ + (η/Δt) q_start) / a.
-  const kernels::StrainView<double> target{ws.target};
-  for (std::size_t k = 0; k < n; ++k)
-    for (std::size_t c = 0; c < 4; ++c)
-      target.at(k, c) = (law.stiffness[c] * v.rest.at(k, c) + law.rate[c] * v.strain_start.at(k, c)) / a[c];
-  kernels::rod_strain_residual(v.generalized_force, v.strain, target, v.section_length, a,
-                               kernels::StrainView<double>{ws.residual});
+  // Residual ρ = R − A (q − q*), q* = (k q̂ + (η/Δt) q_start) / a; for EXP2, ρ = R − M s(q).
+  if (seg.exp2) {
+    kernels::rod_stress_residual(v.generalized_force, kernels::StrainView<const double>{ws.law_stress},
+                                 v.section_length, kernels::StrainView<double>{ws.residual});
+  } else {
+    const kernels::StrainView<double> target{ws.target};
+    for (std::size_t k = 0; k < n; ++k)
+      for (std::size_t c = 0; c < 4; ++c)
+        target.at(k, c) = (law.stiffness[c] * v.rest.at(k, c) + law.rate[c] * v.strain_start.at(k, c)) / a[c];
+    kernels::rod_strain_residual(v.generalized_force, v.strain, target, v.section_length, a,
+                                 kernels::StrainView<double>{ws.residual});
+  }
 
   ConstraintRows rows{};
   const std::size_t m = seg.constraint_rows > 0 ? active_constraint_rows(seg, state, rows) : 0;
@@ -618,7 +637,7 @@ Energy segment_energy(const WorldModel& model, std::span<const double> strain, k
   const std::size_t off = seg.node_offset, n = seg.node_count;
   Energy e;
   for (std::size_t c = 0; c < 4; ++c) {
-    if (seg.stiffness[c] == 0.0) continue;
+    if (seg.stiffness[c] == 0.0 || (seg.exp2 && c != 2)) continue;  // EXP2's components: below
     auto dq = [&](std::size_t k) { return strain[4 * (off + k) + c] - model.rest_strain[4 * (off + k) + c]; };
     double quad = 0.0;  // Δqᵀ M Δq with the hat functions' mass matrix
     for (std::size_t k = 0; k + 1 < n; ++k) {
@@ -626,6 +645,17 @@ Energy segment_energy(const WorldModel& model, std::span<const double> strain, k
       quad += h / 3.0 * (dq(k) * dq(k) + dq(k + 1) * dq(k + 1)) + h / 3.0 * dq(k) * dq(k + 1);
     }
     e.elastic += 0.5 * seg.stiffness[c] * quad;
+  }
+  if (seg.exp2) {
+    kernels::NodalLaw law;
+    law.stiffness = seg.stiffness;
+    law.exp2 = true;
+    law.tissue = seg.tissue;
+    law.tube = seg.tube;
+    e.elastic += kernels::nodal_law_exp2_energy(
+        kernels::StrainView<const double>{strain.subspan(4 * off, 4 * n)},
+        kernels::StrainView<const double>{std::span<const double>(model.rest_strain).subspan(4 * off, 4 * n)},
+        std::span<const double>(model.section_length).subspan(off, n), law);
   }
   for (std::size_t k = 0; k < n; ++k) e.gravity -= model.node_mass[off + k] * model.gravity.dot(position.get(off + k));
   return e;

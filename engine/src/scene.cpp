@@ -265,7 +265,7 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
   r.check_keys(t, path,
                {"name", "nodes", "rest", "law", "base", "base_position", "base_tangent", "base_normal", "drag", "radius",
                 "wall_thickness", "youngs_modulus", "poisson_ratio", "density", "linear_density", "relaxation_time",
-                "attachment", "load", "beads", "mesh", "chain"});
+                "attachment", "load", "beads", "mesh", "chain", "tissue"});
   SegmentDesc s;
   s.name = r.string(t, "name", path + ".name", path);
   s.nodes = r.integer(t, "nodes", path + ".nodes", s.nodes);
@@ -306,6 +306,15 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
     } else if (file_node != nullptr) {
       r.fail(file_node, rp + ".file", "only a rest shape with shape = \"centreline\" reads a file");
     }
+  }
+  if (const toml::table* tissue = r.table(t, "tissue", path + ".tissue")) {
+    const std::string tp = path + ".tissue";
+    r.check_keys(*tissue, tp, {"response", "alpha", "beta", "gamma"});
+    s.material.response = r.choice<TissueResponse>(*tissue, "response", tp + ".response", s.material.response,
+                                                   {{"hooke", TissueResponse::hooke}, {"exp2", TissueResponse::exp2}});
+    s.material.exp2_alpha = r.number(*tissue, "alpha", tp + ".alpha", s.material.exp2_alpha);
+    s.material.exp2_beta = r.number(*tissue, "beta", tp + ".beta", s.material.exp2_beta);
+    s.material.exp2_gamma = r.number(*tissue, "gamma", tp + ".gamma", s.material.exp2_gamma);
   }
   if (const toml::table* law = r.table(t, "law", path + ".law")) {
     const std::string lp = path + ".law";

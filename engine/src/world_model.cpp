@@ -130,6 +130,15 @@ WorldModel build_world_model(const WorldDesc& desc) {
     check_range(where + ".poisson_ratio", d.material.poisson_ratio, 0.0, 0.4999, "a Poisson ratio");
     check_positive(where + ".density", d.material.density, "kg/m³", 1e5);
     if (d.linear_density) check_positive(where + ".linear_density", *d.linear_density, "kg/m", 1e4);
+    if (d.material.response == TissueResponse::exp2) {
+      check_range(where + ".tissue.alpha", d.material.exp2_alpha, 0.0, 1e3, "α ≥ 0 (it multiplies ε²)");
+      check_range(where + ".tissue.beta", d.material.exp2_beta, 0.0, 1e12, "β ≥ 0 in Pa");
+      check_positive(where + ".tissue.gamma", d.material.exp2_gamma, "Pa", 1e12);
+      if (desc.solver.mode != SolverMode::newton)
+        fail(where + ".tissue.response",
+             "the EXP2 law is solved by Newton iteration: it needs solver.mode = \"newton\" (the lagged scheme "
+             "assumes a constant stiffness)");
+    }
     const bool any_viscous =
         std::any_of(d.law.begin(), d.law.end(), [](StrainLaw l) { return l != StrainLaw::elastic; });
     if (any_viscous) check_positive(where + ".relaxation_time", d.relaxation_time, "s", 1e9);
@@ -173,6 +182,9 @@ WorldModel build_world_model(const WorldDesc& desc) {
       seg.viscosity[c] = d.law[c] == StrainLaw::elastic ? 0.0 : k[c] * d.relaxation_time;
     }
     seg.info.viscosity = seg.viscosity;
+    seg.exp2 = d.material.response == TissueResponse::exp2;
+    seg.tissue = {d.material.exp2_alpha, d.material.exp2_beta, d.material.exp2_gamma};
+    seg.tube = {r, hw};
     seg.base_mode = d.base;
     seg.has_drag = drag > 0.0;
     seg.initial_base = rest.base;

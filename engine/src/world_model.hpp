@@ -11,6 +11,7 @@
 #include "cage_builder.hpp"
 #include "haustra/embree_scene.hpp"
 #include "haustra/kernels/pose.hpp"
+#include "haustra/kernels/tissue_law.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/rod_pose_buffer.hpp"
 #include "haustra/world.hpp"
@@ -42,6 +43,11 @@ struct SegmentModel {
   std::array<double, 4> stiffness{};      // k_c in the law (zero for viscous components)
   std::array<double, 4> viscosity{};      // η_c (zero for elastic components)
   std::array<StrainLaw, 4> law{};
+  // EXP2 tissue in bending and stretch (kernels/tissue_law): the stress is evaluated per node and
+  // the Newton system takes its tangent; false: Hooke's constant stiffness.
+  bool exp2 = false;
+  kernels::Exp2Tissue tissue;
+  kernels::TubeSection tube;
   BaseMode base_mode = BaseMode::clamped;
   bool has_drag = false;
   kernels::Pose initial_base;

@@ -37,13 +37,17 @@ void NewtonWorkspace::allocate(std::size_t nodes, int columns) {
   lower.assign(nodes, kernels::NewtonBlock::Zero());
   diag.assign(nodes, kernels::NewtonBlock::Zero());
   upper.assign(nodes, kernels::NewtonBlock::Zero());
-  pivots.assign(nodes, Eigen::PartialPivLU<kernels::NewtonBlock>(kernels::NewtonBlock::Identity()));
+  fill.assign(nodes, kernels::NewtonBlock::Zero());
+  swaps.assign(nodes, {});
   max_columns = columns;
   rhs.assign(nodes * kernels::kNewtonBlock * static_cast<std::size_t>(columns), 0.0);
   distal_force.resize(nodes);
   distal_moment.resize(nodes);
   residual.assign(4 * nodes, 0.0);
   target.assign(4 * nodes, 0.0);
+  law_stress.assign(4 * nodes, 0.0);
+  law_tangent.assign(4 * nodes, 0.0);
+  bend_coupling.assign(nodes, 0.0);
   unit.assign(4 * nodes, 0.0);
   force_stiffness.assign(nodes, Eigen::Matrix3d::Zero());
   drag_moment_rate.assign(nodes, 0.0);

@@ -74,10 +74,13 @@ struct PersistentState {
 // (the residual, and one column per constraint row).
 struct NewtonWorkspace {
   std::vector<kernels::NewtonBlock> lower, diag, upper;
-  std::vector<Eigen::PartialPivLU<kernels::NewtonBlock>> pivots;
+  std::vector<kernels::NewtonBlock> fill;                        // the factorization's second upper block
+  std::vector<std::array<std::uint8_t, kernels::kNewtonBlock>> swaps;  // its row swaps
   std::vector<double> rhs;
   Vec3Buffer distal_force, distal_moment;
   std::vector<double> residual, target, unit;
+  // A nonlinear (EXP2) law's generalized stress and tangent per node, and the κ1–κ2 coupling.
+  std::vector<double> law_stress, law_tangent, bend_coupling;
   std::vector<Eigen::Matrix3d> force_stiffness;  // per node: −∂f/∂r of drag and contacts
   std::vector<double> drag_moment_rate;          // s/Δt per node
   kernels::Vector6d base_wrench = kernels::Vector6d::Zero();  // free base: unbalanced total wrench
@@ -85,7 +88,7 @@ struct NewtonWorkspace {
   int max_columns = 1;
 
   void allocate(std::size_t nodes, int columns);
-  [[nodiscard]] kernels::NewtonSystem system() { return {lower, diag, upper, pivots}; }
+  [[nodiscard]] kernels::NewtonSystem system() { return {lower, diag, upper, fill, swaps}; }
 };
 
 using ContactCandidate = Contact;

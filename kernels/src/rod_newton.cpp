@@ -45,7 +45,8 @@ Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, st
                                                 Vec3View<const double> node_force, Vec3View<const double> node_moment,
                                                 const std::array<double, 4>& law_total, NewtonLoadStiffness stiffness,
                                                 bool free_base, Vec3View<double> distal_force,
-                                                Vec3View<double> distal_moment, NewtonSystem system) {
+                                                Vec3View<double> distal_moment, NewtonSystem system,
+                                                NodalLawTangent nodal) {
   constexpr int Q = kNewtonStrain;
   constexpr int PHI = kNewtonRotation;
   constexpr int R = kNewtonPosition;
@@ -88,11 +89,34 @@ Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, st
     const double h_next = k < sections ? section_length[k] : 0.0;
 
     // Rows 0–3: node residual.
-    for (int c = 0; c < 4; ++c) {
-      const double a = law_total[static_cast<std::size_t>(c)];
-      di(Q + c, Q + c) -= a * (h_prev + h_next) / 3.0;
-      if (k > 0) lo(Q + c, Q + c) -= a * h_prev / 6.0;
-      if (k < sections) up(Q + c, Q + c) -= a * h_next / 6.0;
+    if (nodal.tangent.data.empty()) {
+      for (int c = 0; c < 4; ++c) {
+        const double a = law_total[static_cast<std::size_t>(c)];
+        di(Q + c, Q + c) -= a * (h_prev + h_next) / 3.0;
+        if (k > 0) lo(Q + c, Q + c) -= a * h_prev / 6.0;
+        if (k < sections) up(Q + c, Q + c) -= a * h_next / 6.0;
+      }
+    } else {
+      // −M T: column node j carries its own tangent T_j (a nonlinear law).
+      for (int c = 0; c < 4; ++c) {
+        const auto cc = static_cast<std::size_t>(c);
+        di(Q + c, Q + c) -= nodal.tangent.at(k, cc) * (h_prev + h_next) / 3.0;
+        if (k > 0) lo(Q + c, Q + c) -= nodal.tangent.at(k - 1, cc) * h_prev / 6.0;
+        if (k < sections) up(Q + c, Q + c) -= nodal.tangent.at(k + 1, cc) * h_next / 6.0;
+      }
+      const double bd = nodal.bend_coupling[k] * (h_prev + h_next) / 3.0;
+      di(Q, Q + 1) -= bd;
+      di(Q + 1, Q) -= bd;
+      if (k > 0) {
+        const double bl = nodal.bend_coupling[k - 1] * h_prev / 6.0;
+        lo(Q, Q + 1) -= bl;
+        lo(Q + 1, Q) -= bl;
+      }
+      if (k < sections) {
+        const double bu = nodal.bend_coupling[k + 1] * h_next / 6.0;
+        up(Q, Q + 1) -= bu;
+        up(Q + 1, Q) -= bu;
+      }
     }
     if (k > 0) {
       lo.block<4, 4>(Q, Q) += 0.5 * lin[0].x;
@@ -183,6 +207,19 @@ void rod_strain_residual(StrainView<const double> generalized_force, StrainView<
     for (int c = 0; c < 4; ++c) mx[c] *= law_total[static_cast<std::size_t>(c)];
     residual.set(k, generalized_force.get(k) - mx);
     prev = cur;
+  }
+}
+
+void rod_stress_residual(StrainView<const double> generalized_force, StrainView<const double> stress,
+                         std::span<const double> section_length, StrainView<double> residual) {
+  const std::size_t n = stress.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const double h_prev = k > 0 ? section_length[k - 1] : 0.0;
+    const double h_next = k + 1 < n ? section_length[k] : 0.0;
+    Eigen::Vector4d ms = (h_prev + h_next) / 3.0 * stress.get(k);
+    if (k > 0) ms += h_prev / 6.0 * stress.get(k - 1);
+    if (k + 1 < n) ms += h_next / 6.0 * stress.get(k + 1);
+    residual.set(k, generalized_force.get(k) - ms);
   }
 }
 

@@ -39,10 +39,22 @@ enum class SolverMode : std::uint8_t {
   newton,  // the implicit law solved by Newton on the block-tridiagonal mixed system, O(N).
 };
 
+// How the tissue's elastic stress follows strain in bending and stretch (torsion stays Hooke's).
+enum class TissueResponse : std::uint8_t {
+  hooke,  // σ = E ε: the paper's simplification, constant stiffness
+  exp2,   // σ = β(e^{αε²} − 1) + γε (Rosen et al., the paper's eq. 1), odd in ε; Newton only
+};
+
 struct MaterialDesc {
   double youngs_modulus = 33.2e3;  // Pa, the paper's fit to Rosen et al.
   double poisson_ratio = 0.35;     // the paper's
   double density = 1050.0;         // kg/m³, soft tissue
+  TissueResponse response = TissueResponse::hooke;
+  // EXP2 parameters. The paper gives none; the defaults are the illustrative fit of its Fig. 2
+  // (γ = 20 kPa, α = 8, β such that E = 33.2 kPa is the least-squares line over 0–25 % strain).
+  double exp2_alpha = 8.0;
+  double exp2_beta = 6.7e3;    // Pa
+  double exp2_gamma = 20.0e3;  // Pa
 };
 
 struct CrossSectionDesc {

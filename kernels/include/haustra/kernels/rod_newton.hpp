@@ -40,6 +40,13 @@ struct NewtonLoadStiffness {
   std::span<const double> moment;          // per node: −∂m/∂φ (N·m/rad), isotropic
 };
 
+// A nonlinear strain law's tangent per node (kernels/tissue_law): the law's rows become −M T with
+// T_j node j's ∂s/∂q. Empty: the linear law's law_total for every node.
+struct NodalLawTangent {
+  StrainView<const double> tangent;          // per node and component
+  std::span<const double> bend_coupling;     // per node, ∂s_κ1/∂κ2
+};
+
 // law_total: a_c = k_c + η_c/Δt per component. node_force/moment: all current loads, drag included.
 // distal_force, distal_moment: caller scratch, N+1. free_base: the base rows balance the rod's
 // total wrench instead of holding node 0 (needs a load stiffness at every node, e.g. drag). Returns that total wrench (moment about
@@ -48,12 +55,18 @@ Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, st
                                                 Vec3View<const double> node_force, Vec3View<const double> node_moment,
                                                 const std::array<double, 4>& law_total, NewtonLoadStiffness stiffness,
                                                 bool free_base, Vec3View<double> distal_force,
-                                                Vec3View<double> distal_moment, NewtonSystem system);
+                                                Vec3View<double> distal_moment, NewtonSystem system,
+                                                NodalLawTangent nodal = {});
 
 // ρ = R − A (q − q*), A = blockdiag(a_c M): the residual the Newton step drives to zero.
 // target: q* per component; out: N+1 nodes.
 void rod_strain_residual(StrainView<const double> generalized_force, StrainView<const double> strain,
                          StrainView<const double> target, std::span<const double> section_length,
                          const std::array<double, 4>& law_total, StrainView<double> residual);
+
+// ρ = R − M s with s the law's generalized stress per node (kernels/tissue_law): the residual of a
+// nonlinear law. out: N+1 nodes.
+void rod_stress_residual(StrainView<const double> generalized_force, StrainView<const double> stress,
+                         std::span<const double> section_length, StrainView<double> residual);
 
 }  // namespace haustra::kernels
