@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench bench-quick bench-peers validate stability-doc skinning-doc figures soak fuzz clean
+.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench bench-quick bench-peers validate stability-doc study skinning-doc figures soak fuzz clean
 
 all: build
 
@@ -98,6 +98,16 @@ stability-doc: build
 figures: build
 	@./scripts/install-deps.sh --figures
 	@./scripts/figures.sh
+
+# Regenerates docs/tradeoff.md and its plot docs/figures/tradeoff.png: the speed-against-accuracy
+# study (haustra study), about a minute on this machine.
+study: build
+	@./scripts/install-deps.sh --figures
+	@mkdir -p out
+	@$(BIN)/haustra study --markdown --csv out/tradeoff.csv > out/tradeoff.md
+	@mv out/tradeoff.md docs/tradeoff.md
+	@/usr/bin/python3 scripts/plots.py tradeoff out/tradeoff.csv docs/figures/tradeoff.png
+	@echo "wrote $(abspath docs/tradeoff.md) and $(abspath docs/figures/tradeoff.png)"
 
 # Regenerates docs/skinning.md's table (the localization study).
 skinning-doc: build

@@ -11,6 +11,9 @@
   plots.py stability CELLS.csv OUT.png
                                   the stability map (haustra stability --csv): one heat map per
                                   load and law, rows N × E, columns Δt, ok / robust / error
+  plots.py tradeoff ROWS.csv OUT.png
+                                  the speed/accuracy study (haustra study --csv): per knob, error
+                                  against cost, the Pareto front joined, the default ringed
 """
 import csv
 import json
@@ -144,6 +147,48 @@ def soak_plots(samples, prefix):
     finish(fig, ax, "frame", "J", f"{prefix}-energy.png")
 
 
+def tradeoff(rows_csv, out):
+    rows = list(csv.DictReader(open(rows_csv)))
+    knobs = []
+    for r in rows:
+        if r["knob"] not in knobs:
+            knobs.append(r["knob"])
+    cols = 4
+    lines = (len(knobs) + cols - 1) // cols
+    fig, axes = plt.subplots(lines, cols, figsize=(4.2 * cols, 3.6 * lines), squeeze=False)
+    for i, knob in enumerate(knobs):
+        ax = axes[i // cols][i % cols]
+        mine = [r for r in rows if r["knob"] == knob]
+        positive = [float(r["error"]) for r in mine if float(r["error"]) > 0]
+        # A zero error (the reference itself, or exact to rounding) is drawn at the floor.
+        floor = min(positive) / 10 if positive else 1e-6
+        pts = [(float(r["cost_us"]), max(float(r["error"]), floor), r) for r in mine]
+        ax.scatter([p[0] for p in pts], [p[1] for p in pts], s=18, color="tab:blue", zorder=3)
+        front = sorted((p for p in pts if p[2]["pareto"] == "1"), key=lambda p: p[0])
+        if len(front) > 1:
+            ax.plot([p[0] for p in front], [p[1] for p in front], "-", color="tab:orange", lw=1.2,
+                    label="Pareto front", zorder=2)
+        for x, y, r in pts:
+            if r["default"] == "1":
+                ax.scatter([x], [y], s=90, facecolors="none", edgecolors="tab:red", zorder=4)
+            ax.annotate(r["setting"].split(" (")[0].replace("study sweep, ", "").replace("engine kernel, ", "engine, ")[:26], (x, y), fontsize=6, xytext=(3, 2),
+                        textcoords="offset points")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(mine[0]["cost_name"], fontsize=8)
+        ax.set_ylabel(mine[0]["error_name"], fontsize=8)
+        ax.set_title(knob, fontsize=9)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3, which="both")
+        if len(front) > 1:
+            ax.legend(fontsize=6)
+    for j in range(len(knobs), lines * cols):
+        axes[j // cols][j % cols].axis("off")
+    fig.suptitle("Speed against accuracy (haustra study): error against cost, default ringed in red", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
 def stability_map(cells_csv, out):
     from matplotlib.colors import ListedColormap
     rows = list(csv.DictReader(open(cells_csv)))
@@ -191,6 +236,8 @@ if __name__ == "__main__":
         run_plots(sys.argv[2], sys.argv[3])
     elif len(sys.argv) >= 2 and sys.argv[1] == "stability":
         stability_map(sys.argv[2], sys.argv[3])
+    elif len(sys.argv) >= 2 and sys.argv[1] == "tradeoff":
+        tradeoff(sys.argv[2], sys.argv[3])
     elif len(sys.argv) >= 2 and sys.argv[1] == "soak":
         soak_plots(sys.argv[2], sys.argv[3])
     else:

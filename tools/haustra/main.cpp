@@ -18,6 +18,7 @@
 #include "haustra/validation.hpp"
 #include "run_report.hpp"
 #include "haustra/skinning_study.hpp"
+#include "haustra/tradeoff_study.hpp"
 
 namespace {
 
@@ -352,6 +353,19 @@ int stability(bool markdown, const std::string& csv) {
   return bad == 0 ? 0 : kExitFailedCase;
 }
 
+int study(bool markdown, const std::string& csv) {
+  const validation::TradeoffStudy s = validation::run_tradeoff_study([&](const std::string& knob) {
+    if (!markdown) fmt::print(stderr, "study: {}\n", knob);
+  });
+  if (!csv.empty()) {
+    std::ofstream out(csv);
+    out << validation::tradeoff_csv(s);
+    if (!out) throw Error(ErrorCode::io, fmt::format("cannot write '{}'", csv));
+  }
+  fmt::print("{}", validation::tradeoff_markdown(s));
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -391,6 +405,13 @@ int main(int argc, char** argv) {
       "skinning", "localization study: rings kept per mesh vertex against cost and error, and linear-blend skinning");
   skinning_cmd->add_flag("--markdown", skinning_markdown, "print the table of docs/skinning.md");
 
+  bool study_markdown = false;
+  std::string study_csv;
+  CLI::App* study_cmd = app.add_subcommand(
+      "study", "speed against accuracy: each simplification as a knob, error against a reference and cost per frame");
+  study_cmd->add_flag("--markdown", study_markdown, "print docs/tradeoff.md (progress goes to stderr otherwise)");
+  study_cmd->add_option("--csv", study_csv, "also write every row to this CSV file (for the plots)");
+
   RenderCommand rc;
   CLI::App* render_cmd = app.add_subcommand("render", "run a scene and ray-cast chosen frames to a PNG (a contact sheet for several)");
   render_cmd->add_option("scene", rc.scene, "scene file (TOML)")->required()->check(CLI::ExistingFile);
@@ -415,6 +436,7 @@ int main(int argc, char** argv) {
     if (*validate_cmd) return validate(json, assets);
     if (*stability_cmd) return stability(markdown, stability_csv);
     if (*skinning_cmd) return skinning(skinning_markdown);
+    if (*study_cmd) return study(study_markdown, study_csv);
     if (*render_cmd) return render_frames(rc);
     if (*figure_cmd) return figure_cage(figure_out, 720, 480);
   } catch (const haustra::Error& e) {
