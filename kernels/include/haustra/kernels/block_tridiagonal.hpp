@@ -24,6 +24,66 @@ struct BlockTridiagonalView {
   std::span<std::array<std::uint8_t, B>> swaps;  // factored: step k's row swaps, 0..2B−1
 };
 
+// x ← L⁻¹ x with L the unit lower triangle of `l`; x: B rows × cols, column-major, leading
+// dimension ld. Plain loops: Eigen's general triangular solver costs ~10⁴ instructions of set-up
+// per call at this size, several times the arithmetic (measured with callgrind).
+// The columns are interleaved inside the elimination step (j outer): one column's recurrence is a
+// chain of store → load → multiply–add; interleaving several hides its latency.
+template <int B>
+void unit_lower_solve(const Eigen::Matrix<double, B, B>& l, double* x, int cols, Eigen::Index ld) {
+  for (int j = 0; j < B; ++j)
+    for (int c = 0; c < cols; ++c) {
+      double* xc = x + c * ld;
+      const double xj = xc[j];
+      for (int i = j + 1; i < B; ++i) xc[i] -= l(i, j) * xj;
+    }
+}
+
+// x ← U⁻¹ x with U the upper triangle of `u` (diagonal included); as unit_lower_solve.
+template <int B>
+void upper_solve(const Eigen::Matrix<double, B, B>& u, double* x, int cols, Eigen::Index ld) {
+  for (int j = B; j-- > 0;) {
+    const double inv = 1.0 / u(j, j);
+    for (int c = 0; c < cols; ++c) {
+      double* xc = x + c * ld;
+      const double xj = xc[j] * inv;
+      xc[j] = xj;
+      for (int i = 0; i < j; ++i) xc[i] -= u(i, j) * xj;
+    }
+  }
+}
+
+// The panel (the first B columns of w, its first Rows rows) eliminated with partial pivoting,
+// right-looking; whole rows of w swap. Rows is a template argument so the loops have fixed bounds.
+template <int B, int Rows, class Work>
+void eliminate_panel(Work& w, std::array<std::uint8_t, B>& swaps) {
+  for (int j = 0; j < B; ++j) {
+    int p = j;
+    double best = std::abs(w(j, j));
+    for (int i = j + 1; i < Rows; ++i)
+      if (std::abs(w(i, j)) > best) {
+        best = std::abs(w(i, j));
+        p = i;
+      }
+    swaps[static_cast<std::size_t>(j)] = static_cast<std::uint8_t>(p);
+    if (p != j) w.row(j).swap(w.row(p));
+    const double inv = 1.0 / w(j, j);
+    for (int i = j + 1; i < Rows; ++i) w(i, j) *= inv;
+    for (int c = j + 1; c < B; ++c) {
+      const double u = w(j, c);
+      for (int i = j + 1; i < Rows; ++i) w(i, c) -= w(i, j) * u;
+    }
+  }
+}
+
+// Whether a step's swaps brought a row of the next block row up (its U then has a fill block).
+template <int B>
+[[nodiscard]] bool has_fill(const std::array<std::uint8_t, B>& swaps) {
+  for (const std::uint8_t p : swaps)
+    if (p >= B) return true;
+  return false;
+}
+
 template <int B>
 void block_tridiagonal_factor(BlockTridiagonalView<B> m) {
   using Block = Eigen::Matrix<double, B, B>;
@@ -35,7 +95,6 @@ void block_tridiagonal_factor(BlockTridiagonalView<B> m) {
   Block carried_next = n > 1 ? m.upper[0] : Block::Zero();
   for (std::size_t k = 0; k < n; ++k) {
     const bool last = k + 1 == n;
-    const int rows = last ? B : 2 * B;
     w.template block<B, B>(0, 0) = carried;
     w.template block<B, B>(0, B) = carried_next;
     w.template block<B, B>(0, 2 * B).setZero();
@@ -47,31 +106,22 @@ void block_tridiagonal_factor(BlockTridiagonalView<B> m) {
       else
         w.template block<B, B>(B, 2 * B).setZero();
     }
-    // The panel (column block k), right-looking; whole rows swap.
-    for (int j = 0; j < B; ++j) {
-      int p = j;
-      double best = std::abs(w(j, j));
-      for (int i = j + 1; i < rows; ++i)
-        if (std::abs(w(i, j)) > best) {
-          best = std::abs(w(i, j));
-          p = i;
-        }
-      m.swaps[k][static_cast<std::size_t>(j)] = static_cast<std::uint8_t>(p);
-      if (p != j) w.row(j).swap(w.row(p));
-      const double inv = 1.0 / w(j, j);
-      for (int i = j + 1; i < rows; ++i) w(i, j) *= inv;
-      for (int c = j + 1; c < B; ++c) {
-        const double u = w(j, c);
-        for (int i = j + 1; i < rows; ++i) w(i, c) -= w(i, j) * u;
-      }
-    }
-    // The pivot rows in column blocks k+1 and k+2, and the Schur complement of the others.
-    w.template topLeftCorner<B, B>().template triangularView<Eigen::UnitLower>().solveInPlace(
-        w.template topRightCorner<B, 2 * B>());
+    if (last)
+      eliminate_panel<B, B>(w, m.swaps[k]);
+    else
+      eliminate_panel<B, 2 * B>(w, m.swaps[k]);
+    // The pivot rows in column blocks k+1 and k+2, and the Schur complement of the others. Column
+    // block k+2 of the pivot rows is zero unless a row of block row k+1 moved up (usually none
+    // does): then it needs neither the triangular solve nor the product.
+    const bool fill = has_fill<B>(m.swaps[k]);
     m.diag[k] = w.template topLeftCorner<B, B>();
+    unit_lower_solve<B>(m.diag[k], w.data() + w.outerStride() * B, fill ? 2 * B : B, w.outerStride());
     if (last) break;
-    w.template bottomRightCorner<B, 2 * B>().noalias() -=
-        w.template bottomLeftCorner<B, B>() * w.template topRightCorner<B, 2 * B>();
+    if (fill)
+      w.template bottomRightCorner<B, 2 * B>().noalias() -=
+          w.template bottomLeftCorner<B, B>() * w.template topRightCorner<B, 2 * B>();
+    else
+      w.template block<B, B>(B, B).noalias() -= w.template bottomLeftCorner<B, B>() * w.template block<B, B>(0, B);
     m.lower[k] = w.template bottomLeftCorner<B, B>();
     m.upper[k] = w.template block<B, B>(0, B);
     m.fill[k] = w.template block<B, B>(0, 2 * B);
@@ -100,7 +150,7 @@ void block_tridiagonal_solve(BlockTridiagonalView<B> m, std::span<double> rhs, i
       const int p = m.swaps[k][static_cast<std::size_t>(j)];
       if (p != j) v.row(j).swap(v.row(p));
     }
-    m.diag[k].template triangularView<Eigen::UnitLower>().solveInPlace(v.template topRows<B>());
+    unit_lower_solve<B>(m.diag[k], v.data(), cols, v.outerStride());
     Rhs y = block(k);
     y = v.template topRows<B>();
     if (!last) v.template topRows<B>() = v.template bottomRows<B>() - m.lower[k] * y;
@@ -109,8 +159,8 @@ void block_tridiagonal_solve(BlockTridiagonalView<B> m, std::span<double> rhs, i
   for (std::size_t k = n; k-- > 0;) {
     Rhs b = block(k);
     if (k + 1 < n) b.noalias() -= m.upper[k] * block(k + 1);
-    if (k + 2 < n) b.noalias() -= m.fill[k] * block(k + 2);
-    m.diag[k].template triangularView<Eigen::Upper>().solveInPlace(b);
+    if (k + 2 < n && has_fill<B>(m.swaps[k])) b.noalias() -= m.fill[k] * block(k + 2);
+    upper_solve<B>(m.diag[k], b.data(), cols, B);
   }
 }
 
