@@ -187,6 +187,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         seg.radius = in.number();
         for (int i = 0; i < 3; ++i) seg.base_position[i] = a[i];
         seg.beads = in.byte() % 6;
+        seg.tissue = in.byte() % 3;  // 2 is refused; EXP2 is refused in a lagged world
+        seg.exp2_beta = in.number();
         haustra_counts c{};
         require(haustra_world_counts(w, &c) == HAUSTRA_OK, "counts");
         if (c.segments > 6) break;

@@ -67,7 +67,7 @@ TEST_CASE("C API: version and ABI check") {
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION) == HAUSTRA_OK);
   CHECK(std::string(haustra_last_error()).empty());
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION + 1) == HAUSTRA_ABI_MISMATCH);
-  CHECK(says("ABI 3"));
+  CHECK(says("ABI 4"));
   CHECK(std::string(haustra_stage_name(0)) == "instruments");
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT - 1) != nullptr);
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT) == nullptr);
@@ -781,4 +781,40 @@ TEST_CASE("C API: segments added and removed while a render thread reads frames"
   REQUIRE(haustra_world_counts(w, &c) == HAUSTRA_OK);
   CHECK(c.segments == 1);
   REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+}
+
+TEST_CASE("C API: an EXP2 segment pulled at its tip stretches to A sigma(eps) = F; refused without Newton") {
+  haustra_world_def def;
+  REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+  def.threads = 1;
+  def.gravity[0] = def.gravity[1] = def.gravity[2] = 0.0;
+  haustra_segment_def seg;
+  REQUIRE(haustra_segment_def_default(&seg) == HAUSTRA_OK);
+  CHECK(seg.tissue == 0);
+  CHECK(seg.exp2_alpha == 8.0);
+  seg.nodes = 21;
+  seg.length = 0.2;
+  seg.tissue = 1;
+  // σ(ε) straight from eq. 1 with the defaults, over the default tube (R = 2 cm, 3 mm wall).
+  const double strain = 0.3;
+  const double area = 2.0 * 3.141592653589793 * seg.radius * seg.wall_thickness;
+  const double force = area * (seg.exp2_beta * (std::exp(seg.exp2_alpha * strain * strain) - 1.0) + seg.exp2_gamma * strain);
+  haustra_world* w = nullptr;
+  REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
+  const double f[3] = {force, 0.0, 0.0};
+  const double m[3] = {0.0, 0.0, 0.0};
+  REQUIRE(haustra_world_set_node_load(w, 20, f, m) == HAUSTRA_OK);
+  for (int i = 0; i < 20; ++i) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  haustra_vec3_view p{};
+  REQUIRE(haustra_world_node_positions(w, &p) == HAUSTRA_OK);
+  CHECK(p.x[20] == doctest::Approx(0.2 * (1.0 + strain)).epsilon(1e-9));
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+
+  def.newton = 0;
+  CHECK(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("tissue.response"));
+  def.newton = 1;
+  seg.tissue = 2;
+  CHECK(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("tissue = 2"));
 }

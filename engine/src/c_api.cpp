@@ -278,6 +278,20 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& d, std::size_t i) {
   }
   s.mesh.rings_per_vertex = d.rings_per_vertex;
   s.chain_pieces = d.chain_pieces;
+  switch (d.tissue) {
+    case 0:
+      s.material.response = haustra::TissueResponse::hooke;
+      break;
+    case 1:
+      s.material.response = haustra::TissueResponse::exp2;
+      break;
+    default:
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("{}.tissue = {}: expected 0 (Hooke) or 1 (EXP2)", where, d.tissue));
+  }
+  s.material.exp2_alpha = d.exp2_alpha;
+  s.material.exp2_beta = d.exp2_beta;
+  s.material.exp2_gamma = d.exp2_gamma;
   return s;
 }
 
@@ -374,6 +388,9 @@ haustra_status haustra_segment_def_default(haustra_segment_def* def) {
     d.mesh_scale = 1.0;
     d.rings_per_vertex = s.mesh.rings_per_vertex;
     d.chain_pieces = s.chain_pieces;
+    d.exp2_alpha = s.material.exp2_alpha;
+    d.exp2_beta = s.material.exp2_beta;
+    d.exp2_gamma = s.material.exp2_gamma;
   });
 }
 

@@ -38,7 +38,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 3
+#define HAUSTRA_ABI_VERSION 4
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -158,6 +158,12 @@ typedef struct haustra_segment_def {
                                  of `nodes` nodes, `beads` beads and a procedural mesh each, sharing their
                                  joint nodes (position and frame) and solved as one rod; centreline or
                                  length cover the whole chain */
+  int tissue;                 /* 0 (default): Hooke's law with youngs_modulus; 1: the EXP2 law
+                                 sigma = beta (exp(alpha eps^2) - 1) + gamma eps in bending and stretch
+                                 (needs the Newton solver; torsion stays Hooke's) */
+  double exp2_alpha;          /* default 8 */
+  double exp2_beta;           /* Pa; default 6700 */
+  double exp2_gamma;          /* Pa; default 20000 */
 } haustra_segment_def;
 
 /* One segment as the world holds it (haustra_world_segment). */
