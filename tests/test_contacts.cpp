@@ -201,31 +201,41 @@ TEST_CASE("self-contact forces are equal and opposite: a ring squeezed shut keep
   CHECK((centroid() - start).norm() < 1e-9);
 }
 
-TEST_CASE("contact scenes give bit-identical results with 1 and 2 threads") {
-  struct Case {
-    const char* scene;
-    int frames;
-  };
-  for (const Case c : {Case{"drop", 150}, Case{"two-segments", 90}, Case{"coil", 60}, Case{"grasp-pull", 70}}) {
-    auto one = scene_world(c.scene, 1);
-    auto two = scene_world(c.scene, 2);
-    REQUIRE(two->threads() == 2);
-    bool same_contacts = true;
-    for (int f = 0; f < c.frames; ++f) {
-      one->step();
-      two->step();
-      const auto a = one->contact_list(), b = two->contact_list();
-      same_contacts &= a.size() == b.size();
-      for (std::size_t i = 0; same_contacts && i < a.size(); ++i)
-        same_contacts &= a[i].bead == b[i].bead && a[i].other == b[i].other && a[i].kind == b[i].kind &&
-                         a[i].force == b[i].force;
-    }
-    INFO(std::string(c.scene));
-    CHECK(same_contacts);
-    CHECK(one->contacts().touching > 0);
-    const std::vector<double> p1 = positions(*one), p2 = positions(*two);
-    CHECK(std::memcmp(p1.data(), p2.data(), p1.size() * sizeof(double)) == 0);
+namespace {
+
+// One contact scene stepped with 1 and 2 threads: the same contacts every frame, the same bits at
+// the end. One test case per scene so that ctest runs them side by side (under TSan the longest
+// alone took 85 s).
+void check_threads_agree(const char* scene, int frames) {
+  auto one = scene_world(scene, 1);
+  auto two = scene_world(scene, 2);
+  REQUIRE(two->threads() == 2);
+  bool same_contacts = true;
+  for (int f = 0; f < frames; ++f) {
+    one->step();
+    two->step();
+    const auto a = one->contact_list(), b = two->contact_list();
+    same_contacts &= a.size() == b.size();
+    for (std::size_t i = 0; same_contacts && i < a.size(); ++i)
+      same_contacts &= a[i].bead == b[i].bead && a[i].other == b[i].other && a[i].kind == b[i].kind &&
+                       a[i].force == b[i].force;
   }
+  INFO(std::string(scene));
+  CHECK(same_contacts);
+  CHECK(one->contacts().touching > 0);
+  const std::vector<double> p1 = positions(*one), p2 = positions(*two);
+  CHECK(std::memcmp(p1.data(), p2.data(), p1.size() * sizeof(double)) == 0);
+}
+
+}  // namespace
+
+TEST_CASE("contact scenes give bit-identical results with 1 and 2 threads: drop") { check_threads_agree("drop", 150); }
+TEST_CASE("contact scenes give bit-identical results with 1 and 2 threads: two-segments") {
+  check_threads_agree("two-segments", 90);
+}
+TEST_CASE("contact scenes give bit-identical results with 1 and 2 threads: coil") { check_threads_agree("coil", 60); }
+TEST_CASE("contact scenes give bit-identical results with 1 and 2 threads: grasp-pull") {
+  check_threads_agree("grasp-pull", 70);
 }
 
 TEST_CASE("the broad phases give the same world, bead for bead") {

@@ -36,10 +36,10 @@ TEST_CASE("every scene in scenes/ loads and builds") {
     INFO(entry.path().string());
     SceneDesc s = load_scene(entry.path());
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-    // A chain's meshes (32 cages and bindings for `bowel`) are most of the time under ASan; the
-    // release run builds them.
+    // A chain's meshes (32 cages and bindings for `bowel`) and the CT colon's mesh file are most
+    // of the time under ASan; the release run builds them, and under ASan their own tests do.
     for (SegmentDesc& d : s.world.segments)
-      if (d.chain_pieces > 1) d.mesh.enabled = false;
+      if (d.chain_pieces > 1 || d.mesh.source == MeshSource::file) d.mesh.enabled = false;
 #endif
     CHECK_FALSE(s.name.empty());
     CHECK(s.frames > 0);
