@@ -783,7 +783,7 @@ TEST_CASE("C API: segments added and removed while a render thread reads frames"
   REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
 }
 
-TEST_CASE("C API: an EXP2 segment pulled at its tip stretches to A sigma(eps) = F; refused without Newton") {
+TEST_CASE("C API: an EXP2 segment pulled at its tip stretches to A sigma(eps) = F, and is refused without Newton") {
   haustra_world_def def;
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
   def.threads = 1;

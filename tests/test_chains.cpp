@@ -277,7 +277,7 @@ TEST_CASE("a segment removed between frames leaves the others stepping on, bit f
   shrunk->step();  // an empty world steps
 }
 
-TEST_CASE("a grasp survives a segment added beside it; removing the grasped segment lets it go") {
+TEST_CASE("a grasp survives a segment added beside it, and removing the grasped segment lets it go") {
   SceneDesc s = scene_file("grasp-pull");
   const SegmentDesc far = far_copy(s);
   auto changed = create_world(s);

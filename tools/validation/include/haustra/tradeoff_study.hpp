@@ -27,6 +27,7 @@ struct TradeoffKnob {
   // The guide's haptic pick: the cheapest setting within this error (0: no pick, see the table).
   double haptic_error = 0.0;
   bool pareto = true;  // false where the rows are not alternatives (different loads)
+  std::string guide_note{};  // what the rule cannot see, added to the guide's line
 };
 
 struct TradeoffStudy {
