@@ -51,6 +51,24 @@ Eigen::MatrixXd reduce(const Eigen::MatrixXd& big, const std::vector<int>& keep,
   return sub(keep, keep) - sub(keep, other) * sub(other, other).fullPivLu().solve(sub(other, keep));
 }
 
+// ∂residual/∂q by central differences, column by column (q restored after each).
+template <class Residual>
+Eigen::MatrixXd central_differences(std::vector<double>& q, Residual residual, double eps = 1e-6) {
+  const auto m = static_cast<Eigen::Index>(q.size());
+  Eigen::MatrixXd fd(m, m);
+  for (std::size_t j = 0; j < q.size(); ++j) {
+    const double q0 = q[j];
+    q[j] = q0 + eps;
+    const std::vector<double> rp = residual();
+    q[j] = q0 - eps;
+    const std::vector<double> rm = residual();
+    q[j] = q0;
+    for (std::size_t i = 0; i < q.size(); ++i)
+      fd(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = (rp[i] - rm[i]) / (2 * eps);
+  }
+  return fd;
+}
+
 }  // namespace
 
 TEST_CASE("Newton Jacobian matches finite differences of the residual") {
@@ -75,19 +93,7 @@ TEST_CASE("Newton Jacobian matches finite differences of the residual") {
     for (int i = 0; i < big.rows(); ++i) (i % kNewtonBlock < 4 ? qi : oi).push_back(i);
     const Eigen::MatrixXd reduced = reduce(big, qi, oi);
 
-    // Central differences, column by column.
-    const double eps = 1e-6;
-    Eigen::MatrixXd fd(4 * n, 4 * n);
-    for (std::size_t j = 0; j < 4 * n; ++j) {
-      const double q0 = rod.strain[j];
-      rod.strain[j] = q0 + eps;
-      const std::vector<double> rp = residual_of(rod, a);
-      rod.strain[j] = q0 - eps;
-      const std::vector<double> rm = residual_of(rod, a);
-      rod.strain[j] = q0;
-      for (std::size_t i = 0; i < 4 * n; ++i)
-        fd(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = (rp[i] - rm[i]) / (2 * eps);
-    }
+    const Eigen::MatrixXd fd = central_differences(rod.strain, [&] { return residual_of(rod, a); });
     const double scale = fd.cwiseAbs().maxCoeff();
     const double err = (reduced - fd).cwiseAbs().maxCoeff();
     INFO("seed " << seed << " max |J − FD| = " << err << " of max |FD| " << scale);
@@ -256,18 +262,7 @@ TEST_CASE("Newton Jacobian with the EXP2 law's nodal tangent matches finite diff
     for (int i = 0; i < big.rows(); ++i) (i % kNewtonBlock < 4 ? qi : oi).push_back(i);
     const Eigen::MatrixXd reduced = reduce(big, qi, oi);
 
-    const double eps = 1e-6;
-    Eigen::MatrixXd fd(4 * n, 4 * n);
-    for (std::size_t j = 0; j < 4 * n; ++j) {
-      const double q0 = er.rod.strain[j];
-      er.rod.strain[j] = q0 + eps;
-      const std::vector<double> rp = er.residual();
-      er.rod.strain[j] = q0 - eps;
-      const std::vector<double> rm = er.residual();
-      er.rod.strain[j] = q0;
-      for (std::size_t i = 0; i < 4 * n; ++i)
-        fd(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = (rp[i] - rm[i]) / (2 * eps);
-    }
+    Eigen::MatrixXd fd = central_differences(er.rod.strain, [&] { return er.residual(); });
     // The law's block alone (−M T) is exact: compare it where the loads' part is small against
     // it, i.e. the whole matrix to the same 2 % as the linear law, and the law's own part tightly.
     const double scale = fd.cwiseAbs().maxCoeff();
@@ -281,16 +276,7 @@ TEST_CASE("Newton Jacobian with the EXP2 law's nodal tangent matches finite diff
                         {dfx, dfy, dfz}, {dmx, dmy, dmz}, {lo, di, up, fill, swaps},
                         {StrainView<const double>{er.tangent}, er.coupling});
     const Eigen::MatrixXd law_only = reduce(dense_system(lo, di, up), qi, oi);
-    for (std::size_t j = 0; j < 4 * n; ++j) {
-      const double q0 = er.rod.strain[j];
-      er.rod.strain[j] = q0 + eps;
-      const std::vector<double> rp = er.residual();
-      er.rod.strain[j] = q0 - eps;
-      const std::vector<double> rm = er.residual();
-      er.rod.strain[j] = q0;
-      for (std::size_t i = 0; i < 4 * n; ++i)
-        fd(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = (rp[i] - rm[i]) / (2 * eps);
-    }
+    fd = central_differences(er.rod.strain, [&] { return er.residual(); });
     const double law_err = (law_only - fd).cwiseAbs().maxCoeff();
     INFO("law alone: max |J − FD| = " << law_err << " of max |FD| " << fd.cwiseAbs().maxCoeff());
     CHECK(law_err < 1e-6 * fd.cwiseAbs().maxCoeff());

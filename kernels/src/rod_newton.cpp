@@ -212,15 +212,9 @@ void rod_strain_residual(StrainView<const double> generalized_force, StrainView<
 
 void rod_stress_residual(StrainView<const double> generalized_force, StrainView<const double> stress,
                          std::span<const double> section_length, StrainView<double> residual) {
-  const std::size_t n = stress.size();
-  for (std::size_t k = 0; k < n; ++k) {
-    const double h_prev = k > 0 ? section_length[k - 1] : 0.0;
-    const double h_next = k + 1 < n ? section_length[k] : 0.0;
-    Eigen::Vector4d ms = (h_prev + h_next) / 3.0 * stress.get(k);
-    if (k > 0) ms += h_prev / 6.0 * stress.get(k - 1);
-    if (k + 1 < n) ms += h_next / 6.0 * stress.get(k + 1);
-    residual.set(k, generalized_force.get(k) - ms);
-  }
+  mass_matrix_multiply(section_length, stress, residual);
+  for (std::size_t i = 0; i < residual.data.size(); ++i)
+    residual.data[i] = generalized_force.data[i] - residual.data[i];
 }
 
 }  // namespace haustra::kernels
