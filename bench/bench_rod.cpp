@@ -14,6 +14,7 @@
 #include "haustra/kernels/rod_backward_sweep.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/kernels/rod_loads.hpp"
+#include "haustra/kernels/rod_condensed.hpp"
 #include "haustra/kernels/rod_newton.hpp"
 #include "haustra/world.hpp"
 #include "segment_rows.hpp"
@@ -132,6 +133,54 @@ void BM_NewtonFactor(benchmark::State& state) {
   set_counters(state, rod.n);
 }
 
+// The condensed Newton solve (kernels/rod_condensed): linearize + sweep tip → base + base system,
+// then the back-substitution of the step. Arg: nodes; the second argument, right-hand sides.
+void BM_NewtonCondensed(benchmark::State& state) {
+  Rod rod(static_cast<std::size_t>(state.range(0)));
+  const int cols = static_cast<int>(state.range(1));
+  std::vector<double> gain(condensed_gain_size(rod.n, cols)), scratch(condensed_scratch_size(cols)),
+      base(10 * static_cast<std::size_t>(cols)), dq(4 * rod.n), px(rod.n), py(rod.n), pz(rod.n), rx(rod.n),
+      ry(rod.n), rz(rod.n), weights(static_cast<std::size_t>(cols), 0.0);
+  weights[0] = 1.0;
+  std::vector<UnitLoad> loads;
+  for (int c = 1; c < cols; ++c)
+    loads.push_back({static_cast<std::uint32_t>(rod.n - 1 - static_cast<std::size_t>(c) * rod.n / static_cast<std::size_t>(cols + 1)),
+                     static_cast<std::uint32_t>(c), false, Eigen::Vector3d::UnitZ()});
+  RodLinearization lin;
+  lin.poses = rod.poses();
+  lin.section_length = rod.h;
+  lin.node_force = {rod.fx, rod.fy, rod.fz};
+  lin.node_moment = {rod.tx, rod.ty, rod.tz};
+  lin.law_total = {1, 1, 1, 100};
+  const CondensedSystem sys{gain, scratch, base, cols};
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(rod_condense(lin, StrainView<const double>{rod.r}, loads, sys));
+    rod_condensed_step(lin, sys, weights, StrainView<double>{dq}, {px, py, pz}, {rx, ry, rz});
+    benchmark::DoNotOptimize(dq.data());
+  }
+  set_counters(state, rod.n);
+}
+
+// The banded LU it replaces, the same work: assemble + factor + solve one right-hand side.
+void BM_NewtonBanded(benchmark::State& state) {
+  Rod rod(static_cast<std::size_t>(state.range(0)));
+  std::vector<NewtonBlock> lo(rod.n), di(rod.n), up(rod.n);
+  std::vector<NewtonBlock> fill(rod.n);
+  std::vector<std::array<std::uint8_t, kNewtonBlock>> swaps(rod.n);
+  std::vector<double> dfx(rod.n), dfy(rod.n), dfz(rod.n), dmx(rod.n), dmy(rod.n), dmz(rod.n),
+      rhs(kNewtonBlock * rod.n, 0.0);
+  for (auto _ : state) {
+    rod_newton_assemble(rod.poses(), rod.h, {rod.fx, rod.fy, rod.fz}, {rod.tx, rod.ty, rod.tz}, {1, 1, 1, 100}, {},
+                        false, {dfx, dfy, dfz}, {dmx, dmy, dmz}, {lo, di, up, fill, swaps});
+    block_tridiagonal_factor<kNewtonBlock>({lo, di, up, fill, swaps});
+    for (std::size_t k = 0; k < rod.n; ++k)
+      for (int c = 0; c < 4; ++c) rhs[k * kNewtonBlock + static_cast<std::size_t>(c)] = rod.r[4 * k + static_cast<std::size_t>(c)];
+    block_tridiagonal_solve<kNewtonBlock>({lo, di, up, fill, swaps}, rhs, 1);
+    benchmark::DoNotOptimize(rhs.data());
+  }
+  set_counters(state, rod.n);
+}
+
 // A whole frame of the paper's rectum rod (clamped, gravity), lagged or Newton.
 void BM_Frame(benchmark::State& state, SolverMode mode) {
   WorldDesc d;
@@ -190,6 +239,8 @@ BENCHMARK(BM_ForwardSweep)->RangeMultiplier(4)->Range(16, 16384);
 BENCHMARK(BM_BackwardSweep)->RangeMultiplier(4)->Range(16, 16384);
 BENCHMARK(BM_MassSolve)->RangeMultiplier(4)->Range(16, 16384);
 BENCHMARK(BM_NewtonFactor)->RangeMultiplier(4)->Range(16, 4096);
+BENCHMARK(BM_NewtonBanded)->Arg(167)->Arg(641);
+BENCHMARK(BM_NewtonCondensed)->ArgsProduct({{167, 641}, {1, 9, 41}});
 // One segment from 16 to 100,000 nodes: the per-node cost should stay flat.
 BENCHMARK_CAPTURE(BM_Frame, lagged, SolverMode::lagged)->Arg(16)->Arg(167)->Arg(1000)->Arg(10'000)->Arg(100'000)
     ->Unit(benchmark::kMicrosecond);

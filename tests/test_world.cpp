@@ -339,11 +339,13 @@ vertices = 3000
   for (double x : positions(*w)) CHECK(std::isfinite(x));
 }
 
-TEST_CASE("a passive flowing rod that gains energy in a frame is redone with substeps, and falls") {
-  // A soft rope (the paper's viscous bending, E = 33 kPa) clamped horizontal 1 m up: its flow in
-  // one 1/60 s frame is so large that Newton, in one step, lands on a spurious equilibrium with the
-  // rope curled up 0.75 m above its clamp and compressed by 12 % — a gain of ~2 J of energy that
-  // nothing supplied. The guard sees the gain and the robust mode redoes the frame with substeps.
+TEST_CASE("a soft rope released horizontal falls in one Newton frame: no step raises its potential") {
+  // A soft rope (the paper's viscous bending, E = 33 kPa) clamped horizontal 1 m up. Its flow in
+  // one 1/60 s frame is large and gravity makes the frame's potential indefinite: the plain Newton
+  // step points uphill, towards a spurious stationary point with the rope curled up 0.75 m above
+  // its clamp (what the energy guard used to catch, decision 0007). The line search stiffens the
+  // law's rows until the step descends and takes the fraction that lowers the potential: the frame
+  // needs no robust mode and the rope falls.
   WorldDesc d;
   d.threads = 1;
   SegmentDesc s;
@@ -352,15 +354,21 @@ TEST_CASE("a passive flowing rod that gains energy in a frame is redone with sub
   s.base_position = {0.0, 0.0, 1.0};
   d.segments.push_back(s);
   auto w = World::create(d);
-  const double before = w->energy().total();
-  w->step();
-  REQUIRE(w->events().size() == 1);
-  const Event& e = w->events()[0];
-  CHECK(e.kind == Event::Kind::recovered);
-  CHECK(std::string(e.message()).find("energy gained beyond the work done on it in the frame") != std::string::npos);
-  CHECK(w->energy().total() < before);        // it lost energy: it fell
-  CHECK(w->node_positions().z[166] < 1.0);    // the tip is below the clamp, not curled above it
-  CHECK(w->last_profile().substeps > 1);
+  double before = w->energy().total();
+  const double start = before;
+  int stiffened = 0;
+  for (int f = 0; f < 10; ++f) {
+    w->step();
+    const double now = w->energy().total();
+    CHECK(now < before);  // a passive flowing rope only loses energy
+    before = now;
+    stiffened += w->last_profile().stiffenings;
+    CHECK(w->last_profile().substeps == 1);
+  }
+  CHECK(w->events().empty());
+  CHECK(stiffened > 0);                       // the plain step went uphill and was replaced
+  CHECK(w->energy().total() < 0.2 * start);   // it fell
+  CHECK(w->node_positions().z[166] < 0.0);    // the tip hangs below the clamp, not curled above it
 
   // Held by the host (a load on the tip), the same rod is not passive: no energy check, no event.
   auto held = World::create(d);

@@ -594,6 +594,9 @@ haustra_status haustra_world_profile(const haustra_world* world, haustra_profile
     o.substeps = p.substeps;
     o.retries = p.retries;
     o.newton = p.newton ? 1 : 0;
+    o.fallbacks = p.fallbacks;
+    o.backtracks = p.backtracks;
+    o.stiffenings = p.stiffenings;
     required(out, "out") = o;
   });
 }

@@ -1,6 +1,7 @@
 #include "collision.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "haustra/kernels/contact_geometry.hpp"
 #include "static_meshes.hpp"
@@ -272,6 +273,33 @@ void stage_contacts(const WorldModel& model, WorldState& state, Scheduler& sched
       cs.bead_stiffness[b] = k;
     }
   });
+}
+
+double segment_contact_potential(const WorldModel& model, const WorldState& state, std::size_t segment,
+                                 std::span<const Eigen::Vector3d> bead_start) {
+  const SegmentModel& seg = model.segments[segment];
+  const CollisionState& cs = state.collision;
+  if (cs.bead_contact_start.empty()) return 0.0;
+  const double exponent = model.contact.exponent;
+  double potential = 0.0;
+  for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
+    const Eigen::Vector3d c = node_position(state, model.beads.node[b]);
+    for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e) {
+      const ContactCandidate& k = cs.candidates[cs.bead_contact[e] >> 1];
+      const bool second = (cs.bead_contact[e] & 1U) != 0;
+      const bool mate_here = k.kind == ContactKind::bead && model.beads.segment[second ? k.bead : k.other] == segment;
+      if (second && mate_here) continue;  // counted from its first bead
+      double depth = 0.0;
+      if (mate_here || (k.kind != ContactKind::bead)) {
+        depth = measure(model, state, k, node_position(state, model.beads.node[k.bead])).depth;
+      } else {
+        const Eigen::Vector3d moved = c - bead_start[b - seg.bead_offset];
+        depth = k.depth - (second ? -1.0 : 1.0) * k.direction.dot(moved);
+      }
+      if (depth > 0.0) potential += stiffness_of(model, k) * std::pow(depth, exponent + 1.0) / (exponent + 1.0);
+    }
+  }
+  return potential;
 }
 
 void record_bead_motion(const WorldModel& model, WorldState& state) {

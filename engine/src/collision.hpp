@@ -26,6 +26,15 @@ void stage_contact_report(const WorldModel& model, WorldState& state);
 // After a substep: how far each bead moved, for the next substep's speculative margin.
 void record_bead_motion(const WorldModel& model, WorldState& state);
 
+// The penalty potential (J) of one segment's contacts at its current node positions — what the
+// Newton line search weighs: f = c E d^e is −∂/∂r of c E d^(e+1)/(e+1). Pairs within the segment
+// and the environment are measured exactly; a pair with another segment's bead, whose own solve
+// moves it at the same time, against where that bead was at the iteration's start (the depth and
+// direction the contacts stage measured), moved by this bead's motion since `bead_start` (the
+// segment's bead positions at the iteration's start, local index).
+double segment_contact_potential(const WorldModel& model, const WorldState& state, std::size_t segment,
+                                 std::span<const Eigen::Vector3d> bead_start);
+
 // Beads a contact candidate list can ignore: an instrument's own grasped bead.
 [[nodiscard]] bool instrument_holds(const WorldState& state, std::size_t instrument, std::uint32_t bead);
 

@@ -3,16 +3,15 @@
 #include <Eigen/Dense>
 #include <cmath>
 
-#include "haustra/kernels/block_tridiagonal.hpp"
 #include "haustra/kernels/inertia_filter.hpp"
 #include "haustra/kernels/mass_matrix.hpp"
 #include "haustra/kernels/rod_backward_sweep.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/kernels/rod_loads.hpp"
-#include "haustra/kernels/rod_newton.hpp"
 #include "haustra/kernels/strain_update.hpp"
 #include "haustra/kernels/tissue_law.hpp"
 #include "collision.hpp"
+#include "segment_law.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -20,61 +19,8 @@ namespace {
 constexpr int kMaxRows = static_cast<int>(kMaxConstraintRows);
 using MatrixS = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows, kMaxRows>;
 using VectorS = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRows, 1>;
-// Newton's coupled system: constraint rows and the contacts it solves as pairs.
-constexpr int kMaxCoupled = kMaxRows + static_cast<int>(kMaxCoupledContacts);
-using MatrixC = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxCoupled, kMaxCoupled>;
-using VectorC = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxCoupled, 1>;
 using Matrix6x = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxRows>;
 
-// Newton steps are scaled down to stay within these per frame of iteration (a trust region):
-// beyond them the linearization says little about the rod.
-constexpr double kMaxNewtonAngle = 0.5;   // rad of bend or twist per section
-constexpr double kMaxNewtonStretch = 0.25;
-// ... and so that no contact gets deeper by more than this fraction of its bead's radius: a
-// penalty's stiffness grows with depth, so the tangent at the surface lets a bead sink far too far.
-// Checked on the rod's real motion (a backtracking line search): far down a long rod a step's
-// rotations add up and the first-order displacement says little about where a bead goes.
-constexpr double kMaxNewtonDeepening = 0.1;
-constexpr int kMaxBacktracks = 8;
-
-kernels::MassMatrixFactorView factor_of(const WorldModel& model, const SegmentModel& seg) {
-  return {std::span<const double>(model.mass_inv_pivot).subspan(seg.node_offset, seg.node_count),
-          std::span<const double>(model.mass_lower).subspan(seg.node_offset, seg.node_count)};
-}
-
-kernels::StrainLawCoefficients law_of(const SegmentModel& seg, double dt) {
-  kernels::StrainLawCoefficients law;
-  for (std::size_t c = 0; c < 4; ++c) {
-    law.stiffness[c] = seg.stiffness[c];
-    law.rate[c] = seg.viscosity[c] / dt;
-  }
-  return law;
-}
-
-std::array<double, 4> law_total(const SegmentModel& seg, double dt) {
-  const kernels::StrainLawCoefficients law = law_of(seg, dt);
-  return {law.stiffness[0] + law.rate[0], law.stiffness[1] + law.rate[1], law.stiffness[2] + law.rate[2],
-          law.stiffness[3] + law.rate[3]};
-}
-
-kernels::NodalLaw nodal_law_of(const SegmentModel& seg, double dt) {
-  const kernels::StrainLawCoefficients law = law_of(seg, dt);
-  return {law.stiffness, law.rate, seg.exp2, seg.tissue, seg.tube};
-}
-
-std::span<const double> drag_of(const WorldModel& model, const SegmentModel& seg) {
-  return std::span<const double>(model.node_drag).subspan(seg.node_offset, seg.node_count);
-}
-
-std::span<const double> spin_drag_of(const WorldModel& model, const SegmentModel& seg) {
-  return std::span<const double>(model.node_spin_drag).subspan(seg.node_offset, seg.node_count);
-}
-
-void zero(kernels::Vec3View<double> v) {
-  std::fill(v.x.begin(), v.x.end(), 0.0);
-  std::fill(v.y.begin(), v.y.end(), 0.0);
-  std::fill(v.z.begin(), v.z.end(), 0.0);
-}
 
 // Generalized forces of the drag that a unit base twist `axis` meets, into `out`. Uses the node
 // load buffers as scratch: the backward sweep has consumed them by the time this runs.
@@ -86,38 +32,6 @@ void unit_drag_field(const WorldModel& model, const SegmentModel& seg, const Seg
                                 v.poses.node_position.get(0), kernels::Vector6d::Unit(static_cast<Eigen::Index>(axis)),
                                 v.force, v.moment);
   kernels::rod_backward_sweep(v.poses, v.section_length, v.force, v.moment, out);
-}
-
-// Adds the attachments' current constraint forces and moments to the node loads.
-void add_attachment_loads(const SegmentModel& seg, const WorldState& state, const SegmentViews& v) {
-  for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
-    const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
-    if (!as.active) continue;
-    const std::size_t k = as.node;
-    v.force.set(k, v.force.get(k) + as.force);
-    v.moment.set(k, v.moment.get(k) + as.moment);
-  }
-}
-
-// Wrench about node 0 of a unit constraint load, and the base twist it causes through the drag.
-kernels::Vector6d unit_wrench(const ConstraintRow& row, const SegmentViews& v) {
-  kernels::Vector6d w;
-  if (row.is_moment) {
-    w.head<3>() = row.dir;
-    w.tail<3>().setZero();
-  } else {
-    w.head<3>() = (v.poses.node_position.get(row.node) - v.poses.node_position.get(0)).cross(row.dir);
-    w.tail<3>() = row.dir;
-  }
-  return w;
-}
-
-// The attachment's remaining error along a row, measured on the current poses.
-double row_error(const ConstraintRow& row, const AttachmentState& as, const SegmentViews& v) {
-  const Eigen::Vector3d e =
-      row.is_moment ? kernels::rotation_log(as.target_rotation * v.poses.node_rotation.get(row.node).conjugate())
-                    : Eigen::Vector3d(as.target - v.poses.node_position.get(row.node));
-  return row.dir.dot(e);
 }
 
 }  // namespace
@@ -306,242 +220,6 @@ void stage_constraints(const WorldModel& model, WorldState& state, std::size_t s
   }
 }
 
-void stage_newton_jacobian(const WorldModel& model, WorldState& state, std::size_t segment,
-                           const SubstepParameters& p) {
-  const SegmentModel& seg = model.segments[segment];
-  const SegmentViews v = segment_views(model, state, segment);
-  NewtonWorkspace& ws = state.newton[segment];
-  // Loads that follow the nodes: the medium's drag on every node, contact penalties at beads.
-  kernels::NewtonLoadStiffness stiffness;
-  if (seg.has_drag || seg.bead_count > 0) {
-    const std::span<const double> c = drag_of(model, seg);
-    const std::span<const double> sd = spin_drag_of(model, seg);
-    for (std::size_t k = 0; k < seg.node_count; ++k) {
-      ws.force_stiffness[k] = (c[k] / p.dt) * Eigen::Matrix3d::Identity();
-      ws.drag_moment_rate[k] = sd[k] / p.dt;
-    }
-    for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b)
-      ws.force_stiffness[model.beads.node[b] - seg.node_offset] += state.collision.bead_stiffness[b];
-    stiffness = {ws.force_stiffness, ws.drag_moment_rate};
-  }
-  kernels::NodalLawTangent nodal;
-  if (seg.exp2) {
-    // The law at this iterate: its stress serves the residual (stage_newton_solve), its tangent here.
-    kernels::nodal_law_evaluate(v.strain, v.rest, v.strain_start, nodal_law_of(seg, p.dt),
-                                kernels::StrainView<double>{ws.law_stress}, kernels::StrainView<double>{ws.law_tangent},
-                                ws.bend_coupling);
-    nodal = {kernels::StrainView<const double>{ws.law_tangent}, ws.bend_coupling};
-  }
-  ws.base_wrench = kernels::rod_newton_assemble(v.poses, v.section_length, v.force, v.moment, law_total(seg, p.dt),
-                                                stiffness, seg.base_mode == BaseMode::free, ws.distal_force.view(),
-                                                ws.distal_moment.view(), ws.system(), nodal);
-  kernels::block_tridiagonal_factor(ws.system());
-}
-
-Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, std::size_t segment,
-                                   const SubstepParameters& p) {
-  constexpr int B = kernels::kNewtonBlock;
-  const SegmentModel& seg = model.segments[segment];
-  const SegmentViews v = segment_views(model, state, segment);
-  NewtonWorkspace& ws = state.newton[segment];
-  const std::size_t n = seg.node_count;
-  const std::array<double, 4> a = law_total(seg, p.dt);
-  const kernels::StrainLawCoefficients law = law_of(seg, p.dt);
-  const bool free_base = seg.base_mode == BaseMode::free;
-
-  // Residual ρ = R − A (q − q*), q* = (k q̂ + (η/Δt) q_start) / a; for EXP2, ρ = R − M s(q).
-  if (seg.exp2) {
-    kernels::rod_stress_residual(v.generalized_force, kernels::StrainView<const double>{ws.law_stress},
-                                 v.section_length, kernels::StrainView<double>{ws.residual});
-  } else {
-    const kernels::StrainView<double> target{ws.target};
-    for (std::size_t k = 0; k < n; ++k)
-      for (std::size_t c = 0; c < 4; ++c)
-        target.at(k, c) = (law.stiffness[c] * v.rest.at(k, c) + law.rate[c] * v.strain_start.at(k, c)) / a[c];
-    kernels::rod_strain_residual(v.generalized_force, v.strain, target, v.section_length, a,
-                                 kernels::StrainView<double>{ws.residual});
-  }
-
-  ConstraintRows rows{};
-  const std::size_t m = seg.constraint_rows > 0 ? active_constraint_rows(seg, state, rows) : 0;
-  for (std::size_t at = 0; at < seg.attachments.size(); ++at) {
-    AttachmentState& as = state.now.attachment[seg.attachment_offset + at];
-    if (!as.active) {
-      as.force.setZero();
-      as.moment.setZero();
-    }
-  }
-  // Right-hand sides: column 0 the residual (and, for a free base, the unbalanced wrench);
-  // column 1+j the generalized force of a unit load along constraint row j; then, for each
-  // contact coupled exactly, a unit pair of forces (+n on one bead's node, −n on the other's).
-  const CollisionState& cs = state.collision;
-  const std::size_t p0 = cs.coupled_start.empty() ? 0 : cs.coupled_start[segment];
-  const std::size_t pc = cs.coupled_start.empty() ? 0 : cs.coupled_start[segment + 1] - p0;
-  const int cols = 1 + static_cast<int>(m + pc);
-  const auto stride = static_cast<std::size_t>(B * cols);
-  auto entry = [&](std::size_t k, int row, int col) -> double& {
-    return ws.rhs[k * stride + static_cast<std::size_t>(col * B + row)];
-  };
-  std::fill_n(ws.rhs.begin(), n * stride, 0.0);
-  const kernels::StrainView<const double> residual{ws.residual};
-  for (std::size_t k = 0; k < n; ++k)
-    for (int c = 0; c < 4; ++c) entry(k, c, 0) = -residual.at(k, static_cast<std::size_t>(c));
-  if (free_base)
-    for (int i = 0; i < 6; ++i) entry(0, kernels::kNewtonRotation + i, 0) = -ws.base_wrench[i];
-  const kernels::StrainView<double> unit{ws.unit};
-  // A unit load (force or moment along dir, at a node) into column `col`, with `sign`.
-  auto add_unit_load = [&](int col, std::size_t node, const Eigen::Vector3d& dir, bool is_moment, double sign) {
-    kernels::rod_unit_load_generalized_force(v.poses, v.section_length, node, dir, is_moment, unit);
-    for (std::size_t k = 0; k <= node; ++k)
-      for (int c = 0; c < 4; ++c) entry(k, c, col) -= sign * unit.at(k, static_cast<std::size_t>(c));
-    if (free_base) {
-      // A unit load unbalances the free rod by its own wrench about node 0.
-      const kernels::Vector6d w = unit_wrench({node, dir, is_moment, 0}, v);
-      for (int i = 0; i < 6; ++i) entry(0, kernels::kNewtonRotation + i, col) -= sign * w[i];
-    }
-  };
-  for (std::size_t j = 0; j < m; ++j) add_unit_load(1 + static_cast<int>(j), rows[j].node, rows[j].dir, rows[j].is_moment, 1.0);
-  struct Pair {
-    std::size_t a, b;       // local nodes
-    Eigen::Vector3d n;      // separating direction, towards a
-    double stiffness;
-  };
-  std::array<Pair, kMaxCoupledContacts> pairs{};
-  for (std::size_t c = 0; c < pc; ++c) {
-    const Contact& k = cs.candidates[cs.coupled[p0 + c]];
-    pairs[c] = {model.beads.node[k.bead] - seg.node_offset, model.beads.node[k.other] - seg.node_offset, k.direction,
-                std::max(k.stiffness, 1e-300)};
-    const int col = 1 + static_cast<int>(m + c);
-    add_unit_load(col, pairs[c].a, pairs[c].n, false, 1.0);
-    add_unit_load(col, pairs[c].b, pairs[c].n, false, -1.0);
-  }
-  kernels::block_tridiagonal_solve(ws.system(), std::span<double>(ws.rhs.data(), n * stride), cols);
-
-  // Displacement (or rotation) of a node along a direction in column `col`.
-  auto moved = [&](std::size_t node, const Eigen::Vector3d& dir, bool rotation, int col) {
-    const int first = rotation ? kernels::kNewtonRotation : kernels::kNewtonPosition;
-    return dir.dot(Eigen::Vector3d(entry(node, first, col), entry(node, first + 1, col), entry(node, first + 2, col)));
-  };
-  auto response = [&](const ConstraintRow& row, int col) { return moved(row.node, row.dir, row.is_moment, col); };
-  auto separation = [&](const Pair& pr, int col) { return moved(pr.a, pr.n, false, col) - moved(pr.b, pr.n, false, col); };
-
-  // The coupled system: constraint rows hold their targets; each coupled contact's force change
-  // follows its separation, δf = −k n·(δr_a − δr_b).
-  const auto unknowns = static_cast<Eigen::Index>(m + pc);
-  VectorC x = VectorC::Zero(unknowns);
-  if (unknowns > 0) {
-    MatrixC lhs(unknowns, unknowns);
-    VectorC b(unknowns);
-    for (std::size_t j = 0; j < m; ++j) {
-      const AttachmentState& as = state.now.attachment[seg.attachment_offset + rows[j].attachment];
-      const auto r = static_cast<Eigen::Index>(j);
-      b[r] = row_error(rows[j], as, v) - response(rows[j], 0);
-      for (Eigen::Index l = 0; l < unknowns; ++l) lhs(r, l) = response(rows[j], 1 + static_cast<int>(l));
-    }
-    for (std::size_t c = 0; c < pc; ++c) {
-      const auto r = static_cast<Eigen::Index>(m + c);
-      b[r] = -separation(pairs[c], 0);
-      for (Eigen::Index l = 0; l < unknowns; ++l) lhs(r, l) = separation(pairs[c], 1 + static_cast<int>(l));
-      lhs(r, r) += 1.0 / pairs[c].stiffness;
-    }
-    x = Eigen::FullPivLU<MatrixC>(lhs).solve(b);
-  }
-  const VectorS dlambda = x.head(static_cast<Eigen::Index>(m));
-  // The full step z = z_0 + Σ x_l z_l, folded into column 0.
-  for (std::size_t k = 0; k < n; ++k)
-    for (int r = 0; r < B; ++r) {
-      double d = entry(k, r, 0);
-      for (Eigen::Index l = 0; l < unknowns; ++l) d += x[l] * entry(k, r, 1 + static_cast<int>(l));
-      entry(k, r, 0) = d;
-    }
-
-  // Trust region: scale the whole step so that no section turns or stretches too far at once.
-  double worst_angle = 0.0;
-  double worst_stretch = 0.0;
-  for (std::size_t k = 0; k < n; ++k) {
-    const Eigen::Vector3d du(entry(k, 0, 0), entry(k, 1, 0), entry(k, 2, 0));
-    worst_angle = std::max(worst_angle, du.norm() * seg.mean_section);
-    worst_stretch = std::max(worst_stretch, std::abs(entry(k, 3, 0)));
-  }
-  if (free_base) {
-    const Eigen::Vector3d dphi(entry(0, kernels::kNewtonRotation, 0), entry(0, kernels::kNewtonRotation + 1, 0),
-                               entry(0, kernels::kNewtonRotation + 2, 0));
-    worst_angle = std::max(worst_angle, dphi.norm());
-  }
-  double scale = 1.0;
-  if (worst_angle > kMaxNewtonAngle) scale = std::min(scale, kMaxNewtonAngle / worst_angle);
-  if (worst_stretch > kMaxNewtonStretch) scale = std::min(scale, kMaxNewtonStretch / worst_stretch);
-  // No step may take a section more than halfway to collapse (ε = −1, its strain the mean of its
-  // nodes'): past it the rod has no length to carry a load and Newton finds a spurious, folded-up
-  // solution.
-  for (std::size_t k = 0; k + 1 < n; ++k) {
-    const double shrink = -0.5 * (entry(k, 3, 0) + entry(k + 1, 3, 0));
-    const double room = 1.0 + 0.5 * (v.strain.at(k, 3) + v.strain.at(k + 1, 3));
-    if (shrink > 0.5 * room) scale = std::min(scale, 0.5 * room / shrink);
-  }
-  // Take the step; back off while a contact would deepen more than it may.
-  const kernels::Pose base_before = state.now.base[segment];
-  const Eigen::Vector3d dphi0(entry(0, kernels::kNewtonRotation, 0), entry(0, kernels::kNewtonRotation + 1, 0),
-                              entry(0, kernels::kNewtonRotation + 2, 0));
-  const Eigen::Vector3d dr0(entry(0, kernels::kNewtonPosition, 0), entry(0, kernels::kNewtonPosition + 1, 0),
-                            entry(0, kernels::kNewtonPosition + 2, 0));
-  for (std::size_t b = 0; b < seg.bead_count; ++b)
-    ws.bead_start[b] = v.poses.node_position.get(model.beads.node[seg.bead_offset + b] - seg.node_offset);
-  auto apply = [&](double factor) {
-    for (std::size_t k = 0; k < n; ++k)
-      for (std::size_t c = 0; c < 4; ++c) v.strain.at(k, c) += factor * entry(k, static_cast<int>(c), 0);
-  };
-  auto worst_deepening = [&]() {  // largest excess over the allowance, in m (≤ 0: fine)
-    double worst = 0.0;
-    for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
-      const Eigen::Vector3d moved_b =
-          v.poses.node_position.get(model.beads.node[b] - seg.node_offset) - ws.bead_start[b - seg.bead_offset];
-      const double allowed = kMaxNewtonDeepening * model.beads.radius[b];
-      for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e) {
-        const Contact& k = cs.candidates[cs.bead_contact[e] >> 1];
-        const bool second = (cs.bead_contact[e] & 1U) != 0;
-        Eigen::Vector3d relative = moved_b;
-        if (k.coupled) {  // both beads are this segment's: their relative motion
-          const std::uint32_t mate = second ? k.bead : k.other;
-          relative -= v.poses.node_position.get(model.beads.node[mate] - seg.node_offset) -
-                      ws.bead_start[mate - seg.bead_offset];
-        }
-        const double deepening = -(second ? -1.0 : 1.0) * k.direction.dot(relative);
-        worst = std::max(worst, deepening - allowed - std::max(0.0, -k.depth));  // a gap may close first
-      }
-    }
-    return worst;
-  };
-  const double unsearched = scale;
-  double taken = 0.0;
-  for (int attempt = 0;; ++attempt) {
-    apply(scale - taken);
-    taken = scale;
-    if (free_base) {
-      kernels::Pose& base = state.now.base[segment];
-      base.rotation = (kernels::rotation_exp(scale * dphi0) * base_before.rotation).normalized();
-      base.position = base_before.position + scale * dr0;
-    }
-    if (seg.bead_count == 0 || attempt == kMaxBacktracks) break;
-    kernels::rod_forward_sweep(state.now.base[segment], v.section_length, v.strain, v.poses);
-    if (worst_deepening() <= 0.0) break;
-    scale *= 0.5;
-  }
-
-  state.segment_step_cut[segment] = scale < unsearched ? 1 : 0;
-  Eigen::Vector4d change = Eigen::Vector4d::Zero();
-  for (std::size_t k = 0; k < n; ++k)
-    for (std::size_t c = 0; c < 4; ++c) {
-      const double d = scale * std::abs(entry(k, static_cast<int>(c), 0));
-      change[static_cast<Eigen::Index>(c)] = std::max(change[static_cast<Eigen::Index>(c)], d);
-    }
-  for (std::size_t j = 0; j < m; ++j) {
-    AttachmentState& as = state.now.attachment[seg.attachment_offset + rows[j].attachment];
-    (rows[j].is_moment ? as.moment : as.force) += scale * dlambda[static_cast<Eigen::Index>(j)] * rows[j].dir;
-  }
-  return change;
-}
-
 void stage_filter(const WorldModel& model, WorldState& state, std::size_t segment) {
   const SegmentModel& seg = model.segments[segment];
   const SegmentViews v = segment_views(model, state, segment);
@@ -705,6 +383,11 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
   const std::size_t off = seg.node_offset;
   const std::size_t n = seg.node_count;
   const double* q = state.now.strain.data() + 4 * off;
+  if (p.newton && state.segment_solvable[segment] == 0)
+    return {false, state.newton[segment].singular_node, Stage::condense,
+            "pivot of the condensed Newton sweep too small relative to its row (a singular, buckled state), on a "
+            "rod longer than the banded fallback holds (4096 nodes)",
+            0.0, 0.0};
   for (std::size_t k = 0; k < n; ++k) {
     for (std::size_t c = 0; c < 4; ++c)
       if (!std::isfinite(q[4 * k + c])) return {false, k, Stage::solve, "strain (not finite)", q[4 * k + c], 0.0};

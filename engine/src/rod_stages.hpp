@@ -14,6 +14,7 @@ namespace haustra::detail {
 struct SubstepParameters {
   double dt = 0.0;                       // substep length
   bool newton = false;                   // Newton iterations rather than the lagged update
+  int iteration = 0;                     // within the substep
 };
 
 // The active constraint rows of a segment: one per held axis of each active attachment.
@@ -37,13 +38,6 @@ Eigen::Vector4d stage_solve(const WorldModel& model, WorldState& state, std::siz
                             const SubstepParameters& p);
 void stage_constraints(const WorldModel& model, WorldState& state, std::size_t segment,
                        const SubstepParameters& p);
-// Newton mode: assemble and factor the block-tridiagonal Jacobian at the current configuration.
-void stage_newton_jacobian(const WorldModel& model, WorldState& state, std::size_t segment,
-                           const SubstepParameters& p);
-// Newton mode: one Newton step of the implicit law with the attachments held (constraint forces
-// accumulate in the attachment state). Returns the largest strain change of the step.
-Eigen::Vector4d stage_newton_solve(const WorldModel& model, WorldState& state, std::size_t segment,
-                                   const SubstepParameters& p);
 void stage_forward_sweep(const WorldModel& model, WorldState& state, std::size_t segment);
 void stage_filter(const WorldModel& model, WorldState& state, std::size_t segment);
 

@@ -11,6 +11,7 @@
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "instruments.hpp"
 #include "mesh_stages.hpp"
+#include "newton_stages.hpp"
 #include "rod_stages.hpp"
 #include "scheduler.hpp"
 #include "state_carry_over.hpp"
@@ -30,8 +31,9 @@ std::string_view stage_name(Stage s) noexcept {
     case Stage::loads: return "loads";
     case Stage::free_base: return "free_base";
     case Stage::backward_sweep: return "backward_sweep";
-    case Stage::jacobian: return "jacobian";
+    case Stage::condense: return "condense";
     case Stage::solve: return "solve";
+    case Stage::line_search: return "line_search";
     case Stage::constraints: return "constraints";
     case Stage::forward_sweep: return "forward_sweep";
     case Stage::filter: return "filter";
@@ -158,6 +160,7 @@ struct World::Impl {
         }
         state.base_substep_start[s] = state.now.base[s];
         state.segment_converged[s] = 0;
+        state.segment_solvable[s] = 1;
       });
       if (model.beads.size() > 0) time_stage(Stage::collide, [&] { detail::stage_collide(model, state, scheduler); });
       const int iterations = model.solver.iterations;
@@ -181,13 +184,22 @@ struct World::Impl {
         run_stage(Stage::backward_sweep, [&](std::size_t s) {
           if (active(s)) detail::stage_backward_sweep(model, state, s);
         });
+        p.iteration = it;
         if (newton) {
-          run_stage(Stage::jacobian, [&](std::size_t s) {
-            if (active(s)) detail::stage_newton_jacobian(model, state, s, p);
+          run_stage(Stage::condense, [&](std::size_t s) {
+            if (active(s)) state.segment_solvable[s] = detail::stage_newton_jacobian(model, state, s, p) ? 1 : 0;
           });
           run_stage(Stage::solve, [&](std::size_t s) {
-            if (active(s)) state.segment_change[s] = detail::stage_newton_solve(model, state, s, p);
+            if (active(s) && state.segment_solvable[s] != 0) detail::stage_newton_solve(model, state, s, p);
           });
+          run_stage(Stage::line_search, [&](std::size_t s) {
+            if (active(s) && state.segment_solvable[s] != 0) detail::stage_newton_line_search(model, state, s, p);
+          });
+          for (std::size_t s = 0; s < segs; ++s)
+            if (active(s) && state.segment_solvable[s] == 0) {
+              state.segment_change[s].setZero();
+              state.segment_converged[s] = 1;  // nothing more to do here: the guard reports it
+            }
         } else {
           run_stage(Stage::solve, [&](std::size_t s) {
             if (active(s)) state.segment_change[s] = detail::stage_solve(model, state, s, p);
@@ -197,9 +209,11 @@ struct World::Impl {
               if (active(s)) detail::stage_constraints(model, state, s, p);
             });
         }
-        run_stage(Stage::forward_sweep, [&](std::size_t s) {
-          if (active(s)) detail::stage_forward_sweep(model, state, s);
-        });
+        // (Newton's line search leaves the poses of the strains it took.)
+        if (!newton)
+          run_stage(Stage::forward_sweep, [&](std::size_t s) {
+            if (active(s)) detail::stage_forward_sweep(model, state, s);
+          });
         profile.iterations += 1;
         bool all = true;
         for (std::size_t s = 0; s < segs; ++s) {
@@ -350,6 +364,12 @@ struct World::Impl {
         if (model.beads.size() > 0) detail::stage_contact_report(model, state);
       });
     follow_rod();
+    for (detail::NewtonWorkspace& ws : state.newton) {
+      profile.fallbacks += ws.fallbacks;
+      profile.backtracks += ws.backtracks;
+      profile.stiffenings += ws.stiffenings;
+      ws.fallbacks = ws.backtracks = ws.stiffenings = 0;
+    }
     profile.substeps = rung.substeps;
     profile.newton = rung.newton;
     state.frame += 1;

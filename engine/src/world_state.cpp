@@ -33,24 +33,38 @@ void resize_persistent(PersistentState& p, std::size_t nodes, std::size_t segmen
 
 }  // namespace
 
-void NewtonWorkspace::allocate(std::size_t nodes, int columns) {
-  lower.assign(nodes, kernels::NewtonBlock::Zero());
-  diag.assign(nodes, kernels::NewtonBlock::Zero());
-  upper.assign(nodes, kernels::NewtonBlock::Zero());
-  fill.assign(nodes, kernels::NewtonBlock::Zero());
-  swaps.assign(nodes, {});
+void NewtonWorkspace::allocate(std::size_t nodes, int columns, bool with_band) {
   max_columns = columns;
-  rhs.assign(nodes * kernels::kNewtonBlock * static_cast<std::size_t>(columns), 0.0);
-  distal_force.resize(nodes);
-  distal_moment.resize(nodes);
+  gain.assign(kernels::condensed_gain_size(nodes, columns), 0.0);
+  scratch.assign(kernels::condensed_scratch_size(columns), 0.0);
+  base_solution.assign(10 * static_cast<std::size_t>(columns), 0.0);
+  loads.reserve(2 * static_cast<std::size_t>(columns));
+  response_nodes.reserve(2 * static_cast<std::size_t>(columns));
+  responses.assign(2 * static_cast<std::size_t>(columns) * 6 * static_cast<std::size_t>(columns), 0.0);
+  weights.assign(static_cast<std::size_t>(columns), 0.0);
+  step_q.assign(4 * nodes, 0.0);
+  step_phi.resize(nodes);
+  step_r.resize(nodes);
+  band_available = with_band;
+  if (with_band) {
+    lower.assign(nodes, kernels::NewtonBlock::Zero());
+    diag.assign(nodes, kernels::NewtonBlock::Zero());
+    upper.assign(nodes, kernels::NewtonBlock::Zero());
+    fill.assign(nodes, kernels::NewtonBlock::Zero());
+    swaps.assign(nodes, {});
+    rhs.assign(nodes * kernels::kNewtonBlock * static_cast<std::size_t>(columns), 0.0);
+    distal_force.resize(nodes);
+    distal_moment.resize(nodes);
+    unit.assign(4 * nodes, 0.0);
+  }
   residual.assign(4 * nodes, 0.0);
   target.assign(4 * nodes, 0.0);
   law_stress.assign(4 * nodes, 0.0);
   law_tangent.assign(4 * nodes, 0.0);
   bend_coupling.assign(nodes, 0.0);
-  unit.assign(4 * nodes, 0.0);
   force_stiffness.assign(nodes, Eigen::Matrix3d::Zero());
   drag_moment_rate.assign(nodes, 0.0);
+  strain_before.assign(4 * nodes, 0.0);
 }
 
 void PersistentState::copy_from(const PersistentState& o) {
@@ -84,6 +98,7 @@ void init_world_state(const WorldModel& model, WorldState& state) {
   state.segment_converged.assign(segs, 0);
   state.segment_change.assign(segs, Eigen::Vector4d::Zero());
   state.segment_step_cut.assign(segs, 0);
+  state.segment_solvable.assign(segs, 1);
   state.strain_before_update.assign(4 * n, 0.0);
   const bool newton_possible =
       model.solver.mode == SolverMode::newton || model.solver.on_instability == InstabilityPolicy::recover;
@@ -93,7 +108,7 @@ void init_world_state(const WorldModel& model, WorldState& state) {
     const std::size_t rows = seg.constraint_rows;
     // The residual, one column per constraint row, one per contact Newton couples exactly.
     const int cols = 1 + static_cast<int>(rows) + (seg.bead_count > 0 ? static_cast<int>(kMaxCoupledContacts) : 0);
-    state.newton[s].allocate(seg.node_count, cols);
+    state.newton[s].allocate(seg.node_count, cols, seg.node_count <= kBandFallbackNodes);
     state.newton[s].bead_start.assign(seg.bead_count, Eigen::Vector3d::Zero());
   }
 

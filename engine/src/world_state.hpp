@@ -9,6 +9,7 @@
 #include "haustra/kernels/skinning.hpp"
 #include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/rod_loads.hpp"
+#include "haustra/kernels/rod_condensed.hpp"
 #include "haustra/kernels/rod_newton.hpp"
 #include "haustra/kernels/spans.hpp"
 #include "world_model.hpp"
@@ -70,26 +71,50 @@ struct PersistentState {
   void copy_from(const PersistentState& o);  // no allocation: sizes already match
 };
 
-// Scratch of one segment's Newton solve: the block-tridiagonal system and its right-hand sides
-// (the residual, and one column per constraint row).
+// Scratch of one segment's Newton solve: the condensed sweep's gains and right-hand sides, the
+// step it gives, and — for rods up to kBandFallbackNodes — the banded LU it falls back to.
 struct NewtonWorkspace {
+  // The condensed solve (kernels/rod_condensed).
+  std::vector<double> gain, scratch, base_solution;
+  std::vector<kernels::UnitLoad> loads;       // this iteration's unit loads, by node descending
+  std::vector<std::uint32_t> response_nodes;  // constraint and coupled-pair nodes, ascending, unique
+  std::vector<double> responses;              // 6 × columns per response node (δφ, δr)
+  std::vector<double> weights;                // per column: 1, then the coupled unknowns
+  std::vector<double> step_q;                 // the step: δq (4 per node), δφ, δr per node
+  Vec3Buffer step_phi, step_r;
+  // The banded LU of the assembled 16×16 block system: the fallback when the sweep's pivots are
+  // unsafe, allocated only for rods up to kBandFallbackNodes (its blocks take ~8 KB a node).
+  bool band_available = false;
+  bool band = false;  // this iteration is solved by the banded LU
   std::vector<kernels::NewtonBlock> lower, diag, upper;
   std::vector<kernels::NewtonBlock> fill;                        // the factorization's second upper block
   std::vector<std::array<std::uint8_t, kernels::kNewtonBlock>> swaps;  // its row swaps
   std::vector<double> rhs;
   Vec3Buffer distal_force, distal_moment;
-  std::vector<double> residual, target, unit;
+  std::vector<double> unit;
+  // The linearization.
+  std::vector<double> residual, target;
   // A nonlinear (EXP2) law's generalized stress and tangent per node, and the κ1–κ2 coupling.
   std::vector<double> law_stress, law_tangent, bend_coupling;
   std::vector<Eigen::Matrix3d> force_stiffness;  // per node: −∂f/∂r of drag and contacts
   std::vector<double> drag_moment_rate;          // s/Δt per node
   kernels::Vector6d base_wrench = kernels::Vector6d::Zero();  // free base: unbalanced total wrench
   std::vector<Eigen::Vector3d> bead_start;       // the segment's bead positions before a step
+  // The line search: strains and base before the step.
+  std::vector<double> strain_before;
+  kernels::Pose base_before;
   int max_columns = 1;
+  std::size_t singular_node = 0;  // where the condensed sweep's pivot was unsafe
+  double law_scale = 1.0;  // the law's rows as condensed (stiffened where Newton's step is not a descent)
+  int fallbacks = 0;    // iterations solved by the banded LU this frame
+  int backtracks = 0;   // line-search halvings this frame
+  int stiffenings = 0;  // re-solves with stiffened law rows this frame
 
-  void allocate(std::size_t nodes, int columns);
-  [[nodiscard]] kernels::NewtonSystem system() { return {lower, diag, upper, fill, swaps}; }
+  void allocate(std::size_t nodes, int columns, bool with_band);
 };
+
+// Rods up to this many nodes keep the banded LU as the condensed sweep's fallback.
+inline constexpr std::size_t kBandFallbackNodes = 4096;
 
 using ContactCandidate = Contact;
 
@@ -157,6 +182,7 @@ struct WorldState {
   std::vector<int> segment_converged;            // per segment, within a substep
   std::vector<Eigen::Vector4d> segment_change;   // last strain change per segment
   std::vector<std::uint8_t> segment_step_cut;    // Newton's last step was scaled down
+  std::vector<std::uint8_t> segment_solvable;    // Newton: 0 when this substep met an unsafe pivot it could not fall back from
   std::vector<NewtonWorkspace> newton;           // per segment; empty when Newton can never run
   std::vector<double> strain_before_update;      // lagged: the strains before the last update
   CollisionState collision;

@@ -38,7 +38,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 4
+#define HAUSTRA_ABI_VERSION 5
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -93,7 +93,7 @@ typedef struct haustra_instrument_reading {
   size_t grasped_node;      /* local to the segment */
 } haustra_instrument_reading;
 
-#define HAUSTRA_STAGE_COUNT 16
+#define HAUSTRA_STAGE_COUNT 17
 
 typedef struct haustra_profile {
   double stage_seconds[HAUSTRA_STAGE_COUNT]; /* in the order of haustra_stage_name(0..) */
@@ -101,6 +101,9 @@ typedef struct haustra_profile {
   int substeps;
   int retries;
   int newton;
+  int fallbacks;  /* Newton iterations the banded LU solved (the condensed sweep's pivots were unsafe) */
+  int backtracks; /* line-search halvings of Newton steps */
+  int stiffenings; /* Newton steps solved again with the law stiffened (the plain step went uphill) */
 } haustra_profile;
 
 /* A host's own job system (instead of oneTBB): a step hands it ranges of independent work with

@@ -13,8 +13,9 @@ enum class Stage : std::uint8_t {
   loads,           // gravity + external loads + contacts → node forces
   free_base,       // rigid drag of free bases
   backward_sweep,  // node forces → generalized forces R
-  jacobian,        // Newton: assemble and factor the block-tridiagonal system
-  solve,           // lagged: prefactored M and the strain law; Newton: the block solve, with attachments
+  condense,        // Newton: linearize and condense the system tip → base (or the banded LU's fallback)
+  solve,           // lagged: prefactored M and the strain law; Newton: coupled unknowns and the step
+  line_search,     // Newton: the step's fraction that lowers the frame's incremental potential
   constraints,     // lagged: attachments, implicit through the Schur complement
   forward_sweep,   // strains → node poses
   filter,          // inertia filter
@@ -37,6 +38,9 @@ struct FrameProfile {
   int substeps = 1;
   int iterations = 0;  // fixed-point iterations run, summed over substeps
   int retries = 0;     // frames redone by the robust mode
+  int fallbacks = 0;   // Newton iterations solved by the banded LU (the condensed sweep's pivots unsafe)
+  int backtracks = 0;  // line-search halvings
+  int stiffenings = 0; // Newton steps solved again with stiffened law rows (the plain step was not a descent)
   bool newton = false; // the frame that was kept ran Newton iterations
 };
 

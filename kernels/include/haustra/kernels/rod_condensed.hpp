@@ -1,0 +1,108 @@
+#pragma once
+// The rod's Newton system (kernels/rod_newton.hpp: the same rows, the same fixed point) solved by
+// condensation instead of a banded LU of 16×16 blocks: a discrete Riccati sweep, the quasi-static
+// analogue of the articulated-body method.
+//
+// From the tip to the base, node k's distal rod is summed up by an affine map of the 10 numbers
+// y_k = (δφ_k, δr_k, δq_k) — frame rotation, position and strain of node k, the strain because the
+// section carries the mean of its two nodes' strains and the mass matrix couples neighbours:
+//   [δw_k; c_k] = Π_k y_k + π_k,
+// δw_k = (δM_k, δF_k) the distal wrench, c_k what node k's strain rows see of the distal rod. One
+// step k+1 → k writes node k+1's kinematics in terms of y_k and δq_{k+1}, transports the wrench
+// across section k, linearizes the section's generalized force there (fused: no Jacobian is
+// assembled), and solves node k+1's four strain rows for δq_{k+1} = U_k (y_k, 1) with one
+// partially pivoted 4×4 Gauss–Jordan elimination. At the base a 4×4 (clamped) or 10×10 (free)
+// system gives y_0; back-substitution from the base gives every node's step.
+//
+// Every quantity is a row over the columns (δφ_k 3, δr_k 3, δq_k 4, δq_{k+1} 4, right-hand sides),
+// so the sweep is row operations over contiguous doubles (vectorized across columns). Right-hand
+// side 0 is the residual; the others are unit loads (attachment rows, coupled contact pairs) that
+// enter the wrench transport at their own node, so they cost nothing beyond it.
+//
+// Safety: there is no pivoting across nodes. A 4×4 pivot far below its row's scale (a distal
+// sub-rod at a singular, buckled state) or a non-finite value reports failure, and the caller
+// falls back to the banded LU (kernels/block_tridiagonal.hpp) for that iteration.
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "haustra/kernels/rod_newton.hpp"
+#include "haustra/kernels/spans.hpp"
+
+namespace haustra::kernels {
+
+// Column layout of a condensed row: y_k, then δq_{k+1}, then the right-hand sides.
+inline constexpr int kCondensedRotation = 0;
+inline constexpr int kCondensedPosition = 3;
+inline constexpr int kCondensedStrain = 6;
+inline constexpr int kCondensedNextStrain = 10;
+inline constexpr int kCondensedRhs = 14;
+inline constexpr int kCondensedInterface = 10;  // y_k
+
+// Row width (doubles) for `columns` right-hand sides: a multiple of 4 (one AVX2 register).
+[[nodiscard]] constexpr int condensed_width(int columns) { return (kCondensedRhs + columns + 3) & ~3; }
+inline constexpr int kMaxCondensedColumns = 96;
+// Doubles of workspace per node (the gains U_k) and for the whole sweep (its running rows).
+[[nodiscard]] constexpr std::size_t condensed_gain_size(std::size_t nodes, int columns) {
+  return nodes * 4 * static_cast<std::size_t>(condensed_width(columns));
+}
+[[nodiscard]] constexpr std::size_t condensed_scratch_size(int columns) {
+  return 40 * static_cast<std::size_t>(condensed_width(columns));
+}
+
+// A unit load of one right-hand side: a force (or moment) `load` at `node`, world frame.
+struct UnitLoad {
+  std::uint32_t node = 0;
+  std::uint32_t column = 1;  // ≥ 1; column 0 is the residual
+  bool is_moment = false;
+  Eigen::Vector3d load = Eigen::Vector3d::Zero();
+};
+
+// The configuration the system is linearized at, and what makes the rows: as rod_newton_assemble.
+struct RodLinearization {
+  RodPoses<const double> poses;
+  std::span<const double> section_length;
+  Vec3View<const double> node_force, node_moment;  // every current load, drag and contacts included
+  std::array<double, 4> law_total{};               // a_c = k_c + η_c/Δt (a linear law)
+  NodalLawTangent nodal{};                         // or a nonlinear law's tangent per node
+  NewtonLoadStiffness stiffness{};                 // loads that follow the nodes (may be empty)
+  bool free_base = false;
+  // The law's rows scaled by this (≥ 1): J − (scale − 1) A, a step towards the law-weighted
+  // gradient step where the plain Newton step is not a descent direction (indefinite loads).
+  double law_scale = 1.0;
+};
+
+// Caller-owned memory of one condensed solve.
+struct CondensedSystem {
+  std::span<double> gain;     // condensed_gain_size(nodes, columns)
+  std::span<double> scratch;  // condensed_scratch_size(columns)
+  std::span<double> base;     // 10 × columns: y_0 of each right-hand side (column-major)
+  int columns = 1;
+};
+
+struct CondenseReport {
+  bool ok = true;
+  double smallest_pivot = 1.0;  // the smallest |pivot| / its row's largest entry
+  std::size_t node = 0;         // where it was (or where a value stopped being finite)
+};
+
+// Below this relative pivot the sweep reports failure (the banded LU pivots across nodes).
+inline constexpr double kCondensedPivotFloor = 1e-10;
+
+// Tip → base: the gains U_k of every node and y_0 of every right-hand side. residual: ρ per node
+// (column 0 solves J δz = −ρ with the free base's unbalanced wrench). loads: sorted by node,
+// descending. Columns beyond the residual whose loads are all at node 0 of a clamped rod are zero.
+CondenseReport rod_condense(const RodLinearization& rod, StrainView<const double> residual,
+                            std::span<const UnitLoad> loads, CondensedSystem sys);
+
+// Base → tip: the step Σ_c weight_c · (column c's solution) at every node: δq (4 per node), δφ and
+// δr (world frame). weights: one per column (weight 1 on column 0 alone: the plain Newton step).
+void rod_condensed_step(const RodLinearization& rod, CondensedSystem sys, std::span<const double> weights,
+                        StrainView<double> dq, Vec3View<double> dphi, Vec3View<double> dr);
+
+// Base → the last of `nodes` (ascending): every column's δφ and δr at those nodes. out: for each
+// listed node, 6 × columns, column-major (δφ 0–2, δr 3–5 of column 0, then column 1, ...).
+void rod_condensed_responses(const RodLinearization& rod, CondensedSystem sys, std::span<const std::uint32_t> nodes,
+                             std::span<double> out);
+
+}  // namespace haustra::kernels
