@@ -1,6 +1,6 @@
 // Google Benchmark: skinning the organ mesh (the rigid-group kernel and its scalar reference) from
 // 10,000 to 1,000,000 vertices beside a STREAM triad in the same run, so that bytes per second can
-// be set against what this machine streams; and whole frames of `drop` with and without a mesh.
+// be set against what this machine streams; and whole frames of `drop` with one part of the model switched off at a time.
 #include <benchmark/benchmark.h>
 
 #include <random>
@@ -95,17 +95,6 @@ void BM_StreamTriad(benchmark::State& state) {
                                                  benchmark::Counter::kIsRate);
 }
 
-void BM_FrameDrop(benchmark::State& state) {
-  std::vector<std::string> sets;
-  if (state.range(0) != 0) sets.emplace_back("segment.mesh.source=procedural");
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/drop.toml", sets);
-  scene.world.threads = 1;
-  std::unique_ptr<World> w = create_world(scene);
-  for (int f = 0; f < 60; ++f) w->step();
-  for (auto _ : state) w->step();
-  state.counters["mesh vertices"] = static_cast<double>(w->mesh_buffer_size());
-}
-
 // What each optional stage costs (issue 6: a scene models only what it needs): `drop` with its
 // 10,000-vertex organ mesh, then with one thing switched off. Arg: which. The difference to "all"
 // is what that part of the model costs per frame.
@@ -152,5 +141,4 @@ BENCHMARK(BM_StageCost)->DenseRange(0, 4)->Unit(benchmark::kMicrosecond)->Iterat
 BENCHMARK(BM_SkinRigidGroups)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SkinScalarReference)->Arg(10'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StreamTriad)->Arg(1'000'000)->Arg(10'000'000)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_FrameDrop)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond)->Iterations(200);
 BENCHMARK_MAIN();

@@ -63,6 +63,8 @@ struct Problem {
       loads.push_back(l);
     }
     std::stable_sort(loads.begin(), loads.end(), [](const UnitLoad& x, const UnitLoad& y) { return x.node > y.node; });
+    // Columns numbered in the order the sweep meets them (rod_condense's contract).
+    for (std::size_t j = 0; j < loads.size(); ++j) loads[j].column = static_cast<std::uint32_t>(1 + j);
   }
 
   NewtonLoadStiffness stiffness() const {

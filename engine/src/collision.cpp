@@ -296,7 +296,10 @@ double segment_contact_potential(const WorldModel& model, const WorldState& stat
         const Eigen::Vector3d moved = c - bead_start[b - seg.bead_offset];
         depth = k.depth - (second ? -1.0 : 1.0) * k.direction.dot(moved);
       }
-      if (depth > 0.0) potential += stiffness_of(model, k) * std::pow(depth, exponent + 1.0) / (exponent + 1.0);
+      if (depth > 0.0) {
+        const double power = exponent == 2.0 ? depth * depth * depth : std::pow(depth, exponent + 1.0);  // the paper's d²
+        potential += stiffness_of(model, k) * power / (exponent + 1.0);
+      }
     }
   }
   return potential;

@@ -137,6 +137,14 @@ void unit_loads(const Coupled& c, NewtonWorkspace& ws) {
   std::sort(ws.loads.begin(), ws.loads.end(), [](const kernels::UnitLoad& x, const kernels::UnitLoad& y) {
     return x.node != y.node ? x.node > y.node : x.column < y.column;
   });
+  // Columns numbered in the order the sweep meets them (the live ones are then a prefix):
+  // column_of maps an unknown's column (1 + its index) to the kernel's.
+  std::fill(ws.column_of.begin(), ws.column_of.end(), 0u);
+  std::uint32_t next = 1;
+  for (kernels::UnitLoad& l : ws.loads) {
+    if (ws.column_of[l.column] == 0) ws.column_of[l.column] = next++;
+    l.column = ws.column_of[l.column];
+  }
   ws.response_nodes.clear();
   for (const kernels::UnitLoad& l : ws.loads) ws.response_nodes.push_back(l.node);
   std::sort(ws.response_nodes.begin(), ws.response_nodes.end());
@@ -232,6 +240,7 @@ void coupled_multipliers(const WorldModel& model, const WorldState& state, std::
     return dir.x() * r[0] + dir.y() * r[1] + dir.z() * r[2];
   };
   auto separation = [&](const Pair& pr, int col) { return moved(pr.a, pr.n, false, col) - moved(pr.b, pr.n, false, col); };
+  auto column = [&](Eigen::Index l) { return static_cast<int>(ws.column_of[static_cast<std::size_t>(1 + l)]); };
   const auto unknowns = static_cast<Eigen::Index>(c.m + c.pc);
   x = VectorC::Zero(unknowns);
   std::fill(ws.weights.begin(), ws.weights.end(), 0.0);
@@ -244,16 +253,16 @@ void coupled_multipliers(const WorldModel& model, const WorldState& state, std::
     const AttachmentState& as = state.now.attachment[seg.attachment_offset + row.attachment];
     const auto r = static_cast<Eigen::Index>(j);
     b[r] = row_error(row, as, v) - moved(row.node, row.dir, row.is_moment, 0);
-    for (Eigen::Index l = 0; l < unknowns; ++l) lhs(r, l) = moved(row.node, row.dir, row.is_moment, 1 + static_cast<int>(l));
+    for (Eigen::Index l = 0; l < unknowns; ++l) lhs(r, l) = moved(row.node, row.dir, row.is_moment, column(l));
   }
   for (std::size_t i = 0; i < c.pc; ++i) {
     const auto r = static_cast<Eigen::Index>(c.m + i);
     b[r] = -separation(c.pairs[i], 0);
-    for (Eigen::Index l = 0; l < unknowns; ++l) lhs(r, l) = separation(c.pairs[i], 1 + static_cast<int>(l));
+    for (Eigen::Index l = 0; l < unknowns; ++l) lhs(r, l) = separation(c.pairs[i], column(l));
     lhs(r, r) += 1.0 / c.pairs[i].stiffness;
   }
   x = Eigen::FullPivLU<MatrixC>(lhs).solve(b);
-  for (Eigen::Index l = 0; l < unknowns; ++l) ws.weights[static_cast<std::size_t>(1 + l)] = x[l];
+  for (Eigen::Index l = 0; l < unknowns; ++l) ws.weights[static_cast<std::size_t>(column(l))] = x[l];
 }
 
 // Step 5: the largest fraction of the step the trust region allows: no section turns or stretches
@@ -334,15 +343,11 @@ bool stage_newton_jacobian(const WorldModel& model, WorldState& state, std::size
 
 namespace {
 
-// The incremental potential of the frame's implicit step, at the current strains and poses, a
-// fraction `alpha` along the step: the law's energy (elastic and viscous: ½ Δqᵀ A Δq about its
-// target), weight and host forces, the medium's drag (c/2Δt |r − r_start|², s/2Δt |turn|²), the
-// contact penalties, and the attachments' merit. A host's moments are dead loads without a
-// potential (their work depends on the path; the rotation's logarithm wraps past half a turn):
-// along the step they do the work α m·δφ of its linearized rotation, as the slope counts them.
+// The incremental potential of the frame's implicit step at the current strains and poses: the
+// law's energy (elastic and viscous: ½ Δqᵀ A Δq about its target), weight and host forces, the
+// medium's drag (c/2Δt |r − r_start|², s/2Δt |turn|²) and the contact penalties.
 double incremental_potential(const WorldModel& model, const WorldState& state, std::size_t segment,
-                             const SubstepParameters& p, const Coupled& c, const VectorC& lambda, double mu,
-                             double alpha) {
+                             const SubstepParameters& p) {
   const SegmentModel& seg = model.segments[segment];
   const NewtonWorkspace& ws = state.newton[segment];
   const std::size_t off = seg.node_offset, n = seg.node_count;
@@ -383,7 +388,6 @@ double incremental_potential(const WorldModel& model, const WorldState& state, s
   const auto pos = state.now.position.view();
   const auto rot = state.now.rotation.view();
   const auto fext = state.external_force.view();
-  const auto mext = state.external_moment.view();
   const auto r0 = state.position_substep_start.view();
   const auto q0 = state.rotation_substep_start.view();
   const std::span<const double> drag = drag_of(model, seg), spin = spin_drag_of(model, seg);
@@ -391,22 +395,31 @@ double incremental_potential(const WorldModel& model, const WorldState& state, s
     const std::size_t g = off + k;
     const Eigen::Vector3d r = pos.get(g);
     loads -= (model.node_mass[g] * model.gravity + fext.get(g)).dot(r);
-    loads -= alpha * mext.get(g).dot(ws.step_phi.view().get(k));
     if (seg.has_drag) {
       if (spin[k] > 0.0)
-        loads += 0.5 * spin[k] / p.dt * kernels::rotation_log(rot.get(g) * q0.get(g).conjugate()).squaredNorm();
+        loads += 0.5 * spin[k] / p.dt * kernels::rotation_angle_squared(rot.get(g) * q0.get(g).conjugate());
       loads += 0.5 * drag[k] / p.dt * (r - r0.get(g)).squaredNorm();
     }
   }
   if (seg.bead_count > 0) loads += segment_contact_potential(model, state, segment, ws.bead_start);
-  // Attachments: the Lagrangian term of the constraint forces after the step, and an exact penalty.
+  return law + loads;
+}
+
+// The attachments' part of the merit: the Lagrangian term of the constraint forces after the step
+// and an exact penalty, Σ λ_j e_j + μ |e_j|.
+double attachment_merit(const WorldModel& model, const WorldState& state, std::size_t segment, const Coupled& c,
+                        const VectorC& lambda, double mu) {
+  const SegmentModel& seg = model.segments[segment];
+  const auto pos = state.now.position.view();
+  const auto rot = state.now.rotation.view();
+  double merit = 0.0;
   for (std::size_t j = 0; j < c.m; ++j) {
     const ConstraintRow& row = c.rows[j];
     const AttachmentState& as = state.now.attachment[seg.attachment_offset + row.attachment];
-    const double e = row_error(row, as, pos.get(off + row.node), rot.get(off + row.node));
-    loads += lambda[static_cast<Eigen::Index>(j)] * e + mu * std::abs(e);
+    const double e = row_error(row, as, pos.get(seg.node_offset + row.node), rot.get(seg.node_offset + row.node));
+    merit += lambda[static_cast<Eigen::Index>(j)] * e + mu * std::abs(e);
   }
-  return law + loads;
+  return merit;
 }
 
 // The scale of the potential's terms (the segment's weight over its length), for what counts as
@@ -442,7 +455,7 @@ void stage_newton_line_search(const WorldModel& model, WorldState& state, std::s
   const bool free_base = seg.base_mode == BaseMode::free;
   const Coupled c = coupled_unknowns(model, state, segment);
   VectorC x(static_cast<Eigen::Index>(c.m + c.pc));
-  for (Eigen::Index l = 0; l < x.size(); ++l) x[l] = ws.weights[static_cast<std::size_t>(1 + l)];
+  for (Eigen::Index l = 0; l < x.size(); ++l) x[l] = ws.weights[ws.column_of[static_cast<std::size_t>(1 + l)]];
   // The free base's unbalanced wrench (for the slope): the total load about node 0.
   kernels::Vector6d wrench = kernels::Vector6d::Zero();
   if (free_base) wrench = kernels::total_wrench(v.poses.node_position, v.force, v.moment, v.poses.node_position.get(0));
@@ -510,16 +523,27 @@ void stage_newton_line_search(const WorldModel& model, WorldState& state, std::s
     const bool last_try = stiffened == kMaxStiffenings;
     if (slope < 0.0 || last_try) {
       // From the trust region's scale, halve until the merit decreases enough and no contact
-      // deepens more than it may.
-      const double merit0 = incremental_potential(model, state, segment, p, c, lambda, mu, 0.0);
+      // deepens more than it may. A host's moments are dead loads without a potential (their
+      // work depends on the path; the rotation's logarithm wraps past half a turn): along the
+      // step they do the work α m·δφ of its linearized rotation, as the slope counts them. The
+      // potential at the start is the last iterate's accepted one where nothing else changed
+      // since (one rod: no other segment's beads moved; the same substep).
+      double moment_work = 0.0;
+      const auto mext = state.external_moment.view();
+      for (std::size_t k = 0; k < n; ++k) moment_work += mext.get(seg.node_offset + k).dot(ws.step_phi.view().get(k));
+      const bool cached = ws.potential_cached && p.iteration > 0 && stiffened == 0 && model.segments.size() == 1;
+      const double potential0 = cached ? ws.potential : incremental_potential(model, state, segment, p);
+      const double merit0 = potential0 + attachment_merit(model, state, segment, c, lambda, mu);
       const double rounding = kPotentialRounding * (std::abs(merit0) + potential_scale(model, segment));
       alpha = trust_scale(seg, v, ws);
       for (int attempt = 0; attempt <= kMaxBacktracks; ++attempt) {
         take(alpha);
         if (seg.bead_count == 0 || !deepens_too_far()) {
-          const double merit = incremental_potential(model, state, segment, p, c, lambda, mu, alpha);
+          const double potential = incremental_potential(model, state, segment, p);
+          const double merit = potential - alpha * moment_work + attachment_merit(model, state, segment, c, lambda, mu);
           if (merit <= merit0 + kArmijo * alpha * std::min(slope, 0.0) + rounding) {
             accepted = true;
+            ws.potential = potential;
             break;
           }
         }
@@ -538,6 +562,7 @@ void stage_newton_line_search(const WorldModel& model, WorldState& state, std::s
     if (!condense(model, state, segment, p, c, ws.law_scale * kStiffening)) break;
     solve_step(model, state, segment, p, c, x);
   }
+  ws.potential_cached = accepted;
   if (!accepted) {  // nothing lowers the merit: stay (the next iteration relinearizes)
     alpha = 0.0;
     take(0.0);

@@ -42,6 +42,7 @@ void NewtonWorkspace::allocate(std::size_t nodes, int columns, bool with_band) {
   response_nodes.reserve(2 * static_cast<std::size_t>(columns));
   responses.assign(2 * static_cast<std::size_t>(columns) * 6 * static_cast<std::size_t>(columns), 0.0);
   weights.assign(static_cast<std::size_t>(columns), 0.0);
+  column_of.assign(static_cast<std::size_t>(columns), 0);
   step_q.assign(4 * nodes, 0.0);
   step_phi.resize(nodes);
   step_r.resize(nodes);

@@ -80,6 +80,7 @@ struct NewtonWorkspace {
   std::vector<std::uint32_t> response_nodes;  // constraint and coupled-pair nodes, ascending, unique
   std::vector<double> responses;              // 6 × columns per response node (δφ, δr)
   std::vector<double> weights;                // per column: 1, then the coupled unknowns
+  std::vector<std::uint32_t> column_of;       // an unknown's column (1 + its index) → the kernel's
   std::vector<double> step_q;                 // the step: δq (4 per node), δφ, δr per node
   Vec3Buffer step_phi, step_r;
   // The banded LU of the assembled 16×16 block system: the fallback when the sweep's pivots are
@@ -103,6 +104,8 @@ struct NewtonWorkspace {
   // The line search: strains and base before the step.
   std::vector<double> strain_before;
   kernels::Pose base_before;
+  double potential = 0.0;          // the incremental potential at the step the line search took
+  bool potential_cached = false;
   int max_columns = 1;
   std::size_t singular_node = 0;  // where the condensed sweep's pivot was unsafe
   double law_scale = 1.0;  // the law's rows as condensed (stiffened where Newton's step is not a descent)

@@ -73,30 +73,6 @@ inline void advance_kinematics(const SectionFrame& g, double* y, const double* n
   for (int i = 0; i < 4; ++i) y[6 + i] = next[i];
 }
 
-// The same for `cols` right-hand sides at once: y is 10 rows × cols, next 4 rows × cols.
-inline void advance_kinematics_columns(const SectionFrame& g, double* y, const double* next, std::size_t cols) {
-  const double half = 0.5 * g.h;
-  double t[3][3];  // ½h R
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) t[i][j] = half * g.d[j][i];
-  const V3 c = g.chord, l = g.lever, d3 = half * g.d[2];
-  for (std::size_t k = 0; k < cols; ++k) {
-    const double s0 = y[6 * cols + k] + next[k], s1 = y[7 * cols + k] + next[cols + k],
-                 s2 = y[8 * cols + k] + next[2 * cols + k], se = y[9 * cols + k] + next[3 * cols + k];
-    const V3 theta{t[0][0] * s0 + t[0][1] * s1 + t[0][2] * s2, t[1][0] * s0 + t[1][1] * s1 + t[1][2] * s2,
-                   t[2][0] * s0 + t[2][1] * s1 + t[2][2] * s2};
-    const V3 phi{y[k], y[cols + k], y[2 * cols + k]};
-    const V3 dr = cross(phi, c) + cross(theta, l) + se * d3;
-    y[k] += theta.x;
-    y[cols + k] += theta.y;
-    y[2 * cols + k] += theta.z;
-    y[3 * cols + k] += dr.x;
-    y[4 * cols + k] += dr.y;
-    y[5 * cols + k] += dr.z;
-    for (std::size_t i = 0; i < 4; ++i) y[(6 + i) * cols + k] = next[i * cols + k];
-  }
-}
-
 // A node's law tangent: ∂s/∂q, diagonal plus the κ1–κ2 coupling of a nonlinear law.
 struct Tangent {
   double diag[4];
@@ -119,71 +95,73 @@ inline Tangent tangent_of(const RodLinearization& rod, std::size_t k) {
   return t;
 }
 
-// ---- Row operations over `w` lanes (W: compile-time width, or 0 for the run-time w) ----
+// ---- Row operations: rows `stride` doubles apart, `w` live lanes, in chunks of 4 doubles ----
+// Explicit 4-double vectors (one AVX2 register): the rows share one scratch buffer, so a compiler
+// cannot prove they do not alias and would not vectorize plain loops over them.
 
-template <int W>
-inline void zero(double* r, int w) {
-  const int n = W > 0 ? W : w;
-  for (int j = 0; j < n; ++j) r[j] = 0.0;
+using v4 = double __attribute__((vector_size(32), aligned(8), may_alias));
+
+inline v4* chunks(double* p) { return reinterpret_cast<v4*>(p); }
+inline const v4* chunks(const double* p) { return reinterpret_cast<const v4*>(p); }
+
+// y += a x over `nc` chunks.
+inline void axpy(double a, const double* x, double* y, int nc) {
+  const v4* xv = chunks(x);
+  v4* yv = chunks(y);
+  for (int c = 0; c < nc; ++c) yv[c] += a * xv[c];
 }
 
-template <int W>
-inline void copy(const double* __restrict from, double* __restrict to, int w) {
-  const int n = W > 0 ? W : w;
-  for (int j = 0; j < n; ++j) to[j] = from[j];
-}
+// Gauss–Jordan with scaled partial pivoting on `count` rows over lanes [first, first + count),
+// rows `stride` apart with `w` live lanes. No row moves: afterwards row order[i] has 1 at lane
+// first + i and 0 at the other eliminated lanes. Returns the smallest pivot relative to its row's
+// scale (0 when a row is all zero or a pivot is not finite).
+// What an elimination did, to replay on more lanes: step j scales row order[j] by inv[j], then
+// subtracts factor[j][r] times it from row r (0 for the pivot row).
+struct Elimination {
+  int order[10];
+  double inv[10];
+  double factor[10][10];
+};
 
-template <int W>
-inline void axpy(double a, const double* __restrict x, double* __restrict y, int w) {
-  const int n = W > 0 ? W : w;
-  for (int j = 0; j < n; ++j) y[j] += a * x[j];
-}
-
-// y += a x over the first 16 lanes (what kinematic rows can hold).
-inline void axpy16(double a, const double* __restrict x, double* __restrict y) {
-  for (int j = 0; j < kZ; ++j) y[j] += a * x[j];
-}
-
-// Gauss–Jordan with scaled partial pivoting on `count` rows over lanes [first, first + count):
-// afterwards row i has 1 at lane first + i and 0 at the other eliminated lanes. Returns the
-// smallest pivot relative to its row's scale (0 when a row is all zero).
-template <int W>
-inline double gauss_jordan(double* rows, int count, int first, int w) {
-  const int n = W > 0 ? W : w;
-  double scale[10];
+template <bool Record = true>
+inline double gauss_jordan(double* rows, int count, int first, int stride, int w, Elimination& e) {
+  int* order = e.order;
+  const int nc = w / 4;
+  double inv_scale[10];  // 1 / each row's largest entry in the eliminated lanes (0: an empty row)
   for (int r = 0; r < count; ++r) {
     double s = 0.0;
-    for (int j = 0; j < count; ++j) s = std::max(s, std::abs(rows[r * n + first + j]));
-    scale[r] = s;
+    for (int j = 0; j < count; ++j) s = std::max(s, std::abs(rows[r * stride + first + j]));
+    inv_scale[r] = s > 0.0 ? 1.0 / s : 0.0;
+    order[r] = r;
   }
   double smallest = std::numeric_limits<double>::infinity();
   for (int j = 0; j < count; ++j) {
     int p = j;
     double best = -1.0;
     for (int r = j; r < count; ++r) {
-      const double v = scale[r] > 0.0 ? std::abs(rows[r * n + first + j]) / scale[r] : 0.0;
+      const int o = order[r];
+      const double v = std::abs(rows[o * stride + first + j]) * inv_scale[o];
       if (v > best) {
         best = v;
         p = r;
       }
     }
-    if (p != j) {
-      std::swap_ranges(rows + p * n, rows + (p + 1) * n, rows + j * n);
-      std::swap(scale[p], scale[j]);
-    }
+    std::swap(order[p], order[j]);
     smallest = std::min(smallest, best);
-    double* pr = rows + j * n;
+    double* pr = rows + order[j] * stride;
     const double pivot = pr[first + j];
     if (!(best > 0.0) || !std::isfinite(pivot)) return 0.0;
     const double inv = 1.0 / pivot;
-    for (int c = 0; c < n; ++c) pr[c] *= inv;
+    e.inv[j] = inv;
+    v4* pv = chunks(pr);
+    for (int c = 0; c < nc; ++c) pv[c] *= inv;
     pr[first + j] = 1.0;
     for (int r = 0; r < count; ++r) {
-      if (r == j) continue;
-      double* rr = rows + r * n;
-      const double f = rr[first + j];
+      double* rr = rows + order[r] * stride;
+      const double f = r == j ? 0.0 : rr[first + j];
+      if constexpr (Record) e.factor[j][order[r]] = f;
       if (f == 0.0) continue;
-      for (int c = 0; c < n; ++c) rr[c] -= f * pr[c];
+      axpy(-f, pr, rr, nc);
       rr[first + j] = 0.0;
     }
   }
@@ -192,29 +170,77 @@ inline double gauss_jordan(double* rows, int count, int first, int w) {
 
 // ---- The sweep ----
 
+// The right-hand-side chunks [first, end) of one step, in one pass each: the interface rows'
+// values (10 per column) in registers, the operations of the 16-lane pass replayed with the
+// scalars it left — the section's frame, the elimination, and the interface's share `a` of
+// δq_{k+1} — writing the gains and the next interface.
+inline void fused_rhs_pass(const SectionFrame& g, const double (&a)[10][4], const Elimination& el, double* pi,
+                           double* gain, int stride, int first, int end) {
+  const double h = g.h;
+  const V3 c = g.chord, b = -1.0 * g.mid;
+  const V3 d0 = h * g.d[0], d1 = h * g.d[1], d2 = h * g.d[2];
+  for (int j = first; j < end; ++j) {
+    v4 p[10];
+    for (int r = 0; r < 10; ++r) p[r] = chunks(pi + r * stride)[j];
+    // δM_k += chord × δF_k (right-hand sides: no kinematic terms).
+    p[0] += c.y * p[5] - c.z * p[4];
+    p[1] += c.z * p[3] - c.x * p[5];
+    p[2] += c.x * p[4] - c.y * p[3];
+    // Section force: h Rᵀ (δM + (r_k − p) × δF), h d3·δF.
+    const v4 x0 = p[0] + b.y * p[5] - b.z * p[4];
+    const v4 x1 = p[1] + b.z * p[3] - b.x * p[5];
+    const v4 x2 = p[2] + b.x * p[4] - b.y * p[3];
+    const v4 s[4] = {d0.x * x0 + d0.y * x1 + d0.z * x2, d1.x * x0 + d1.y * x1 + d1.z * x2,
+                     d2.x * x0 + d2.y * x1 + d2.z * x2, d2.x * p[3] + d2.y * p[4] + d2.z * p[5]};
+    // Node k+1's strain rows, eliminated as the 16 lanes were.
+    v4 e[4];
+    for (int r = 0; r < 4; ++r) e[r] = p[6 + r] + 0.5 * s[r];
+    for (int step = 0; step < 4; ++step) {
+      const int pr = el.order[step];
+      e[pr] *= el.inv[step];
+      for (int r = 0; r < 4; ++r) e[r] -= el.factor[step][r] * e[pr];
+    }
+    v4 u[4];
+    for (int r = 0; r < 4; ++r) {
+      u[r] = -e[el.order[r]];
+      chunks(gain + r * stride)[j] = u[r];
+    }
+    for (int r = 0; r < 10; ++r) {
+      const v4 in = r < 6 ? p[r] : 0.5 * s[r - 6];
+      chunks(pi + r * stride)[j] = in + a[r][0] * u[0] + a[r][1] * u[1] + a[r][2] * u[2] + a[r][3] * u[3];
+    }
+  }
+}
+
+
 template <int W>
 CondenseReport sweep(const RodLinearization& rod, StrainView<const double> residual, std::span<const UnitLoad> loads,
                      CondensedSystem sys) {
-  const int w = W > 0 ? W : condensed_width(sys.columns);
+  // Rows are `stride` doubles apart (room for every column); `w` lanes are live. A unit load's
+  // column is zero distal to its node and the columns are numbered in the order the sweep meets
+  // them, so at each node only a prefix of them is live.
+  const int stride = W > 0 ? W : condensed_width(sys.columns);
+  int w = W > 0 ? W : condensed_width(1);
+  const int S = W > 0 ? W : stride;  // a compile-time stride where there is one
   const std::size_t n = rod.poses.node_count();
   const std::size_t last = n - 1;
   const bool has_stiffness = !rod.stiffness.force.empty();
+  constexpr int kZc = kZ / 4;       // chunks of the kinematic lanes
   double* pi = sys.scratch.data();  // 10 rows: the interface (w 0–5: δM, δF; c 6–9)
-  double* wr = pi + 10 * w;         // 6 rows: δM_k, δF_k over z
-  double* cr = wr + 6 * w;          // 4 rows: node k+1's strain equations over z
-  double* sr = cr + 4 * w;          // 4 rows: section k's generalized force over z
-  double* xr = sr + 4 * w;          // 6 rows: δφ_{k+1}, δr_{k+1} over z (16 lanes)
-  double* mm = xr + 6 * w;          // 3 rows: the distal moment about the midpoint
+  double* wr = pi + 10 * S;         // 6 rows: δM_k, δF_k over z
+  double* cr = wr + 6 * S;          // 4 rows: node k+1's strain equations over z
+  double* sr = cr + 4 * S;          // 4 rows: section k's generalized force over z
+  double* xr = sr + 4 * S;          // 6 rows: δφ_{k+1}, δr_{k+1} over z (16 lanes)
   CondenseReport report;
 
   // The tip: no distal wrench; node N's strain rows see only its own law.
-  for (int i = 0; i < 10 * w; ++i) pi[i] = 0.0;
+  for (int i = 0; i < 10 * S; ++i) pi[i] = 0.0;
   {
     const Tangent t = tangent_of(rod, last);
     const double m = rod.section_length[last - 1] / 3.0;
     for (int c = 0; c < 4; ++c) {
-      for (int j = 0; j < 4; ++j) pi[(6 + c) * w + QK + j] = -m * t.at(c, j);
-      pi[(6 + c) * w + RHS] = residual.at(last, static_cast<std::size_t>(c));
+      for (int j = 0; j < 4; ++j) pi[(6 + c) * S + QK + j] = -m * t.at(c, j);
+      pi[(6 + c) * S + RHS] = residual.at(last, static_cast<std::size_t>(c));
     }
   }
   std::size_t next_load = 0;
@@ -229,13 +255,26 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
     // The distal wrench at node k: F_k = F_{k+1} + f_{k+1}, M_k = M_{k+1} + m_{k+1} + chord × F_k.
     force = force + load(rod.node_force, k + 1);
     moment = moment + load(rod.node_moment, k + 1) + cross(g.chord, force);
+    // The columns whose loads sit at node k+1 come alive here: a unit load joins the wrench
+    // transported across section k. (Right-hand-side lanes pass the interface's change of
+    // unknowns unchanged, so it can join w_{k+1} before it.)
+    for (; next_load < loads.size() && loads[next_load].node == k + 1; ++next_load) {
+      const UnitLoad& u = loads[next_load];
+      if constexpr (W == 0) w = std::max(w, condensed_width(static_cast<int>(u.column) + 1));
+      double* rows = pi + (u.is_moment ? 0 : 3) * S;
+      for (int i = 0; i < 3; ++i) rows[i * S + RHS + static_cast<int>(u.column)] += u.load[i];
+    }
+    // The 16 lanes of the unknowns (and the first two right-hand sides) first; the remaining
+    // right-hand sides in one fused pass below, with the scalars this pass leaves.
+    const int nc = kZc;
 
     // δφ_{k+1}, δr_{k+1} over z.
-    for (int i = 0; i < 6 * w; ++i) xr[i] = 0.0;
+    for (int i = 0; i < 6; ++i)
+      for (int c = 0; c < kZc; ++c) chunks(xr + i * S)[c] = v4{};
     const double half = 0.5 * h;
     for (int i = 0; i < 3; ++i) {
-      double* xp = xr + i * w;
-      double* xq = xr + (3 + i) * w;
+      double* xp = xr + i * S;
+      double* xq = xr + (3 + i) * S;
       xp[PHI + i] = 1.0;
       xq[POS + i] = 1.0;
       for (int j = 0; j < 3; ++j) {
@@ -248,100 +287,117 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
       xq[QK + 3] = xq[QN + 3] = half * g.d[2][i];
     }
     // δφ_k × chord.
-    xr[3 * w + PHI + 1] = g.chord.z;
-    xr[3 * w + PHI + 2] = -g.chord.y;
-    xr[4 * w + PHI + 0] = -g.chord.z;
-    xr[4 * w + PHI + 2] = g.chord.x;
-    xr[5 * w + PHI + 0] = g.chord.y;
-    xr[5 * w + PHI + 1] = -g.chord.x;
+    xr[3 * S + PHI + 1] = g.chord.z;
+    xr[3 * S + PHI + 2] = -g.chord.y;
+    xr[4 * S + PHI + 0] = -g.chord.z;
+    xr[4 * S + PHI + 2] = g.chord.x;
+    xr[5 * S + PHI + 0] = g.chord.y;
+    xr[5 * S + PHI + 1] = -g.chord.x;
 
     // The interface of node k+1 over z: w_{k+1} into wr, c_{k+1} into cr.
     for (int r = 0; r < 10; ++r) {
-      const double* p = pi + r * w;
-      double* out = r < 6 ? wr + r * w : cr + (r - 6) * w;
-      for (int j = 0; j < kZ; ++j) out[j] = 0.0;
-      for (int i = 0; i < 6; ++i)
-        if (p[i] != 0.0) axpy16(p[i], xr + i * w, out);
-      for (int j = 0; j < 4; ++j) out[QN + j] += p[QK + j];
-      for (int j = RHS; j < w; ++j) out[j] = p[j];
-    }
-    // Unit loads at node k+1 join the wrench transported across section k.
-    for (; next_load < loads.size() && loads[next_load].node == k + 1; ++next_load) {
-      const UnitLoad& u = loads[next_load];
-      double* rows = wr + (u.is_moment ? 0 : 3) * w;
-      for (int i = 0; i < 3; ++i) rows[i * w + RHS + static_cast<int>(u.column)] += u.load[i];
+      const double* p = pi + r * S;
+      double* out = r < 6 ? wr + r * S : cr + (r - 6) * S;
+      const v4* x0 = chunks(xr);
+      v4 acc[kZc];
+      for (int c = 0; c < kZc; ++c)
+        acc[c] = p[0] * x0[c] + p[1] * x0[S / 4 + c] + p[2] * x0[2 * S / 4 + c] + p[3] * x0[3 * S / 4 + c] +
+                 p[4] * x0[4 * S / 4 + c] + p[5] * x0[5 * S / 4 + c];
+      const double rhs0 = p[RHS], rhs1 = p[RHS + 1];
+      const double q0 = p[QK], q1 = p[QK + 1], q2 = p[QK + 2], q3 = p[QK + 3];
+      for (int c = 0; c < kZc; ++c) chunks(out)[c] = acc[c];
+      out[QN] += q0;
+      out[QN + 1] += q1;
+      out[QN + 2] += q2;
+      out[QN + 3] += q3;
+      out[RHS] = rhs0;
+      out[RHS + 1] = rhs1;
     }
     // δF_k = δF_{k+1} − K_{k+1} δr_{k+1}.
-    double* fr = wr + 3 * w;
+    double* fr = wr + 3 * S;
     double* mr = wr;
     if (has_stiffness) {
       const Eigen::Matrix3d& kk = rod.stiffness.force[k + 1];
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
-          if (kk(i, j) != 0.0) axpy16(-kk(i, j), xr + (3 + j) * w, fr + i * w);
+          if (kk(i, j) != 0.0) axpy(-kk(i, j), xr + (3 + j) * S, fr + i * S, kZc);
     }
     // δM_k = δM_{k+1} + chord × δF_k − F_k × (δr_{k+1} − δr_k) − s δφ_{k+1}.
     {
       const V3 c = g.chord;
-      for (int j = 0; j < w; ++j) {
-        const double f0 = fr[j], f1 = fr[w + j], f2 = fr[2 * w + j];
-        mr[j] += c.y * f2 - c.z * f1;
-        mr[w + j] += c.z * f0 - c.x * f2;
-        mr[2 * w + j] += c.x * f1 - c.y * f0;
+      v4* m0 = chunks(mr);
+      v4* m1 = chunks(mr + S);
+      v4* m2 = chunks(mr + 2 * S);
+      const v4* f0 = chunks(fr);
+      const v4* f1 = chunks(fr + S);
+      const v4* f2 = chunks(fr + 2 * S);
+      for (int j = 0; j < nc; ++j) {
+        const v4 a0 = f0[j], a1 = f1[j], a2 = f2[j];
+        m0[j] += c.y * a2 - c.z * a1;
+        m1[j] += c.z * a0 - c.x * a2;
+        m2[j] += c.x * a1 - c.y * a0;
       }
       const V3 f = force;
-      for (int j = 0; j < kZ; ++j) {
-        const double r0 = xr[3 * w + j], r1 = xr[4 * w + j], r2 = xr[5 * w + j];
-        mr[j] -= f.y * r2 - f.z * r1;
-        mr[w + j] -= f.z * r0 - f.x * r2;
-        mr[2 * w + j] -= f.x * r1 - f.y * r0;
+      const v4* r0 = chunks(xr + 3 * S);
+      const v4* r1 = chunks(xr + 4 * S);
+      const v4* r2 = chunks(xr + 5 * S);
+      for (int j = 0; j < kZc; ++j) {
+        const v4 a0 = r0[j], a1 = r1[j], a2 = r2[j];
+        m0[j] -= f.y * a2 - f.z * a1;
+        m1[j] -= f.z * a0 - f.x * a2;
+        m2[j] -= f.x * a1 - f.y * a0;
       }
       // ... and + F_k × δr_k (the unit lanes of δr_k that δr_{k+1} carries, taken back).
       mr[POS + 1] -= f.z;
       mr[POS + 2] += f.y;
-      mr[w + POS] += f.z;
-      mr[w + POS + 2] -= f.x;
-      mr[2 * w + POS] -= f.y;
-      mr[2 * w + POS + 1] += f.x;
+      mr[S + POS] += f.z;
+      mr[S + POS + 2] -= f.x;
+      mr[2 * S + POS] -= f.y;
+      mr[2 * S + POS + 1] += f.x;
       if (has_stiffness && !rod.stiffness.moment.empty()) {
-        const double s = rod.stiffness.moment[k + 1];
-        if (s != 0.0)
-          for (int i = 0; i < 3; ++i) axpy16(-s, xr + i * w, mr + i * w);
+        const double sp = rod.stiffness.moment[k + 1];
+        if (sp != 0.0)
+          for (int i = 0; i < 3; ++i) axpy(-sp, xr + i * S, mr + i * S, kZc);
       }
     }
     // Section k's generalized force: h Rᵀ (δM_k + (r_k − p) × δF_k), h d3·δF_k, plus the terms of
     // its own rotation (P) and strain (X).
     {
       const V3 b = -1.0 * g.mid;  // r_k − p
-      for (int j = 0; j < w; ++j) {
-        const double f0 = fr[j], f1 = fr[w + j], f2 = fr[2 * w + j];
-        mm[j] = mr[j] + b.y * f2 - b.z * f1;
-        mm[w + j] = mr[w + j] + b.z * f0 - b.x * f2;
-        mm[2 * w + j] = mr[2 * w + j] + b.x * f1 - b.y * f0;
-      }
-      for (int c = 0; c < 3; ++c) {
-        double* s = sr + c * w;
-        const V3 dc = h * g.d[c];
-        for (int j = 0; j < w; ++j) s[j] = dc.x * mm[j] + dc.y * mm[w + j] + dc.z * mm[2 * w + j];
-      }
-      {
-        double* s = sr + 3 * w;
-        const V3 dc = h * g.d[2];
-        for (int j = 0; j < w; ++j) s[j] = dc.x * fr[j] + dc.y * fr[w + j] + dc.z * fr[2 * w + j];
+      const v4* m0 = chunks(mr);
+      const v4* m1 = chunks(mr + S);
+      const v4* m2 = chunks(mr + 2 * S);
+      const v4* f0 = chunks(fr);
+      const v4* f1 = chunks(fr + S);
+      const v4* f2 = chunks(fr + 2 * S);
+      const V3 d0 = h * g.d[0], d1 = h * g.d[1], d2 = h * g.d[2];
+      v4* s0 = chunks(sr);
+      v4* s1 = chunks(sr + S);
+      v4* s2 = chunks(sr + 2 * S);
+      v4* s3 = chunks(sr + 3 * S);
+      for (int j = 0; j < nc; ++j) {
+        const v4 a0 = f0[j], a1 = f1[j], a2 = f2[j];
+        const v4 x0 = m0[j] + b.y * a2 - b.z * a1;
+        const v4 x1 = m1[j] + b.z * a0 - b.x * a2;
+        const v4 x2 = m2[j] + b.x * a1 - b.y * a0;
+        s0[j] = d0.x * x0 + d0.y * x1 + d0.z * x2;
+        s1[j] = d1.x * x0 + d1.y * x1 + d1.z * x2;
+        s2[j] = d2.x * x0 + d2.y * x1 + d2.z * x2;
+        s3[j] = d2.x * a0 + d2.y * a1 + d2.z * a2;
       }
       const V3 m_mid = moment + cross(b, force);
       const V3 fm{dot(g.d[0], force), dot(g.d[1], force), dot(g.d[2], force)};
       const V3 mmat{dot(g.d[0], m_mid), dot(g.d[1], m_mid), dot(g.d[2], m_mid)};
       for (int c = 0; c < 3; ++c) {
         const V3 p = h * (cross(g.d[c], m_mid) - cross(cross(g.d[c], force), g.mid));
-        sr[c * w + PHI] += p.x;
-        sr[c * w + PHI + 1] += p.y;
-        sr[c * w + PHI + 2] += p.z;
+        sr[c * S + PHI] += p.x;
+        sr[c * S + PHI + 1] += p.y;
+        sr[c * S + PHI + 2] += p.z;
       }
       const V3 p3 = h * cross(g.d[2], force);
-      sr[3 * w + PHI] += p3.x;
-      sr[3 * w + PHI + 1] += p3.y;
-      sr[3 * w + PHI + 2] += p3.z;
+      sr[3 * S + PHI] += p3.x;
+      sr[3 * S + PHI + 1] += p3.y;
+      sr[3 * S + PHI + 2] += p3.z;
       const double xq = 0.25 * h * h;
       const double x[4][4] = {{0.0, -xq * mmat.z, xq * mmat.y, xq * fm.y},
                               {xq * mmat.z, 0.0, -xq * mmat.x, -xq * fm.x},
@@ -349,19 +405,21 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
                               {-xq * fm.y, xq * fm.x, 0.0, 0.0}};
       for (int c = 0; c < 4; ++c)
         for (int j = 0; j < 4; ++j) {
-          sr[c * w + QK + j] += x[c][j];
-          sr[c * w + QN + j] += x[c][j];
+          sr[c * S + QK + j] += x[c][j];
+          sr[c * S + QN + j] += x[c][j];
         }
     }
     // Node k+1's strain rows: ½ δs_k − A_{k+1,k} δq_k + c_{k+1} = 0.
     const double m_side = h / 6.0;
     for (int c = 0; c < 4; ++c) {
-      double* row = cr + c * w;
-      axpy<W>(0.5, sr + c * w, row, w);
+      double* row = cr + c * S;
+      axpy(0.5, sr + c * S, row, nc);
       for (int j = 0; j < 4; ++j) row[QK + j] -= m_side * t_k.at(c, j);
     }
     // δq_{k+1} = U_k (y_k, 1).
-    const double pivot = gauss_jordan<W>(cr, 4, QN, w);
+    Elimination el;
+    const int* order = el.order;
+    const double pivot = gauss_jordan<W == 0>(cr, 4, QN, S, kZ, el);
     if (pivot < report.smallest_pivot) {
       report.smallest_pivot = pivot;
       report.node = k + 1;
@@ -371,40 +429,49 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
       report.node = k + 1;
       return report;
     }
-    double* gain = sys.gain.data() + k * 4 * static_cast<std::size_t>(w);
+    double* gain = sys.gain.data() + k * 4 * static_cast<std::size_t>(S);
     for (int r = 0; r < 4; ++r) {
-      double* u = gain + r * w;
-      const double* row = cr + r * w;
-      for (int j = 0; j < w; ++j) u[j] = -row[j];
-      for (int j = 0; j < 4; ++j) u[QN + j] = 0.0;
+      v4* u = chunks(gain + r * S);
+      const v4* row = chunks(cr + order[r] * S);
+      for (int j = 0; j < nc; ++j) u[j] = -row[j];
+      for (int j = w / 4; j < S / 4; ++j) u[j] = v4{};
+      for (int j = 0; j < 4; ++j) gain[r * S + QN + j] = 0.0;
     }
     // The interface of node k: w_k, and c_k = ½ δs_k − A_kk δq_k − A_{k,k+1} δq_{k+1} + ρ_k, with
     // δq_{k+1} substituted.
     const double m_self = (h_prev + h) / 3.0;
     for (int c = 0; c < 4; ++c) {
-      double* row = pi + (6 + c) * w;
-      for (int j = 0; j < w; ++j) row[j] = 0.5 * sr[c * w + j];
+      double* row = pi + (6 + c) * S;
+      const v4* srow = chunks(sr + c * S);
+      for (int j = 0; j < nc; ++j) chunks(row)[j] = 0.5 * srow[j];
       for (int j = 0; j < 4; ++j) {
         row[QK + j] -= m_self * t_k.at(c, j);
         row[QN + j] -= m_side * t_next.at(c, j);
       }
       row[RHS] += residual.at(k, static_cast<std::size_t>(c));
     }
+    const v4* g0 = chunks(gain);
+    const v4* g1 = chunks(gain + S);
+    const v4* g2 = chunks(gain + 2 * S);
+    const v4* g3 = chunks(gain + 3 * S);
+    double a[10][4];  // how much of δq_{k+1} each interface row holds
     for (int r = 0; r < 10; ++r) {
-      double* row = r < 6 ? wr + r * w : pi + r * w;
-      const double a0 = row[QN], a1 = row[QN + 1], a2 = row[QN + 2], a3 = row[QN + 3];
-      double* out = pi + r * w;
-      if (r < 6) copy<W>(row, out, w);
-      for (int j = 0; j < w; ++j) out[j] += a0 * gain[j] + a1 * gain[w + j] + a2 * gain[2 * w + j] + a3 * gain[3 * w + j];
-      for (int j = 0; j < 4; ++j) out[QN + j] = 0.0;
+      const double* row = r < 6 ? wr + r * S : pi + r * S;
+      for (int j = 0; j < 4; ++j) a[r][j] = row[QN + j];
+      const v4* in = chunks(row);
+      v4* out = chunks(pi + r * S);
+      for (int j = 0; j < nc; ++j) out[j] = in[j] + a[r][0] * g0[j] + a[r][1] * g1[j] + a[r][2] * g2[j] + a[r][3] * g3[j];
+      for (int j = 0; j < 4; ++j) pi[r * S + QN + j] = 0.0;
     }
+    if constexpr (W == 0) fused_rhs_pass(g, a, el, pi, gain, S, kZc, w / 4);
     t_next = t_k;
   }
 
-  // The base: y_0 for every column.
+  // The base: y_0 for every column. Every column is live here (loads at node 0 start here).
+  w = stride;
   force = force + load(rod.node_force, 0);
   moment = moment + load(rod.node_moment, 0);
-  double* base = pi;  // reuse the interface rows as the base system
+  double* base = pi;  // the interface rows become the base system
   int unknowns_first = QK, unknowns = 4, equations_first = 6;
   if (rod.free_base) {
     // The rod's total wrench about node 0 balances: δM_0 − s_0 δφ_0 + M = 0, δF_0 − K_0 δr_0 + F = 0,
@@ -414,22 +481,24 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
     equations_first = 0;
     if (has_stiffness) {
       for (int i = 0; i < 3; ++i) {
-        if (!rod.stiffness.moment.empty()) base[i * w + PHI + i] -= rod.stiffness.moment[0];
-        for (int j = 0; j < 3; ++j) base[(3 + i) * w + POS + j] -= rod.stiffness.force[0](i, j);
+        if (!rod.stiffness.moment.empty()) base[i * S + PHI + i] -= rod.stiffness.moment[0];
+        for (int j = 0; j < 3; ++j) base[(3 + i) * S + POS + j] -= rod.stiffness.force[0](i, j);
       }
     }
     for (int i = 0; i < 3; ++i) {
-      base[i * w + RHS] += moment[i];
-      base[(3 + i) * w + RHS] += force[i];
+      base[i * S + RHS] += moment[i];
+      base[(3 + i) * S + RHS] += force[i];
     }
     for (; next_load < loads.size() && loads[next_load].node == 0; ++next_load) {
       const UnitLoad& u = loads[next_load];
-      double* rows = base + (u.is_moment ? 0 : 3) * w;
-      for (int i = 0; i < 3; ++i) rows[i * w + RHS + static_cast<int>(u.column)] += u.load[i];
+      double* rows = base + (u.is_moment ? 0 : 3) * S;
+      for (int i = 0; i < 3; ++i) rows[i * S + RHS + static_cast<int>(u.column)] += u.load[i];
     }
   }
-  double* eq = base + equations_first * w;
-  const double pivot = gauss_jordan<W>(eq, unknowns, unknowns_first, w);
+  double* work = base + equations_first * S;
+  Elimination el;
+  const int* order = el.order;
+  const double pivot = gauss_jordan<false>(work, unknowns, unknowns_first, S, w, el);
   if (pivot < report.smallest_pivot) {
     report.smallest_pivot = pivot;
     report.node = 0;
@@ -442,7 +511,7 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
   for (int c = 0; c < sys.columns; ++c) {
     double* y = sys.base.data() + 10 * c;
     for (int i = 0; i < 10; ++i) y[i] = 0.0;
-    for (int i = 0; i < unknowns; ++i) y[unknowns_first + i] = -eq[i * w + RHS + c];
+    for (int i = 0; i < unknowns; ++i) y[unknowns_first + i] = -work[order[i] * S + RHS + c];
     for (int i = 0; i < 10; ++i)
       if (!std::isfinite(y[i])) report.ok = false;
   }

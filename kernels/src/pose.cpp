@@ -61,6 +61,17 @@ Eigen::Vector3d rotation_log(const Eigen::Quaterniond& q_in) {
   return v * (angle / s);
 }
 
+double rotation_angle_squared(const Eigen::Quaterniond& q) {
+  const double s2 = q.vec().squaredNorm();
+  if (s2 < 1e-3) {
+    // angle = 2 asin(s) = 2 s (1 + s²/6 + 3s⁴/40 + 5s⁶/112 + 35s⁸/1152 + …); the next term is
+    // 63 s¹⁰/2816 < 3·10⁻¹⁷ here.
+    const double series = 1.0 + s2 * (1.0 / 6.0 + s2 * (3.0 / 40.0 + s2 * (5.0 / 112.0 + s2 * (35.0 / 1152.0))));
+    return 4.0 * s2 * series * series;
+  }
+  return rotation_log(q).squaredNorm();
+}
+
 Eigen::Quaterniond rotation_exp(const Eigen::Vector3d& rotation_vector) {
   const ExpCoefficients c = exp_coefficients(rotation_vector.squaredNorm());
   return {c.cos_half, c.half_sin_over_theta * rotation_vector.x(),

@@ -30,6 +30,10 @@ struct Pose {
 // Rotation vector (axis times angle, angle in [0, π]) of a unit quaternion.
 [[nodiscard]] Eigen::Vector3d rotation_log(const Eigen::Quaterniond& q);
 
+// The squared angle |rotation_log(q)|² of a unit quaternion, without atan2 for small turns (a
+// series in |q.vec| exact to rounding below 0.06 rad): what a rotational drag's potential needs.
+[[nodiscard]] double rotation_angle_squared(const Eigen::Quaterniond& q);
+
 // Unit quaternion of a rotation vector.
 [[nodiscard]] Eigen::Quaterniond rotation_exp(const Eigen::Vector3d& rotation_vector);
 

@@ -91,7 +91,8 @@ inline constexpr double kCondensedPivotFloor = 1e-10;
 
 // Tip → base: the gains U_k of every node and y_0 of every right-hand side. residual: ρ per node
 // (column 0 solves J δz = −ρ with the free base's unbalanced wrench). loads: sorted by node,
-// descending. Columns beyond the residual whose loads are all at node 0 of a clamped rod are zero.
+// descending, their columns numbered in the order they first appear there (so the live columns at
+// any node are a prefix). Columns whose loads all sit at node 0 of a clamped rod are zero.
 CondenseReport rod_condense(const RodLinearization& rod, StrainView<const double> residual,
                             std::span<const UnitLoad> loads, CondensedSystem sys);
 
