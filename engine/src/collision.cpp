@@ -9,7 +9,7 @@
 namespace haustra::detail {
 namespace {
 
-constexpr std::size_t kChunk = 256;  // beads per task: fixed, so the split does not depend on threads
+constexpr std::size_t kChunk = 64;  // beads per task: fixed, so the split does not depend on threads
 constexpr double kSpeculation = 1.5;  // a bead's reach: the margin plus this times its last motion
 // bench_collision, one thread: brute force costs ~110 ns a bead at 220 beads and ~790 at 1000,
 // the grid ~260 at any count; the grid's queries also spread over threads.
@@ -276,19 +276,28 @@ void stage_contacts(const WorldModel& model, WorldState& state, Scheduler& sched
 }
 
 double segment_contact_potential(const WorldModel& model, const WorldState& state, std::size_t segment,
-                                 std::span<const Eigen::Vector3d> bead_start) {
+                                 std::span<const Eigen::Vector3d> bead_start, std::size_t first, std::size_t end,
+                                 bool across) {
   const SegmentModel& seg = model.segments[segment];
   const CollisionState& cs = state.collision;
   if (cs.bead_contact_start.empty()) return 0.0;
   const double exponent = model.contact.exponent;
+  auto inside = [&](std::uint32_t bead) {
+    const std::size_t k = model.beads.node[bead] - seg.node_offset;
+    return k >= first && k < end;
+  };
   double potential = 0.0;
   for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
+    if (!inside(static_cast<std::uint32_t>(b))) continue;
     const Eigen::Vector3d c = node_position(state, model.beads.node[b]);
     for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e) {
       const ContactCandidate& k = cs.candidates[cs.bead_contact[e] >> 1];
       const bool second = (cs.bead_contact[e] & 1U) != 0;
-      const bool mate_here = k.kind == ContactKind::bead && model.beads.segment[second ? k.bead : k.other] == segment;
-      if (second && mate_here) continue;  // counted from its first bead
+      const std::uint32_t mate = second ? k.bead : k.other;
+      const bool mate_here = k.kind == ContactKind::bead && model.beads.segment[mate] == segment;
+      const bool spans = mate_here && !inside(mate);
+      if (spans != across) continue;
+      if (second && mate_here && !spans) continue;  // counted from its first bead
       double depth = 0.0;
       if (mate_here || (k.kind != ContactKind::bead)) {
         depth = measure(model, state, k, node_position(state, model.beads.node[k.bead])).depth;

@@ -32,8 +32,11 @@ void record_bead_motion(const WorldModel& model, WorldState& state);
 // moves it at the same time, against where that bead was at the iteration's start (the depth and
 // direction the contacts stage measured), moved by this bead's motion since `bead_start` (the
 // segment's bead positions at the iteration's start, local index).
+// Beads at local nodes [first, end) only: `across` false, their contacts but those with a bead of
+// the segment outside the range; true, just those (each counted once, from inside the range).
 double segment_contact_potential(const WorldModel& model, const WorldState& state, std::size_t segment,
-                                 std::span<const Eigen::Vector3d> bead_start);
+                                 std::span<const Eigen::Vector3d> bead_start, std::size_t first, std::size_t end,
+                                 bool across);
 
 // Beads a contact candidate list can ignore: an instrument's own grasped bead.
 [[nodiscard]] bool instrument_holds(const WorldState& state, std::size_t instrument, std::uint32_t bead);

@@ -10,50 +10,17 @@
 #include "haustra/kernels/rod_condensed.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/kernels/rod_newton.hpp"
+#include "newton_internal.hpp"
 #include "newton_stages.hpp"
 #include "segment_law.hpp"
 
 namespace haustra::detail {
-namespace {
-
-constexpr int kMaxCoupled = static_cast<int>(kMaxConstraintRows + kMaxCoupledContacts);
-using MatrixC = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxCoupled, kMaxCoupled>;
-using VectorC = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxCoupled, 1>;
+namespace newton {
 
 // Newton steps are scaled down to stay within these per iteration (a trust region): beyond them
 // the linearization says little about the rod.
 constexpr double kMaxNewtonAngle = 0.5;  // rad of bend or twist per section
 constexpr double kMaxNewtonStretch = 0.25;
-// ... and so that no contact gets deeper by more than this fraction of its bead's radius: a
-// penalty's stiffness grows with depth, so the tangent at the surface lets a bead sink far too far.
-constexpr double kMaxNewtonDeepening = 0.1;
-// The line search: sufficient decrease (Armijo) of the incremental potential, halving the step.
-constexpr double kArmijo = 1e-4;
-constexpr int kMaxBacktracks = 10;
-// Where the Newton step is not a descent direction, the law's rows are stiffened by this factor
-// and the system solved again, up to this many times (8⁶ ≈ 2.6·10⁵ × the law: a small
-// law-weighted gradient step).
-constexpr double kStiffening = 8.0;
-constexpr int kMaxStiffenings = 6;
-// A potential is a sum of large terms (weight × height); differences below this fraction of their
-// magnitude are rounding, and the O(h²) difference between the backward sweep's generalized forces
-// and the exact gradient: such a step is taken as not raising the potential.
-constexpr double kPotentialRounding = 1e-10;
-
-// A coupled contact pair: two beads of the segment, solved as one unknown force.
-struct Pair {
-  std::size_t a = 0, b = 0;  // local nodes
-  Eigen::Vector3d n = Eigen::Vector3d::UnitZ();  // separating direction, towards a
-  double stiffness = 0.0;
-};
-
-struct Coupled {
-  ConstraintRows rows{};
-  std::size_t m = 0;  // constraint rows
-  std::array<Pair, kMaxCoupledContacts> pairs{};
-  std::size_t pc = 0;  // coupled pairs
-  [[nodiscard]] int columns() const { return 1 + static_cast<int>(m + pc); }
-};
 
 Coupled coupled_unknowns(const WorldModel& model, const WorldState& state, std::size_t segment) {
   const SegmentModel& seg = model.segments[segment];
@@ -69,6 +36,9 @@ Coupled coupled_unknowns(const WorldModel& model, const WorldState& state, std::
   }
   return c;
 }
+
+
+namespace {
 
 kernels::RodLinearization linearization_of(const SegmentModel& seg, const SegmentViews& v, NewtonWorkspace& ws,
                                            const SubstepParameters& p, bool has_stiffness) {
@@ -229,18 +199,15 @@ void band_step(NewtonWorkspace& ws, std::size_t n, int cols) {
 void coupled_multipliers(const WorldModel& model, const WorldState& state, std::size_t segment, const Coupled& c,
                          const SegmentViews& v, NewtonWorkspace& ws, VectorC& x) {
   const SegmentModel& seg = model.segments[segment];
-  const int cols = c.columns();
-  auto at = [&](std::size_t node) {
-    return static_cast<std::size_t>(std::lower_bound(ws.response_nodes.begin(), ws.response_nodes.end(), node) -
-                                    ws.response_nodes.begin());
+  const auto cols = static_cast<std::size_t>(c.columns());
+  // A node's responses: 6 × columns (δφ, δr of each column), found once per row.
+  auto responses_at = [&](std::size_t node) {
+    const auto i = static_cast<std::size_t>(
+        std::lower_bound(ws.response_nodes.begin(), ws.response_nodes.end(), node) - ws.response_nodes.begin());
+    return ws.responses.data() + i * cols * 6;
   };
-  auto moved = [&](std::size_t node, const Eigen::Vector3d& dir, bool rotation, int col) {
-    const double* r = ws.responses.data() + (at(node) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(col)) * 6 +
-                      (rotation ? 0 : 3);
-    return dir.x() * r[0] + dir.y() * r[1] + dir.z() * r[2];
-  };
-  auto separation = [&](const Pair& pr, int col) { return moved(pr.a, pr.n, false, col) - moved(pr.b, pr.n, false, col); };
-  auto column = [&](Eigen::Index l) { return static_cast<int>(ws.column_of[static_cast<std::size_t>(1 + l)]); };
+  auto along = [](const double* r, const Eigen::Vector3d& dir) { return dir.x() * r[0] + dir.y() * r[1] + dir.z() * r[2]; };
+  auto column = [&](Eigen::Index l) { return static_cast<std::size_t>(ws.column_of[static_cast<std::size_t>(1 + l)]); };
   const auto unknowns = static_cast<Eigen::Index>(c.m + c.pc);
   x = VectorC::Zero(unknowns);
   std::fill(ws.weights.begin(), ws.weights.end(), 0.0);
@@ -252,18 +219,33 @@ void coupled_multipliers(const WorldModel& model, const WorldState& state, std::
     const ConstraintRow& row = c.rows[j];
     const AttachmentState& as = state.now.attachment[seg.attachment_offset + row.attachment];
     const auto r = static_cast<Eigen::Index>(j);
-    b[r] = row_error(row, as, v) - moved(row.node, row.dir, row.is_moment, 0);
-    for (Eigen::Index l = 0; l < unknowns; ++l) lhs(r, l) = moved(row.node, row.dir, row.is_moment, column(l));
+    const double* at = responses_at(row.node) + (row.is_moment ? 0 : 3);
+    b[r] = row_error(row, as, v) - along(at, row.dir);
+    for (Eigen::Index l = 0; l < unknowns; ++l) lhs(r, l) = along(at + 6 * column(l), row.dir);
   }
   for (std::size_t i = 0; i < c.pc; ++i) {
+    const Pair& pr = c.pairs[i];
     const auto r = static_cast<Eigen::Index>(c.m + i);
-    b[r] = -separation(c.pairs[i], 0);
-    for (Eigen::Index l = 0; l < unknowns; ++l) lhs(r, l) = separation(c.pairs[i], column(l));
-    lhs(r, r) += 1.0 / c.pairs[i].stiffness;
+    const double* at_a = responses_at(pr.a) + 3;
+    const double* at_b = responses_at(pr.b) + 3;
+    b[r] = -(along(at_a, pr.n) - along(at_b, pr.n));
+    for (Eigen::Index l = 0; l < unknowns; ++l) {
+      const std::size_t col = 6 * column(l);
+      lhs(r, l) = along(at_a + col, pr.n) - along(at_b + col, pr.n);
+    }
+    lhs(r, r) += 1.0 / pr.stiffness;
   }
-  x = Eigen::FullPivLU<MatrixC>(lhs).solve(b);
-  for (Eigen::Index l = 0; l < unknowns; ++l) ws.weights[static_cast<std::size_t>(column(l))] = x[l];
+  // Partial pivoting (a third of full pivoting's cost at ~45 unknowns); full pivoting where the
+  // rows are dependent (two grasps on one node, a held frame at a clamp).
+  const Eigen::PartialPivLU<MatrixC> lu(lhs);
+  if (lu.rcond() > 1e-12)
+    x = lu.solve(b);
+  else
+    x = Eigen::FullPivLU<MatrixC>(lhs).solve(b);
+  for (Eigen::Index l = 0; l < unknowns; ++l) ws.weights[column(l)] = x[l];
 }
+
+}  // namespace
 
 // Step 5: the largest fraction of the step the trust region allows: no section turns or stretches
 // too far at once, none goes more than halfway to collapse (ε = −1: past it the rod has no length
@@ -288,153 +270,128 @@ double trust_scale(const SegmentModel& seg, const SegmentViews& v, const NewtonW
   return scale;
 }
 
-// Step 3: the system condensed (or, where the sweep's pivots are unsafe, factored by the banded
-// LU) at the law's scale. False: neither can solve it.
-bool condense(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p,
-              const Coupled& c, double law_scale) {
-  const SegmentModel& seg = model.segments[segment];
-  NewtonWorkspace& ws = state.newton[segment];
-  const bool has_stiffness = seg.has_drag || seg.bead_count > 0;
-  const SegmentViews v = segment_views(model, state, segment);
-  kernels::RodLinearization lin = linearization_of(seg, v, ws, p, has_stiffness);
-  lin.law_scale = law_scale;
-  const kernels::CondensedSystem sys{ws.gain, ws.scratch, ws.base_solution, c.columns()};
-  const kernels::CondenseReport report =
-      kernels::rod_condense(lin, kernels::StrainView<const double>{ws.residual}, ws.loads, sys);
-  ws.band = !report.ok;
-  ws.law_scale = law_scale;
-  if (report.ok) return true;
-  ws.singular_node = report.node;
-  if (!ws.band_available) return false;
-  ++ws.fallbacks;
-  band_solve(model, state, segment, p, c, has_stiffness, law_scale);
-  return true;
-}
-
-// Step 4: responses at the coupled unknowns' nodes, the coupled system, then the combined step.
-void solve_step(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p,
-                const Coupled& c, VectorC& x) {
-  const SegmentModel& seg = model.segments[segment];
-  const SegmentViews v = segment_views(model, state, segment);
-  NewtonWorkspace& ws = state.newton[segment];
-  const int cols = c.columns();
-  kernels::RodLinearization lin = linearization_of(seg, v, ws, p, seg.has_drag || seg.bead_count > 0);
-  lin.law_scale = ws.law_scale;
-  const kernels::CondensedSystem sys{ws.gain, ws.scratch, ws.base_solution, cols};
-  if (!ws.band && !ws.response_nodes.empty())
-    kernels::rod_condensed_responses(lin, sys, ws.response_nodes, ws.responses);
-  coupled_multipliers(model, state, segment, c, v, ws, x);
-  if (ws.band)
-    band_step(ws, seg.node_count, cols);
-  else
-    kernels::rod_condensed_step(lin, sys, ws.weights, kernels::StrainView<double>{ws.step_q}, ws.step_phi.view(),
-                                ws.step_r.view());
-}
-
-}  // namespace
-
-bool stage_newton_jacobian(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
-  NewtonWorkspace& ws = state.newton[segment];
-  linearize(model, state, segment, p);
-  const Coupled c = coupled_unknowns(model, state, segment);
-  unit_loads(c, ws);
-  return condense(model, state, segment, p, c, 1.0);
+// The parts a rod's solve is done in, and the kernels' view of each part's memory.
+std::span<const SolvePart> parts_of(const WorldModel& model, std::size_t rod) {
+  const std::span<const SolvePart> all(model.solve_parts);
+  std::size_t first = 0;
+  while (all[first].rod != rod) ++first;
+  return all.subspan(first, model.segments[rod].split_node > 0 ? 2 : 1);
 }
 
 namespace {
 
-// The incremental potential of the frame's implicit step at the current strains and poses: the
-// law's energy (elastic and viscous: ½ Δqᵀ A Δq about its target), weight and host forces, the
-// medium's drag (c/2Δt |r − r_start|², s/2Δt |turn|²) and the contact penalties.
-double incremental_potential(const WorldModel& model, const WorldState& state, std::size_t segment,
-                             const SubstepParameters& p) {
-  const SegmentModel& seg = model.segments[segment];
-  const NewtonWorkspace& ws = state.newton[segment];
-  const std::size_t off = seg.node_offset, n = seg.node_count;
-  const double* q = state.now.strain.data() + 4 * off;
-  double law = 0.0;
-  const kernels::StrainLawCoefficients coefficients = law_of(seg, p.dt);
-  const std::array<double, 4> a = law_total(seg, p.dt);
-  for (std::size_t comp = 0; comp < 4; ++comp) {
-    const bool exp2_elastic = seg.exp2 && comp != 2;
-    // Hooke: ½ a (q − q*)ᵀ M (q − q*); EXP2 bending and stretch: their viscous part here, the
-    // elastic part below.
-    const double weight = exp2_elastic ? coefficients.rate[comp] : a[comp];
-    if (weight == 0.0) continue;
-    auto dq = [&](std::size_t k) {
-      const double centre = exp2_elastic ? state.strain_substep_start[4 * (off + k) + comp] : ws.target[4 * k + comp];
-      return q[4 * k + comp] - centre;
-    };
-    double quad = 0.0;
-    for (std::size_t k = 0; k + 1 < n; ++k) {
-      const double h = model.section_length[off + k];
-      const double x0 = dq(k), x1 = dq(k + 1);
-      quad += h / 3.0 * (x0 * x0 + x1 * x1 + x0 * x1);
-    }
-    law += 0.5 * weight * quad;
-  }
-  if (seg.exp2) {
-    kernels::NodalLaw nl;
-    nl.stiffness = seg.stiffness;
-    nl.exp2 = true;
-    nl.tissue = seg.tissue;
-    nl.tube = seg.tube;
-    const kernels::StrainView<const double> strain{std::span<const double>(q, 4 * n)};
-    const kernels::StrainView<const double> rest{std::span<const double>(model.rest_strain).subspan(4 * off, 4 * n)};
-    law += kernels::nodal_law_exp2_energy(strain, rest, std::span<const double>(model.section_length).subspan(off, n), nl);
-    // (Torsion stays Hooke's: its elastic part is in the quadratic above through a[2].)
-  }
-  double loads = 0.0;
-  const auto pos = state.now.position.view();
-  const auto rot = state.now.rotation.view();
-  const auto fext = state.external_force.view();
-  const auto r0 = state.position_substep_start.view();
-  const auto q0 = state.rotation_substep_start.view();
-  const std::span<const double> drag = drag_of(model, seg), spin = spin_drag_of(model, seg);
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t g = off + k;
-    const Eigen::Vector3d r = pos.get(g);
-    loads -= (model.node_mass[g] * model.gravity + fext.get(g)).dot(r);
-    if (seg.has_drag) {
-      if (spin[k] > 0.0)
-        loads += 0.5 * spin[k] / p.dt * kernels::rotation_angle_squared(rot.get(g) * q0.get(g).conjugate());
-      loads += 0.5 * drag[k] / p.dt * (r - r0.get(g)).squaredNorm();
+kernels::CondensedSystem whole_system(NewtonWorkspace& ws, int cols) {
+  return {ws.gain, ws.scratch, ws.base_solution, cols};
+}
+kernels::CondensedSystem tip_system(NewtonWorkspace& ws, int cols) {
+  return {ws.split.tip_gain, ws.split.tip_scratch, ws.split.tip_solution, cols};
+}
+kernels::CondensedSystem base_system(NewtonWorkspace& ws) {
+  return {ws.split.base_gain, ws.split.base_scratch, ws.split.base_solution, ws.split.base_columns};
+}
+
+kernels::RodLinearization linearization_at(const WorldModel& model, WorldState& state, std::size_t rod,
+                                           const SubstepParameters& p) {
+  const SegmentModel& seg = model.segments[rod];
+  NewtonWorkspace& ws = state.newton[rod];
+  kernels::RodLinearization lin = linearization_of(seg, segment_views(model, state, rod), ws, p,
+                                                   seg.has_drag || seg.bead_count > 0);
+  lin.law_scale = ws.law_scale;
+  return lin;
+}
+
+// Step 3, one part: condensed (the whole rod; the tip part to its interface at the joint; the
+// base part from the joint, then back-substituted to it for the join).
+void condense_part(const WorldModel& model, WorldState& state, const SolvePart& part, const SubstepParameters& p) {
+  const std::size_t rod = part.rod;
+  NewtonWorkspace& ws = state.newton[rod];
+  NewtonSplit& sp = ws.split;
+  const kernels::RodLinearization lin = linearization_at(model, state, rod, p);
+  const kernels::StrainView<const double> residual{ws.residual};
+  const int cols = coupled_unknowns(model, state, rod).columns();
+  const std::size_t last = model.segments[rod].node_count - 1;
+  switch (part.kind) {
+    case SolvePartKind::whole:
+      ws.ok = kernels::rod_condense(lin, residual, ws.loads, whole_system(ws, cols)).ok;
+      break;
+    case SolvePartKind::tip:
+      sp.tip_ok = kernels::rod_condense_range(lin, residual, std::span(ws.loads).first(sp.tip_loads),
+                                              tip_system(ws, cols), {sp.joint, last, false, sp.interface})
+                      .ok;
+      break;
+    case SolvePartKind::base: {
+      const kernels::CondensedSystem sys = base_system(ws);
+      const std::span<const kernels::UnitLoad> loads = std::span(sp.base_loads).first(sp.base_load_count);
+      sp.base_ok = kernels::rod_condense_range(lin, residual, loads, sys, {0, sp.joint, true, {}}).ok;
+      if (sp.base_ok)
+        kernels::rod_condensed_responses_range(lin, sys, 0, sp.joint, sp.base_solution,
+                                               std::span(ws.response_nodes).first(sp.base_nodes), sp.raw, sp.at_joint);
+      break;
     }
   }
-  if (seg.bead_count > 0) loads += segment_contact_potential(model, state, segment, ws.bead_start);
-  return law + loads;
 }
 
-// The attachments' part of the merit: the Lagrangian term of the constraint forces after the step
-// and an exact penalty, Σ λ_j e_j + μ |e_j|.
-double attachment_merit(const WorldModel& model, const WorldState& state, std::size_t segment, const Coupled& c,
-                        const VectorC& lambda, double mu) {
-  const SegmentModel& seg = model.segments[segment];
-  const auto pos = state.now.position.view();
-  const auto rot = state.now.rotation.view();
-  double merit = 0.0;
-  for (std::size_t j = 0; j < c.m; ++j) {
-    const ConstraintRow& row = c.rows[j];
-    const AttachmentState& as = state.now.attachment[seg.attachment_offset + row.attachment];
-    const double e = row_error(row, as, pos.get(seg.node_offset + row.node), rot.get(seg.node_offset + row.node));
-    merit += lambda[static_cast<Eigen::Index>(j)] * e + mu * std::abs(e);
+// Step 3, the rod: the split rod's parts joined; where a sweep's pivots were unsafe, the banded LU
+// instead. False: neither can solve this iteration.
+bool join(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p) {
+  const SegmentModel& seg = model.segments[rod];
+  NewtonWorkspace& ws = state.newton[rod];
+  NewtonSplit& sp = ws.split;
+  const Coupled c = coupled_unknowns(model, state, rod);
+  bool ok = sp.joint > 0 ? sp.tip_ok && sp.base_ok : ws.ok;
+  if (ok && sp.joint > 0) {
+    const kernels::RodLinearization lin = linearization_at(model, state, rod, p);
+    ok = kernels::rod_condensed_join(lin, sp.joint,
+                                     {sp.interface, c.columns(), sp.at_joint, sp.base_columns, sp.tip_column,
+                                      sp.base_column},
+                                     sp.lambda, sp.y_joint);
   }
-  return merit;
+  ws.band = !ok;
+  if (ok) return true;
+  ws.singular_node = 0;
+  if (!ws.band_available) return false;
+  ++ws.fallbacks;
+  band_solve(model, state, rod, p, c, seg.has_drag || seg.bead_count > 0, ws.law_scale);
+  return true;
 }
 
-// The scale of the potential's terms (the segment's weight over its length), for what counts as
-// rounding.
-double potential_scale(const WorldModel& model, std::size_t segment) {
-  const SegmentModel& seg = model.segments[segment];
-  double weight = 0.0;
-  for (std::size_t k = seg.node_offset; k < seg.node_offset + seg.node_count; ++k) weight += model.node_mass[k];
-  return weight * model.gravity.norm() * seg.info.length + 1e-12;
+// Step 4, half of a rod's columns: their responses at the coupled unknowns' nodes (a split rod's
+// tip part from the joint; the second half also folds λ into the base part's).
+void responses_half(const WorldModel& model, WorldState& state, std::size_t rod, int half, const SubstepParameters& p) {
+  NewtonWorkspace& ws = state.newton[rod];
+  NewtonSplit& sp = ws.split;
+  if (ws.band || ws.response_nodes.empty()) return;
+  const kernels::RodLinearization lin = linearization_at(model, state, rod, p);
+  const int cols = coupled_unknowns(model, state, rod).columns();
+  const int middle = cols / 2, first = half == 0 ? 0 : middle, end = half == 0 ? middle : cols;
+  const auto per_node = 6 * static_cast<std::size_t>(cols);
+  std::span<double> scratch = half == 0 ? std::span<double>(ws.scratch) : std::span<double>(ws.scratch_second);
+  if (sp.joint == 0) {
+    kernels::CondensedSystem sys = whole_system(ws, cols);
+    sys.scratch = scratch;
+    if (end > first)
+      kernels::rod_condensed_responses_range(lin, sys, 0, ws.response_nodes.back(), sys.base, ws.response_nodes,
+                                             ws.responses, {}, first, end);
+    return;
+  }
+  const std::span<const std::uint32_t> nodes = std::span(ws.response_nodes).subspan(sp.base_nodes);
+  kernels::CondensedSystem sys = tip_system(ws, cols);
+  sys.scratch = scratch;
+  if (!nodes.empty() && end > first)
+    kernels::rod_condensed_responses_range(lin, sys, sp.joint, model.segments[rod].node_count - 1, sp.y_joint, nodes,
+                                           std::span(ws.responses).subspan(sp.base_nodes * per_node), {}, first, end);
+  if (half == 1)
+    kernels::rod_condensed_base_responses(sp.raw, sp.base_columns, std::span(sp.base_column).first(static_cast<std::size_t>(cols)),
+                                          std::span(sp.lambda).first(10 * static_cast<std::size_t>(cols)), sp.base_nodes,
+                                          ws.responses);
 }
 
-}  // namespace
-
-void stage_newton_solve(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
-  const SegmentModel& seg = model.segments[segment];
+// Step 4, the rod: the coupled unknowns' multipliers (the column weights), and where the rod is
+// split, each part's start and weights; the banded path's step.
+void multipliers(const WorldModel& model, WorldState& state, std::size_t rod) {
+  const SegmentModel& seg = model.segments[rod];
+  NewtonWorkspace& ws = state.newton[rod];
+  NewtonSplit& sp = ws.split;
   for (std::size_t at = 0; at < seg.attachments.size(); ++at) {
     AttachmentState& as = state.now.attachment[seg.attachment_offset + at];
     if (!as.active) {
@@ -442,143 +399,103 @@ void stage_newton_solve(const WorldModel& model, WorldState& state, std::size_t 
       as.moment.setZero();
     }
   }
+  const Coupled c = coupled_unknowns(model, state, rod);
   VectorC x;
-  solve_step(model, state, segment, p, coupled_unknowns(model, state, segment), x);
+  coupled_multipliers(model, state, rod, c, segment_views(model, state, rod), ws, x);
+  const auto cols = static_cast<std::size_t>(c.columns());
+  if (ws.band) {
+    band_step(ws, seg.node_count, c.columns());
+  } else if (sp.joint > 0) {
+    kernels::rod_condensed_split_step(std::span(ws.weights).first(cols), sp.lambda, sp.y_joint,
+                                      std::span(sp.base_column).first(cols), sp.base_solution, sp.base_columns,
+                                      sp.base_start.data(), sp.base_weights, sp.tip_start.data());
+  }
 }
 
-void stage_newton_line_search(const WorldModel& model, WorldState& state, std::size_t segment,
-                              const SubstepParameters& p) {
-  const SegmentModel& seg = model.segments[segment];
-  const SegmentViews v = segment_views(model, state, segment);
-  NewtonWorkspace& ws = state.newton[segment];
-  const std::size_t n = seg.node_count;
-  const bool free_base = seg.base_mode == BaseMode::free;
-  const Coupled c = coupled_unknowns(model, state, segment);
-  VectorC x(static_cast<Eigen::Index>(c.m + c.pc));
-  for (Eigen::Index l = 0; l < x.size(); ++l) x[l] = ws.weights[ws.column_of[static_cast<std::size_t>(1 + l)]];
-  // The free base's unbalanced wrench (for the slope): the total load about node 0.
-  kernels::Vector6d wrench = kernels::Vector6d::Zero();
-  if (free_base) wrench = kernels::total_wrench(v.poses.node_position, v.force, v.moment, v.poses.node_position.get(0));
+// Step 4, one part: the step at its nodes.
+void step_part(const WorldModel& model, WorldState& state, const SolvePart& part, const SubstepParameters& p) {
+  const std::size_t rod = part.rod;
+  NewtonWorkspace& ws = state.newton[rod];
+  NewtonSplit& sp = ws.split;
+  if (ws.band) return;
+  const kernels::RodLinearization lin = linearization_at(model, state, rod, p);
+  const int cols = coupled_unknowns(model, state, rod).columns();
+  const kernels::StrainView<double> dq{ws.step_q};
+  switch (part.kind) {
+    case SolvePartKind::whole:
+      kernels::rod_condensed_step(lin, whole_system(ws, cols), ws.weights, dq, ws.step_phi.view(), ws.step_r.view());
+      break;
+    case SolvePartKind::tip:
+      kernels::rod_condensed_step_range(lin, tip_system(ws, cols), sp.joint, model.segments[rod].node_count - 1,
+                                        sp.tip_start.data(), ws.weights, dq, ws.step_phi.view(), ws.step_r.view());
+      break;
+    case SolvePartKind::base:  // up to the node before the joint: the tip part writes the joint's
+      kernels::rod_condensed_step_range(lin, base_system(ws), 0, sp.joint - 1, sp.base_start.data(), sp.base_weights,
+                                        dq, ws.step_phi.view(), ws.step_r.view());
+      break;
+  }
+}
 
-  // The first iterate of a frame starts from the filtered node positions, which the strains do not
-  // reproduce: weigh the start on the strains' own shape.
-  if (p.iteration == 0 && model.filter.enabled)
-    kernels::rod_forward_sweep(state.now.base[segment], v.section_length, v.strain, v.poses);
-  std::copy(v.strain.data.begin(), v.strain.data.end(), ws.strain_before.begin());
-  ws.base_before = state.now.base[segment];
-  for (std::size_t b = 0; b < seg.bead_count; ++b)
-    ws.bead_start[b] = v.poses.node_position.get(model.beads.node[seg.bead_offset + b] - seg.node_offset);
-  auto take = [&](double alpha) {
-    for (std::size_t i = 0; i < 4 * n; ++i) v.strain.data[i] = ws.strain_before[i] + alpha * ws.step_q[i];
-    if (free_base) {
-      kernels::Pose& base = state.now.base[segment];
-      base.rotation = (kernels::rotation_exp(alpha * ws.step_phi.view().get(0)) * ws.base_before.rotation).normalized();
-      base.position = ws.base_before.position + alpha * ws.step_r.view().get(0);
-    }
-    kernels::rod_forward_sweep(state.now.base[segment], v.section_length, v.strain, v.poses);
-  };
-  const CollisionState& cs = state.collision;
-  auto deepens_too_far = [&]() {
-    for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
-      const Eigen::Vector3d moved_b =
-          v.poses.node_position.get(model.beads.node[b] - seg.node_offset) - ws.bead_start[b - seg.bead_offset];
-      const double allowed = kMaxNewtonDeepening * model.beads.radius[b];
-      for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e) {
-        const Contact& k = cs.candidates[cs.bead_contact[e] >> 1];
-        const bool second = (cs.bead_contact[e] & 1U) != 0;
-        Eigen::Vector3d relative = moved_b;
-        if (k.coupled) {  // both beads are this segment's: their relative motion
-          const std::uint32_t mate = second ? k.bead : k.other;
-          relative -= v.poses.node_position.get(model.beads.node[mate] - seg.node_offset) -
-                      ws.bead_start[mate - seg.bead_offset];
-        }
-        const double deepening = -(second ? -1.0 : 1.0) * k.direction.dot(relative);
-        if (deepening - allowed - std::max(0.0, -k.depth) > 0.0) return true;  // a gap may close first
-      }
-    }
-    return false;
-  };
+}  // namespace
 
-  double alpha = 0.0;
-  bool accepted = false;
-  VectorC lambda;
-  for (int stiffened = 0;; ++stiffened) {
-    // The slope of the merit along the full step: −ρ·δq − W·δbase for the potential, and for the
-    // attachments −Δλ·e − μ|e| (the step meets every constraint to first order), with λ the
-    // constraint forces after the step and μ ≥ |λ| the exact penalty's weight.
-    lambda = VectorC::Zero(static_cast<Eigen::Index>(c.m));
-    double mu = 0.0, slope = 0.0;
-    for (std::size_t i = 0; i < 4 * n; ++i) slope -= ws.residual[i] * ws.step_q[i];
-    if (free_base) slope -= wrench.head<3>().dot(ws.step_phi.view().get(0)) + wrench.tail<3>().dot(ws.step_r.view().get(0));
-    for (std::size_t j = 0; j < c.m; ++j) {
-      const AttachmentState& as = state.now.attachment[seg.attachment_offset + c.rows[j].attachment];
-      const auto r = static_cast<Eigen::Index>(j);
-      lambda[r] = c.rows[j].dir.dot(c.rows[j].is_moment ? as.moment : as.force) + x[r];
-      mu = std::max(mu, std::abs(lambda[r]));
-    }
-    for (std::size_t j = 0; j < c.m; ++j) {
-      const double e = row_error(c.rows[j], state.now.attachment[seg.attachment_offset + c.rows[j].attachment], v);
-      slope -= x[static_cast<Eigen::Index>(j)] * e + mu * std::abs(e);
-    }
-    const bool last_try = stiffened == kMaxStiffenings;
-    if (slope < 0.0 || last_try) {
-      // From the trust region's scale, halve until the merit decreases enough and no contact
-      // deepens more than it may. A host's moments are dead loads without a potential (their
-      // work depends on the path; the rotation's logarithm wraps past half a turn): along the
-      // step they do the work α m·δφ of its linearized rotation, as the slope counts them. The
-      // potential at the start is the last iterate's accepted one where nothing else changed
-      // since (one rod: no other segment's beads moved; the same substep).
-      double moment_work = 0.0;
-      const auto mext = state.external_moment.view();
-      for (std::size_t k = 0; k < n; ++k) moment_work += mext.get(seg.node_offset + k).dot(ws.step_phi.view().get(k));
-      const bool cached = ws.potential_cached && p.iteration > 0 && stiffened == 0 && model.segments.size() == 1;
-      const double potential0 = cached ? ws.potential : incremental_potential(model, state, segment, p);
-      const double merit0 = potential0 + attachment_merit(model, state, segment, c, lambda, mu);
-      const double rounding = kPotentialRounding * (std::abs(merit0) + potential_scale(model, segment));
-      alpha = trust_scale(seg, v, ws);
-      for (int attempt = 0; attempt <= kMaxBacktracks; ++attempt) {
-        take(alpha);
-        if (seg.bead_count == 0 || !deepens_too_far()) {
-          const double potential = incremental_potential(model, state, segment, p);
-          const double merit = potential - alpha * moment_work + attachment_merit(model, state, segment, c, lambda, mu);
-          if (merit <= merit0 + kArmijo * alpha * std::min(slope, 0.0) + rounding) {
-            accepted = true;
-            ws.potential = potential;
-            break;
-          }
-        }
-        if (attempt < kMaxBacktracks) {
-          alpha *= 0.5;
-          ++ws.backtracks;
-        }
-      }
-      if (accepted || last_try) break;
-      take(0.0);
-    }
-    // Not a descent direction (the loads make the potential indefinite), or none of its fractions
-    // lowered the merit: stiffen the law's rows and solve again, towards the law-weighted
-    // gradient step.
-    ++ws.stiffenings;
-    if (!condense(model, state, segment, p, c, ws.law_scale * kStiffening)) break;
-    solve_step(model, state, segment, p, c, x);
-  }
-  ws.potential_cached = accepted;
-  if (!accepted) {  // nothing lowers the merit: stay (the next iteration relinearizes)
-    alpha = 0.0;
-    take(0.0);
-  }
-  state.segment_step_cut[segment] = alpha < 1.0 ? 1 : 0;
-  Eigen::Vector4d& change = state.segment_change[segment];
-  change.setZero();
-  for (std::size_t k = 0; k < n; ++k)
-    for (std::size_t comp = 0; comp < 4; ++comp) {
-      const double d = alpha * std::abs(ws.step_q[4 * k + comp]);
-      change[static_cast<Eigen::Index>(comp)] = std::max(change[static_cast<Eigen::Index>(comp)], d);
-    }
-  for (std::size_t j = 0; j < c.m; ++j) {
-    AttachmentState& as = state.now.attachment[seg.attachment_offset + c.rows[j].attachment];
-    (c.rows[j].is_moment ? as.moment : as.force) += alpha * x[static_cast<Eigen::Index>(j)] * c.rows[j].dir;
-  }
+// The whole solve of one rod at a law scale, its parts one after another (the line search's
+// stiffened re-solves): what the condense and solve stages do over all rods at once.
+bool resolve(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p, double law_scale) {
+  state.newton[rod].law_scale = law_scale;
+  const std::span<const SolvePart> parts = parts_of(model, rod);
+  for (const SolvePart& part : parts) condense_part(model, state, part, p);
+  if (!join(model, state, rod, p)) return false;
+  for (int half = 0; half < 2; ++half) responses_half(model, state, rod, half, p);
+  multipliers(model, state, rod);
+  for (const SolvePart& part : parts) step_part(model, state, part, p);
+  return true;
+}
+
+}  // namespace newton
+
+using namespace newton;
+
+void stage_newton_linearize(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p) {
+  NewtonWorkspace& ws = state.newton[rod];
+  ws.law_scale = 1.0;
+  linearize(model, state, rod, p);
+  const Coupled c = coupled_unknowns(model, state, rod);
+  unit_loads(c, ws);
+  NewtonSplit& sp = ws.split;
+  if (sp.joint == 0) return;
+  const auto cols = static_cast<std::size_t>(c.columns());
+  const auto [tip_loads, base_columns] = kernels::rod_condensed_split_loads(
+      ws.loads, c.columns(), sp.joint, sp.base_loads, std::span(sp.tip_column).first(cols),
+      std::span(sp.base_column).first(cols));
+  sp.tip_loads = tip_loads;
+  sp.base_load_count = ws.loads.size() - tip_loads;
+  sp.base_columns = base_columns;
+  sp.base_nodes = static_cast<std::size_t>(
+      std::upper_bound(ws.response_nodes.begin(), ws.response_nodes.end(), static_cast<std::uint32_t>(sp.joint)) -
+      ws.response_nodes.begin());
+}
+
+void stage_newton_condense_part(const WorldModel& model, WorldState& state, const SolvePart& part,
+                                const SubstepParameters& p) {
+  condense_part(model, state, part, p);
+}
+
+bool stage_newton_join(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p) {
+  return join(model, state, rod, p);
+}
+
+void stage_newton_responses(const WorldModel& model, WorldState& state, std::size_t rod, int half,
+                            const SubstepParameters& p) {
+  responses_half(model, state, rod, half, p);
+}
+
+void stage_newton_multipliers(const WorldModel& model, WorldState& state, std::size_t rod) {
+  multipliers(model, state, rod);
+}
+
+void stage_newton_step_part(const WorldModel& model, WorldState& state, const SolvePart& part,
+                            const SubstepParameters& p) {
+  step_part(model, state, part, p);
 }
 
 }  // namespace haustra::detail

@@ -5,18 +5,36 @@
 
 namespace haustra::detail {
 
-// Linearizes the implicit law at the current iterate and condenses the system from the tip to the
-// base (kernels/rod_condensed), falling back to the banded LU where the sweep's pivots are unsafe.
-// Returns false when neither can solve this iteration (a singular pivot on a rod too long for the
-// banded fallback).
-bool stage_newton_jacobian(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p);
-// The coupled unknowns (attachment rows, coupled contact pairs) and the Newton step at every node.
-void stage_newton_solve(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p);
-// Takes the step: the trust region's fraction of it, halved until the frame's incremental
-// potential (the attachments' exact-penalty merit included) decreases enough and no contact
-// deepens too far. Leaves the poses of the strains taken, the strain change in segment_change,
-// and the attachment forces updated.
-void stage_newton_line_search(const WorldModel& model, WorldState& state, std::size_t segment,
-                              const SubstepParameters& p);
+// The condense stage. Per rod: the implicit law linearized at the current iterate, the coupled
+// unknowns' unit loads (and a split rod's parts' share of them). Per solve part: the system
+// condensed from the tip (kernels/rod_condensed). Per rod: a split rod's parts joined, or the
+// banded LU where a sweep's pivots were unsafe; false when neither can solve this iteration (a
+// singular pivot on a rod too long for the banded fallback).
+void stage_newton_linearize(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p);
+void stage_newton_condense_part(const WorldModel& model, WorldState& state, const SolvePart& part,
+                                const SubstepParameters& p);
+bool stage_newton_join(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p);
+// The solve stage. Per half of a rod's columns: the responses at the coupled unknowns' nodes. Per
+// rod: the coupled unknowns (attachment rows, coupled contact pairs). Per part: the Newton step at
+// its nodes.
+void stage_newton_responses(const WorldModel& model, WorldState& state, std::size_t rod, int half,
+                            const SubstepParameters& p);
+void stage_newton_multipliers(const WorldModel& model, WorldState& state, std::size_t rod);
+void stage_newton_step_part(const WorldModel& model, WorldState& state, const SolvePart& part,
+                            const SubstepParameters& p);
+// The line search stage (line_search.cpp): Newton's step taken as the fraction of it that lowers
+// the frame's incremental potential (the attachments' exact-penalty merit included) enough and
+// deepens no contact too far. Per rod, begin: the step's slope (the law stiffened and the system
+// solved again while the step is not a descent direction) and the first trial. Then, while any
+// rod's search is active, per part: the trial's poses (a split rod's tip part relative to the
+// joint), per part: composed and weighed, per rod: accepted, halved or stiffened. A finished search
+// leaves the poses of the strains taken, the strain change in segment_change and the attachment
+// forces updated.
+void stage_newton_search_begin(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p);
+void stage_newton_search_sweep(const WorldModel& model, WorldState& state, const SolvePart& part);
+void stage_newton_search_measure(const WorldModel& model, WorldState& state, const SolvePart& part,
+                                 const SubstepParameters& p);
+void stage_newton_search_decide(const WorldModel& model, WorldState& state, std::size_t rod,
+                                const SubstepParameters& p);
 
 }  // namespace haustra::detail

@@ -186,14 +186,53 @@ struct World::Impl {
         });
         p.iteration = it;
         if (newton) {
-          run_stage(Stage::condense, [&](std::size_t s) {
-            if (active(s)) state.segment_solvable[s] = detail::stage_newton_jacobian(model, state, s, p) ? 1 : 0;
+          // A long rod's solve runs as two parts (decision 0036): per part where it can, per rod
+          // where the parts meet.
+          auto part_active = [&](std::size_t i) {
+            const std::size_t s = model.solve_parts[i].rod;
+            return active(s) && state.segment_solvable[s] != 0;
+          };
+          const std::size_t parts = model.solve_parts.size();
+          time_stage(Stage::condense, [&] {
+            scheduler.for_each(segs, [&](std::size_t s) {
+              if (active(s)) detail::stage_newton_linearize(model, state, s, p);
+            });
+            scheduler.for_each(parts, [&](std::size_t i) {
+              if (part_active(i)) detail::stage_newton_condense_part(model, state, model.solve_parts[i], p);
+            });
+            scheduler.for_each(segs, [&](std::size_t s) {
+              if (active(s)) state.segment_solvable[s] = detail::stage_newton_join(model, state, s, p) ? 1 : 0;
+            });
           });
-          run_stage(Stage::solve, [&](std::size_t s) {
-            if (active(s) && state.segment_solvable[s] != 0) detail::stage_newton_solve(model, state, s, p);
+          time_stage(Stage::solve, [&] {
+            scheduler.for_each(2 * segs, [&](std::size_t i) {
+              const std::size_t s = i / 2;
+              if (active(s) && state.segment_solvable[s] != 0)
+                detail::stage_newton_responses(model, state, s, static_cast<int>(i % 2), p);
+            });
+            scheduler.for_each(segs, [&](std::size_t s) {
+              if (active(s) && state.segment_solvable[s] != 0) detail::stage_newton_multipliers(model, state, s);
+            });
+            scheduler.for_each(parts, [&](std::size_t i) {
+              if (part_active(i)) detail::stage_newton_step_part(model, state, model.solve_parts[i], p);
+            });
           });
-          run_stage(Stage::line_search, [&](std::size_t s) {
-            if (active(s) && state.segment_solvable[s] != 0) detail::stage_newton_line_search(model, state, s, p);
+          time_stage(Stage::line_search, [&] {
+            scheduler.for_each(segs, [&](std::size_t s) {
+              if (active(s) && state.segment_solvable[s] != 0) detail::stage_newton_search_begin(model, state, s, p);
+            });
+            for (;;) {
+              bool searching = false;
+              for (std::size_t s = 0; s < segs; ++s) searching = searching || state.newton[s].search.active;
+              if (!searching) break;
+              scheduler.for_each(parts, [&](std::size_t i) {
+                detail::stage_newton_search_sweep(model, state, model.solve_parts[i]);
+              });
+              scheduler.for_each(parts, [&](std::size_t i) {
+                detail::stage_newton_search_measure(model, state, model.solve_parts[i], p);
+              });
+              scheduler.for_each(segs, [&](std::size_t s) { detail::stage_newton_search_decide(model, state, s, p); });
+            }
           });
           for (std::size_t s = 0; s < segs; ++s)
             if (active(s) && state.segment_solvable[s] == 0) {

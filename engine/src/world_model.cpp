@@ -298,6 +298,14 @@ WorldModel build_world_model(const WorldDesc& desc) {
       m.pieces.push_back(std::move(piece));
     }
     m.node_total += n;
+    const auto rod = static_cast<std::uint32_t>(m.segments.size());
+    if (n >= kSplitMinNodes) {
+      seg.split_node = static_cast<std::size_t>(std::lround(kSplitBaseFraction * static_cast<double>(n - 1)));
+      m.solve_parts.push_back({rod, SolvePartKind::tip});
+      m.solve_parts.push_back({rod, SolvePartKind::base});
+    } else {
+      m.solve_parts.push_back({rod, SolvePartKind::whole});
+    }
     m.segments.push_back(std::move(seg));
   }
   std::vector<TriangleMesh> meshes = load_organ_meshes(desc, rest_poses, m);

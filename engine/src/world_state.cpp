@@ -33,10 +33,37 @@ void resize_persistent(PersistentState& p, std::size_t nodes, std::size_t segmen
 
 }  // namespace
 
-void NewtonWorkspace::allocate(std::size_t nodes, int columns, bool with_band) {
+void NewtonSplit::allocate(std::size_t nodes, std::size_t m, int columns) {
+  joint = m;
+  const int base_max = columns + kernels::kJointColumns;
+  const auto c = static_cast<std::size_t>(columns), b = static_cast<std::size_t>(base_max);
+  tip_gain.assign(kernels::condensed_gain_size(nodes - 1 - m, columns), 0.0);
+  tip_scratch.assign(kernels::condensed_scratch_size(columns), 0.0);
+  tip_solution.assign(10 * c, 0.0);
+  interface.assign(10 * static_cast<std::size_t>(kernels::condensed_width(columns)), 0.0);
+  base_gain.assign(kernels::condensed_gain_size(m, base_max), 0.0);
+  base_scratch.assign(kernels::condensed_scratch_size(base_max), 0.0);
+  base_solution.assign(10 * b, 0.0);
+  base_loads.assign(2 * c, kernels::UnitLoad{});
+  tip_column.assign(c, 0);
+  base_column.assign(c, 0);
+  raw.assign(2 * c * 6 * b, 0.0);
+  at_joint.assign(10 * b, 0.0);
+  lambda.assign(10 * c, 0.0);
+  y_joint.assign(10 * c, 0.0);
+  base_weights.assign(b, 0.0);
+  const std::size_t tip_nodes = nodes - m;
+  rel_position.resize(tip_nodes);
+  rel_rotation.resize(tip_nodes);
+  rel_mid_position.resize(tip_nodes - 1);
+  rel_mid_rotation.resize(tip_nodes - 1);
+}
+
+void NewtonWorkspace::allocate(std::size_t nodes, int columns, bool with_band, std::size_t split_at) {
   max_columns = columns;
-  gain.assign(kernels::condensed_gain_size(nodes, columns), 0.0);
+  gain.assign(kernels::condensed_gain_size(split_at > 0 ? 0 : nodes, columns), 0.0);
   scratch.assign(kernels::condensed_scratch_size(columns), 0.0);
+  scratch_second.assign(kernels::condensed_scratch_size(columns), 0.0);
   base_solution.assign(10 * static_cast<std::size_t>(columns), 0.0);
   loads.reserve(2 * static_cast<std::size_t>(columns));
   response_nodes.reserve(2 * static_cast<std::size_t>(columns));
@@ -109,7 +136,8 @@ void init_world_state(const WorldModel& model, WorldState& state) {
     const std::size_t rows = seg.constraint_rows;
     // The residual, one column per constraint row, one per contact Newton couples exactly.
     const int cols = 1 + static_cast<int>(rows) + (seg.bead_count > 0 ? static_cast<int>(kMaxCoupledContacts) : 0);
-    state.newton[s].allocate(seg.node_count, cols, seg.node_count <= kBandFallbackNodes);
+    state.newton[s].allocate(seg.node_count, cols, seg.node_count <= kBandFallbackNodes, seg.split_node);
+    if (seg.split_node > 0) state.newton[s].split.allocate(seg.node_count, seg.split_node, cols);
     state.newton[s].bead_start.assign(seg.bead_count, Eigen::Vector3d::Zero());
   }
 

@@ -71,11 +71,50 @@ struct PersistentState {
   void copy_from(const PersistentState& o);  // no allocation: sizes already match
 };
 
+// A split rod's two parts (kernels/rod_condensed: the tip part and the base part, joined at a node):
+// their gains, the tip's interface at the joint, the base's columns, and the join.
+struct NewtonSplit {
+  std::size_t joint = 0;  // the split node m
+  std::vector<double> tip_gain, tip_scratch, tip_solution, interface;
+  std::vector<double> base_gain, base_scratch, base_solution;
+  std::vector<kernels::UnitLoad> base_loads;
+  std::size_t tip_loads = 0;  // how many of the rod's loads (a prefix) are the tip part's
+  std::size_t base_load_count = 0;
+  int base_columns = 1;
+  std::vector<int> tip_column, base_column;
+  std::size_t base_nodes = 0;  // response nodes at or before the joint (a prefix of the rod's)
+  std::vector<double> raw, at_joint, lambda, y_joint, base_weights;
+  std::array<double, 10> base_start{}, tip_start{};
+  bool tip_ok = true, base_ok = true;
+  // The line search's tip part: its poses relative to the joint's frame (nodes m..N, sections
+  // m..N−1), before they are composed with the joint's pose.
+  Vec3Buffer rel_position, rel_mid_position;
+  RotationBuffer rel_rotation, rel_mid_rotation;
+
+  void allocate(std::size_t nodes, std::size_t m, int columns);
+};
+
+// A rod's line search between the world's phases (line_search.cpp): the step's slope and the
+// merit at its start, the fraction under trial, and each part's share of the potential there.
+struct LineSearch {
+  bool active = false;          // trials under way
+  bool measuring_start = false;  // the trial under way is the start itself (α = 0)
+  double alpha = 0.0, slope = 0.0, merit0 = 0.0, rounding = 0.0, mu = 0.0, moment_work = 0.0;
+  int attempt = 0, stiffened = 0;
+  std::array<double, kMaxConstraintRows> lambda{};  // constraint forces after the step, per row
+  std::array<double, 2> potential{};                 // per part: whole or base, tip
+  std::array<std::uint8_t, 2> deepens{};             // per part: a contact deepened too far
+};
+
 // Scratch of one segment's Newton solve: the condensed sweep's gains and right-hand sides, the
 // step it gives, and — for rods up to kBandFallbackNodes — the banded LU it falls back to.
 struct NewtonWorkspace {
-  // The condensed solve (kernels/rod_condensed).
+  // The condensed solve (kernels/rod_condensed), of the whole rod or of its parts.
   std::vector<double> gain, scratch, base_solution;
+  std::vector<double> scratch_second;  // the second half of the responses' columns runs apart
+  LineSearch search;
+  NewtonSplit split;  // joint == 0: the rod is solved whole
+  bool ok = true;     // the whole rod's sweep held its pivots
   std::vector<kernels::UnitLoad> loads;       // this iteration's unit loads, by node descending
   std::vector<std::uint32_t> response_nodes;  // constraint and coupled-pair nodes, ascending, unique
   std::vector<double> responses;              // 6 × columns per response node (δφ, δr)
@@ -113,7 +152,7 @@ struct NewtonWorkspace {
   int backtracks = 0;   // line-search halvings this frame
   int stiffenings = 0;  // re-solves with stiffened law rows this frame
 
-  void allocate(std::size_t nodes, int columns, bool with_band);
+  void allocate(std::size_t nodes, int columns, bool with_band, std::size_t split_at);
 };
 
 // Rods up to this many nodes keep the banded LU as the condensed sweep's fallback.

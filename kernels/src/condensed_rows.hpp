@@ -215,15 +215,15 @@ inline void fused_rhs_pass(const SectionFrame& g, const double (&a)[10][4], cons
 
 template <int W>
 CondenseReport sweep(const RodLinearization& rod, StrainView<const double> residual, std::span<const UnitLoad> loads,
-                     CondensedSystem sys) {
+                     CondensedSystem sys, const CondensedRange& range) {
   // Rows are `stride` doubles apart (room for every column); `w` lanes are live. A unit load's
   // column is zero distal to its node and the columns are numbered in the order the sweep meets
   // them, so at each node only a prefix of them is live.
   const int stride = W > 0 ? W : condensed_width(sys.columns);
   int w = W > 0 ? W : condensed_width(1);
   const int S = W > 0 ? W : stride;  // a compile-time stride where there is one
-  const std::size_t n = rod.poses.node_count();
-  const std::size_t last = n - 1;
+  const std::size_t last = range.last;
+  const std::size_t first = range.first;
   const bool has_stiffness = !rod.stiffness.force.empty();
   constexpr int kZc = kZ / 4;       // chunks of the kinematic lanes
   double* pi = sys.scratch.data();  // 10 rows: the interface (w 0–5: δM, δF; c 6–9)
@@ -233,21 +233,39 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
   double* xr = sr + 4 * S;          // 6 rows: δφ_{k+1}, δr_{k+1} over z (16 lanes)
   CondenseReport report;
 
-  // The tip: no distal wrench; node N's strain rows see only its own law.
   for (int i = 0; i < 10 * S; ++i) pi[i] = 0.0;
-  {
+  V3 force{}, moment{};  // loads beyond node k+1 (moment about r_{k+1})
+  if (!range.joint) {
+    // The tip: no distal wrench; node N's strain rows see only its own law.
     const Tangent t = tangent_of(rod, last);
     const double m = rod.section_length[last - 1] / 3.0;
     for (int c = 0; c < 4; ++c) {
       for (int j = 0; j < 4; ++j) pi[(6 + c) * S + QK + j] = -m * t.at(c, j);
       pi[(6 + c) * S + RHS] = residual.at(last, static_cast<std::size_t>(c));
     }
+  } else {
+    // A joint: δw_m and λ_c = c_m + A_mm δq_m are the unknowns of columns 1–10; node m's rows
+    // keep its own law's −A_mm δq_m. The loads beyond m shape the linearization all the same.
+    const Tangent t = tangent_of(rod, last);
+    const double m = (rod.section_length[last - 1] + rod.section_length[last]) / 3.0;
+    for (int r = 0; r < 6; ++r) pi[r * S + RHS + 1 + r] = 1.0;
+    for (int c = 0; c < 4; ++c) {
+      for (int j = 0; j < 4; ++j) pi[(6 + c) * S + QK + j] = -m * t.at(c, j);
+      pi[(6 + c) * S + RHS + 7 + c] = 1.0;
+    }
+    if constexpr (W == 0) w = std::max(w, condensed_width(1 + kJointColumns));
+    const std::size_t n = rod.poses.node_count();
+    const V3 rm = load(rod.poses.node_position, last);
+    for (std::size_t j = last + 1; j < n; ++j) {
+      const V3 f = load(rod.node_force, j);
+      force = force + f;
+      moment = moment + load(rod.node_moment, j) + cross(load(rod.poses.node_position, j) - rm, f);
+    }
   }
   std::size_t next_load = 0;
   while (next_load < loads.size() && loads[next_load].node > last) ++next_load;
-  V3 force{}, moment{};  // loads beyond node k+1 (moment about r_{k+1})
   Tangent t_next = tangent_of(rod, last);
-  for (std::size_t k = last; k-- > 0;) {
+  for (std::size_t k = last; k-- > first;) {
     const SectionFrame g = section_frame(rod, k);
     const double h = g.h;
     const double h_prev = k > 0 ? rod.section_length[k - 1] : 0.0;
@@ -429,7 +447,7 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
       report.node = k + 1;
       return report;
     }
-    double* gain = sys.gain.data() + k * 4 * static_cast<std::size_t>(S);
+    double* gain = sys.gain.data() + (k - first) * 4 * static_cast<std::size_t>(S);
     for (int r = 0; r < 4; ++r) {
       v4* u = chunks(gain + r * S);
       const v4* row = chunks(cr + order[r] * S);
@@ -467,6 +485,10 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
     t_next = t_k;
   }
 
+  if (first > 0) {  // a tip part: its interface at node `first`
+    for (int i = 0; i < 10 * S; ++i) range.interface[static_cast<std::size_t>(i)] = pi[i];
+    return report;
+  }
   // The base: y_0 for every column. Every column is live here (loads at node 0 start here).
   w = stride;
   force = force + load(rod.node_force, 0);

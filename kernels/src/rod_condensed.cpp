@@ -10,39 +10,44 @@
 
 namespace haustra::kernels {
 
-CondenseReport rod_condense(const RodLinearization& rod, StrainView<const double> residual,
-                            std::span<const UnitLoad> loads, CondensedSystem sys) {
+CondenseReport rod_condense_range(const RodLinearization& rod, StrainView<const double> residual,
+                                  std::span<const UnitLoad> loads, CondensedSystem sys, const CondensedRange& range) {
   assert(std::is_sorted(loads.begin(), loads.end(), [](const UnitLoad& a, const UnitLoad& b) { return a.node > b.node; }));
+  assert(!range.joint || sys.columns > kJointColumns);
   const int w = condensed_width(sys.columns);
-  if (w == 16) return condensed::sweep<16>(rod, residual, loads, sys);
-  return condensed::sweep<0>(rod, residual, loads, sys);
+  if (w == 16) return condensed::sweep<16>(rod, residual, loads, sys, range);
+  return condensed::sweep<0>(rod, residual, loads, sys, range);
 }
 
-void rod_condensed_step(const RodLinearization& rod, CondensedSystem sys, std::span<const double> weights,
-                        StrainView<double> dq, Vec3View<double> dphi, Vec3View<double> dr) {
-  const std::size_t n = rod.poses.node_count();
+CondenseReport rod_condense(const RodLinearization& rod, StrainView<const double> residual,
+                            std::span<const UnitLoad> loads, CondensedSystem sys) {
+  return rod_condense_range(rod, residual, loads, sys, {0, rod.poses.node_count() - 1, false, {}});
+}
+
+void rod_condensed_step_range(const RodLinearization& rod, CondensedSystem sys, std::size_t first, std::size_t last,
+                              const double* start, std::span<const double> weights, StrainView<double> dq,
+                              Vec3View<double> dphi, Vec3View<double> dr) {
+  using condensed::v4;
+  using condensed::chunks;
   const auto w = static_cast<std::size_t>(condensed_width(sys.columns));
   const auto cols = static_cast<std::size_t>(sys.columns);
-  double y[10] = {};
-  for (std::size_t c = 0; c < cols; ++c)
-    for (std::size_t i = 0; i < 10; ++i) y[i] += weights[c] * sys.base[10 * c + i];
+  double y[10];
+  for (std::size_t i = 0; i < 10; ++i) y[i] = start[i];
   auto store = [&](std::size_t k) {
     dphi.set(k, {y[0], y[1], y[2]});
     dr.set(k, {y[3], y[4], y[5]});
     dq.set(k, {y[6], y[7], y[8], y[9]});
   };
-  store(0);
+  store(first);
   // The weights at the gain rows' right-hand-side positions from lane 12 on (whole chunks; lanes
   // 12 and 13 are zero in a gain).
-  using condensed::v4;
-  using condensed::chunks;
   const std::size_t nc = (w - 12) / 4;
   double* placed = sys.scratch.data();
   for (std::size_t i = 0; i < w - 12; ++i) placed[i] = 0.0;
   for (std::size_t c = 0; c < cols; ++c) placed[kCondensedRhs - 12 + c] = weights[c];
   const v4* wv = chunks(placed);
-  for (std::size_t k = 0; k + 1 < n; ++k) {
-    const double* u = sys.gain.data() + k * 4 * w;
+  for (std::size_t k = first; k < last; ++k) {
+    const double* u = sys.gain.data() + (k - first) * 4 * w;
     double next[4];
     for (std::size_t r = 0; r < 4; ++r) {
       const double* row = u + r * w;
@@ -59,43 +64,57 @@ void rod_condensed_step(const RodLinearization& rod, CondensedSystem sys, std::s
   }
 }
 
-void rod_condensed_responses(const RodLinearization& rod, CondensedSystem sys, std::span<const std::uint32_t> nodes,
-                             std::span<double> out) {
+void rod_condensed_step(const RodLinearization& rod, CondensedSystem sys, std::span<const double> weights,
+                        StrainView<double> dq, Vec3View<double> dphi, Vec3View<double> dr) {
+  double y[10] = {};
+  for (std::size_t c = 0; c < static_cast<std::size_t>(sys.columns); ++c)
+    for (std::size_t i = 0; i < 10; ++i) y[i] += weights[c] * sys.base[10 * c + i];
+  rod_condensed_step_range(rod, sys, 0, rod.poses.node_count() - 1, y, weights, dq, dphi, dr);
+}
+
+void rod_condensed_responses_range(const RodLinearization& rod, CondensedSystem sys, std::size_t first,
+                                   std::size_t last, std::span<const double> start,
+                                   std::span<const std::uint32_t> nodes, std::span<double> out,
+                                   std::span<double> at_last, int column_first, int column_end) {
   using condensed::v4;
   using condensed::chunks;
-  if (nodes.empty()) return;
   const auto w = static_cast<std::size_t>(condensed_width(sys.columns));
   const auto cols = static_cast<std::size_t>(sys.columns);
-  // y of every column, row-major, column c at position c + 2: a gain row's right-hand sides from
-  // lane 12 on (lanes 12 and 13, δq_{k+1}'s last two, are zero in a gain) are then whole chunks
-  // in the same places. cp = w − 12 positions, nc chunks.
-  const std::size_t cp = w - 12, nc = cp / 4, lead = kCondensedRhs - 12;
+  const auto c0 = static_cast<std::size_t>(column_first);
+  const std::size_t c1 = column_end > 0 ? static_cast<std::size_t>(column_end) : cols;
+  if (c1 <= c0) return;
+  // y of the columns, row-major, column c at position c − base: the gain rows' right-hand sides
+  // from lane `lane` (a chunk's first, at or before column c0's) on are then whole chunks in the
+  // same places (lanes before c0's are other columns' or, at lanes 12–13, a gain's zeros: unused).
+  const std::size_t lane = (kCondensedRhs + c0) & ~std::size_t{3};
+  const std::size_t lead = kCondensedRhs + c0 - lane;  // position of column c0
+  const std::size_t cp = (lead + (c1 - c0) + 3) & ~std::size_t{3}, nc = cp / 4;
   double* y = sys.scratch.data();
   double* next = y + 10 * cp;
   for (std::size_t i = 0; i < 14 * cp; ++i) y[i] = 0.0;
-  for (std::size_t c = 0; c < cols; ++c)
-    for (std::size_t i = 0; i < 10; ++i) y[i * cp + lead + c] = sys.base[10 * c + i];
+  for (std::size_t c = c0; c < c1; ++c)
+    for (std::size_t i = 0; i < 10; ++i) y[i * cp + lead + c - c0] = start[10 * c + i];
   std::size_t listed = 0;
   auto emit = [&](std::size_t k) {
     while (listed < nodes.size() && nodes[listed] == k) {
       double* o = out.data() + listed * 6 * cols;
-      for (std::size_t c = 0; c < cols; ++c)
-        for (std::size_t i = 0; i < 6; ++i) o[6 * c + i] = y[i * cp + lead + c];
+      for (std::size_t c = c0; c < c1; ++c)
+        for (std::size_t i = 0; i < 6; ++i) o[6 * c + i] = y[i * cp + lead + c - c0];
       ++listed;
     }
   };
-  emit(0);
-  const std::size_t last = nodes.back();
+  emit(first);
   v4* yv[10];
   for (std::size_t i = 0; i < 10; ++i) yv[i] = chunks(y + i * cp);
   v4* nv[4];
   for (std::size_t r = 0; r < 4; ++r) nv[r] = chunks(next + r * cp);
-  for (std::size_t k = 0; k < last; ++k) {
-    const double* u = sys.gain.data() + k * 4 * w;
+  const std::size_t end = at_last.empty() ? (nodes.empty() ? first : std::size_t{nodes.back()}) : last;
+  for (std::size_t k = first; k < end; ++k) {
+    const double* u = sys.gain.data() + (k - first) * 4 * w;
     // δq_{k+1} = U_k y_k + u_k for every column.
     for (std::size_t r = 0; r < 4; ++r) {
       const double* row = u + r * w;
-      const v4* rhs = chunks(row + 12);
+      const v4* rhs = chunks(row + lane);
       for (std::size_t c = 0; c < nc; ++c) nv[r][c] = rhs[c];
       for (std::size_t i = 0; i < 10; ++i) {
         const double a = row[i];
@@ -127,6 +146,114 @@ void rod_condensed_responses(const RodLinearization& rod, CondensedSystem sys, s
     }
     emit(k + 1);
   }
+  if (!at_last.empty())
+    for (std::size_t c = c0; c < c1; ++c)
+      for (std::size_t i = 0; i < 10; ++i) at_last[10 * c + i] = y[i * cp + lead + c - c0];
+}
+
+void rod_condensed_responses(const RodLinearization& rod, CondensedSystem sys, std::span<const std::uint32_t> nodes,
+                             std::span<double> out) {
+  if (nodes.empty()) return;
+  rod_condensed_responses_range(rod, sys, 0, nodes.back(), sys.base, nodes, out, {});
+}
+
+bool rod_condensed_join(const RodLinearization& rod, std::size_t m, const CondensedJoin& join, std::span<double> lambda,
+                        std::span<double> y_joint) {
+  using Matrix10 = Eigen::Matrix<double, 10, 10>;
+  using Vector10 = Eigen::Matrix<double, 10, 1>;
+  const auto tw = static_cast<std::size_t>(condensed_width(join.tip_columns));
+  // Π' = Π_m with A_mm added back to the c rows (the base part kept −A_mm δq_m in its rows).
+  Matrix10 pi;
+  for (int r = 0; r < 10; ++r)
+    for (int i = 0; i < 10; ++i) pi(r, i) = join.tip[static_cast<std::size_t>(r) * tw + static_cast<std::size_t>(i)];
+  const condensed::Tangent t = condensed::tangent_of(rod, m);
+  const double mass = (rod.section_length[m - 1] + rod.section_length[m]) / 3.0;
+  for (int c = 0; c < 4; ++c)
+    for (int j = 0; j < 4; ++j) pi(6 + c, kCondensedStrain + j) += mass * t.at(c, j);
+  auto base_y = [&](int column) {
+    Vector10 y;
+    for (int i = 0; i < 10; ++i) y[i] = join.base_at_joint[static_cast<std::size_t>(10 * column + i)];
+    return y;
+  };
+  Matrix10 ylambda;
+  for (int i = 0; i < kJointColumns; ++i) ylambda.col(i) = base_y(1 + i);
+  const Eigen::FullPivLU<Matrix10> lu(Matrix10::Identity() - pi * ylambda);
+  if (!lu.isInvertible()) return false;
+  const std::size_t columns = join.tip_column.size();
+  for (std::size_t g = 0; g < columns; ++g) {
+    const Vector10 y = join.base_column[g] >= 0 ? base_y(join.base_column[g]) : Vector10::Zero();
+    Vector10 tip_rhs = Vector10::Zero();
+    if (join.tip_column[g] >= 0)
+      for (int r = 0; r < 10; ++r)
+        tip_rhs[r] = join.tip[static_cast<std::size_t>(r) * tw + kCondensedRhs + static_cast<std::size_t>(join.tip_column[g])];
+    const Vector10 l = lu.solve(pi * y + tip_rhs);
+    const Vector10 ym = y + ylambda * l;
+    for (int i = 0; i < 10; ++i) {
+      lambda[10 * g + static_cast<std::size_t>(i)] = l[i];
+      y_joint[10 * g + static_cast<std::size_t>(i)] = ym[i];
+      if (!std::isfinite(l[i]) || !std::isfinite(ym[i])) return false;
+    }
+  }
+  return true;
+}
+
+std::pair<std::size_t, int> rod_condensed_split_loads(std::span<const UnitLoad> loads, int columns, std::size_t m,
+                                                      std::span<UnitLoad> base_loads, std::span<int> tip_column,
+                                                      std::span<int> base_column) {
+  std::size_t tip = 0;
+  while (tip < loads.size() && loads[tip].node > m) ++tip;
+  for (int g = 0; g < columns; ++g) {
+    tip_column[static_cast<std::size_t>(g)] = g;
+    base_column[static_cast<std::size_t>(g)] = g == 0 ? 0 : -1;
+  }
+  int next = 1 + kJointColumns;
+  for (std::size_t i = tip; i < loads.size(); ++i) {
+    UnitLoad l = loads[i];
+    int& b = base_column[l.column];
+    if (b < 0) b = next++;
+    l.column = static_cast<std::uint32_t>(b);
+    base_loads[i - tip] = l;
+  }
+  return {tip, next};
+}
+
+void rod_condensed_base_responses(std::span<const double> raw, int base_columns, std::span<const int> base_column,
+                                  std::span<const double> lambda, std::size_t nodes, std::span<double> out) {
+  const std::size_t columns = base_column.size();
+  const auto bc = static_cast<std::size_t>(base_columns);
+  for (std::size_t k = 0; k < nodes; ++k) {
+    const double* r = raw.data() + k * 6 * bc;
+    double* o = out.data() + k * 6 * columns;
+    for (std::size_t g = 0; g < columns; ++g) {
+      double v[6] = {};
+      if (base_column[g] >= 0)
+        for (std::size_t i = 0; i < 6; ++i) v[i] = r[6 * static_cast<std::size_t>(base_column[g]) + i];
+      for (std::size_t j = 0; j < kJointColumns; ++j) {
+        const double l = lambda[10 * g + j];
+        for (std::size_t i = 0; i < 6; ++i) v[i] += l * r[6 * (1 + j) + i];
+      }
+      for (std::size_t i = 0; i < 6; ++i) o[6 * g + i] = v[i];
+    }
+  }
+}
+
+void rod_condensed_split_step(std::span<const double> weights, std::span<const double> lambda,
+                              std::span<const double> y_joint, std::span<const int> base_column,
+                              std::span<const double> base_solution, int base_columns, double* base_start,
+                              std::span<double> base_weights, double* tip_start) {
+  const std::size_t columns = base_column.size();
+  std::fill(base_weights.begin(), base_weights.begin() + base_columns, 0.0);
+  for (std::size_t i = 0; i < 10; ++i) tip_start[i] = 0.0;
+  for (std::size_t g = 0; g < columns; ++g) {
+    const double wg = weights[g];
+    if (wg == 0.0) continue;
+    if (base_column[g] >= 0) base_weights[static_cast<std::size_t>(base_column[g])] += wg;
+    for (std::size_t j = 0; j < kJointColumns; ++j) base_weights[1 + j] += wg * lambda[10 * g + j];
+    for (std::size_t i = 0; i < 10; ++i) tip_start[i] += wg * y_joint[10 * g + i];
+  }
+  for (std::size_t i = 0; i < 10; ++i) base_start[i] = 0.0;
+  for (std::size_t c = 0; c < static_cast<std::size_t>(base_columns); ++c)
+    for (std::size_t i = 0; i < 10; ++i) base_start[i] += base_weights[c] * base_solution[10 * c + i];
 }
 
 }  // namespace haustra::kernels

@@ -118,11 +118,12 @@ void nodal_law_evaluate(StrainView<const double> strain, StrainView<const double
 }
 
 double nodal_law_exp2_energy(StrainView<const double> strain, StrainView<const double> rest,
-                             std::span<const double> section_length, const NodalLaw& law) {
+                             std::span<const double> section_length, const NodalLaw& law, std::size_t first,
+                             std::size_t end) {
   if (!law.exp2) return 0.0;
   const std::size_t n = strain.size();
   double energy = 0.0;
-  for (std::size_t k = 0; k < n; ++k) {
+  for (std::size_t k = first; k < (end > 0 ? end : n); ++k) {
     const double share = 0.5 * ((k > 0 ? section_length[k - 1] : 0.0) + (k + 1 < n ? section_length[k] : 0.0));
     if (law.stiffness[3] != 0.0)
       energy += share * exp2_tube_axial_energy(law.tissue, law.tube, strain.at(k, 3) - rest.at(k, 3));

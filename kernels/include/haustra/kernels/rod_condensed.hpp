@@ -72,11 +72,11 @@ struct RodLinearization {
   double law_scale = 1.0;
 };
 
-// Caller-owned memory of one condensed solve.
+// Caller-owned memory of one condensed solve (of a rod, or of one part of a split rod).
 struct CondensedSystem {
-  std::span<double> gain;     // condensed_gain_size(nodes, columns)
+  std::span<double> gain;     // condensed_gain_size(steps, columns): the gains of the part's steps
   std::span<double> scratch;  // condensed_scratch_size(columns)
-  std::span<double> base;     // 10 × columns: y_0 of each right-hand side (column-major)
+  std::span<double> base;     // 10 × columns: y_0 of each right-hand side (column-major); a base part's
   int columns = 1;
 };
 
@@ -105,5 +105,79 @@ void rod_condensed_step(const RodLinearization& rod, CondensedSystem sys, std::s
 // listed node, 6 × columns, column-major (δφ 0–2, δr 3–5 of column 0, then column 1, ...).
 void rod_condensed_responses(const RodLinearization& rod, CondensedSystem sys, std::span<const std::uint32_t> nodes,
                              std::span<double> out);
+
+// ---- A rod split at a joint node m, its two parts condensed at once (two threads) ----
+//
+// The tip part (nodes m..N) sweeps as the whole rod does and stops at node m, leaving the
+// interface [δw_m; c_m] = Π_m y_m + π_m. The base part (nodes 0..m) starts at m with that interface
+// unknown: columns 1–6 carry δw_m, columns 7–10 λ_c = c_m + A_mm δq_m (its rows keep −A_mm δq_m, so
+// node m's pivot is the whole rod's), and it ends in the base system. Back-substitution to m gives
+// y_m = Y + Y^λ λ; the join (I − Π' Y^λ) λ = Π' Y + π (Π' = Π_m with A_mm added back) fixes λ for
+// every column. Exact: the same fixed point as the whole rod's sweep, to rounding.
+inline constexpr int kJointColumns = 10;
+
+struct CondensedRange {
+  std::size_t first = 0;  // the sweep ends here: 0 in the base system, else at node first's interface
+  std::size_t last = 0;   // and starts here: the tip (node N), or the joint (columns 1–10 are λ)
+  bool joint = false;
+  std::span<double> interface;  // first > 0: Π_first, 10 rows of condensed_width(columns) doubles
+};
+
+// The part's gains (steps [first, last), stored from step `first` on).
+CondenseReport rod_condense_range(const RodLinearization& rod, StrainView<const double> residual,
+                                  std::span<const UnitLoad> loads, CondensedSystem sys, const CondensedRange& range);
+
+// Back-substitution over a part from node `first`, whose y of every column (10 × columns,
+// column-major) is `start`: every column's δφ and δr at `nodes` (ascending, within the part; out
+// as rod_condensed_responses), and — where `at_last` is not empty — y of every column at node
+// `last` (10 × columns, column-major). Columns [column_first, column_end) only (end 0: all): each
+// column's arithmetic is its own, so any division of them gives the same numbers.
+void rod_condensed_responses_range(const RodLinearization& rod, CondensedSystem sys, std::size_t first,
+                                   std::size_t last, std::span<const double> start,
+                                   std::span<const std::uint32_t> nodes, std::span<double> out,
+                                   std::span<double> at_last, int column_first = 0, int column_end = 0);
+
+// The step over a part, nodes [first, last]: from y at `first` (10 numbers) and the weighted sum
+// of the part's columns.
+void rod_condensed_step_range(const RodLinearization& rod, CondensedSystem sys, std::size_t first, std::size_t last,
+                              const double* start, std::span<const double> weights, StrainView<double> dq,
+                              Vec3View<double> dphi, Vec3View<double> dr);
+
+// The join of a split rod at node m. tip: the tip part's interface (10 rows, tip_columns wide);
+// base_at_joint: y_m of every base-part column (10 × base_columns, column-major: λ's are columns
+// 1–10). For every column g of the whole solve, tip_column[g] and base_column[g] are its columns
+// in the parts (−1: none there). Writes λ (10 per column) and y_m (10 per column). Returns false
+// when the join's 10×10 system is singular.
+struct CondensedJoin {
+  std::span<const double> tip;
+  int tip_columns = 1;
+  std::span<const double> base_at_joint;
+  int base_columns = 1;
+  std::span<const int> tip_column, base_column;
+};
+bool rod_condensed_join(const RodLinearization& rod, std::size_t m, const CondensedJoin& join, std::span<double> lambda,
+                        std::span<double> y_joint);
+
+// The parts' loads of a whole solve's `loads` (sorted and numbered as rod_condense wants): the tip
+// part's are those beyond m, a prefix of the list, with the whole solve's columns; the base part's
+// the rest, written to base_loads with columns numbered after λ's (11, 12, ... in the order they
+// appear). tip_column[g] = g; base_column[g]: g's column in the base part, −1 where it has no load
+// there (0 for the residual). Returns (tip load count, base part's column count).
+std::pair<std::size_t, int> rod_condensed_split_loads(std::span<const UnitLoad> loads, int columns, std::size_t m,
+                                                      std::span<UnitLoad> base_loads, std::span<int> tip_column,
+                                                      std::span<int> base_column);
+
+// A base part's responses for the whole solve's columns: its raw responses (6 × base_columns per
+// node, as rod_condensed_responses_range gives them) with λ's columns folded in, 6 × columns per
+// node into out.
+void rod_condensed_base_responses(std::span<const double> raw, int base_columns, std::span<const int> base_column,
+                                  std::span<const double> lambda, std::size_t nodes, std::span<double> out);
+
+// The parts' start and weights of the step Σ weight_g · column_g: the base part's y_0 and weights
+// (λ's columns weighted by Σ_g weight_g λ^g), the tip part's y_m (the whole solve's columns).
+void rod_condensed_split_step(std::span<const double> weights, std::span<const double> lambda,
+                              std::span<const double> y_joint, std::span<const int> base_column,
+                              std::span<const double> base_solution, int base_columns, double* base_start,
+                              std::span<double> base_weights, double* tip_start);
 
 }  // namespace haustra::kernels

@@ -59,7 +59,9 @@ void nodal_law_evaluate(StrainView<const double> strain, StrainView<const double
 
 // Lumped elastic energy of the EXP2 components (bending and axial), J: Σ_k w_k W(q_k − q̂_k) with
 // w_k each node's share of the rod's length.
+// Nodes [first, end) only where end > 0 (each node's share from the whole rod's sections).
 double nodal_law_exp2_energy(StrainView<const double> strain, StrainView<const double> rest,
-                             std::span<const double> section_length, const NodalLaw& law);
+                             std::span<const double> section_length, const NodalLaw& law, std::size_t first = 0,
+                             std::size_t end = 0);
 
 }  // namespace haustra::kernels
