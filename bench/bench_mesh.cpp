@@ -3,10 +3,13 @@
 // be set against what this machine streams; and whole frames of `drop` with one part of the model switched off at a time.
 #include <benchmark/benchmark.h>
 
+#include <array>
+#include <cmath>
 #include <random>
 #include <vector>
 
 #include "haustra/kernels/cage_rings.hpp"
+#include "haustra/kernels/mesh_normals.hpp"
 #include "haustra/kernels/skinning.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
@@ -81,6 +84,94 @@ void BM_SkinScalarReference(benchmark::State& state) {
   counters(state, static_cast<double>(state.range(0)));
 }
 
+// A tube of `vertices` (1,000 around and as many rings as it takes), two triangles per quad: the
+// layout a procedural organ has (ring by ring), for the normals stage.
+struct Tube {
+  std::vector<float> x, y, z, nx, ny, nz;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  std::vector<std::uint32_t> corner_start, corner_pairs;
+  explicit Tube(std::size_t vertices) {
+    const std::size_t around = std::min<std::size_t>(1000, vertices / 10), rings = vertices / around;
+    for (std::size_t r = 0; r < rings; ++r)
+      for (std::size_t a = 0; a < around; ++a) {
+        const double t = 2.0 * 3.141592653589793 * static_cast<double>(a) / static_cast<double>(around);
+        x.push_back(static_cast<float>(0.02 * std::cos(t)));
+        y.push_back(static_cast<float>(0.02 * std::sin(t) + 0.001 * std::sin(0.1 * static_cast<double>(r))));
+        z.push_back(static_cast<float>(0.001 * static_cast<double>(r)));
+      }
+    auto at = [&](std::size_t r, std::size_t a) { return static_cast<std::uint32_t>(r * around + a % around); };
+    for (std::size_t r = 0; r + 1 < rings; ++r)
+      for (std::size_t a = 0; a < around; ++a) {
+        triangles.push_back({at(r, a), at(r, a + 1), at(r + 1, a)});
+        triangles.push_back({at(r, a + 1), at(r + 1, a + 1), at(r + 1, a)});
+      }
+    nx.resize(x.size());
+    ny.resize(x.size());
+    nz.resize(x.size());
+    corner_start.resize(x.size() + 1);
+    corner_pairs.resize(6 * triangles.size());
+    vertex_corner_pairs(triangles, x.size(), corner_start, corner_pairs);
+    append_normal_blocks(corner_start, corner_pairs, 0, x.size(), slot_start, slots, gather_pairs);
+  }
+  std::vector<std::uint32_t> slot_start, gather_pairs;
+  std::vector<NormalSlot> slots;
+  [[nodiscard]] NormalBlocksView blocks() const { return {slot_start, slots, gather_pairs}; }
+};
+
+// The normals stage's kernel: 8 vertices at a time over their corner-pair slots. Bytes per vertex:
+// its position and its normal, its block's slot records (12 B each) and gathered pairs shared by 8
+// (the neighbours' positions are the ring's and the next ring's, in cache).
+void BM_Normals(benchmark::State& state) {
+  Tube t(static_cast<std::size_t>(state.range(0)));
+  const double n = static_cast<double>(t.x.size());
+  const double bytes = 24.0 + (12.0 * static_cast<double>(t.slots.size()) + 4.0 * static_cast<double>(t.gather_pairs.size()) +
+                               4.0 * static_cast<double>(t.slot_start.size())) / n;
+  for (auto _ : state) {
+    vertex_normals_blocked(t.blocks(), 0, t.corner_start, t.corner_pairs, t.x, t.y, t.z, 0, t.x.size(),
+                           {t.nx, t.ny, t.nz});
+    benchmark::DoNotOptimize(t.nx.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["vertices/s"] = benchmark::Counter(n * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["bytes/s"] = benchmark::Counter(bytes * n * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+// The same sums one vertex at a time (the blocked form's tail).
+void BM_NormalsByVertex(benchmark::State& state) {
+  Tube t(static_cast<std::size_t>(state.range(0)));
+  const double n = static_cast<double>(t.x.size());
+  for (auto _ : state) {
+    vertex_normals(t.corner_start, t.corner_pairs, t.x, t.y, t.z, 0, t.x.size(), {t.nx, t.ny, t.nz});
+    benchmark::DoNotOptimize(t.nx.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["vertices/s"] = benchmark::Counter(n * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+// Its reference, the two passes the stage took before: every triangle's normal, then each
+// vertex's sum of its triangles' (CSR).
+void BM_NormalsTwoPassReference(benchmark::State& state) {
+  Tube t(static_cast<std::size_t>(state.range(0)));
+  const std::size_t n = t.x.size(), nt = t.triangles.size();
+  std::vector<float> fx(nt), fy(nt), fz(nt);
+  std::vector<std::uint32_t> start(n + 1, 0), tri;
+  for (const auto& tr : t.triangles)
+    for (std::uint32_t v : tr) ++start[v + 1];
+  for (std::size_t v = 0; v < n; ++v) start[v + 1] += start[v];
+  tri.resize(start.back());
+  std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+  for (std::size_t i = 0; i < nt; ++i)
+    for (std::uint32_t v : t.triangles[i]) tri[fill[v]++] = static_cast<std::uint32_t>(i);
+  for (auto _ : state) {
+    face_normals_reference(t.triangles, t.x, t.y, t.z, 0, nt, {fx, fy, fz});
+    vertex_normals_reference(start, tri, fx, fy, fz, 0, n, {t.nx, t.ny, t.nz});
+    benchmark::DoNotOptimize(t.nx.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["vertices/s"] =
+      benchmark::Counter(static_cast<double>(n) * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
 // STREAM triad over float arrays: the machine's streaming bandwidth, measured in the same run.
 void BM_StreamTriad(benchmark::State& state) {
   const auto n = static_cast<std::size_t>(state.range(0));
@@ -140,5 +231,8 @@ BENCHMARK(BM_SegmentsWithMesh)
 BENCHMARK(BM_StageCost)->DenseRange(0, 4)->Unit(benchmark::kMicrosecond)->Iterations(150);
 BENCHMARK(BM_SkinRigidGroups)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SkinScalarReference)->Arg(10'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Normals)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_NormalsByVertex)->Arg(10'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_NormalsTwoPassReference)->Arg(10'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StreamTriad)->Arg(1'000'000)->Arg(10'000'000)->Unit(benchmark::kMicrosecond);
 BENCHMARK_MAIN();

@@ -1,5 +1,7 @@
 #include "mesh_stages.hpp"
 
+#include "haustra/kernels/mesh_normals.hpp"
+
 #include "haustra/kernels/cage_rings.hpp"
 #include "haustra/kernels/skinning.hpp"
 
@@ -31,17 +33,12 @@ void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk) {
                              {part(state.mesh.position.x), part(state.mesh.position.y), part(state.mesh.position.z)});
 }
 
-void stage_face_normals(const WorldModel& model, WorldState& state, std::size_t chunk) {
-  const std::size_t first = chunk * kFaceChunk;
-  kernels::face_normals(model.mesh_triangles, state.mesh.position.x, state.mesh.position.y, state.mesh.position.z, first,
-                        std::min(kFaceChunk, model.mesh_triangles.size() - first), state.mesh.face_normal.out());
-}
-
 void stage_normals(const WorldModel& model, WorldState& state, std::size_t chunk) {
   const NormalChunk& c = model.normal_chunks[chunk];
-  kernels::vertex_normals(model.vertex_triangle_start, model.vertex_triangle, state.mesh.face_normal.x,
-                          state.mesh.face_normal.y, state.mesh.face_normal.z, c.first_vertex, c.vertices,
-                          state.mesh.normal.out());
+  kernels::vertex_normals_blocked({model.normal_slot_start, model.normal_slots, model.normal_gather_pairs},
+                                  c.first_block, model.vertex_corner_start, model.vertex_corner_pairs,
+                                  state.mesh.position.x, state.mesh.position.y, state.mesh.position.z, c.first_vertex,
+                                  c.vertices, state.mesh.normal.out());
 }
 
 }  // namespace haustra::detail

@@ -9,12 +9,8 @@ namespace haustra::detail {
 void stage_cage(const WorldModel& model, WorldState& state, std::size_t segment);
 // Per skinning chunk: vertices from the ring deltas (rigid-group form).
 void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk);
-// Triangles per face-normal task.
-inline constexpr std::size_t kFaceChunk = 2048;
-[[nodiscard]] inline std::size_t face_chunks(const WorldModel& m) { return (m.mesh_triangles.size() + kFaceChunk - 1) / kFaceChunk; }
-// Per chunk of kFaceChunk triangles: their (area-weighted) normals.
-void stage_face_normals(const WorldModel& model, WorldState& state, std::size_t chunk);
-// Per normals chunk (segments that asked for normals): normals of its vertices, from the faces.
+// Per normals chunk (segments that asked for normals): its vertices' normals, 8 at a time over
+// their corner pairs (kernels/mesh_normals).
 void stage_normals(const WorldModel& model, WorldState& state, std::size_t chunk);
 
 }  // namespace haustra::detail

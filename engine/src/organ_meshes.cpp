@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "haustra/kernels/mesh_normals.hpp"
 #include "haustra/error.hpp"
 #include "haustra/procedural_organ.hpp"
 #include "haustra/rod_curve.hpp"
@@ -156,15 +157,16 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
     m.any_mesh = true;
     meshes[pi] = TriangleMesh{};  // the binding keeps what stepping needs
   }
-  // Triangles around each vertex (CSR), for normals summed in a fixed order.
-  m.vertex_triangle_start.assign(m.mesh_vertex_total + 1, 0);
-  for (const auto& t : m.mesh_triangles)
-    for (std::uint32_t v : t) ++m.vertex_triangle_start[v + 1];
-  for (std::size_t v = 0; v < m.mesh_vertex_total; ++v) m.vertex_triangle_start[v + 1] += m.vertex_triangle_start[v];
-  m.vertex_triangle.assign(m.vertex_triangle_start.back(), 0);
-  std::vector<std::uint32_t> fill(m.vertex_triangle_start.begin(), m.vertex_triangle_start.end() - 1);
-  for (std::size_t t = 0; t < m.mesh_triangles.size(); ++t)
-    for (std::uint32_t v : m.mesh_triangles[t]) m.vertex_triangle[fill[v]++] = static_cast<std::uint32_t>(t);
+  // Each vertex's corner pairs (CSR), for its normal in one pass, summed in a fixed order.
+  m.vertex_corner_start.assign(m.mesh_vertex_total + 1, 0);
+  m.vertex_corner_pairs.assign(6 * m.mesh_triangles.size(), 0);
+  kernels::vertex_corner_pairs(m.mesh_triangles, m.mesh_vertex_total, m.vertex_corner_start, m.vertex_corner_pairs);
+  std::size_t blocks = 0;
+  for (NormalChunk& c : m.normal_chunks) {
+    c.first_block = blocks;
+    blocks += kernels::append_normal_blocks(m.vertex_corner_start, m.vertex_corner_pairs, c.first_vertex, c.vertices,
+                                            m.normal_slot_start, m.normal_slots, m.normal_gather_pairs);
+  }
 }
 
 }  // namespace haustra::detail

@@ -109,8 +109,6 @@ struct World::Impl {
     });
     if (!model.normal_chunks.empty())
       time_stage(Stage::normals, [&] {
-        scheduler.for_each(detail::face_chunks(model), [&](std::size_t c) { detail::stage_face_normals(model, state, c); },
-                           parallel);
         scheduler.for_each(model.normal_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, state, c); },
                            parallel);
       });

@@ -11,6 +11,7 @@
 #include "cage_builder.hpp"
 #include "haustra/embree_scene.hpp"
 #include "haustra/kernels/pose.hpp"
+#include "haustra/kernels/mesh_normals.hpp"
 #include "haustra/kernels/tissue_law.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/rod_pose_buffer.hpp"
@@ -131,6 +132,7 @@ struct NormalChunk {
   std::uint32_t piece = 0;
   std::size_t first_vertex = 0;  // world mesh vertex
   std::size_t vertices = 0;
+  std::size_t first_block = 0;   // its whole blocks of 8 in WorldModel's normal blocks
 };
 
 struct WorldModel {
@@ -168,7 +170,11 @@ struct WorldModel {
   std::size_t ring_total = 0;
   std::size_t mesh_vertex_total = 0;
   std::vector<std::array<std::uint32_t, 3>> mesh_triangles;  // world vertex indices
-  std::vector<std::uint32_t> vertex_triangle_start, vertex_triangle;  // CSR: triangles around each vertex
+  // Per vertex (CSR): the other two corners of each incident triangle, and the same as slots of
+  // blocks of 8 vertices (kernels/mesh_normals).
+  std::vector<std::uint32_t> vertex_corner_start, vertex_corner_pairs;
+  std::vector<std::uint32_t> normal_slot_start, normal_gather_pairs;
+  std::vector<kernels::NormalSlot> normal_slots;
   std::vector<SkinChunk> skin_chunks;
   std::vector<NormalChunk> normal_chunks;
   bool any_mesh = false;

@@ -170,7 +170,6 @@ void init_world_state(const WorldModel& model, WorldState& state) {
   state.mesh.ring_delta.assign(kernels::kRingDeltaFloats * model.ring_total, 0.0f);
   state.mesh.position.resize(model.mesh_vertex_total);
   state.mesh.normal.resize(model.mesh_vertex_total);
-  state.mesh.face_normal.resize(model.mesh_triangles.size());
 }
 
 SegmentViews segment_views(const WorldModel& model, WorldState& state, std::size_t segment) {

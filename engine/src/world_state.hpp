@@ -203,7 +203,6 @@ struct MeshState {
   std::vector<kernels::RingPose> ring_pose;  // model.ring_total
   std::vector<float> ring_delta;             // kRingDeltaFloats per ring
   FloatVec3Buffer position, normal;          // model.mesh_vertex_total
-  FloatVec3Buffer face_normal;               // per triangle, scratch of the normals stage
 };
 
 struct WorldState {

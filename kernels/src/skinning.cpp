@@ -85,36 +85,4 @@ void skin_csr_reference(std::span<const std::uint32_t> row_start, std::span<cons
   }
 }
 
-void face_normals(std::span<const std::array<std::uint32_t, 3>> triangles, std::span<const float> x,
-                  std::span<const float> y, std::span<const float> z, std::size_t first, std::size_t count,
-                  const FloatVec3Out& normal) {
-  for (std::size_t t = first; t < first + count; ++t) {
-    const auto& tri = triangles[t];
-    const float e1[3] = {x[tri[1]] - x[tri[0]], y[tri[1]] - y[tri[0]], z[tri[1]] - z[tri[0]]};
-    const float e2[3] = {x[tri[2]] - x[tri[0]], y[tri[2]] - y[tri[0]], z[tri[2]] - z[tri[0]]};
-    normal.x[t] = e1[1] * e2[2] - e1[2] * e2[1];
-    normal.y[t] = e1[2] * e2[0] - e1[0] * e2[2];
-    normal.z[t] = e1[0] * e2[1] - e1[1] * e2[0];
-  }
-}
-
-void vertex_normals(std::span<const std::uint32_t> vertex_triangle_start, std::span<const std::uint32_t> vertex_triangle,
-                    std::span<const float> face_x, std::span<const float> face_y, std::span<const float> face_z,
-                    std::size_t first_vertex, std::size_t vertex_count, const FloatVec3Out& normal) {
-  for (std::size_t v = first_vertex; v < first_vertex + vertex_count; ++v) {
-    float n[3] = {0.0f, 0.0f, 0.0f};
-    for (std::uint32_t k = vertex_triangle_start[v]; k < vertex_triangle_start[v + 1]; ++k) {
-      const std::uint32_t t = vertex_triangle[k];
-      n[0] += face_x[t];
-      n[1] += face_y[t];
-      n[2] += face_z[t];
-    }
-    const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    const float inv = len > 0.0f ? 1.0f / len : 0.0f;
-    normal.x[v] = n[0] * inv;
-    normal.y[v] = n[1] * inv;
-    normal.z[v] = n[2] * inv;
-  }
-}
-
 }  // namespace haustra::kernels

@@ -52,16 +52,4 @@ void skin_csr_reference(std::span<const std::uint32_t> row_start, std::span<cons
                         std::span<const Eigen::Vector3d> rest_cage, std::span<const Eigen::Vector3d> cage,
                         std::span<Eigen::Vector3d> out);
 
-// Triangle normals, as long as twice the triangle's area (area weighting for free), for triangles
-// [first, first + count).
-void face_normals(std::span<const std::array<std::uint32_t, 3>> triangles, std::span<const float> x,
-                  std::span<const float> y, std::span<const float> z, std::size_t first, std::size_t count,
-                  const FloatVec3Out& normal);
-
-// Area-weighted vertex normals (unit; zero for a vertex of no triangle) from the face normals
-// above. vertex_triangles: CSR rows of the triangles around each vertex, summed in that fixed order.
-void vertex_normals(std::span<const std::uint32_t> vertex_triangle_start, std::span<const std::uint32_t> vertex_triangle,
-                    std::span<const float> face_x, std::span<const float> face_y, std::span<const float> face_z,
-                    std::size_t first_vertex, std::size_t vertex_count, const FloatVec3Out& normal);
-
 }  // namespace haustra::kernels
