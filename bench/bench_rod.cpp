@@ -153,7 +153,7 @@ void BM_NewtonCondensed(benchmark::State& state) {
   lin.node_force = {rod.fx, rod.fy, rod.fz};
   lin.node_moment = {rod.tx, rod.ty, rod.tz};
   lin.law_total = {1, 1, 1, 100};
-  const CondensedSystem sys{gain, scratch, base, cols};
+  const CondensedSystem sys{gain, scratch, base, cols, {}};
   for (auto _ : state) {
     benchmark::DoNotOptimize(rod_condense(lin, StrainView<const double>{rod.r}, loads, sys));
     rod_condensed_step(lin, sys, weights, StrainView<double>{dq}, {px, py, pz}, {rx, ry, rz});

@@ -206,6 +206,9 @@ const haustra_world_def& checked_def(const haustra_world_def& d) {
                 fmt::format("def.struct_size = {}: expected {} (fill it with haustra_world_def_default first; a "
                             "different size means a header of another haustra version)",
                             d.struct_size, sizeof(haustra_world_def)));
+  if (d.newton < 0 || d.newton > 2)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("def.newton = {}: expected 0 (lagged), 1 (Newton) or 2 (fast)", d.newton));
   return d;
 }
 
@@ -359,7 +362,7 @@ haustra_status haustra_world_def_default(haustra_world_def* def) {
     for (int i = 0; i < 3; ++i) d.gravity[i] = w.gravity[i];
     d.threads = 0;
     d.jobs.workers = 2;
-    d.newton = w.solver.mode == haustra::SolverMode::newton ? 1 : 0;
+    d.newton = w.solver.mode == haustra::SolverMode::lagged ? 0 : (w.solver.mode == haustra::SolverMode::fast ? 2 : 1);
     d.iterations = w.solver.iterations;
     d.substeps = w.solver.substeps;
     d.recover = w.solver.on_instability == haustra::InstabilityPolicy::recover ? 1 : 0;
@@ -405,7 +408,9 @@ haustra_status haustra_world_create(const haustra_world_def* def, const haustra_
     haustra::WorldDesc w;
     w.dt = d.dt;
     w.gravity = Eigen::Vector3d(d.gravity[0], d.gravity[1], d.gravity[2]);
-    w.solver.mode = d.newton != 0 ? haustra::SolverMode::newton : haustra::SolverMode::lagged;
+    w.solver.mode = d.newton == 0 ? haustra::SolverMode::lagged
+                    : d.newton == 2 ? haustra::SolverMode::fast
+                                    : haustra::SolverMode::newton;
     w.solver.iterations = d.iterations;
     w.solver.substeps = d.substeps;
     w.solver.on_instability = d.recover != 0 ? haustra::InstabilityPolicy::recover : haustra::InstabilityPolicy::stop;
@@ -597,6 +602,7 @@ haustra_status haustra_world_profile(const haustra_world* world, haustra_profile
     o.fallbacks = p.fallbacks;
     o.backtracks = p.backtracks;
     o.stiffenings = p.stiffenings;
+    o.chords = p.chords;
     required(out, "out") = o;
   });
 }

@@ -243,8 +243,11 @@ void stage_contacts(const WorldModel& model, WorldState& state, Scheduler& sched
   // The touching pairs within one segment that Newton couples exactly, in candidate order.
   const std::size_t segs = model.segments.size();
   std::fill(cs.coupled_start.begin(), cs.coupled_start.end(), 0u);
+  // (Fast mode couples none: its factorization serves while the touching set stands, and a pair's
+  // column would need its responses anew each time.)
+  const bool couple = model.solver.mode != SolverMode::fast;
   for (ContactCandidate& k : cs.candidates) {
-    if (k.kind != ContactKind::bead || k.depth <= 0.0) continue;
+    if (!couple || k.kind != ContactKind::bead || k.depth <= 0.0) continue;
     const std::uint32_t sa = model.beads.segment[k.bead];
     if (sa != model.beads.segment[k.other] || cs.coupled_start[sa + 1] >= kMaxCoupledContacts) continue;
     k.coupled = true;

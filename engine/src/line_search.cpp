@@ -263,6 +263,8 @@ void finish(const WorldModel& model, WorldState& state, std::size_t rod, const C
     kernels::rod_forward_sweep(state.now.base[rod], v.section_length, v.strain, v.poses);
   }
   state.segment_step_cut[rod] = alpha < 1.0 ? 1 : 0;
+  // Fast mode: a chord step that had to be cut says the factorization no longer fits.
+  if (alpha < 1.0 || ls.stiffened > 0) ws.chord_ready = false;
   Eigen::Vector4d& change = state.segment_change[rod];
   change.setZero();
   for (std::size_t k = 0; k < seg.node_count; ++k)
@@ -304,7 +306,19 @@ void stage_newton_search_begin(const WorldModel& model, WorldState& state, std::
     ws.bead_start[b] = v.poses.node_position.get(model.beads.node[seg.bead_offset + b] - seg.node_offset);
   ls.active = true;
   ls.stiffened = 0;
+  // Fast mode's own rung weighs no potential (decision 0037): its chord steps are checked for
+  // descent and for contacts sinking, and the guard and the robust mode stand behind them.
+  ls.weigh = !p.chord;
   measure_slope(model, state, rod, c);
+  if (!(ls.slope < 0.0) && ws.chord) {  // a stale factorization pointed uphill: factor afresh
+    ws.chord = false;
+    ws.chord_ready = false;
+    if (!newton::resolve(model, state, rod, p, 1.0)) {
+      finish(model, state, rod, c, false);
+      return;
+    }
+    measure_slope(model, state, rod, c);
+  }
   if (!(ls.slope < 0.0) && !stiffen(model, state, rod, p, c)) {
     finish(model, state, rod, c, false);
     return;
@@ -313,7 +327,8 @@ void stage_newton_search_begin(const WorldModel& model, WorldState& state, std::
   // no other segment's beads moved; the same substep, no stiffened re-sweep); otherwise measured.
   // The first iterate of a frame starts from the filtered node positions, which the strains do
   // not reproduce: its start is measured on the strains' own shape (the sweep of α = 0).
-  const bool known = ws.potential_cached && p.iteration > 0 && ls.stiffened == 0 && model.segments.size() == 1;
+  const bool known =
+      !ls.weigh || (ws.potential_cached && p.iteration > 0 && ls.stiffened == 0 && model.segments.size() == 1);
   if (known) {
     ls.merit0 = ws.potential + attachment_merit(model, state, rod, c, ls);
     ls.rounding = kPotentialRounding * (std::abs(ls.merit0) + potential_scale(model, rod));
@@ -368,7 +383,7 @@ void stage_newton_search_measure(const WorldModel& model, WorldState& state, con
       v.poses.mid_position.set(m + j, rm + qm * sp.rel_mid_position.view().get(j));
     }
   }
-  ls.potential[r.slot] = part_potential(model, state, rod, p, r);
+  ls.potential[r.slot] = ls.weigh ? part_potential(model, state, rod, p, r) : 0.0;
   ls.deepens[r.slot] = model.segments[rod].bead_count > 0 && !ls.measuring_start &&
                        deepens_too_far(model, state, rod, r.first, r.end, false);
 }
@@ -384,8 +399,21 @@ void stage_newton_search_decide(const WorldModel& model, WorldState& state, std:
   double potential = ls.potential[0] + (split ? ls.potential[1] : 0.0);
   bool deepens = ls.deepens[0] != 0 || (split && ls.deepens[1] != 0);
   if (split && seg.bead_count > 0) {  // the contacts across the joint
-    potential += segment_contact_potential(model, state, rod, ws.bead_start, 0, seg.split_node, true);
+    if (ls.weigh) potential += segment_contact_potential(model, state, rod, ws.bead_start, 0, seg.split_node, true);
     deepens = deepens || (!ls.measuring_start && deepens_too_far(model, state, rod, 0, seg.split_node, true));
+  }
+  if (!ls.weigh) {  // fast mode: the step unless a contact sinks too far
+    if (!deepens) {
+      finish(model, state, rod, c, true);
+      ws.potential_cached = false;
+    } else if (ls.attempt < kMaxBacktracks) {
+      ++ls.attempt;
+      ++ws.backtracks;
+      set_trial(model, state, rod, 0.5 * ls.alpha);
+    } else {
+      finish(model, state, rod, c, false);
+    }
+    return;
   }
   const double merit = potential - ls.alpha * ls.moment_work + attachment_merit(model, state, rod, c, ls);
   if (ls.measuring_start) {

@@ -281,13 +281,13 @@ std::span<const SolvePart> parts_of(const WorldModel& model, std::size_t rod) {
 namespace {
 
 kernels::CondensedSystem whole_system(NewtonWorkspace& ws, int cols) {
-  return {ws.gain, ws.scratch, ws.base_solution, cols};
+  return {ws.gain, ws.scratch, ws.base_solution, cols, ws.record};
 }
 kernels::CondensedSystem tip_system(NewtonWorkspace& ws, int cols) {
-  return {ws.split.tip_gain, ws.split.tip_scratch, ws.split.tip_solution, cols};
+  return {ws.split.tip_gain, ws.split.tip_scratch, ws.split.tip_solution, cols, {}};
 }
 kernels::CondensedSystem base_system(NewtonWorkspace& ws) {
-  return {ws.split.base_gain, ws.split.base_scratch, ws.split.base_solution, ws.split.base_columns};
+  return {ws.split.base_gain, ws.split.base_scratch, ws.split.base_solution, ws.split.base_columns, {}};
 }
 
 kernels::RodLinearization linearization_at(const WorldModel& model, WorldState& state, std::size_t rod,
@@ -312,7 +312,21 @@ void condense_part(const WorldModel& model, WorldState& state, const SolvePart& 
   const std::size_t last = model.segments[rod].node_count - 1;
   switch (part.kind) {
     case SolvePartKind::whole:
-      ws.ok = kernels::rod_condense(lin, residual, ws.loads, whole_system(ws, cols)).ok;
+      if (ws.chord && ws.law_scale == 1.0) {
+        kernels::rod_condensed_resweep(lin, residual, whole_system(ws, cols));
+        ws.ok = true;
+        ++ws.chords;
+      } else {
+        ws.ok = kernels::rod_condense(lin, residual, ws.loads, whole_system(ws, cols)).ok;
+        // A factorization recorded at the law's own scale serves chord iterations until the rod's
+        // contacts, attachments or step length change (decision 0037).
+        ws.chord_ready = !ws.record.empty() && ws.ok && ws.law_scale == 1.0;
+        if (ws.chord_ready) {
+          ws.chord_frame = state.frame;
+          ws.chord_dt = p.dt;
+          ws.chord_pattern = ws.pattern_now;
+        }
+      }
       break;
     case SolvePartKind::tip:
       sp.tip_ok = kernels::rod_condense_range(lin, residual, std::span(ws.loads).first(sp.tip_loads),
@@ -348,6 +362,7 @@ bool join(const WorldModel& model, WorldState& state, std::size_t rod, const Sub
   }
   ws.band = !ok;
   if (ok) return true;
+  ws.chord_ready = false;
   ws.singular_node = 0;
   if (!ws.band_available) return false;
   ++ws.fallbacks;
@@ -363,7 +378,11 @@ void responses_half(const WorldModel& model, WorldState& state, std::size_t rod,
   if (ws.band || ws.response_nodes.empty()) return;
   const kernels::RodLinearization lin = linearization_at(model, state, rod, p);
   const int cols = coupled_unknowns(model, state, rod).columns();
-  const int middle = cols / 2, first = half == 0 ? 0 : middle, end = half == 0 ? middle : cols;
+  int middle = cols / 2, first = half == 0 ? 0 : middle, end = half == 0 ? middle : cols;
+  if (ws.chord && ws.law_scale == 1.0) {  // the unit loads' responses stand: the residual's alone
+    first = 0;
+    end = half == 0 ? 1 : 0;
+  }
   const auto per_node = 6 * static_cast<std::size_t>(cols);
   std::span<double> scratch = half == 0 ? std::span<double>(ws.scratch) : std::span<double>(ws.scratch_second);
   if (sp.joint == 0) {
@@ -461,6 +480,32 @@ void stage_newton_linearize(const WorldModel& model, WorldState& state, std::siz
   linearize(model, state, rod, p);
   const Coupled c = coupled_unknowns(model, state, rod);
   unit_loads(c, ws);
+  ws.chord = false;
+  if (!ws.record.empty()) {
+    // Fast mode: the last factorization serves while the attachments hold the same nodes, the same
+    // beads touch, the step length stands and it is young enough.
+    const SegmentModel& seg = model.segments[rod];
+    ws.pattern_now.clear();
+    for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
+      const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
+      ws.pattern_now.push_back(as.active ? static_cast<std::uint32_t>(2 * as.node + (as.hold_frame ? 1 : 0)) : 0xFFFFFFFFu);
+    }
+    const CollisionState& cs = state.collision;
+    for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
+      std::uint32_t touching = 0;
+      for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e)
+        touching |= cs.candidates[cs.bead_contact[e] >> 1].depth > 0.0 ? 1u : 0u;
+      ws.pattern_now.push_back(touching);
+    }
+    // A contact that lets go leaves the factorization stiffer than the rod (a shorter step); only a
+    // new one is unaccounted for.
+    bool same = ws.pattern_now.size() == ws.chord_pattern.size();
+    for (std::size_t i = 0; same && i < ws.pattern_now.size(); ++i)
+      same = i < seg.attachments.size() ? ws.pattern_now[i] == ws.chord_pattern[i]
+                                        : ws.pattern_now[i] <= ws.chord_pattern[i];
+    ws.chord = p.chord && ws.chord_ready && state.frame - ws.chord_frame < static_cast<std::uint64_t>(model.solver.refactor_frames) &&
+               ws.chord_dt == p.dt && same;
+  }
   NewtonSplit& sp = ws.split;
   if (sp.joint == 0) return;
   const auto cols = static_cast<std::size_t>(c.columns());

@@ -15,6 +15,7 @@ struct SubstepParameters {
   double dt = 0.0;                       // substep length
   bool newton = false;                   // Newton iterations rather than the lagged update
   int iteration = 0;                     // within the substep
+  bool chord = false;                    // fast mode: Newton may reuse its last factorization
 };
 
 // The active constraint rows of a segment: one per held axis of each active attachment.

@@ -482,16 +482,17 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
   if (const toml::table* t = r.table(root, "solver", "solver")) {
     r.check_keys(*t, "solver",
                  {"mode", "iterations", "substeps", "relaxation", "tolerance", "max_iterations", "attachment_tolerance",
-                  "on_instability", "max_substeps",
+                  "refactor_frames", "on_instability", "max_substeps",
                   "max_axial_strain", "max_section_angle", "max_displacement", "max_attachment_error"});
     SolverDesc& s = w.solver;
     s.mode = r.choice<SolverMode>(*t, "mode", "solver.mode", s.mode,
-                                  {{"newton", SolverMode::newton}, {"lagged", SolverMode::lagged}});
+                                  {{"newton", SolverMode::newton}, {"lagged", SolverMode::lagged}, {"fast", SolverMode::fast}});
     s.iterations = r.integer(*t, "iterations", "solver.iterations", s.iterations);
     s.substeps = r.integer(*t, "substeps", "solver.substeps", s.substeps);
     s.relaxation = r.number(*t, "relaxation", "solver.relaxation", s.relaxation);
     s.tolerance = r.number(*t, "tolerance", "solver.tolerance", s.tolerance);
     s.max_iterations = r.integer(*t, "max_iterations", "solver.max_iterations", s.max_iterations);
+    s.refactor_frames = r.integer(*t, "refactor_frames", "solver.refactor_frames", s.refactor_frames);
     s.attachment_tolerance =
         r.number(*t, "attachment_tolerance", "solver.attachment_tolerance", s.attachment_tolerance);
     s.on_instability = r.choice<InstabilityPolicy>(*t, "on_instability", "solver.on_instability", s.on_instability,

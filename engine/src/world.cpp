@@ -85,7 +85,7 @@ struct World::Impl {
     detail::init_instruments(model, state);
     guard.resize(model.segments.size());
     events.reserve(kMaxEvents);
-    base = {model.solver.substeps, model.solver.mode == SolverMode::newton};
+    base = {model.solver.substeps, model.solver.mode != SolverMode::lagged};
     state.robust_substeps = base.substeps;
     state.robust_newton = base.newton;
     for (const auto& s : model.segments) {
@@ -133,10 +133,11 @@ struct World::Impl {
 
   // One attempt at a frame with `n` substeps, lagged or Newton. Returns the first segment that
   // failed the guard, or model.segments.size() when all passed.
-  std::size_t run_frame(int n, bool newton) {
+  std::size_t run_frame(int n, bool newton, bool chord) {
     SubstepParameters p;
     p.dt = model.dt / n;
     p.newton = newton;
+    p.chord = chord;
     const std::size_t segs = model.segments.size();
     for (int sub = 0; sub < n; ++sub) {
       run_stage(Stage::loads, [&](std::size_t s) {
@@ -161,7 +162,8 @@ struct World::Impl {
         state.segment_solvable[s] = 1;
       });
       if (model.beads.size() > 0) time_stage(Stage::collide, [&] { detail::stage_collide(model, state, scheduler); });
-      const int iterations = model.solver.iterations;
+      // Fast mode's own rung: one chord iteration a frame, as a haptic loop wants (decision 0037).
+      const int iterations = chord ? 1 : model.solver.iterations;
       const int max_iterations = newton ? std::max(iterations, model.solver.max_iterations) : iterations;
       for (int it = 0; it < max_iterations; ++it) {
         auto active = [&](std::size_t s) { return state.segment_converged[s] == 0; };
@@ -343,7 +345,9 @@ struct World::Impl {
     GuardResult first{};
     Rung first_rung = rung;
     for (;;) {
-      const std::size_t failed = run_frame(rung.substeps, rung.newton);
+      // Fast mode reuses factorizations on its own rung only: a redone frame factors afresh.
+      const bool chord = model.solver.mode == SolverMode::fast && rung.substeps == base.substeps && rung.newton;
+      const std::size_t failed = run_frame(rung.substeps, rung.newton, chord && first_segment == model.segments.size());
       if (failed == model.segments.size()) break;
       state.now.copy_from(state.frame_start);
       if (first_segment == model.segments.size()) {
@@ -405,7 +409,8 @@ struct World::Impl {
       profile.fallbacks += ws.fallbacks;
       profile.backtracks += ws.backtracks;
       profile.stiffenings += ws.stiffenings;
-      ws.fallbacks = ws.backtracks = ws.stiffenings = 0;
+      profile.chords += ws.chords;
+      ws.fallbacks = ws.backtracks = ws.stiffenings = ws.chords = 0;
     }
     profile.substeps = rung.substeps;
     profile.newton = rung.newton;

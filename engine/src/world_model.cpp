@@ -44,6 +44,7 @@ void check_vector(const std::string& field, const Eigen::Vector3d& v, bool nonze
 void check_solver(const SolverDesc& s) {
   check_int("solver.iterations", s.iterations, 1, 10000);
   check_int("solver.max_iterations", s.max_iterations, 1, 10000);
+  check_int("solver.refactor_frames", s.refactor_frames, 1, 1000000);
   check_positive("solver.attachment_tolerance", s.attachment_tolerance, "m", 1.0);
   check_int("solver.max_substeps", s.max_substeps, 1, 1 << 16);
   check_int("solver.substeps", s.substeps, 1, s.max_substeps);
@@ -134,7 +135,7 @@ WorldModel build_world_model(const WorldDesc& desc) {
       check_range(where + ".tissue.alpha", d.material.exp2_alpha, 0.0, 1e3, "α ≥ 0 (it multiplies ε²)");
       check_range(where + ".tissue.beta", d.material.exp2_beta, 0.0, 1e12, "β ≥ 0 in Pa");
       check_positive(where + ".tissue.gamma", d.material.exp2_gamma, "Pa", 1e12);
-      if (desc.solver.mode != SolverMode::newton)
+      if (desc.solver.mode == SolverMode::lagged)
         fail(where + ".tissue.response",
              "the EXP2 law is solved by Newton iteration: it needs solver.mode = \"newton\" (the lagged scheme "
              "assumes a constant stiffness)");

@@ -138,6 +138,13 @@ void init_world_state(const WorldModel& model, WorldState& state) {
     const int cols = 1 + static_cast<int>(rows) + (seg.bead_count > 0 ? static_cast<int>(kMaxCoupledContacts) : 0);
     state.newton[s].allocate(seg.node_count, cols, seg.node_count <= kBandFallbackNodes, seg.split_node);
     if (seg.split_node > 0) state.newton[s].split.allocate(seg.node_count, seg.split_node, cols);
+    if (model.solver.mode == SolverMode::fast && seg.split_node == 0) {
+      NewtonWorkspace& ws = state.newton[s];
+      ws.record.assign(kernels::condensed_record_size(seg.node_count), 0.0);
+      const std::size_t pattern = seg.attachments.size() + seg.bead_count;
+      ws.chord_pattern.reserve(pattern);
+      ws.pattern_now.reserve(pattern);
+    }
     state.newton[s].bead_start.assign(seg.bead_count, Eigen::Vector3d::Zero());
   }
 

@@ -99,6 +99,7 @@ struct NewtonSplit {
 struct LineSearch {
   bool active = false;          // trials under way
   bool measuring_start = false;  // the trial under way is the start itself (α = 0)
+  bool weigh = true;             // the merit decides (not on fast mode's own rung)
   double alpha = 0.0, slope = 0.0, merit0 = 0.0, rounding = 0.0, mu = 0.0, moment_work = 0.0;
   int attempt = 0, stiffened = 0;
   std::array<double, kMaxConstraintRows> lambda{};  // constraint forces after the step, per row
@@ -113,6 +114,14 @@ struct NewtonWorkspace {
   std::vector<double> gain, scratch, base_solution;
   std::vector<double> scratch_second;  // the second half of the responses' columns runs apart
   LineSearch search;
+  // Fast mode (decision 0037): the sweep's record, and when its factorization may serve again —
+  // the frame and step length it was made at, the attachments' nodes and the beads touching then.
+  std::vector<double> record;
+  bool chord_ready = false;     // a recorded factorization at the law's own scale
+  bool chord = false;           // this iteration reuses it
+  std::uint64_t chord_frame = 0;
+  double chord_dt = 0.0;
+  std::vector<std::uint32_t> chord_pattern, pattern_now;
   NewtonSplit split;  // joint == 0: the rod is solved whole
   bool ok = true;     // the whole rod's sweep held its pivots
   std::vector<kernels::UnitLoad> loads;       // this iteration's unit loads, by node descending
@@ -151,6 +160,7 @@ struct NewtonWorkspace {
   int fallbacks = 0;    // iterations solved by the banded LU this frame
   int backtracks = 0;   // line-search halvings this frame
   int stiffenings = 0;  // re-solves with stiffened law rows this frame
+  int chords = 0;       // iterations that reused the factorization this frame
 
   void allocate(std::size_t nodes, int columns, bool with_band, std::size_t split_at);
 };

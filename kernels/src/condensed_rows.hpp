@@ -168,6 +168,47 @@ inline double gauss_jordan(double* rows, int count, int first, int stride, int w
   return smallest;
 }
 
+// ---- A sweep's record, for a chord iteration's replay ----
+
+inline void record_step(double* r, const SectionFrame& g, const double (&a)[10][4], const Elimination& el) {
+  r[0] = g.h;
+  for (int i = 0; i < 3; ++i) {
+    r[1 + i] = g.chord[i];
+    r[4 + i] = g.mid[i];
+    for (int j = 0; j < 3; ++j) r[7 + 3 * i + j] = g.d[i][j];
+  }
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 4; ++j) r[16 + 4 * i + j] = a[i][j];
+  for (int j = 0; j < 4; ++j) {
+    r[56 + j] = static_cast<double>(el.order[j]);
+    r[60 + j] = el.inv[j];
+    for (int i = 0; i < 4; ++i) r[64 + 4 * j + i] = el.factor[j][i];
+  }
+}
+
+inline void read_step(const double* r, SectionFrame& g, double (&a)[10][4], Elimination& el) {
+  g.h = r[0];
+  g.chord = {r[1], r[2], r[3]};
+  g.mid = {r[4], r[5], r[6]};
+  for (int i = 0; i < 3; ++i) g.d[i] = {r[7 + 3 * i], r[8 + 3 * i], r[9 + 3 * i]};
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 4; ++j) a[i][j] = r[16 + 4 * i + j];
+  for (int j = 0; j < 4; ++j) {
+    el.order[j] = static_cast<int>(r[56 + j]);
+    el.inv[j] = r[60 + j];
+    for (int i = 0; i < 4; ++i) el.factor[j][i] = r[64 + 4 * j + i];
+  }
+}
+
+inline void record_base(double* r, const Elimination& el, int unknowns) {
+  r[0] = unknowns;
+  for (int j = 0; j < unknowns; ++j) {
+    r[1 + j] = static_cast<double>(el.order[j]);
+    r[11 + j] = el.inv[j];
+    for (int i = 0; i < unknowns; ++i) r[21 + 10 * j + i] = el.factor[j][i];
+  }
+}
+
 // ---- The sweep ----
 
 // The right-hand-side chunks [first, end) of one step, in one pass each: the interface rows'
@@ -437,7 +478,7 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
     // δq_{k+1} = U_k (y_k, 1).
     Elimination el;
     const int* order = el.order;
-    const double pivot = gauss_jordan<W == 0>(cr, 4, QN, S, kZ, el);
+    const double pivot = gauss_jordan<true>(cr, 4, QN, S, kZ, el);
     if (pivot < report.smallest_pivot) {
       report.smallest_pivot = pivot;
       report.node = k + 1;
@@ -482,6 +523,7 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
       for (int j = 0; j < 4; ++j) pi[r * S + QN + j] = 0.0;
     }
     if constexpr (W == 0) fused_rhs_pass(g, a, el, pi, gain, S, kZc, w / 4);
+    if (!sys.record.empty()) record_step(sys.record.data() + k * kCondensedRecordPerStep, g, a, el);
     t_next = t_k;
   }
 
@@ -520,7 +562,11 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
   double* work = base + equations_first * S;
   Elimination el;
   const int* order = el.order;
-  const double pivot = gauss_jordan<false>(work, unknowns, unknowns_first, S, w, el);
+  const double pivot = gauss_jordan<true>(work, unknowns, unknowns_first, S, w, el);
+  if (!sys.record.empty()) {
+    const std::size_t n = rod.poses.node_count();
+    record_base(sys.record.data() + (n - 1) * kCondensedRecordPerStep, el, unknowns);
+  }
   if (pivot < report.smallest_pivot) {
     report.smallest_pivot = pivot;
     report.node = 0;

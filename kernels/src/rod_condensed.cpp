@@ -24,6 +24,78 @@ CondenseReport rod_condense(const RodLinearization& rod, StrainView<const double
   return rod_condense_range(rod, residual, loads, sys, {0, rod.poses.node_count() - 1, false, {}});
 }
 
+void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double> residual, CondensedSystem sys) {
+  using condensed::V3;
+  const std::size_t n = rod.poses.node_count(), last = n - 1;
+  const auto S = static_cast<std::size_t>(condensed_width(sys.columns));
+  // The interface's residual column (10 numbers), from the tip: no wrench, node N's residual.
+  double p[10] = {};
+  for (std::size_t c = 0; c < 4; ++c) p[6 + c] = residual.at(last, c);
+  condensed::SectionFrame g;
+  double a[10][4];
+  condensed::Elimination el;
+  for (std::size_t k = last; k-- > 0;) {
+    condensed::read_step(sys.record.data() + k * kCondensedRecordPerStep, g, a, el);
+    // The fused pass of the sweep, on one lane (condensed_rows.hpp: fused_rhs_pass).
+    const double h = g.h;
+    const V3 c = g.chord, b = -1.0 * g.mid;
+    p[0] += c.y * p[5] - c.z * p[4];
+    p[1] += c.z * p[3] - c.x * p[5];
+    p[2] += c.x * p[4] - c.y * p[3];
+    const double x0 = p[0] + b.y * p[5] - b.z * p[4];
+    const double x1 = p[1] + b.z * p[3] - b.x * p[5];
+    const double x2 = p[2] + b.x * p[4] - b.y * p[3];
+    const V3 d0 = h * g.d[0], d1 = h * g.d[1], d2 = h * g.d[2];
+    const double sec[4] = {d0.x * x0 + d0.y * x1 + d0.z * x2, d1.x * x0 + d1.y * x1 + d1.z * x2,
+                           d2.x * x0 + d2.y * x1 + d2.z * x2, d2.x * p[3] + d2.y * p[4] + d2.z * p[5]};
+    double e[4];
+    for (int r = 0; r < 4; ++r) e[r] = p[6 + r] + 0.5 * sec[r];
+    for (int step = 0; step < 4; ++step) {
+      const int pr = el.order[step];
+      e[pr] *= el.inv[step];
+      for (int r = 0; r < 4; ++r) e[r] -= el.factor[step][r] * e[pr];
+    }
+    double u[4];
+    double* gain = sys.gain.data() + k * 4 * S;
+    for (int r = 0; r < 4; ++r) {
+      u[r] = -e[el.order[r]];
+      gain[static_cast<std::size_t>(r) * S + kCondensedRhs] = u[r];
+    }
+    for (int r = 0; r < 10; ++r) {
+      const double in = r < 6 ? p[r] : 0.5 * sec[r - 6] + residual.at(k, static_cast<std::size_t>(r - 6));
+      p[r] = in + a[r][0] * u[0] + a[r][1] * u[1] + a[r][2] * u[2] + a[r][3] * u[3];
+    }
+  }
+  // The base system, as eliminated: a free base balances the current loads' total wrench.
+  const double* rb = sys.record.data() + last * kCondensedRecordPerStep;
+  const int unknowns = static_cast<int>(rb[0]);
+  const int first = unknowns == 10 ? 0 : kCondensedStrain;
+  const int equations = unknowns == 10 ? 0 : 6;
+  if (unknowns == 10) {
+    V3 force{}, moment{};
+    const V3 r0 = condensed::load(rod.poses.node_position, 0);
+    for (std::size_t j = 0; j < n; ++j) {
+      const V3 f = condensed::load(rod.node_force, j);
+      force = force + f;
+      moment = moment + condensed::load(rod.node_moment, j) + condensed::cross(condensed::load(rod.poses.node_position, j) - r0, f);
+    }
+    for (int i = 0; i < 3; ++i) {
+      p[i] += moment[i];
+      p[3 + i] += force[i];
+    }
+  }
+  double e[10];
+  for (int i = 0; i < unknowns; ++i) e[i] = p[equations + i];
+  for (int step = 0; step < unknowns; ++step) {
+    const int pr = static_cast<int>(rb[1 + step]);
+    e[pr] *= rb[11 + step];
+    for (int r = 0; r < unknowns; ++r) e[r] -= rb[21 + 10 * step + r] * e[pr];
+  }
+  double* y = sys.base.data();
+  for (int i = 0; i < 10; ++i) y[i] = 0.0;
+  for (int i = 0; i < unknowns; ++i) y[first + i] = -e[static_cast<int>(rb[1 + i])];
+}
+
 void rod_condensed_step_range(const RodLinearization& rod, CondensedSystem sys, std::size_t first, std::size_t last,
                               const double* start, std::span<const double> weights, StrainView<double> dq,
                               Vec3View<double> dphi, Vec3View<double> dr) {

@@ -104,6 +104,7 @@ typedef struct haustra_profile {
   int fallbacks;  /* Newton iterations the banded LU solved (the condensed sweep's pivots were unsafe) */
   int backtracks; /* line-search halvings of Newton steps */
   int stiffenings; /* Newton steps solved again with the law stiffened (the plain step went uphill) */
+  int chords;      /* fast mode: Newton iterations that reused the last factorization */
 } haustra_profile;
 
 /* A host's own job system (instead of oneTBB): a step hands it ranges of independent work with
@@ -124,7 +125,8 @@ typedef struct haustra_world_def {
   double gravity[3];        /* m/s²; default (0, 0, -9.81) */
   int threads;              /* 0: all cores (default), 1: the stepping thread only, n: n */
   haustra_job_system jobs;  /* enqueue == NULL (default): oneTBB with `threads` */
-  int newton;               /* 1 (default): Newton; 0: the paper's lagged scheme */
+  int newton;               /* 1 (default): Newton; 0: the paper's lagged scheme; 2: fast (Newton
+                             * reusing its factorization while contacts and grasps stay; decision 0037) */
   int iterations;           /* per substep; default 1 */
   int substeps;             /* per frame; default 1 */
   int recover;              /* 1 (default): redo an unstable frame with Newton and more substeps; 0: stop */

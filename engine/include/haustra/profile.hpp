@@ -41,6 +41,7 @@ struct FrameProfile {
   int fallbacks = 0;   // Newton iterations solved by the banded LU (the condensed sweep's pivots unsafe)
   int backtracks = 0;  // line-search halvings
   int stiffenings = 0; // Newton steps solved again with stiffened law rows (the plain step was not a descent)
+  int chords = 0;      // fast mode: Newton iterations that reused the last factorization
   bool newton = false; // the frame that was kept ran Newton iterations
 };
 

@@ -37,6 +37,9 @@ enum class SolverMode : std::uint8_t {
   lagged,  // the paper: R from the previous configuration, one tridiagonal solve. Fastest;
            // diverges when load stiffness dominates (tension, large loads, soft rods).
   newton,  // the implicit law solved by Newton on the block-tridiagonal mixed system, O(N).
+  fast,    // Newton reusing its last factorization (a chord iteration: one scalar replay of the
+           // sweep and a back-substitution) while the contacts touching and the attachments stay
+           // as they were; contacts enter node by node. For haptic loops (decision 0037).
 };
 
 // How the tissue's elastic stress follows strain in bending and stretch (torsion stays Hooke's).
@@ -256,6 +259,8 @@ struct SolverDesc {
   // converges within the frame; steady frames and rods without contacts or attachments pay nothing.
   int max_iterations = 8;
   double attachment_tolerance = 1e-6;
+  // Fast mode only: a factorization serves at most this many frames.
+  int refactor_frames = 8;
   InstabilityPolicy on_instability = InstabilityPolicy::recover;
   int max_substeps = 64;     // the robust mode gives up beyond this
   // Guard limits, checked at the end of every frame. The guard also watches the lagged scheme for

@@ -72,12 +72,22 @@ struct RodLinearization {
   double law_scale = 1.0;
 };
 
+// What a sweep keeps to replay itself on a new residual (a chord iteration: the same Jacobian, a
+// new right-hand side): per step, the section's frame, the elimination of node k+1's rows and the
+// interface's share of δq_{k+1}; then the base system's elimination.
+inline constexpr std::size_t kCondensedRecordPerStep = 84;
+inline constexpr std::size_t kCondensedRecordBase = 132;
+[[nodiscard]] constexpr std::size_t condensed_record_size(std::size_t nodes) {
+  return (nodes - 1) * kCondensedRecordPerStep + kCondensedRecordBase;
+}
+
 // Caller-owned memory of one condensed solve (of a rod, or of one part of a split rod).
 struct CondensedSystem {
   std::span<double> gain;     // condensed_gain_size(steps, columns): the gains of the part's steps
   std::span<double> scratch;  // condensed_scratch_size(columns)
-  std::span<double> base;     // 10 × columns: y_0 of each right-hand side (column-major); a base part's
+  std::span<double> base;     // 10 × columns: y_0 of each right-hand side (column-major)
   int columns = 1;
+  std::span<double> record;   // optional: condensed_record_size(nodes), for rod_condensed_resweep
 };
 
 struct CondenseReport {
@@ -95,6 +105,12 @@ inline constexpr double kCondensedPivotFloor = 1e-10;
 // any node are a prefix). Columns whose loads all sit at node 0 of a clamped rod are zero.
 CondenseReport rod_condense(const RodLinearization& rod, StrainView<const double> residual,
                             std::span<const UnitLoad> loads, CondensedSystem sys);
+
+// A chord iteration: the residual column (column 0) solved anew with the Jacobian a recorded
+// rod_condense factored (the whole rod; sys.record filled then). Rewrites column 0 of the gains and
+// of the base solutions; the other columns (unit loads) stand. The free base's unbalanced wrench
+// is the current loads'.
+void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double> residual, CondensedSystem sys);
 
 // Base → tip: the step Σ_c weight_c · (column c's solution) at every node: δq (4 per node), δφ and
 // δr (world frame). weights: one per column (weight 1 on column 0 alone: the plain Newton step).
