@@ -132,7 +132,7 @@ std::vector<BadInput> catalogue(const Scratch& s) {
       scene(m + "\n[world]\ndt = nan\n", {"world.dt", "finite"}),
       scene(m + "\n[world]\ndt = 5.0\n", {"world.dt", "plausible maximum 1"}, ErrorCode::invalid_argument),
       scene(m + "\n[world]\ngravity = [0, 0]\n", {"world.gravity", "expected [x, y, z]"}),
-      scene(m + "\n[solver]\nmode = \"fast\"\n", {"test.toml:11", "solver.mode", "\"newton\", \"lagged\"", "\"fast\""}),
+      scene(m + "\n[solver]\nmode = \"quick\"\n", {"test.toml:11", "solver.mode", "\"newton\", \"lagged\", \"fast\"", "\"quick\""}),
       scene(m + "\n[solver]\niterations = 0\n", {"test.toml:11", "solver.iterations", "[1, 10000]"}, ErrorCode::invalid_argument),
       scene(m + "\n[solver]\nrelaxation = 1.5\n", {"solver.relaxation", "(0, 1]"}, ErrorCode::invalid_argument),
       scene(m + "\n[solver]\niterations = 2.5\n", {"solver.iterations", "expected an integer"}),

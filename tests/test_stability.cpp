@@ -18,19 +18,23 @@ constexpr bool kSanitized = false;
 #endif
 
 void check_cells(const std::vector<StabilityCell>& cells) {
-  int lagged = 0, robust = 0, error = 0;
+  int lagged = 0, robust = 0, error = 0, fast = 0, fast_robust = 0;
   for (const StabilityCell& c : cells) {
     INFO("E " << c.youngs_modulus << " dt " << c.dt << " N " << c.nodes << " " << c.load << " " << c.law << " → "
               << c.outcome << ": " << c.detail);
     CHECK(c.finite);
     CHECK(c.names_cause);
     CHECK((c.outcome == "lagged" || c.outcome == "robust" || c.outcome == "error"));
+    CHECK((c.fast_outcome == "fast" || c.fast_outcome == "robust" || c.fast_outcome == "error"));
     lagged += c.outcome == "lagged";
     robust += c.outcome == "robust";
     error += c.outcome == "error";
+    fast += c.fast_outcome == "fast";
+    fast_robust += c.fast_outcome == "robust";
   }
   MESSAGE(cells.size() << " cells: " << lagged << " stable with the lagged scheme, " << robust
-                       << " recovered by the robust mode, " << error << " stopped with a named cause");
+                       << " recovered by the robust mode, " << error << " stopped with a named cause; fast mode: "
+                       << fast << " held, " << fast_robust << " recovered");
 }
 
 }  // namespace

@@ -337,9 +337,10 @@ int stability(bool markdown, const std::string& csv) {
   for (const auto& c : cells) bad += (!c.finite || !c.names_cause) ? 1 : 0;
   if (!csv.empty()) {  // for the heat map (scripts/plots.py stability)
     std::ofstream out(csv);
-    out << "nodes,youngs_modulus,dt,load,law,outcome\n";
+    out << "nodes,youngs_modulus,dt,load,law,outcome,fast_outcome\n";
     for (const auto& c : cells)
-      out << fmt::format("{},{:g},{:g},{},{},{}\n", c.nodes, c.youngs_modulus, c.dt, c.load, c.law, c.outcome);
+      out << fmt::format("{},{:g},{:g},{},{},{},{}\n", c.nodes, c.youngs_modulus, c.dt, c.load, c.law, c.outcome,
+                         c.fast_outcome);
     if (!out) throw Error(ErrorCode::io, fmt::format("cannot write '{}'", csv));
   }
   if (markdown) {

@@ -73,6 +73,11 @@ std::string run_cell(const StabilityCell& c, SolverMode mode, InstabilityPolicy 
   return error;
 }
 
+bool names_cause(const std::string& error) {
+  return error.find("segment '") != std::string::npos && error.find("node ") != std::string::npos &&
+         error.find("after stage '") != std::string::npos;
+}
+
 }  // namespace
 
 StabilityOptions stability_large_n_options() {
@@ -125,10 +130,17 @@ std::vector<StabilityCell> stability_sweep(const StabilityOptions& o) {
               } else {
                 c.outcome = "error";
                 c.detail = robust_error;
-                c.names_cause = robust_error.find("segment '") != std::string::npos &&
-                                robust_error.find("node ") != std::string::npos &&
-                                robust_error.find("after stage '") != std::string::npos;
+                c.names_cause = names_cause(robust_error);
               }
+            }
+            if (o.fast) {
+              std::string fast_event;
+              const std::string fast_error =
+                  run_cell(c, SolverMode::fast, InstabilityPolicy::recover, o.max_substeps, finite, fast_event);
+              c.finite = c.finite && finite;
+              c.fast_outcome = !fast_error.empty() ? "error" : (fast_event.empty() ? "fast" : "robust");
+              c.fast_detail = fast_error.empty() ? fast_event : fast_error;
+              if (!fast_error.empty()) c.names_cause = c.names_cause && names_cause(fast_error);
             }
             cells.push_back(c);
           }
@@ -150,6 +162,11 @@ Newton with 2, 4, 8 substeps).
 - **robust** — the lagged scheme diverged (the guard saw it), the robust mode recovered.
 - **error** — neither could: the run stopped with an error naming segment, node, stage and cause,
   and kept its last good frame.
+
+After the slash, the same cell in **fast mode** (`solver.mode = "fast"`, decision 0037: Newton
+reusing its factorization, one iteration a frame, its potential not weighed) with the robust mode
+behind it: **ok** — it held on its own; **robust** — the guard had frames redone by full Newton;
+**error** — stopped with a named cause.
 
 No cell ended with a non-finite value. Regenerate this file with `make stability-doc`
 (`haustra stability --markdown --csv … > docs/stability.md`, then `scripts/plots.py stability`);
@@ -182,9 +199,9 @@ std::string stability_markdown(const std::vector<StabilityCell>& cells) {
   md += "\n## Tables\n";
   auto symbol = [](const StabilityCell& c) {
     if (!c.finite) return std::string("**NaN**");
-    if (c.outcome == "lagged") return std::string("ok");
-    if (c.outcome == "robust") return std::string("robust");
-    return std::string("error");
+    std::string s = c.outcome == "lagged" ? "ok" : (c.outcome == "robust" ? "robust" : "error");
+    if (!c.fast_outcome.empty()) s += " / " + std::string(c.fast_outcome == "fast" ? "ok" : c.fast_outcome);
+    return s;
   };
   std::vector<int> nodes;
   std::vector<double> es, dts;
@@ -235,6 +252,21 @@ std::string stability_markdown(const std::vector<StabilityCell>& cells) {
     md += "\nCells marked *error* stopped with these causes (numbers elided):\n\n";
     for (const auto& [r, count] : reasons) md += fmt::format("- {} × {}\n", count, r);
   }
+  // The fast mode against the lagged scheme and Newton, cell by cell.
+  int fast_ok = 0, fast_robust = 0, fast_error = 0, worse = 0, runs = 0;
+  for (const auto& c : cells) {
+    if (c.fast_outcome.empty()) continue;
+    ++runs;
+    fast_ok += c.fast_outcome == "fast";
+    fast_robust += c.fast_outcome == "robust";
+    fast_error += c.fast_outcome == "error";
+    worse += c.fast_outcome == "error" && c.outcome != "error";
+  }
+  if (runs > 0)
+    md += fmt::format(
+        "\nFast mode over the {} cells: {} held on their own, {} had frames redone by Newton, {} stopped ({} of "
+        "them where the lagged scheme or the robust mode did not: fast mode's own failures).\n",
+        runs, fast_ok, fast_robust, fast_error, worse);
   return md;
 }
 

@@ -19,6 +19,10 @@ struct StabilityCell {
   std::string detail;           // the robust mode's event, or the error
   bool finite = true;           // every node position and strain finite at the end
   bool names_cause = true;      // an error names segment, node and stage
+  // The fast mode (decision 0037) in the same cell, with the robust mode behind it: "fast" (held
+  // on its own), "robust" (the guard had frames redone by Newton), "error"; "" when not run.
+  std::string fast_outcome;
+  std::string fast_detail;
 };
 
 struct StabilityOptions {
@@ -29,6 +33,7 @@ struct StabilityOptions {
   int frames_large = 6;     // N > 200
   int max_substeps = 8;     // the robust ladder: lagged, Newton, Newton with 2, 4, 8 substeps
   std::vector<std::string> loads = {"gravity", "pull", "contact"};
+  bool fast = true;         // also run each cell in fast mode
 };
 
 std::vector<StabilityCell> stability_sweep(const StabilityOptions& options);
