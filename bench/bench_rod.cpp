@@ -209,6 +209,11 @@ void BM_Frame(benchmark::State& state, SolverMode mode) {
   }
   set_counters(state, static_cast<std::size_t>(s.nodes));
   state.counters["robust frames"] = static_cast<double>(escalated) / static_cast<double>(state.iterations());
+  // The memory a node takes (decision 0038's estimate, checked against the heap in the tests):
+  // the rod's model and state, and the solver's workspace.
+  const MemoryEstimate m = estimate_memory(d);
+  state.counters["rod B/node"] = static_cast<double>(m.rod_bytes) / static_cast<double>(m.nodes);
+  state.counters["solver B/node"] = static_cast<double>(m.solver_bytes) / static_cast<double>(m.nodes);
 }
 
 // The paper's Fig. 7 scene, `drop` (167 nodes, 55 beads, free, contacts), one thread. Beside

@@ -212,11 +212,12 @@ const haustra_world_def& checked_def(const haustra_world_def& d) {
   return d;
 }
 
-// The run-time settings: threads, or the host's job system.
+// The run-time settings: threads, or the host's job system; the memory the world may take.
 void apply_runtime(const haustra_world_def& d, haustra::WorldDesc& w) {
   if (d.threads < 0 || d.threads > 1024)
     throw Error(ErrorCode::invalid_argument, fmt::format("def.threads = {}: expected 0 (all cores) to 1024", d.threads));
   w.threads = d.threads;
+  if (d.memory_limit != 0.0) w.memory_limit = d.memory_limit;
   if ((d.jobs.enqueue == nullptr) != (d.jobs.wait == nullptr))
     throw Error(ErrorCode::invalid_argument, "def.jobs: enqueue and wait are both needed (or neither, for oneTBB)");
   if (d.jobs.enqueue != nullptr) {

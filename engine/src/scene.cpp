@@ -474,10 +474,11 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
   if (scene.name.empty()) scene.name = file.stem().string();
   WorldDesc& w = scene.world;
   if (const toml::table* t = r.table(root, "world", "world")) {
-    r.check_keys(*t, "world", {"dt", "gravity", "threads"});
+    r.check_keys(*t, "world", {"dt", "gravity", "threads", "memory_limit"});
     w.dt = r.number(*t, "dt", "world.dt", w.dt);
     w.gravity = r.vec3(*t, "gravity", "world.gravity", w.gravity);
     w.threads = r.integer(*t, "threads", "world.threads", w.threads);
+    w.memory_limit = r.number(*t, "memory_limit", "world.memory_limit", w.memory_limit);
   }
   if (const toml::table* t = r.table(root, "solver", "solver")) {
     r.check_keys(*t, "solver",

@@ -85,6 +85,32 @@ RestShape build_rest_shape(const SegmentDesc& d, const std::string& where) {
 
 }  // namespace
 
+// A world that would not fit is refused before anything is built (decision 0038).
+void check_memory(const WorldDesc& desc) {
+  check_range("world.memory_limit", desc.memory_limit, 0.0, 1e18, "bytes (0: what the machine has available)");
+  const MemoryEstimate e = estimate_memory(desc);
+  const bool set = desc.memory_limit > 0.0;
+  const std::size_t limit = set ? static_cast<std::size_t>(desc.memory_limit) : available_memory();
+  if (limit == 0 || e.total <= limit) return;
+  auto size = [](std::size_t b) {
+    const double x = static_cast<double>(b);
+    return x >= 1e9 ? fmt::format("{:.2f} GB", x / 1e9) : x >= 1e6 ? fmt::format("{:.1f} MB", x / 1e6) : fmt::format("{:.0f} kB", x / 1e3);
+  };
+  const std::size_t largest =
+      static_cast<std::size_t>(std::max_element(desc.segments.begin(), desc.segments.end(), [](const auto& a, const auto& b) {
+                                 return static_cast<long long>(a.nodes) * a.chain_pieces < static_cast<long long>(b.nodes) * b.chain_pieces;
+                               }) - desc.segments.begin());
+  throw Error(ErrorCode::invalid_argument,
+              fmt::format("the world would need about {} ({} nodes: {} of rod state and {} of Newton workspace, {:.0f} "
+                          "bytes a node; beads {}, organ meshes {}), more than {} {}: lower segment[{}].nodes (or its "
+                          "chain.pieces) or the mesh vertices{}",
+                          size(e.total), e.nodes, size(e.rod_bytes), size(e.solver_bytes),
+                          static_cast<double>(e.rod_bytes + e.solver_bytes) / static_cast<double>(std::max<std::size_t>(e.nodes, 1)),
+                          size(e.bead_bytes), size(e.mesh_bytes), size(limit),
+                          set ? "(world.memory_limit)" : "this machine has available", largest,
+                          set ? ", or raise world.memory_limit" : ""));
+}
+
 WorldModel build_world_model(const WorldDesc& desc) {
   WorldModel m;
   check_positive("world.dt", desc.dt, "s", 1.0);
@@ -92,6 +118,7 @@ WorldModel build_world_model(const WorldDesc& desc) {
   check_int("world.threads", desc.threads, 0, 1024);
   check_solver(desc.solver);
   check_range("filter.zeta_scale", desc.filter.zeta_scale, 0.0, 1e12, "a scale factor");
+  check_memory(desc);
   m.gravity = desc.gravity;
   m.dt = desc.dt;
   m.solver = desc.solver;

@@ -133,6 +133,7 @@ typedef struct haustra_world_def {
   int floor;                /* 1: a floor plane z = floor_height; default 0 */
   double floor_height;      /* m */
   int self_contact;         /* 1 (default): beads of one segment collide */
+  double memory_limit;      /* bytes the world may take (its estimate); 0 (default): what the machine has */
   int double_buffered;      /* 1: publish every frame for haustra_world_acquire_frame; default 0 */
 } haustra_world_def;
 

@@ -277,4 +277,19 @@ class World {
   std::unique_ptr<Impl> impl_;
 };
 
+// What a world will hold, estimated from its description before anything is built (decision
+// 0038). World::create refuses one whose total exceeds the memory available (world.memory_limit
+// when set, else what the machine has free), naming what it would need.
+struct MemoryEstimate {
+  std::size_t total = 0;         // bytes
+  std::size_t nodes = 0;
+  std::size_t rod_bytes = 0;     // the rods' model and state (and what building them takes)
+  std::size_t solver_bytes = 0;  // the Newton solves' workspace
+  std::size_t bead_bytes = 0;
+  std::size_t mesh_bytes = 0;    // procedural organ meshes (a mesh file's size is checked as it loads)
+};
+[[nodiscard]] MemoryEstimate estimate_memory(const WorldDesc& desc);
+// Bytes the machine can give without swapping (Linux: MemAvailable).
+[[nodiscard]] std::size_t available_memory();
+
 }  // namespace haustra

@@ -301,6 +301,8 @@ struct WorldDesc {
   SolverDesc solver;
   FilterDesc filter;
   int threads = 0;  // 0: all hardware threads
+  // Bytes the world may take (its estimate, decision 0038); 0: what the machine has available.
+  double memory_limit = 0.0;
   JobSystemDesc jobs;  // when set, the step's parallel stages run on the host's jobs, not oneTBB
   std::vector<SegmentDesc> segments;
   ContactDesc contact;
