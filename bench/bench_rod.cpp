@@ -162,6 +162,43 @@ void BM_NewtonCondensed(benchmark::State& state) {
   set_counters(state, rod.n);
 }
 
+// Four rods of one node count (one residual column each): one call of the 4-lane sweep, or four
+// of the one-rod sweep. Arg: nodes; second: 1 for the lanes.
+void BM_NewtonCondensedFour(benchmark::State& state) {
+  const auto n = static_cast<std::size_t>(state.range(0));
+  std::vector<Rod> rods;
+  for (int i = 0; i < 4; ++i) rods.emplace_back(n);
+  std::array<RodLinearization, 4> lin;
+  std::array<std::vector<double>, 4> gain, scratch, base;
+  std::array<const RodLinearization*, kCondensedLanes> pointers{};
+  std::array<StrainView<const double>, kCondensedLanes> residuals{};
+  std::array<CondensedSystem, kCondensedLanes> systems{};
+  for (std::size_t i = 0; i < 4; ++i) {
+    Rod& r = rods[i];
+    lin[i].poses = r.poses();
+    lin[i].section_length = r.h;
+    lin[i].node_force = {r.fx, r.fy, r.fz};
+    lin[i].node_moment = {r.tx, r.ty, r.tz};
+    lin[i].law_total = {1, 1, 1, 100};
+    gain[i].assign(condensed_gain_size(n, 1), 0.0);
+    scratch[i].assign(condensed_scratch_size(1), 0.0);
+    base[i].assign(10, 0.0);
+    pointers[i] = &lin[i];
+    residuals[i] = StrainView<const double>{r.r};
+    systems[i] = {gain[i], scratch[i], base[i], 1, {}};
+  }
+  std::array<CondenseReport, kCondensedLanes> reports{};
+  for (auto _ : state) {
+    if (state.range(1) != 0) {
+      rod_condense_lanes(pointers, residuals, systems, reports);
+    } else {
+      for (std::size_t i = 0; i < 4; ++i) reports[i] = rod_condense(lin[i], residuals[i], {}, systems[i]);
+    }
+    benchmark::DoNotOptimize(reports.data());
+  }
+  set_counters(state, 4 * n);
+}
+
 // The banded LU it replaces, the same work: assemble + factor + solve one right-hand side.
 void BM_NewtonBanded(benchmark::State& state) {
   Rod rod(static_cast<std::size_t>(state.range(0)));
@@ -264,6 +301,7 @@ BENCHMARK(BM_MassSolve)->RangeMultiplier(4)->Range(16, 16384);
 BENCHMARK(BM_NewtonFactor)->RangeMultiplier(4)->Range(16, 4096);
 BENCHMARK(BM_NewtonBanded)->Arg(167)->Arg(641);
 BENCHMARK(BM_NewtonCondensed)->ArgsProduct({{167, 641}, {1, 9, 41}});
+BENCHMARK(BM_NewtonCondensedFour)->ArgsProduct({{167}, {0, 1}})->ArgNames({"nodes", "lanes"});
 // One segment from 16 to 100,000 nodes: the per-node cost should stay flat.
 BENCHMARK_CAPTURE(BM_Frame, lagged, SolverMode::lagged)->Arg(16)->Arg(167)->Arg(1000)->Arg(10'000)->Arg(100'000)
     ->Unit(benchmark::kMicrosecond);

@@ -520,9 +520,76 @@ void stage_newton_linearize(const WorldModel& model, WorldState& state, std::siz
       ws.response_nodes.begin());
 }
 
-void stage_newton_condense_part(const WorldModel& model, WorldState& state, const SolvePart& part,
+void plan_newton_condense(const WorldModel& model, WorldState& state, std::span<const std::uint8_t> solving) {
+  std::vector<CondenseTask>& tasks = state.condense_tasks;
+  tasks.clear();
+  // Batches being filled, by (node count, load stiffness); a full one becomes a lanes task.
+  struct Batch {
+    std::size_t nodes = 0;
+    bool stiffness = false;
+    CondenseTask task;
+  };
+  constexpr std::size_t kOpen = 8;
+  std::array<Batch, kOpen> open{};
+  std::size_t opened = 0;
+  for (std::size_t i = 0; i < model.solve_parts.size(); ++i) {
+    const SolvePart& part = model.solve_parts[i];
+    if (solving[part.rod] == 0) continue;
+    const SegmentModel& seg = model.segments[part.rod];
+    const NewtonWorkspace& ws = state.newton[part.rod];
+    // The lanes take whole rods with the residual column alone, neither reusing a factorization
+    // nor recording one (fast mode's).
+    const bool lanes = part.kind == SolvePartKind::whole && ws.loads.empty() && ws.record.empty();
+    if (!lanes) {
+      tasks.push_back({{static_cast<std::uint32_t>(i), 0, 0, 0}, 1});
+      continue;
+    }
+    const bool stiffness = seg.has_drag || seg.bead_count > 0;
+    std::size_t b = 0;
+    while (b < opened && !(open[b].nodes == seg.node_count && open[b].stiffness == stiffness)) ++b;
+    if (b == opened) {
+      if (opened == kOpen) {  // more kinds of rod than batches: this one alone
+        tasks.push_back({{static_cast<std::uint32_t>(i), 0, 0, 0}, 1});
+        continue;
+      }
+      open[opened++] = {seg.node_count, stiffness, {{}, 0}};
+    }
+    CondenseTask& t = open[b].task;
+    t.part[t.count++] = static_cast<std::uint32_t>(i);
+    if (t.count == kernels::kCondensedLanes) {
+      tasks.push_back(t);
+      t.count = 0;
+    }
+  }
+  for (std::size_t b = 0; b < opened; ++b)  // what did not fill a batch, one by one
+    for (std::uint8_t j = 0; j < open[b].task.count; ++j) tasks.push_back({{open[b].task.part[j], 0, 0, 0}, 1});
+}
+
+void stage_newton_condense_task(const WorldModel& model, WorldState& state, const CondenseTask& task,
                                 const SubstepParameters& p) {
-  condense_part(model, state, part, p);
+  if (task.count == 1) {
+    condense_part(model, state, model.solve_parts[task.part[0]], p);
+    return;
+  }
+  std::array<kernels::RodLinearization, kernels::kCondensedLanes> lin;
+  std::array<const kernels::RodLinearization*, kernels::kCondensedLanes> rods{};
+  std::array<kernels::StrainView<const double>, kernels::kCondensedLanes> residuals{};
+  std::array<kernels::CondensedSystem, kernels::kCondensedLanes> systems{};
+  for (std::size_t l = 0; l < kernels::kCondensedLanes; ++l) {
+    const std::size_t rod = model.solve_parts[task.part[l]].rod;
+    NewtonWorkspace& ws = state.newton[rod];
+    lin[l] = linearization_at(model, state, rod, p);
+    rods[l] = &lin[l];
+    residuals[l] = kernels::StrainView<const double>{ws.residual};
+    systems[l] = whole_system(ws, 1);
+  }
+  std::array<kernels::CondenseReport, kernels::kCondensedLanes> reports{};
+  kernels::rod_condense_lanes(rods, residuals, systems, reports);
+  for (std::size_t l = 0; l < kernels::kCondensedLanes; ++l) {
+    NewtonWorkspace& ws = state.newton[model.solve_parts[task.part[l]].rod];
+    ws.ok = reports[l].ok;
+    ws.chord_ready = false;
+  }
 }
 
 bool stage_newton_join(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p) {

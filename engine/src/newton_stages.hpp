@@ -11,7 +11,11 @@ namespace haustra::detail {
 // banded LU where a sweep's pivots were unsafe; false when neither can solve this iteration (a
 // singular pivot on a rod too long for the banded fallback).
 void stage_newton_linearize(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p);
-void stage_newton_condense_part(const WorldModel& model, WorldState& state, const SolvePart& part,
+// The condense stage's tasks for this iteration (rods being solved: `solving`): one per solve
+// part, but whole rods with the residual column alone go four at a time, of one node count, in
+// SIMD lanes (kernels/rod_condense_lanes: the same bits as one by one).
+void plan_newton_condense(const WorldModel& model, WorldState& state, std::span<const std::uint8_t> solving);
+void stage_newton_condense_task(const WorldModel& model, WorldState& state, const CondenseTask& task,
                                 const SubstepParameters& p);
 bool stage_newton_join(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p);
 // The solve stage. Per half of a rod's columns: the responses at the coupled unknowns' nodes. Per

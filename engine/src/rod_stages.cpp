@@ -418,13 +418,18 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
       return {false, k, Stage::forward_sweep, "displacement in one frame (segment lengths)", moved, lim.max_displacement};
   }
   // A bead deeper into the environment than its own radius has passed through, not touched.
-  for (const ContactCandidate& c : state.collision.candidates) {
-    if (c.kind == ContactKind::bead || model.beads.segment[c.bead] != segment) continue;
-    const double ratio = c.depth / model.beads.radius[c.bead];
-    if (ratio > 1.0)
-      return {false, model.beads.node[c.bead] - off, Stage::contacts,
-              "bead's depth into the environment (bead radii)", ratio, 1.0};
-  }
+  // (Through the segment's own beads' lists: every candidate of the world per segment would be
+  // quadratic in segments.)
+  const CollisionState& cs = state.collision;
+  for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count && !cs.bead_contact_start.empty(); ++b)
+    for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e) {
+      const ContactCandidate& c = cs.candidates[cs.bead_contact[e] >> 1];
+      if (c.kind == ContactKind::bead) continue;
+      const double ratio = c.depth / model.beads.radius[c.bead];
+      if (ratio > 1.0)
+        return {false, model.beads.node[c.bead] - off, Stage::contacts,
+                "bead's depth into the environment (bead radii)", ratio, 1.0};
+    }
   std::size_t k = 0;
   const double miss = attachment_miss(model, state, segment, k) / seg.info.length;
   if (miss > lim.max_attachment_error)

@@ -197,8 +197,10 @@ struct World::Impl {
             scheduler.for_each(segs, [&](std::size_t s) {
               if (active(s)) detail::stage_newton_linearize(model, state, s, p);
             });
-            scheduler.for_each(parts, [&](std::size_t i) {
-              if (part_active(i)) detail::stage_newton_condense_part(model, state, model.solve_parts[i], p);
+            for (std::size_t s = 0; s < segs; ++s) state.segment_solving[s] = active(s) && state.segment_solvable[s] != 0;
+            detail::plan_newton_condense(model, state, state.segment_solving);
+            scheduler.for_each(state.condense_tasks.size(), [&](std::size_t i) {
+              detail::stage_newton_condense_task(model, state, state.condense_tasks[i], p);
             });
             scheduler.for_each(segs, [&](std::size_t s) {
               if (active(s)) state.segment_solvable[s] = detail::stage_newton_join(model, state, s, p) ? 1 : 0;

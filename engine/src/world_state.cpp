@@ -127,10 +127,12 @@ void init_world_state(const WorldModel& model, WorldState& state) {
   state.segment_change.assign(segs, Eigen::Vector4d::Zero());
   state.segment_step_cut.assign(segs, 0);
   state.segment_solvable.assign(segs, 1);
+  state.segment_solving.assign(segs, 0);
   state.strain_before_update.assign(4 * n, 0.0);
   const bool newton_possible =
       model.solver.mode == SolverMode::newton || model.solver.on_instability == InstabilityPolicy::recover;
   state.newton.resize(newton_possible ? segs : 0);
+  state.condense_tasks.reserve(model.solve_parts.size());
   for (std::size_t s = 0; s < state.newton.size(); ++s) {
     const SegmentModel& seg = model.segments[s];
     const std::size_t rows = seg.constraint_rows;

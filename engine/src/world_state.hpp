@@ -215,6 +215,12 @@ struct MeshState {
   FloatVec3Buffer position, normal;          // model.mesh_vertex_total
 };
 
+// A task of the condense stage: one solve part, or four whole rods of one node count in SIMD lanes.
+struct CondenseTask {
+  std::array<std::uint32_t, 4> part{};  // into model.solve_parts
+  std::uint8_t count = 1;               // 1, or 4 (kernels::kCondensedLanes)
+};
+
 struct WorldState {
   PersistentState now;
   PersistentState frame_start;  // snapshot: last good frame, and the filter's r^{t−1}
@@ -233,8 +239,10 @@ struct WorldState {
   std::vector<int> segment_converged;            // per segment, within a substep
   std::vector<Eigen::Vector4d> segment_change;   // last strain change per segment
   std::vector<std::uint8_t> segment_step_cut;    // Newton's last step was scaled down
+  std::vector<std::uint8_t> segment_solving;     // Newton: this iteration's rods (active and solvable)
   std::vector<std::uint8_t> segment_solvable;    // Newton: 0 when this substep met an unsafe pivot it could not fall back from
   std::vector<NewtonWorkspace> newton;           // per segment; empty when Newton can never run
+  std::vector<CondenseTask> condense_tasks;      // this iteration's (capacity: the solve parts)
   std::vector<double> strain_before_update;      // lagged: the strains before the last update
   CollisionState collision;
   std::vector<InstrumentState> instruments;

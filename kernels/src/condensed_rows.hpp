@@ -3,8 +3,12 @@
 // over (δφ_k, δr_k, δq_k, δq_{k+1}, right-hand sides), and the tip → base sweep itself. Rows are
 // `w` contiguous doubles; W = 16 (the residual alone) is a compile-time width, W = 0 a run-time one.
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
+#if defined(__FMA__)
+#include <immintrin.h>
+#endif
 
 #include "haustra/kernels/rod_condensed.hpp"
 
@@ -104,11 +108,28 @@ using v4 = double __attribute__((vector_size(32), aligned(8), may_alias));
 inline v4* chunks(double* p) { return reinterpret_cast<v4*>(p); }
 inline const v4* chunks(const double* p) { return reinterpret_cast<const v4*>(p); }
 
+// a·b + c rounded once. The condensed sweeps (one rod, and four rods in lanes) are compiled with
+// floating-point contraction off so that each rounds every product and sum alike; where a fused
+// multiply-add is wanted, both say so here, in the same places.
+template <class T>
+inline T fmadd(T a, T b, T c) {
+#if defined(__FMA__)
+  return std::bit_cast<T>(_mm256_fmadd_pd(std::bit_cast<__m256d>(a), std::bit_cast<__m256d>(b), std::bit_cast<__m256d>(c)));
+#else
+  return a * b + c;
+#endif
+}
+template <class T>
+inline T broadcast(double s) {
+  return T{} + s;
+}
+
 // y += a x over `nc` chunks.
 inline void axpy(double a, const double* x, double* y, int nc) {
   const v4* xv = chunks(x);
   v4* yv = chunks(y);
-  for (int c = 0; c < nc; ++c) yv[c] += a * xv[c];
+  const v4 av = broadcast<v4>(a);
+  for (int c = 0; c < nc; ++c) yv[c] = fmadd(av, xv[c], yv[c]);
 }
 
 // Gauss–Jordan with scaled partial pivoting on `count` rows over lanes [first, first + count),
@@ -209,6 +230,61 @@ inline void record_base(double* r, const Elimination& el, int unknowns) {
   }
 }
 
+// The base system: Π_0's rows (clamped: the strain rows alone; free: with the rod's total wrench
+// balanced, δM_0 − s_0 δφ_0 + M = 0, δF_0 − K_0 δr_0 + F = 0, node 0's unit loads included)
+// eliminated for y_0 of every column. loads: those at node 0. force, moment: every load's total
+// about node 0.
+inline CondenseReport solve_base(const RodLinearization& rod, std::span<const UnitLoad> loads, double* base, int S,
+                                 int w, V3 force, V3 moment, CondensedSystem sys, CondenseReport report) {
+  const bool has_stiffness = !rod.stiffness.force.empty();
+  int unknowns_first = QK, unknowns = 4, equations_first = 6;
+  if (rod.free_base) {
+    unknowns_first = PHI;
+    unknowns = 10;
+    equations_first = 0;
+    if (has_stiffness) {
+      for (int i = 0; i < 3; ++i) {
+        if (!rod.stiffness.moment.empty()) base[i * S + PHI + i] -= rod.stiffness.moment[0];
+        for (int j = 0; j < 3; ++j) base[(3 + i) * S + POS + j] -= rod.stiffness.force[0](i, j);
+      }
+    }
+    for (int i = 0; i < 3; ++i) {
+      base[i * S + RHS] += moment[i];
+      base[(3 + i) * S + RHS] += force[i];
+    }
+    for (const UnitLoad& u : loads) {
+      if (u.node != 0) break;
+      double* rows = base + (u.is_moment ? 0 : 3) * S;
+      for (int i = 0; i < 3; ++i) rows[i * S + RHS + static_cast<int>(u.column)] += u.load[i];
+    }
+  }
+  double* work = base + equations_first * S;
+  Elimination el;
+  const int* order = el.order;
+  const double pivot = gauss_jordan<true>(work, unknowns, unknowns_first, S, w, el);
+  if (!sys.record.empty()) {
+    const std::size_t n = rod.poses.node_count();
+    record_base(sys.record.data() + (n - 1) * kCondensedRecordPerStep, el, unknowns);
+  }
+  if (pivot < report.smallest_pivot) {
+    report.smallest_pivot = pivot;
+    report.node = 0;
+  }
+  if (!(pivot >= kCondensedPivotFloor)) {
+    report.ok = false;
+    report.node = 0;
+    return report;
+  }
+  for (int c = 0; c < sys.columns; ++c) {
+    double* y = sys.base.data() + 10 * c;
+    for (int i = 0; i < 10; ++i) y[i] = 0.0;
+    for (int i = 0; i < unknowns; ++i) y[unknowns_first + i] = -work[order[i] * S + RHS + c];
+    for (int i = 0; i < 10; ++i)
+      if (!std::isfinite(y[i])) report.ok = false;
+  }
+  return report;
+}
+
 // ---- The sweep ----
 
 // The right-hand-side chunks [first, end) of one step, in one pass each: the interface rows'
@@ -224,22 +300,24 @@ inline void fused_rhs_pass(const SectionFrame& g, const double (&a)[10][4], cons
     v4 p[10];
     for (int r = 0; r < 10; ++r) p[r] = chunks(pi + r * stride)[j];
     // δM_k += chord × δF_k (right-hand sides: no kinematic terms).
-    p[0] += c.y * p[5] - c.z * p[4];
-    p[1] += c.z * p[3] - c.x * p[5];
-    p[2] += c.x * p[4] - c.y * p[3];
+    p[0] = fmadd(broadcast<v4>(c.y), p[5], fmadd(broadcast<v4>(-c.z), p[4], p[0]));
+    p[1] = fmadd(broadcast<v4>(c.z), p[3], fmadd(broadcast<v4>(-c.x), p[5], p[1]));
+    p[2] = fmadd(broadcast<v4>(c.x), p[4], fmadd(broadcast<v4>(-c.y), p[3], p[2]));
     // Section force: h Rᵀ (δM + (r_k − p) × δF), h d3·δF.
-    const v4 x0 = p[0] + b.y * p[5] - b.z * p[4];
-    const v4 x1 = p[1] + b.z * p[3] - b.x * p[5];
-    const v4 x2 = p[2] + b.x * p[4] - b.y * p[3];
-    const v4 s[4] = {d0.x * x0 + d0.y * x1 + d0.z * x2, d1.x * x0 + d1.y * x1 + d1.z * x2,
-                     d2.x * x0 + d2.y * x1 + d2.z * x2, d2.x * p[3] + d2.y * p[4] + d2.z * p[5]};
+    const v4 x0 = fmadd(broadcast<v4>(b.y), p[5], fmadd(broadcast<v4>(-b.z), p[4], p[0]));
+    const v4 x1 = fmadd(broadcast<v4>(b.z), p[3], fmadd(broadcast<v4>(-b.x), p[5], p[1]));
+    const v4 x2 = fmadd(broadcast<v4>(b.x), p[4], fmadd(broadcast<v4>(-b.y), p[3], p[2]));
+    const v4 s[4] = {fmadd(broadcast<v4>(d0.z), x2, fmadd(broadcast<v4>(d0.y), x1, d0.x * x0)),
+                     fmadd(broadcast<v4>(d1.z), x2, fmadd(broadcast<v4>(d1.y), x1, d1.x * x0)),
+                     fmadd(broadcast<v4>(d2.z), x2, fmadd(broadcast<v4>(d2.y), x1, d2.x * x0)),
+                     fmadd(broadcast<v4>(d2.z), p[5], fmadd(broadcast<v4>(d2.y), p[4], d2.x * p[3]))};
     // Node k+1's strain rows, eliminated as the 16 lanes were.
     v4 e[4];
-    for (int r = 0; r < 4; ++r) e[r] = p[6 + r] + 0.5 * s[r];
+    for (int r = 0; r < 4; ++r) e[r] = fmadd(broadcast<v4>(0.5), s[r], p[6 + r]);
     for (int step = 0; step < 4; ++step) {
       const int pr = el.order[step];
       e[pr] *= el.inv[step];
-      for (int r = 0; r < 4; ++r) e[r] -= el.factor[step][r] * e[pr];
+      for (int r = 0; r < 4; ++r) e[r] = fmadd(broadcast<v4>(-el.factor[step][r]), e[pr], e[r]);
     }
     v4 u[4];
     for (int r = 0; r < 4; ++r) {
@@ -248,7 +326,9 @@ inline void fused_rhs_pass(const SectionFrame& g, const double (&a)[10][4], cons
     }
     for (int r = 0; r < 10; ++r) {
       const v4 in = r < 6 ? p[r] : 0.5 * s[r - 6];
-      chunks(pi + r * stride)[j] = in + a[r][0] * u[0] + a[r][1] * u[1] + a[r][2] * u[2] + a[r][3] * u[3];
+      chunks(pi + r * stride)[j] =
+          fmadd(broadcast<v4>(a[r][3]), u[3],
+                fmadd(broadcast<v4>(a[r][2]), u[2], fmadd(broadcast<v4>(a[r][1]), u[1], fmadd(broadcast<v4>(a[r][0]), u[0], in))));
     }
   }
 }
@@ -360,8 +440,11 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
       const v4* x0 = chunks(xr);
       v4 acc[kZc];
       for (int c = 0; c < kZc; ++c)
-        acc[c] = p[0] * x0[c] + p[1] * x0[S / 4 + c] + p[2] * x0[2 * S / 4 + c] + p[3] * x0[3 * S / 4 + c] +
-                 p[4] * x0[4 * S / 4 + c] + p[5] * x0[5 * S / 4 + c];
+        acc[c] = fmadd(broadcast<v4>(p[5]), x0[5 * S / 4 + c],
+                       fmadd(broadcast<v4>(p[4]), x0[4 * S / 4 + c],
+                             fmadd(broadcast<v4>(p[3]), x0[3 * S / 4 + c],
+                                   fmadd(broadcast<v4>(p[2]), x0[2 * S / 4 + c],
+                                         fmadd(broadcast<v4>(p[1]), x0[S / 4 + c], p[0] * x0[c])))));
       const double rhs0 = p[RHS], rhs1 = p[RHS + 1];
       const double q0 = p[QK], q1 = p[QK + 1], q2 = p[QK + 2], q3 = p[QK + 3];
       for (int c = 0; c < kZc; ++c) chunks(out)[c] = acc[c];
@@ -392,9 +475,9 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
       const v4* f2 = chunks(fr + 2 * S);
       for (int j = 0; j < nc; ++j) {
         const v4 a0 = f0[j], a1 = f1[j], a2 = f2[j];
-        m0[j] += c.y * a2 - c.z * a1;
-        m1[j] += c.z * a0 - c.x * a2;
-        m2[j] += c.x * a1 - c.y * a0;
+        m0[j] = fmadd(broadcast<v4>(c.y), a2, fmadd(broadcast<v4>(-c.z), a1, m0[j]));
+        m1[j] = fmadd(broadcast<v4>(c.z), a0, fmadd(broadcast<v4>(-c.x), a2, m1[j]));
+        m2[j] = fmadd(broadcast<v4>(c.x), a1, fmadd(broadcast<v4>(-c.y), a0, m2[j]));
       }
       const V3 f = force;
       const v4* r0 = chunks(xr + 3 * S);
@@ -402,9 +485,9 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
       const v4* r2 = chunks(xr + 5 * S);
       for (int j = 0; j < kZc; ++j) {
         const v4 a0 = r0[j], a1 = r1[j], a2 = r2[j];
-        m0[j] -= f.y * a2 - f.z * a1;
-        m1[j] -= f.z * a0 - f.x * a2;
-        m2[j] -= f.x * a1 - f.y * a0;
+        m0[j] = fmadd(broadcast<v4>(-f.y), a2, fmadd(broadcast<v4>(f.z), a1, m0[j]));
+        m1[j] = fmadd(broadcast<v4>(-f.z), a0, fmadd(broadcast<v4>(f.x), a2, m1[j]));
+        m2[j] = fmadd(broadcast<v4>(-f.x), a1, fmadd(broadcast<v4>(f.y), a0, m2[j]));
       }
       // ... and + F_k × δr_k (the unit lanes of δr_k that δr_{k+1} carries, taken back).
       mr[POS + 1] -= f.z;
@@ -436,13 +519,13 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
       v4* s3 = chunks(sr + 3 * S);
       for (int j = 0; j < nc; ++j) {
         const v4 a0 = f0[j], a1 = f1[j], a2 = f2[j];
-        const v4 x0 = m0[j] + b.y * a2 - b.z * a1;
-        const v4 x1 = m1[j] + b.z * a0 - b.x * a2;
-        const v4 x2 = m2[j] + b.x * a1 - b.y * a0;
-        s0[j] = d0.x * x0 + d0.y * x1 + d0.z * x2;
-        s1[j] = d1.x * x0 + d1.y * x1 + d1.z * x2;
-        s2[j] = d2.x * x0 + d2.y * x1 + d2.z * x2;
-        s3[j] = d2.x * a0 + d2.y * a1 + d2.z * a2;
+        const v4 x0 = fmadd(broadcast<v4>(b.y), a2, fmadd(broadcast<v4>(-b.z), a1, m0[j]));
+        const v4 x1 = fmadd(broadcast<v4>(b.z), a0, fmadd(broadcast<v4>(-b.x), a2, m1[j]));
+        const v4 x2 = fmadd(broadcast<v4>(b.x), a1, fmadd(broadcast<v4>(-b.y), a0, m2[j]));
+        s0[j] = fmadd(broadcast<v4>(d0.z), x2, fmadd(broadcast<v4>(d0.y), x1, d0.x * x0));
+        s1[j] = fmadd(broadcast<v4>(d1.z), x2, fmadd(broadcast<v4>(d1.y), x1, d1.x * x0));
+        s2[j] = fmadd(broadcast<v4>(d2.z), x2, fmadd(broadcast<v4>(d2.y), x1, d2.x * x0));
+        s3[j] = fmadd(broadcast<v4>(d2.z), a2, fmadd(broadcast<v4>(d2.y), a1, d2.x * a0));
       }
       const V3 m_mid = moment + cross(b, force);
       const V3 fm{dot(g.d[0], force), dot(g.d[1], force), dot(g.d[2], force)};
@@ -519,7 +602,10 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
       for (int j = 0; j < 4; ++j) a[r][j] = row[QN + j];
       const v4* in = chunks(row);
       v4* out = chunks(pi + r * S);
-      for (int j = 0; j < nc; ++j) out[j] = in[j] + a[r][0] * g0[j] + a[r][1] * g1[j] + a[r][2] * g2[j] + a[r][3] * g3[j];
+      for (int j = 0; j < nc; ++j)
+        out[j] = fmadd(broadcast<v4>(a[r][3]), g3[j],
+                       fmadd(broadcast<v4>(a[r][2]), g2[j],
+                             fmadd(broadcast<v4>(a[r][1]), g1[j], fmadd(broadcast<v4>(a[r][0]), g0[j], in[j]))));
       for (int j = 0; j < 4; ++j) pi[r * S + QN + j] = 0.0;
     }
     if constexpr (W == 0) fused_rhs_pass(g, a, el, pi, gain, S, kZc, w / 4);
@@ -532,58 +618,9 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
     return report;
   }
   // The base: y_0 for every column. Every column is live here (loads at node 0 start here).
-  w = stride;
   force = force + load(rod.node_force, 0);
   moment = moment + load(rod.node_moment, 0);
-  double* base = pi;  // the interface rows become the base system
-  int unknowns_first = QK, unknowns = 4, equations_first = 6;
-  if (rod.free_base) {
-    // The rod's total wrench about node 0 balances: δM_0 − s_0 δφ_0 + M = 0, δF_0 − K_0 δr_0 + F = 0,
-    // node 0's unit loads included.
-    unknowns_first = PHI;
-    unknowns = 10;
-    equations_first = 0;
-    if (has_stiffness) {
-      for (int i = 0; i < 3; ++i) {
-        if (!rod.stiffness.moment.empty()) base[i * S + PHI + i] -= rod.stiffness.moment[0];
-        for (int j = 0; j < 3; ++j) base[(3 + i) * S + POS + j] -= rod.stiffness.force[0](i, j);
-      }
-    }
-    for (int i = 0; i < 3; ++i) {
-      base[i * S + RHS] += moment[i];
-      base[(3 + i) * S + RHS] += force[i];
-    }
-    for (; next_load < loads.size() && loads[next_load].node == 0; ++next_load) {
-      const UnitLoad& u = loads[next_load];
-      double* rows = base + (u.is_moment ? 0 : 3) * S;
-      for (int i = 0; i < 3; ++i) rows[i * S + RHS + static_cast<int>(u.column)] += u.load[i];
-    }
-  }
-  double* work = base + equations_first * S;
-  Elimination el;
-  const int* order = el.order;
-  const double pivot = gauss_jordan<true>(work, unknowns, unknowns_first, S, w, el);
-  if (!sys.record.empty()) {
-    const std::size_t n = rod.poses.node_count();
-    record_base(sys.record.data() + (n - 1) * kCondensedRecordPerStep, el, unknowns);
-  }
-  if (pivot < report.smallest_pivot) {
-    report.smallest_pivot = pivot;
-    report.node = 0;
-  }
-  if (!(pivot >= kCondensedPivotFloor)) {
-    report.ok = false;
-    report.node = 0;
-    return report;
-  }
-  for (int c = 0; c < sys.columns; ++c) {
-    double* y = sys.base.data() + 10 * c;
-    for (int i = 0; i < 10; ++i) y[i] = 0.0;
-    for (int i = 0; i < unknowns; ++i) y[unknowns_first + i] = -work[order[i] * S + RHS + c];
-    for (int i = 0; i < 10; ++i)
-      if (!std::isfinite(y[i])) report.ok = false;
-  }
-  return report;
+  return solve_base(rod, loads.subspan(next_load), pi, S, stride, force, moment, sys, report);
 }
 
 }  // namespace haustra::kernels::condensed

@@ -34,26 +34,35 @@ void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double>
   condensed::SectionFrame g;
   double a[10][4];
   condensed::Elimination el;
+  // The current loads' distal wrench, summed as the sweep sums it (for a free base's balance).
+  V3 force{}, moment{};
   for (std::size_t k = last; k-- > 0;) {
     condensed::read_step(sys.record.data() + k * kCondensedRecordPerStep, g, a, el);
-    // The fused pass of the sweep, on one lane (condensed_rows.hpp: fused_rhs_pass).
+    force = force + condensed::load(rod.node_force, k + 1);
+    moment = moment + condensed::load(rod.node_moment, k + 1) +
+             condensed::cross(condensed::load(rod.poses.node_position, k + 1) - condensed::load(rod.poses.node_position, k),
+                              force);
+    // The fused pass of the sweep, on one lane (condensed_rows.hpp: fused_rhs_pass), its fused
+    // multiply-adds where the sweep's are (the sweep's residual lane rounds the same way).
     const double h = g.h;
     const V3 c = g.chord, b = -1.0 * g.mid;
-    p[0] += c.y * p[5] - c.z * p[4];
-    p[1] += c.z * p[3] - c.x * p[5];
-    p[2] += c.x * p[4] - c.y * p[3];
-    const double x0 = p[0] + b.y * p[5] - b.z * p[4];
-    const double x1 = p[1] + b.z * p[3] - b.x * p[5];
-    const double x2 = p[2] + b.x * p[4] - b.y * p[3];
+    p[0] = std::fma(c.y, p[5], std::fma(-c.z, p[4], p[0]));
+    p[1] = std::fma(c.z, p[3], std::fma(-c.x, p[5], p[1]));
+    p[2] = std::fma(c.x, p[4], std::fma(-c.y, p[3], p[2]));
+    const double x0 = std::fma(b.y, p[5], std::fma(-b.z, p[4], p[0]));
+    const double x1 = std::fma(b.z, p[3], std::fma(-b.x, p[5], p[1]));
+    const double x2 = std::fma(b.x, p[4], std::fma(-b.y, p[3], p[2]));
     const V3 d0 = h * g.d[0], d1 = h * g.d[1], d2 = h * g.d[2];
-    const double sec[4] = {d0.x * x0 + d0.y * x1 + d0.z * x2, d1.x * x0 + d1.y * x1 + d1.z * x2,
-                           d2.x * x0 + d2.y * x1 + d2.z * x2, d2.x * p[3] + d2.y * p[4] + d2.z * p[5]};
+    const double sec[4] = {std::fma(d0.z, x2, std::fma(d0.y, x1, d0.x * x0)),
+                           std::fma(d1.z, x2, std::fma(d1.y, x1, d1.x * x0)),
+                           std::fma(d2.z, x2, std::fma(d2.y, x1, d2.x * x0)),
+                           std::fma(d2.z, p[5], std::fma(d2.y, p[4], d2.x * p[3]))};
     double e[4];
-    for (int r = 0; r < 4; ++r) e[r] = p[6 + r] + 0.5 * sec[r];
+    for (int r = 0; r < 4; ++r) e[r] = std::fma(0.5, sec[r], p[6 + r]);
     for (int step = 0; step < 4; ++step) {
       const int pr = el.order[step];
       e[pr] *= el.inv[step];
-      for (int r = 0; r < 4; ++r) e[r] -= el.factor[step][r] * e[pr];
+      for (int r = 0; r < 4; ++r) e[r] = std::fma(-el.factor[step][r], e[pr], e[r]);
     }
     double u[4];
     double* gain = sys.gain.data() + k * 4 * S;
@@ -63,7 +72,7 @@ void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double>
     }
     for (int r = 0; r < 10; ++r) {
       const double in = r < 6 ? p[r] : 0.5 * sec[r - 6] + residual.at(k, static_cast<std::size_t>(r - 6));
-      p[r] = in + a[r][0] * u[0] + a[r][1] * u[1] + a[r][2] * u[2] + a[r][3] * u[3];
+      p[r] = std::fma(a[r][3], u[3], std::fma(a[r][2], u[2], std::fma(a[r][1], u[1], std::fma(a[r][0], u[0], in))));
     }
   }
   // The base system, as eliminated: a free base balances the current loads' total wrench.
@@ -72,13 +81,8 @@ void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double>
   const int first = unknowns == 10 ? 0 : kCondensedStrain;
   const int equations = unknowns == 10 ? 0 : 6;
   if (unknowns == 10) {
-    V3 force{}, moment{};
-    const V3 r0 = condensed::load(rod.poses.node_position, 0);
-    for (std::size_t j = 0; j < n; ++j) {
-      const V3 f = condensed::load(rod.node_force, j);
-      force = force + f;
-      moment = moment + condensed::load(rod.node_moment, j) + condensed::cross(condensed::load(rod.poses.node_position, j) - r0, f);
-    }
+    force = force + condensed::load(rod.node_force, 0);
+    moment = moment + condensed::load(rod.node_moment, 0);
     for (int i = 0; i < 3; ++i) {
       p[i] += moment[i];
       p[3 + i] += force[i];
@@ -89,7 +93,7 @@ void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double>
   for (int step = 0; step < unknowns; ++step) {
     const int pr = static_cast<int>(rb[1 + step]);
     e[pr] *= rb[11 + step];
-    for (int r = 0; r < unknowns; ++r) e[r] -= rb[21 + 10 * step + r] * e[pr];
+    for (int r = 0; r < unknowns; ++r) e[r] = std::fma(-rb[21 + 10 * step + r], e[pr], e[r]);
   }
   double* y = sys.base.data();
   for (int i = 0; i < 10; ++i) y[i] = 0.0;

@@ -106,6 +106,16 @@ inline constexpr double kCondensedPivotFloor = 1e-10;
 CondenseReport rod_condense(const RodLinearization& rod, StrainView<const double> residual,
                             std::span<const UnitLoad> loads, CondensedSystem sys);
 
+// Four rods of one node count condensed at once, one rod per lane of a 4-double vector (AVX2):
+// what rod_condense does for each, for rods whose solve has the residual column alone (columns 1:
+// no unit loads), all with load stiffness or all without. Their free or clamped bases, laws and
+// loads may differ. Each rod's gains, base solution and report as rod_condense gives them.
+inline constexpr int kCondensedLanes = 4;
+void rod_condense_lanes(const std::array<const RodLinearization*, kCondensedLanes>& rods,
+                        const std::array<StrainView<const double>, kCondensedLanes>& residuals,
+                        const std::array<CondensedSystem, kCondensedLanes>& systems,
+                        std::array<CondenseReport, kCondensedLanes>& reports);
+
 // A chord iteration: the residual column (column 0) solved anew with the Jacobian a recorded
 // rod_condense factored (the whole rod; sys.record filled then). Rewrites column 0 of the gains and
 // of the base solutions; the other columns (unit loads) stand. The free base's unbalanced wrench
