@@ -166,8 +166,7 @@ void rod_condensed_responses_range(const RodLinearization& rod, CondensedSystem 
   const std::size_t lead = kCondensedRhs + c0 - lane;  // position of column c0
   const std::size_t cp = (lead + (c1 - c0) + 3) & ~std::size_t{3}, nc = cp / 4;
   double* y = sys.scratch.data();
-  double* next = y + 10 * cp;
-  for (std::size_t i = 0; i < 14 * cp; ++i) y[i] = 0.0;
+  for (std::size_t i = 0; i < 10 * cp; ++i) y[i] = 0.0;
   for (std::size_t c = c0; c < c1; ++c)
     for (std::size_t i = 0; i < 10; ++i) y[i * cp + lead + c - c0] = start[10 * c + i];
   std::size_t listed = 0;
@@ -182,43 +181,41 @@ void rod_condensed_responses_range(const RodLinearization& rod, CondensedSystem 
   emit(first);
   v4* yv[10];
   for (std::size_t i = 0; i < 10; ++i) yv[i] = chunks(y + i * cp);
-  v4* nv[4];
-  for (std::size_t r = 0; r < 4; ++r) nv[r] = chunks(next + r * cp);
+  using condensed::broadcast;
+  using condensed::fmadd;
   const std::size_t end = at_last.empty() ? (nodes.empty() ? first : std::size_t{nodes.back()}) : last;
   for (std::size_t k = first; k < end; ++k) {
     const double* u = sys.gain.data() + (k - first) * 4 * w;
-    // δq_{k+1} = U_k y_k + u_k for every column.
-    for (std::size_t r = 0; r < 4; ++r) {
-      const double* row = u + r * w;
-      const v4* rhs = chunks(row + lane);
-      for (std::size_t c = 0; c < nc; ++c) nv[r][c] = rhs[c];
-      for (std::size_t i = 0; i < 10; ++i) {
-        const double a = row[i];
-        if (a == 0.0) continue;
-        for (std::size_t c = 0; c < nc; ++c) nv[r][c] += a * yv[i][c];
-      }
-    }
-    // Node k+1's δφ, δr (condensed::advance_kinematics, for every column).
+    const v4* rhs[4];
+    for (std::size_t r = 0; r < 4; ++r) rhs[r] = chunks(u + r * w + lane);
     const condensed::SectionFrame g = condensed::section_frame(rod, k);
     const double half = 0.5 * g.h;
     const condensed::V3 d0 = half * g.d[0], d1 = half * g.d[1], d2 = half * g.d[2];
     const condensed::V3 ch = g.chord, lv = g.lever;
+    // One chunk of columns at a time, in registers: δq_{k+1} = U_k y_k + u_k, then node k+1's
+    // δφ, δr (condensed::advance_kinematics).
     for (std::size_t c = 0; c < nc; ++c) {
-      const v4 s0 = yv[6][c] + nv[0][c], s1 = yv[7][c] + nv[1][c], s2 = yv[8][c] + nv[2][c], se = yv[9][c] + nv[3][c];
+      v4 yc[10];
+      for (std::size_t i = 0; i < 10; ++i) yc[i] = yv[i][c];
+      v4 nx[4];
+      for (std::size_t r = 0; r < 4; ++r) {
+        const double* row = u + r * w;
+        v4 acc = rhs[r][c];
+        for (std::size_t i = 0; i < 10; ++i) acc = fmadd(broadcast<v4>(row[i]), yc[i], acc);
+        nx[r] = acc;
+      }
+      const v4 s0 = yc[6] + nx[0], s1 = yc[7] + nx[1], s2 = yc[8] + nx[2], se = yc[9] + nx[3];
       const v4 t0 = d0.x * s0 + d1.x * s1 + d2.x * s2;
       const v4 t1 = d0.y * s0 + d1.y * s1 + d2.y * s2;
       const v4 t2 = d0.z * s0 + d1.z * s1 + d2.z * s2;
-      const v4 p0 = yv[0][c], p1 = yv[1][c], p2 = yv[2][c];
-      yv[3][c] += (p1 * ch.z - p2 * ch.y) + (t1 * lv.z - t2 * lv.y) + se * d2.x;
-      yv[4][c] += (p2 * ch.x - p0 * ch.z) + (t2 * lv.x - t0 * lv.z) + se * d2.y;
-      yv[5][c] += (p0 * ch.y - p1 * ch.x) + (t0 * lv.y - t1 * lv.x) + se * d2.z;
+      const v4 p0 = yc[0], p1 = yc[1], p2 = yc[2];
+      yv[3][c] = yc[3] + ((p1 * ch.z - p2 * ch.y) + (t1 * lv.z - t2 * lv.y) + se * d2.x);
+      yv[4][c] = yc[4] + ((p2 * ch.x - p0 * ch.z) + (t2 * lv.x - t0 * lv.z) + se * d2.y);
+      yv[5][c] = yc[5] + ((p0 * ch.y - p1 * ch.x) + (t0 * lv.y - t1 * lv.x) + se * d2.z);
       yv[0][c] = p0 + t0;
       yv[1][c] = p1 + t1;
       yv[2][c] = p2 + t2;
-      yv[6][c] = nv[0][c];
-      yv[7][c] = nv[1][c];
-      yv[8][c] = nv[2][c];
-      yv[9][c] = nv[3][c];
+      for (std::size_t r = 0; r < 4; ++r) yv[6 + r][c] = nx[r];
     }
     emit(k + 1);
   }
