@@ -78,7 +78,7 @@ int run(const RunOptions& o) {
   if (!scene.description.empty()) fmt::print("  {}\n", scene.description);
   fmt::print("  {} segment{}, {} nodes; dt = {:.6g} s; {} frames; solver {}; {} thread{}\n", world->segment_count(),
              world->segment_count() == 1 ? "" : "s", world->node_count(), world->dt(), scene.frames,
-             scene.world.solver.mode == SolverMode::newton ? "newton" : "lagged", world->threads(),
+             solver_mode_name(scene.world.solver.mode), world->threads(),
              world->threads() == 1 ? "" : "s");
   for (std::size_t s = 0; s < world->segment_count(); ++s) {
     const SegmentInfo& info = world->segment(s);

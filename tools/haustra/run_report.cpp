@@ -19,7 +19,7 @@ double quantile(std::vector<float> v, double q) {
   return v[k];
 }
 
-const char* solver_name(SolverMode m) { return m == SolverMode::newton ? "newton" : "lagged"; }
+const char* solver_name(SolverMode m) { return solver_mode_name(m); }
 
 }  // namespace
 

@@ -42,6 +42,16 @@ enum class SolverMode : std::uint8_t {
            // as they were; contacts enter node by node. For haptic loops (decision 0037).
 };
 
+// A mode as the scene file names it (solver.mode).
+[[nodiscard]] constexpr const char* solver_mode_name(SolverMode mode) noexcept {
+  switch (mode) {
+    case SolverMode::lagged: return "lagged";
+    case SolverMode::newton: return "newton";
+    case SolverMode::fast: return "fast";
+  }
+  return "?";
+}
+
 // How the tissue's elastic stress follows strain in bending and stretch (torsion stays Hooke's).
 enum class TissueResponse : std::uint8_t {
   hooke,  // σ = E ε: the paper's simplification, constant stiffness

@@ -14,7 +14,7 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-std::string mode_label(SolverMode mode) { return mode == SolverMode::newton ? "newton" : "lagged"; }
+std::string mode_label(SolverMode mode) { return solver_mode_name(mode); }
 
 CaseResult compare(std::string name, std::string quantity, double reference, double value, double tolerance,
                    std::string note = {}) {
