@@ -107,6 +107,16 @@ class Writer {
   }
   template <class T>
   void operator()(const std::vector<T>& v) {
+    array(std::span<const T>(v));
+  }
+  template <class T>
+  void operator()(const std::span<T>& v) {
+    array(std::span<const T>(v));
+  }
+
+ private:
+  template <class T>
+  void array(std::span<const T> v) {
     (*this)(static_cast<std::uint64_t>(v.size()));
     for (const T& e : v) (*this)(e);
   }
@@ -152,6 +162,10 @@ class Reader {
   }
   template <class T>
   void operator()(std::vector<T>& v) {
+    (*this)(std::span<T>(v));
+  }
+  template <class T>
+  void operator()(std::span<T> v) {
     std::uint64_t n = 0;
     const bool apply = apply_;
     apply_ = true;

@@ -108,6 +108,7 @@ void init_collision_state(const WorldModel& model, WorldState& state) {
   CollisionState& cs = state.collision;
   const std::size_t nb = model.beads.size();
   cs.bead_center.resize(nb);
+  cs.bead_position.resize(nb);
   cs.bead_motion.assign(nb, 0.0);
   cs.reach_radius.assign(nb, 0.0);
   cs.bead_force.resize(nb);

@@ -24,7 +24,7 @@ void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk) {
   const SkinChunk& c = model.skin_chunks[chunk];
   const SegmentMesh& mesh = model.meshes_of[c.piece];
   const std::size_t n = mesh.binding.vertices;
-  auto part = [&](std::vector<float>& v) { return std::span(v).subspan(mesh.vertex_offset, n); };
+  auto part = [&](std::span<float> v) { return v.subspan(mesh.vertex_offset, n); };
   const std::size_t rings = mesh.cage.ring_station.size();
   kernels::skin_rigid_groups(mesh.binding.view(),
                              std::span<const float>(state.mesh.ring_delta)

@@ -5,9 +5,8 @@
 namespace haustra::detail {
 namespace {
 
-template <class T>
-void copy_range(const std::vector<T>& from, std::size_t from_offset, std::vector<T>& to, std::size_t to_offset,
-                std::size_t count) {
+template <class From, class To>  // vectors or spans
+void copy_range(const From& from, std::size_t from_offset, To&& to, std::size_t to_offset, std::size_t count) {
   std::copy_n(from.begin() + static_cast<std::ptrdiff_t>(from_offset), count,
               to.begin() + static_cast<std::ptrdiff_t>(to_offset));
 }

@@ -98,6 +98,8 @@ struct World::Impl {
   // The organ meshes follow the rod: rings, skinning, normals. Only scheduled when a segment has
   // a mesh; skinning splits into fixed chunks so any thread count gives the same bits.
   void follow_rod() {
+    const auto beads = state.collision.bead_position.view();
+    for (std::size_t b = 0; b < beads.size(); ++b) beads.set(b, state.now.position.view().get(model.beads.node[b]));
     if (!model.any_mesh) return;
     time_stage(Stage::cage, [&] {
       scheduler.for_each(model.pieces.size(), [&](std::size_t piece) { detail::stage_cage(model, state, piece); });
@@ -146,7 +148,7 @@ struct World::Impl {
         const auto cnt = static_cast<std::ptrdiff_t>(seg.node_count);
         std::copy_n(state.now.strain.begin() + 4 * off, 4 * cnt, state.strain_substep_start.begin() + 4 * off);
         if (newton && seg.has_drag) {
-          auto copy = [&](const std::vector<double>& from, std::vector<double>& to) {
+          auto copy = [&](std::span<const double> from, std::span<double> to) {
             std::copy_n(from.begin() + off, cnt, to.begin() + off);
           };
           copy(state.now.position.x, state.position_substep_start.x);
@@ -585,6 +587,8 @@ Range World::beads(std::size_t segment) const {
 }
 std::span<const double> World::bead_radii() const { return impl_->model.beads.radius; }
 std::span<const std::uint32_t> World::bead_nodes() const { return impl_->model.beads.node; }
+kernels::Vec3View<const double> World::bead_centres() const { return impl_->state.collision.bead_position.view(); }
+std::shared_ptr<const void> World::buffers_keeper() const { return impl_; }
 bool World::beads_may_collide(std::size_t a, std::size_t b) const {
   const auto& beads = impl_->model.beads;
   if (a >= beads.size() || b >= beads.size() || a == b)

@@ -1,6 +1,7 @@
 #pragma once
 // The per-frame part of a world (MuJoCo's mjData): everything a step writes. Allocated once at
 // creation; a step never allocates.
+#include <span>
 #include <type_traits>
 #include <vector>
 
@@ -16,14 +17,37 @@
 
 namespace haustra::detail {
 
-// Three parallel arrays (x[], y[], z[]): node quantities in double, mesh vertices in float.
+// Three parallel arrays (x[], y[], z[]) in one block, x then y then z: node quantities in double,
+// mesh vertices in float. One block so a host (the Python module) can see the three as one
+// strided array without a copy. Copies re-seat the spans on their own block.
 template <class T>
 struct Vec3BufferOf {
-  std::vector<T> x, y, z;
+  std::span<T> x, y, z;
+
+  Vec3BufferOf() = default;
+  Vec3BufferOf(const Vec3BufferOf& other) : block_(other.block_) { seat(); }
+  Vec3BufferOf(Vec3BufferOf&& other) noexcept : block_(std::move(other.block_)) {
+    seat();
+    other.seat();
+  }
+  Vec3BufferOf& operator=(const Vec3BufferOf& other) {
+    if (this != &other) {
+      block_ = other.block_;  // same size: copied in place, no allocation
+      seat();
+    }
+    return *this;
+  }
+  Vec3BufferOf& operator=(Vec3BufferOf&& other) noexcept {
+    block_ = std::move(other.block_);
+    seat();
+    other.seat();
+    return *this;
+  }
+  ~Vec3BufferOf() = default;
+
   void resize(std::size_t n) {
-    x.assign(n, T{0});
-    y.assign(n, T{0});
-    z.assign(n, T{0});
+    block_.assign(3 * n, T{0});
+    seat();
   }
   [[nodiscard]] kernels::Vec3View<T> view() { return {x, y, z}; }
   [[nodiscard]] kernels::Vec3View<const T> view() const { return {x, y, z}; }
@@ -32,6 +56,15 @@ struct Vec3BufferOf {
   {
     return {x, y, z};
   }
+
+ private:
+  void seat() {
+    const std::size_t n = block_.size() / 3;
+    x = {block_.data(), n};
+    y = {block_.data() + n, n};
+    z = {block_.data() + 2 * n, n};
+  }
+  std::vector<T> block_;
 };
 using Vec3Buffer = Vec3BufferOf<double>;
 using FloatVec3Buffer = Vec3BufferOf<float>;
@@ -188,6 +221,7 @@ struct InstrumentState {
 
 struct CollisionState {
   Vec3Buffer bead_center;                        // at the substep's start
+  Vec3Buffer bead_position;                      // at the end of the last step, for hosts (World::bead_centres)
   std::vector<double> bead_motion;               // how far each bead moved in the last substep, m
   std::vector<double> reach_radius;              // radius + its share of the candidate margin
   std::vector<ContactCandidate> candidates;      // capacity kept between frames

@@ -219,6 +219,8 @@ class World {
   [[nodiscard]] Range beads(std::size_t segment) const;
   [[nodiscard]] std::span<const double> bead_radii() const;
   [[nodiscard]] std::span<const std::uint32_t> bead_nodes() const;  // global node index of each bead
+  // Bead centres (their nodes' positions) at the end of the last step, or as created, posed or restored.
+  [[nodiscard]] kernels::Vec3View<const double> bead_centres() const;
   [[nodiscard]] bool beads_may_collide(std::size_t a, std::size_t b) const;  // false for rest-pose neighbours
   [[nodiscard]] const ContactReport& contacts() const;
   [[nodiscard]] std::span<const Contact> contact_list() const;  // valid until the next step
@@ -265,6 +267,13 @@ class World {
   std::size_t add_segment(const SegmentDesc& segment);  // returns the new segment's index
   void remove_segment(std::size_t segment);  // a chain goes whole, named by its first segment
 
+  // Keeps the buffers behind every view above alive for as long as the handle lives: past the
+  // world's destruction and past add_segment / remove_segment, which move the world to new buffers
+  // and leave the old ones to the handles that still hold them. For hosts whose views outlive
+  // calls (the Python module). Every Vec3View of this class is one block, x then y then z
+  // (y.data() == x.data() + size()), so a host can see it as one strided 3 × n array.
+  [[nodiscard]] std::shared_ptr<const void> buffers_keeper() const;
+
   [[nodiscard]] const FrameProfile& last_profile() const;
   [[nodiscard]] std::span<const Event> events() const;
   [[nodiscard]] int threads() const;
@@ -274,7 +283,7 @@ class World {
  private:
   explicit World(std::unique_ptr<Impl> impl);
   void rebuild(WorldDesc next, std::span<const std::size_t> rod_map);
-  std::unique_ptr<Impl> impl_;
+  std::shared_ptr<Impl> impl_;  // shared with buffers_keeper()'s handles
 };
 
 // What a world will hold, estimated from its description before anything is built (decision
