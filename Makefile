@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan bench bench-quick bench-peers validate stability-doc study skinning-doc figures soak fuzz clean
+.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan python python-asan bench bench-quick bench-peers validate stability-doc study skinning-doc figures soak fuzz clean
 
 all: build
 
@@ -23,6 +23,19 @@ demo: build
 	@$(BIN)/haustra run scenes/demo.toml --out $(DEMO_OUT)
 	@echo
 	@echo "demo outputs: $(abspath $(DEMO_OUT))/ (summary.json, frames.csv, nodes.csv, mesh/ deformed meshes, mesh.glb animation)"
+
+# The Python module, built with the release tree (its tests run in `make test`, as ctest's `python`).
+python: build
+	@echo "python module: $(abspath build/release/python)/haustra — PYTHONPATH=$(abspath build/release/python) /usr/bin/python3 -c 'import haustra'"
+
+# Once, by hand: the module and the pytest suite under ASan+UBSan (views outliving their world).
+python-asan: deps
+	@cmake --preset asan -B build/asan-python -DHAUSTRA_PYTHON=ON >/dev/null
+	@cmake --build build/asan-python -j $(JOBS) --target haustra_python haustra
+	@PYTHONPATH=$(abspath build/asan-python/python) HAUSTRA_BIN=$(abspath build/asan-python/bin/haustra) \
+	  HAUSTRA_SOURCE=$(abspath .) MPLBACKEND=Agg ASAN_OPTIONS=detect_leaks=0 \
+	  LD_PRELOAD="$$(gcc -print-file-name=libasan.so) $$(gcc -print-file-name=libubsan.so)" \
+	  /usr/bin/python3 -m pytest -q -p no:cacheprovider $(abspath python/tests)
 
 # Release tests and the instruction-count gate, then the whole suite under ASan+UBSan and the
 # threaded tests under TSan.

@@ -11,10 +11,12 @@ packages=(
   libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libfmt-dev libpng-dev
   # instruction-count gate and sanitizer runtimes
   valgrind
+  # the Python module (`make python`) and its tests and examples (decision 0043)
+  python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-matplotlib
 )
 for extra in "$@"; do
   case "$extra" in
-    --figures) packages+=(python3-matplotlib) ;;          # `make figures`, `make soak`: Debian's matplotlib
+    --figures) ;;                                          # `make figures`, `make soak`: matplotlib, now always in
     --fuzz) packages+=(clang libclang-rt-14-dev) ;;        # `make fuzz`: clang and its libFuzzer runtime
     --peers) packages+=(libbullet-dev libmujoco-dev) ;;    # `make bench-peers`: Bullet 3.24 and MuJoCo 2.2
     *) echo "install-deps: unknown option $extra (expected --figures, --fuzz or --peers)" >&2; exit 2 ;;

@@ -1,0 +1,52 @@
+"""haustra: long, very flexible soft organs (rectum, colon, small intestine) in real time.
+
+A Cosserat rod along the organ's centreline deforms; rigid beads on it collide; a cage built
+from the beads drives the organ mesh through mean value coordinates (Chang et al. 2011).
+
+    import haustra
+    world = haustra.World.from_scene("scenes/demo.toml", overrides={"segment.nodes": 121})
+    p = world.node_positions        # (N, 3) float64, no copy
+    world.step(60)                  # p now shows frame 60: the view is live
+    print(p[-1], world.profile["frame_seconds"])
+
+Views (node_positions, strains, bead_centres, mesh_positions, mesh_normals, ...) are read-only
+NumPy arrays over the engine's own buffers. The engine updates those buffers in place, so a view
+shows the state after the last completed step; read it between steps (a step on another thread
+is writing it). A view keeps its memory alive: after the world is deleted, or after
+add_segment / remove_segment moved the world to new buffers, it stays valid memory holding the
+values of the last step before that (it is no longer updated). Copy (`numpy.array(view)`) what
+you want to keep from a frame.
+
+Errors raise haustra.Error (or a subclass per kind: InvalidArgumentError, FileError, ParseError,
+GeometryError, UnstableError, InternalError) with the engine's message: file, line and field.
+"""
+
+from ._haustra import (  # noqa: F401
+    Error,
+    FileError,
+    GeometryError,
+    InternalError,
+    InvalidArgumentError,
+    ParseError,
+    UnstableError,
+    World,
+    estimate_memory,
+    save_mesh,
+    validate,
+)
+
+__all__ = [
+    "World", "validate", "save_mesh", "estimate_memory", "Error", "InvalidArgumentError", "FileError",
+    "ParseError", "GeometryError", "UnstableError", "InternalError", "save_segment_mesh",
+]
+
+
+def save_segment_mesh(world, path, segment=0):
+    """Writes one segment's organ mesh at the current frame (.obj, .ply, .stl, .glb), with normals."""
+    info = world.segments[segment]
+    first, count = info["mesh_vertex_offset"], info["mesh_vertex_count"]
+    if count == 0:
+        raise InvalidArgumentError(f"segment {segment} ('{info['name']}') has no organ mesh")
+    t0, tn = info["mesh_triangle_offset"], info["mesh_triangle_count"]
+    triangles = world.mesh_triangles[t0:t0 + tn].astype("int64") - first  # global indices to the segment's own
+    save_mesh(path, world.mesh_positions[first:first + count], triangles, world.mesh_normals[first:first + count])

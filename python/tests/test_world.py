@@ -1,0 +1,188 @@
+"""World: building from scenes and dicts, stepping, loads, instruments, readings, checkpoints."""
+import threading
+import tomllib
+
+import numpy as np
+import pytest
+
+import haustra
+from conftest import rod
+
+
+def test_from_scene_with_overrides(scenes):
+    w = haustra.World.from_scene(str(scenes / "demo.toml"), overrides={"segment.nodes": 41, "solver.iterations": 3})
+    assert w.node_count == 41
+    assert w.name == "demo" and w.scene_frames == 240
+    assert w.frame == 0
+    w.step(3)
+    assert w.frame == 3
+    assert w.time == pytest.approx(3 / 60, rel=1e-12)
+    assert np.isfinite(w.node_positions).all()
+
+
+def test_dict_and_file_give_the_same_bits(scenes):
+    # A dict goes through the same reader as the file (its floats written back exactly).
+    path = scenes / "cantilever.toml"
+    with open(path, "rb") as f:
+        desc = tomllib.load(f)
+    a = haustra.World.from_scene(str(path))
+    b = haustra.World(desc)
+    a.step(10)
+    b.step(10)
+    assert np.array_equal(a.node_positions, b.node_positions)
+    assert np.array_equal(a.strains, b.strains)
+
+
+def test_gravity_bends_a_clamped_rod_down():
+    w = haustra.World(rod(nodes=21))
+    assert w.segments[0]["node_count"] == 21
+    w.step(30)
+    tip = w.node_positions[-1]
+    assert tip[2] < -0.01  # it sags
+    assert abs(tip[1]) < 1e-12  # in its plane
+    # The segment table agrees with the paper's rectum section (R = 2 cm, 3 mm wall): B = π E R³ h.
+    s = w.segments[0]
+    assert s["bending_stiffness"] == pytest.approx(np.pi * 1e6 * 0.02**3 * 0.003, rel=1e-12)
+
+
+def test_external_load_turns_the_tip():
+    up = haustra.World(rod(gravity=[0.0, 0.0, 0.0]))
+    up.set_external_load(up.node_count - 1, force=[0.0, 0.0, 1e-3])
+    up.step(20)
+    assert up.node_positions[-1, 2] > 1e-4
+    with pytest.raises(haustra.InvalidArgumentError, match="out of range"):
+        up.set_external_load(10**6, force=[0, 0, 1])
+    with pytest.raises(haustra.InvalidArgumentError, match="finite"):
+        up.set_external_load(3, force=[0, float("nan"), 1])
+    with pytest.raises(haustra.InvalidArgumentError, match="three numbers"):
+        up.set_external_load(3, force=[0, 1])
+
+
+def test_step_releases_the_gil(scenes):
+    # While one thread steps, another runs Python: it would not get a single turn otherwise.
+    w = haustra.World.from_scene(str(scenes / "drop.toml"))
+    ticks = 0
+    t = threading.Thread(target=w.step, args=(60,))
+    t.start()
+    while t.is_alive():
+        ticks += 1
+    t.join()
+    assert w.frame == 60
+    assert ticks > 1000
+
+
+def test_step_refuses_a_negative_count():
+    with pytest.raises(haustra.InvalidArgumentError, match="n >= 0"):
+        haustra.World(rod()).step(-1)
+
+
+def test_profile_has_every_stage(scenes):
+    w = haustra.World.from_scene(str(scenes / "demo.toml"))
+    w.step(2)
+    p = w.profile
+    assert set(p["seconds"]) >= {"collide", "condense", "solve", "line_search", "skin", "normals"}
+    assert p["frame_seconds"] > 0
+    assert sum(p["seconds"].values()) <= p["frame_seconds"] * 1.05  # every stage's time is its own
+    assert p["iterations"] >= 1 and p["newton"] is True
+    assert p["calls"]["skin"] == 1
+
+
+def test_robust_mode_events():
+    # The paper's rod (E = 33.2 kPa) hanging at Δt = 0.1 s: the lagged scheme diverges, Newton
+    # recovers (docs/stability.md, N = 20, gravity, viscous).
+    desc = rod(nodes=20, youngs_modulus=33.2e3)
+    desc["world"]["dt"] = 0.1
+    desc["solver"] = {"mode": "lagged", "on_instability": "recover"}
+    w = haustra.World(desc)
+    w.step(30)
+    events = w.events
+    assert events and events[0]["kind"] == "recovered"
+    assert "segment 'rod'" in events[0]["message"]
+    assert np.isfinite(w.node_positions).all()
+
+
+def test_unstable_raises_and_keeps_the_last_good_frame():
+    # E = 10 Pa under its own weight: no solver can carry it; the guard stops with a named cause.
+    desc = rod(nodes=20, youngs_modulus=10.0)
+    desc["solver"] = {"on_instability": "stop"}
+    w = haustra.World(desc)
+    with pytest.raises(haustra.UnstableError, match="segment 'rod'") as info:
+        w.step(30)
+    assert info.value.code == "unstable"
+    assert np.isfinite(w.node_positions).all()
+
+
+def test_checkpoint_to_bytes_and_back(scenes):
+    w = haustra.World.from_scene(str(scenes / "drop.toml"))
+    w.step(20)
+    saved = w.save_checkpoint()
+    assert isinstance(saved, bytes) and len(saved) > 1000
+    w.step(15)
+    after = np.array(w.node_positions)
+    w.restore_checkpoint(saved)
+    assert w.frame == 20
+    w.step(15)
+    assert np.array_equal(w.node_positions, after)
+    with pytest.raises(haustra.ParseError, match="bytes"):
+        w.restore_checkpoint(saved[:100])
+    assert w.frame == 35  # a refused checkpoint leaves the world as it was
+
+
+def test_grasp_drag_release(scenes):
+    w = haustra.World.from_scene(str(scenes / "demo.toml"))
+    w.step(1)
+    node = 50
+    start = np.array(w.node_positions[node])
+    axis = [0.0, 0.0, 1.0]
+    w.set_instrument_pose(0, start + [0.0, 0.0, 0.025], axis)
+    w.grasp(0)
+    w.step(1)
+    r = w.instrument(0)
+    assert r["grasping"] and r["grasped_node"] == node
+    lift = 0.10
+    for k in range(1, 31):  # lift 10 cm over half a second
+        w.set_instrument_pose(0, start + [0.0, 0.0, 0.025 + lift * k / 30], axis)
+        w.step(1)
+    moved = w.node_positions[node] - start
+    assert moved[2] == pytest.approx(lift, abs=0.01)
+    force = w.instrument(0)["force"]
+    assert force[2] < -0.05  # the organ's weight pulls the grasper down
+    w.release(0)
+    w.step(1)
+    assert not w.instrument(0)["grasping"]
+
+
+def test_segments_added_and_removed(scenes):
+    w = haustra.World.from_scene(str(scenes / "two-segments.toml"))
+    n = w.segment_count
+    index = w.add_segment({"name": "extra", "nodes": 11, "base_position": [0.0, 2.0, 0.5], "rest": {"length": 0.3}})
+    assert index == n and w.segment_count == n + 1
+    assert w.segments[index]["name"] == "extra"
+    w.step(2)
+    w.remove_segment(index)
+    assert w.segment_count == n
+    with pytest.raises(haustra.InvalidArgumentError, match="out of range"):
+        w.remove_segment(99)
+
+
+def test_energy_and_contacts(scenes):
+    w = haustra.World.from_scene(str(scenes / "drop.toml"))
+    e0 = w.energy["total"]
+    w.step(60)
+    assert w.energy["total"] < e0  # it fell and lost energy to drag
+    c = w.contacts
+    assert c["touching"] > 0 and 0 <= c["max_environment_depth_ratio"] < 0.2
+
+
+def test_memory_estimate(scenes):
+    m = haustra.estimate_memory(str(scenes / "drop.toml"), overrides={"segment.nodes": 10_000_000})
+    assert m["total"] > 10_000_000 * 1000
+    with pytest.raises(haustra.InvalidArgumentError, match="would need about"):
+        haustra.World.from_scene(str(scenes / "drop.toml"), overrides={"segment.nodes": 10_000_000})
+
+
+def test_validate_returns_the_reference_cases():
+    cases = haustra.validate()
+    assert len(cases) >= 40
+    assert all(c["passed"] for c in cases), [c["name"] for c in cases if not c["passed"]]
+    assert all(c["error"] <= c["tolerance"] for c in cases)
