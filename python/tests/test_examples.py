@@ -33,7 +33,9 @@ def test_grasp_path(tmp_path):
     data = np.loadtxt(tmp_path / "grasp_force.csv", delimiter=",", skiprows=1)
     held = data[:, 7] > 0
     assert held.sum() > 60  # grasped from 0.5 s on
-    assert np.abs(data[held, 3]).max() > 0.05  # it carries the organ's weight: a force in z
+    # Lifted by its middle, the organ hangs on the grasper: a downward pull of about half its
+    # weight (3.9 N), more while it is being lifted (measured peak 3.1 N).
+    assert 1.5 < -data[held, 3].min() < 3.9
 
 
 def test_export_frame(tmp_path):

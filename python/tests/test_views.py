@@ -46,7 +46,7 @@ def test_mesh_views_after_a_step(scenes):
     w = haustra.World.from_scene(str(scenes / "demo.toml"))
     w.step(5)
     lengths = np.linalg.norm(w.mesh_normals.astype(np.float64), axis=1)
-    assert np.abs(lengths - 1.0).max() < 1e-5
+    assert np.abs(lengths - 1.0).max() < 1e-6  # float32 normals (measured 1.5e-7)
     assert np.isfinite(w.mesh_positions).all()
 
 
