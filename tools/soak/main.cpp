@@ -38,6 +38,7 @@ constexpr int kExitUnstable = 3;
 
 // The grasp-and-release cycle, in frames of 1/60 s: 5 s.
 constexpr std::uint64_t kCycle = 300;
+constexpr std::size_t kLeastSamples = 20;  // after the warm-up: a tenth of them is two
 constexpr std::uint64_t kApproachEnd = 60, kCloseAt = 60, kLiftEnd = 120, kOpenAt = 180, kRetreatEnd = 210;
 constexpr double kLift = 0.15;  // m
 
@@ -322,8 +323,18 @@ int soak(const Options& o) {
     }
   }
   const long resident_growth = resident_kib() - resident_at_warmup;
+  // A check with nothing to check is a soak that says more than it did: the energy band, the heap
+  // and the drift need samples after the warm-up (the drift a tenth at each end, two at least).
+  if (sampled.size() < kLeastSamples) {
+    fmt::print(stderr,
+               "soak: {} samples after the warm-up (frames {} to {}, one every {}): the energy, heap and drift checks "
+               "need at least {}; run more frames (--frames), sample more often (--sample) or warm up for fewer "
+               "cycles (--warmup-cycles)\n",
+               sampled.size(), std::max(warmup, first_frame), o.frames, o.sample, kLeastSamples);
+    return kExitBroken;
+  }
   // Drift: the last tenth of the samples against the first tenth after warm-up.
-  if (sampled.size() >= 20) {
+  {
     const std::size_t tenth = sampled.size() / 10;
     double start = 0.0, end = 0.0;
     for (std::size_t i = 0; i < tenth; ++i) {
