@@ -66,10 +66,16 @@ TEST_CASE("validate: the unloaded rod reproduces the A-DSJ centreline") {
 }
 
 TEST_CASE("validate: a reference case can fail") {
-  // The comparison itself: a value off by more than the tolerance is reported as a failure.
-  const std::vector<CaseResult> results = pure_end_moment(SolverMode::newton);
-  CaseResult r = results.front();
-  r.value = r.reference * (1.0 + 2.0 * r.tolerance);
-  r.error = std::abs(r.value - r.reference) / std::abs(r.reference);
-  CHECK(r.error > r.tolerance);
+  // The comparison every case goes through: a value off by more than the tolerance fails, one
+  // within it passes, relative and absolute alike.
+  const CaseResult off = compare("case", "q", 2.0, 2.0 * (1.0 + 2e-6), 1e-6);
+  CHECK_FALSE(off.pass);
+  CHECK(off.error == doctest::Approx(2e-6).epsilon(1e-9));
+  const CaseResult near = compare("case", "q", 2.0, 2.0 * (1.0 + 0.5e-6), 1e-6);
+  CHECK(near.pass);
+  const CaseResult negative = compare("case", "q", -2.0, -2.0 * (1.0 + 2e-6), 1e-6);
+  CHECK_FALSE(negative.pass);
+  CHECK_FALSE(compare_absolute("case", "q", 0.0, 3e-10, 1e-10).pass);
+  CHECK(compare_absolute("case", "q", 0.0, -0.5e-10, 1e-10).pass);
+  CHECK(compare_absolute("case", "q", 0.0, -0.5e-10, 1e-10).absolute);
 }

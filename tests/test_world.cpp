@@ -139,26 +139,29 @@ TEST_CASE("an unstable world stops with the cause, keeps its last good frame and
   d.segments[0].law = {StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic};
   d.segments[0].loads.push_back({-1, Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d::Zero()});
   auto w = World::create(d);
-  const std::vector<double> before = positions(*w);
-  try {
-    w->step();
-    w->step();
-    w->step();
-    FAIL("the lagged scheme should have diverged");
-  } catch (const Error& e) {
-    CHECK(e.code() == ErrorCode::unstable);
-    const std::string msg = e.what();
-    CHECK(msg.find("segment 'segment'") != std::string::npos);
-    CHECK(msg.find("node ") != std::string::npos);
-    CHECK(msg.find("after stage '") != std::string::npos);
-    CHECK(msg.find("last good frame") != std::string::npos);
+  std::vector<double> before;  // the positions before the frame that failed
+  bool diverged = false;
+  for (int f = 0; f < 3 && !diverged; ++f) {
+    before = positions(*w);
+    try {
+      w->step();
+    } catch (const Error& e) {
+      diverged = true;
+      CHECK(e.code() == ErrorCode::unstable);
+      const std::string msg = e.what();
+      CHECK(msg.find("segment 'segment'") != std::string::npos);
+      CHECK(msg.find("node ") != std::string::npos);
+      CHECK(msg.find("after stage '") != std::string::npos);
+      CHECK(msg.find("last good frame") != std::string::npos);
+    }
   }
+  REQUIRE_MESSAGE(diverged, "the lagged scheme should have diverged within 3 frames");
   const std::vector<double> after = positions(*w);
   for (double x : after) CHECK(std::isfinite(x));
   REQUIRE_FALSE(w->events().empty());
   CHECK(w->events().back().kind == Event::Kind::unstable);
   // The failed frame was undone: the state is the one from before it.
-  if (w->frame() == 0) CHECK(std::memcmp(before.data(), after.data(), before.size() * sizeof(double)) == 0);
+  CHECK(std::memcmp(before.data(), after.data(), before.size() * sizeof(double)) == 0);
 }
 
 TEST_CASE("the robust mode recovers where the lagged scheme diverges, and says so") {

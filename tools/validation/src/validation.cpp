@@ -16,22 +16,6 @@ constexpr double kPi = std::numbers::pi;
 
 std::string mode_label(SolverMode mode) { return solver_mode_name(mode); }
 
-CaseResult compare(std::string name, std::string quantity, double reference, double value, double tolerance,
-                   std::string note = {}) {
-  CaseResult r{std::move(name), std::move(quantity), reference, value, 0.0, tolerance, false, false, std::move(note)};
-  r.error = std::abs(value - reference) / std::max(std::abs(reference), 1e-300);
-  r.pass = r.error <= tolerance;
-  return r;
-}
-
-CaseResult compare_absolute(std::string name, std::string quantity, double reference, double value,
-                            double tolerance, std::string note = {}) {
-  CaseResult r{std::move(name), std::move(quantity), reference, value, 0.0, tolerance, true, false, std::move(note)};
-  r.error = std::abs(value - reference);
-  r.pass = r.error <= tolerance;
-  return r;
-}
-
 // A slender elastic test rod: straight along +x from the origin, d1 = +z, no gravity, no filter.
 // R = 1 mm keeps EA/B large, so the inextensible references apply.
 WorldDesc test_rod(SolverMode mode, int nodes, double length = 1.0) {
@@ -89,6 +73,23 @@ CantileverRun cantilever(SolverMode mode, int nodes, double alpha) {
 }
 
 }  // namespace
+
+CaseResult compare(std::string name, std::string quantity, double reference, double value, double tolerance,
+                   std::string note) {
+  CaseResult r{std::move(name), std::move(quantity), reference, value, 0.0, tolerance, false, false, std::move(note)};
+  r.error = std::abs(value - reference) / std::max(std::abs(reference), 1e-300);
+  r.pass = r.error <= tolerance;
+  return r;
+}
+
+CaseResult compare_absolute(std::string name, std::string quantity, double reference, double value,
+                            double tolerance, std::string note) {
+  CaseResult r{std::move(name), std::move(quantity), reference, value, 0.0, tolerance, true, false, std::move(note)};
+  r.error = std::abs(value - reference);
+  r.pass = r.error <= tolerance;
+  return r;
+}
+
 
 std::vector<CaseResult> axial_end_force(SolverMode mode) {
   WorldDesc d = test_rod(mode, 51);

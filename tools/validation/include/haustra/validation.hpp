@@ -26,6 +26,13 @@ struct Options {
   std::filesystem::path assets = HAUSTRA_DEFAULT_ASSETS;  // where the A-DSJ centreline lives
 };
 
+// One reference comparison: relative error |value − reference| / |reference| (absolute:
+// |value − reference|), passing when it is within the tolerance. Every case below goes through these.
+CaseResult compare(std::string name, std::string quantity, double reference, double value, double tolerance,
+                   std::string note = {});
+CaseResult compare_absolute(std::string name, std::string quantity, double reference, double value, double tolerance,
+                            std::string note = {});
+
 std::vector<CaseResult> axial_end_force(SolverMode mode);
 std::vector<CaseResult> pure_end_moment(SolverMode mode);
 std::vector<CaseResult> end_torque(SolverMode mode);
