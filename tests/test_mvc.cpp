@@ -240,6 +240,6 @@ TEST_CASE("MVC agree with quadrature of the defining integral on a non-convex ca
   }
   MESSAGE("largest difference from quadrature " << worst << "; largest negative mass " << negative);
   CHECK(far > 10);
-  CHECK(worst < 1e-6);
+  CHECK(worst < 1e-13);  // measured 1.3e-14
   CHECK(negative > 1e-4);  // the U is non-convex enough that some weights go negative
 }

@@ -184,7 +184,7 @@ TEST_CASE("cage around a procedural organ: embedded (checked by winding numbers)
   CHECK(test::signed_volume(cage) > 0.0);
   const double winding = worst_winding_error(mesh.cage);
   MESSAGE("winding number of every mesh vertex: 1 within " << winding);
-  CHECK(winding < 1e-6);
+  CHECK(winding < 3e-14);  // measured 3.3e-15
 
   std::unique_ptr<World> w = World::create(d);
   const TriangleMesh input = regenerate(m, d);
@@ -194,7 +194,7 @@ TEST_CASE("cage around a procedural organ: embedded (checked by winding numbers)
     worst = std::max(worst, (Eigen::Vector3d(p.x[v], p.y[v], p.z[v]) - input.vertices[v]).norm());
   const double size = size_of(input.vertices);
   MESSAGE("rest pose reproduced to " << worst << " m, " << worst / size << " of the mesh size");
-  CHECK(worst <= 1e-5 * size);
+  CHECK(worst <= 5e-7 * size);  // measured 5.2e-8: the float mesh buffers' rounding
   CHECK(worst == doctest::Approx(w->mesh(0).skin.rest_error).epsilon(1e-9));
 }
 
@@ -270,7 +270,7 @@ TEST_CASE("the CT colon: cage built around its own mesh, embedded, bound with di
   MESSAGE("CT colon: " << info.cage.rings << " rings; every mesh vertex at winding number 1 within " << winding
                        << "; min MVC weight " << info.skin.min_weight << ", worst negative mass "
                        << info.skin.max_negative_mass);
-  CHECK(winding < 1e-6);
+  CHECK(winding < 3e-14);  // measured 3.3e-15
   CHECK(info.skin.min_weight < 0.0);  // a real, bent organ: some weights go negative (diagnosed)
   CHECK(info.skin.max_negative_mass < 0.2);
   CHECK(info.skin.rest_error < 1e-6);
