@@ -238,18 +238,49 @@ TEST_CASE("contact scenes give bit-identical results with 1 and 2 threads: grasp
   check_threads_agree("grasp-pull", 70);
 }
 
-TEST_CASE("the broad phases give the same world, bead for bead") {
-  // brute, sort-and-sweep and the grid list candidates in one canonical order, so the solve and
-  // hence the positions are bit-identical whichever is chosen.
-  std::vector<double> reference;
-  for (const char* phase : {"brute", "sweep", "grid"}) {
-    auto w = scene_world("coil", 2, {std::string("contact.broad_phase=") + phase});
-    for (int f = 0; f < 40; ++f) w->step();
-    const std::vector<double> p = positions(*w);
-    INFO(phase);
-    if (reference.empty())
-      reference = p;
-    else
-      CHECK(std::memcmp(reference.data(), p.data(), p.size() * sizeof(double)) == 0);
+namespace {
+
+// Everything a frame leaves that a broad phase could change: the contact list (pairs, kinds,
+// force bits), then at the end the positions and strains.
+struct Trace {
+  std::vector<std::uint32_t> pairs;
+  std::vector<double> forces, positions, strains;
+};
+Trace trace_of(const char* scene, const char* phase, int frames) {
+  auto w = scene_world(scene, 2, {std::string("contact.broad_phase=") + phase});
+  Trace t;
+  for (int f = 0; f < frames; ++f) {
+    w->step();
+    for (const Contact& c : w->contact_list()) {
+      t.pairs.insert(t.pairs.end(), {c.bead, c.other, static_cast<std::uint32_t>(c.kind)});
+      t.forces.insert(t.forces.end(), {c.force.x(), c.force.y(), c.force.z()});
+    }
+  }
+  t.positions = positions(*w);
+  const auto q = w->strains();
+  t.strains.assign(q.data.begin(), q.data.end());
+  return t;
+}
+
+bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+}  // namespace
+
+TEST_CASE("the broad phases give the same world, contact for contact, on four scenes") {
+  // brute, sort-and-sweep and the grid list candidates in one canonical order, so the contacts,
+  // the solve and hence every output are bit-identical whichever is chosen.
+  for (const auto& [scene, frames] : {std::pair{"drop", 150}, {"two-segments", 90}, {"coil", 60}, {"grasp-pull", 70}}) {
+    const Trace brute = trace_of(scene, "brute", frames);
+    REQUIRE(!brute.pairs.empty());
+    for (const char* phase : {"sweep", "grid"}) {
+      const Trace t = trace_of(scene, phase, frames);
+      INFO(scene << " with " << phase);
+      CHECK(t.pairs == brute.pairs);
+      CHECK(same_bits(t.forces, brute.forces));
+      CHECK(same_bits(t.positions, brute.positions));
+      CHECK(same_bits(t.strains, brute.strains));
+    }
   }
 }
