@@ -246,11 +246,6 @@ constexpr double kMaxViscousGrowth = 1.25;
 // (its q* starts at q), against this frame's step q − q_b. For elastic strains the ratio is the
 // fixed-point map's contraction; for viscous ones, the growth of the explicit flow. Norm: bend and
 // twist as angles per section (× h), stretch as is.
-struct LaggedRatios {
-  double elastic = 0.0;  // over the elastic strain components
-  double viscous = 0.0;  // over the viscous and Kelvin–Voigt ones
-};
-
 LaggedRatios lagged_contraction(const WorldModel& model, WorldState& state, std::size_t segment,
                                 const SubstepParameters& p) {
   const SegmentModel& seg = model.segments[segment];
@@ -289,6 +284,11 @@ LaggedRatios lagged_contraction(const WorldModel& model, WorldState& state, std:
 }
 
 }  // namespace
+
+void stage_lagged_contraction(const WorldModel& model, WorldState& state, std::size_t segment,
+                              const SubstepParameters& p) {
+  state.lagged_ratios[segment] = lagged_contraction(model, state, segment, p);
+}
 
 // A section squeezed to a tenth of its rest length has collapsed: no tissue does that.
 constexpr double kCollapsedCompression = 0.9;
@@ -460,7 +460,7 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
     }
   }
   if (!p.newton) {
-    const LaggedRatios r = lagged_contraction(model, state, segment, p);
+    const LaggedRatios& r = state.lagged_ratios[segment];
     if (r.elastic > kMaxElasticContraction)
       return {false, 0, Stage::solve,
               "ratio of the lagged iteration's next step to this one, elastic strains (it must shrink)", r.elastic,

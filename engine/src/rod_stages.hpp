@@ -58,12 +58,17 @@ struct GuardResult {
   double limit = 0.0;
 };
 
-// The guard. For a frame of the lagged scheme it also measures the fixed-point iteration's local
-// contraction: one more backward sweep at the new configuration gives the step the scheme would
-// take next, and a next step larger than this one means the iteration diverges, even while every
-// value is still within bounds (it oscillates or wanders instead of blowing up).
+// For a frame of the lagged scheme, the fixed-point iteration's local contraction: one more
+// backward sweep at the new configuration gives the step the scheme would take next
+// (state.lagged_ratios), and a next step larger than this one means the iteration diverges, even
+// while every value is still within bounds (it oscillates or wanders instead of blowing up).
+void stage_lagged_contraction(const WorldModel& model, WorldState& state, std::size_t segment,
+                              const SubstepParameters& p);
+
 // The largest distance (m) of an active attachment from its target, and its node (local).
 double attachment_miss(const WorldModel& model, const WorldState& state, std::size_t segment, std::size_t& node);
+// The guard: finite values and bounds, energy, and for the lagged scheme the contraction measured
+// just before it.
 GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p);
 
 // Twist (ω, v) about node 0 applied for dt to a base pose.

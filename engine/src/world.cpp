@@ -26,6 +26,7 @@ using detail::SubstepParameters;
 std::string_view stage_name(Stage s) noexcept {
   switch (s) {
     case Stage::instruments: return "instruments";
+    case Stage::snapshot: return "snapshot";
     case Stage::collide: return "collide";
     case Stage::contacts: return "contacts";
     case Stage::loads: return "loads";
@@ -37,6 +38,7 @@ std::string_view stage_name(Stage s) noexcept {
     case Stage::constraints: return "constraints";
     case Stage::forward_sweep: return "forward_sweep";
     case Stage::filter: return "filter";
+    case Stage::contraction: return "contraction";
     case Stage::guard: return "guard";
     case Stage::report: return "report";
     case Stage::cage: return "cage";
@@ -142,7 +144,7 @@ struct World::Impl {
     p.chord = chord;
     const std::size_t segs = model.segments.size();
     for (int sub = 0; sub < n; ++sub) {
-      run_stage(Stage::loads, [&](std::size_t s) {
+      run_stage(Stage::snapshot, [&](std::size_t s) {
         const auto& seg = model.segments[s];
         const auto off = static_cast<std::ptrdiff_t>(seg.node_offset);
         const auto cnt = static_cast<std::ptrdiff_t>(seg.node_count);
@@ -279,6 +281,7 @@ struct World::Impl {
       if (model.beads.size() > 0) detail::record_bead_motion(model, state);
     }
     if (model.filter.enabled) run_stage(Stage::filter, [&](std::size_t s) { detail::stage_filter(model, state, s); });
+    if (!newton) run_stage(Stage::contraction, [&](std::size_t s) { detail::stage_lagged_contraction(model, state, s, p); });
     run_stage(Stage::guard, [&](std::size_t s) { guard[s] = detail::stage_guard(model, state, s, p); });
     for (std::size_t s = 0; s < segs; ++s)
       if (!guard[s].ok) return s;

@@ -127,6 +127,7 @@ void init_world_state(const WorldModel& model, WorldState& state) {
   state.segment_change.assign(segs, Eigen::Vector4d::Zero());
   state.segment_step_cut.assign(segs, 0);
   state.segment_solvable.assign(segs, 1);
+  state.lagged_ratios.assign(segs, {});
   state.segment_solving.assign(segs, 0);
   state.strain_before_update.assign(4 * n, 0.0);
   const bool newton_possible =

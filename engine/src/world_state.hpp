@@ -81,6 +81,12 @@ struct RotationBuffer {
   [[nodiscard]] kernels::RotationView<const double> view() const { return {w, x, y, z}; }
 };
 
+// With the frame's loads held, the next lagged step from the new strains against this frame's step.
+struct LaggedRatios {
+  double elastic = 0.0;  // over the elastic strain components
+  double viscous = 0.0;  // over the viscous and Kelvin–Voigt ones
+};
+
 struct AttachmentState {
   bool active = true;
   std::size_t node = 0;     // local to the segment
@@ -274,6 +280,7 @@ struct WorldState {
   std::vector<Eigen::Vector4d> segment_change;   // last strain change per segment
   std::vector<std::uint8_t> segment_step_cut;    // Newton's last step was scaled down
   std::vector<std::uint8_t> segment_solving;     // Newton: this iteration's rods (active and solvable)
+  std::vector<LaggedRatios> lagged_ratios;       // lagged: the contraction stage's measure, for the guard
   std::vector<std::uint8_t> segment_solvable;    // Newton: 0 when this substep met an unsafe pivot it could not fall back from
   std::vector<NewtonWorkspace> newton;           // per segment; empty when Newton can never run
   std::vector<CondenseTask> condense_tasks;      // this iteration's (capacity: the solve parts)

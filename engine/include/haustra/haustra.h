@@ -38,7 +38,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 5
+#define HAUSTRA_ABI_VERSION 6
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -93,7 +93,7 @@ typedef struct haustra_instrument_reading {
   size_t grasped_node;      /* local to the segment */
 } haustra_instrument_reading;
 
-#define HAUSTRA_STAGE_COUNT 17
+#define HAUSTRA_STAGE_COUNT 19
 
 typedef struct haustra_profile {
   double stage_seconds[HAUSTRA_STAGE_COUNT]; /* in the order of haustra_stage_name(0..) */

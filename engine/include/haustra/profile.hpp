@@ -8,6 +8,7 @@ namespace haustra {
 
 enum class Stage : std::uint8_t {
   instruments,     // scripted poses, grasps and releases
+  snapshot,        // a substep's start: the strains, poses and bases its drag and potential measure from
   collide,         // beads follow nodes; broad and narrow phase → contact candidates
   contacts,        // penalty forces (and their stiffness) at the current positions
   loads,           // gravity + external loads + contacts → node forces
@@ -19,6 +20,7 @@ enum class Stage : std::uint8_t {
   constraints,     // lagged: attachments, implicit through the Schur complement
   forward_sweep,   // strains → node poses
   filter,          // inertia filter
+  contraction,     // lagged: the next step from the new strains, to see that the iteration contracts
   guard,           // finite values and bounds
   report,          // penetrations and instrument forces at the frame's end
   cage,            // cage rings follow the rod
