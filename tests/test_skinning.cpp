@@ -428,3 +428,23 @@ TEST_CASE("mesh accessors name a bad segment index") {
   CHECK_THROWS_WITH_AS((void)w->ring_poses(1), doctest::Contains("segment index 1"), Error);
   CHECK(w->cage_vertices(0).size() == w->mesh(0).cage.vertices);
 }
+
+TEST_CASE("the CT colon's rest pose is its input mesh, measured against the file") {
+  // Independent of the engine's own rest_error: the file read again here, scaled to metres, and
+  // compared with what the world shows before its first step.
+  const SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/anatomy-grasp.toml");
+  const OrganMeshDesc& desc = scene.world.segments[0].mesh;
+  const TriangleMesh input = load_mesh(desc.file);
+  auto w = create_world(scene);
+  const MeshInfo& info = w->mesh(0);
+  REQUIRE(info.vertices.count == input.vertices.size());
+  const auto p = w->mesh_positions();
+  double worst = 0.0;
+  for (std::size_t v = 0; v < input.vertices.size(); ++v) {
+    const std::size_t i = info.vertices.offset + v;
+    worst = std::max(worst, (Eigen::Vector3d(p.x[i], p.y[i], p.z[i]) - (desc.scale * input.vertices[v] + desc.translate)).norm());
+  }
+  MESSAGE("CT colon at rest: every vertex within " << worst << " m of the file's (the engine reports "
+                                                   << info.skin.rest_error << ")");
+  CHECK(worst < 2e-7);
+}

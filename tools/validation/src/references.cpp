@@ -1,5 +1,6 @@
 #include "haustra/references.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <stdexcept>
@@ -73,6 +74,57 @@ PlanarPoint catenary_point(double s, double length, double span) {
   const double x = 0.5 * span + a * std::asinh((s - 0.5 * length) / a);
   const double z = a * std::cosh((x - 0.5 * span) / a) - a * std::cosh(0.5 * span / a);
   return {x, z};
+}
+
+}  // namespace haustra::reference
+
+namespace haustra::reference {
+
+std::vector<Eigen::Vector3d> integrate_rod_centreline(const Eigen::Vector3d& base_position,
+                                                      const Eigen::Matrix3d& base_rotation,
+                                                      std::span<const double> section_length,
+                                                      std::span<const double> strain, int steps) {
+  // State: position and the frame's three directors, integrated as twelve numbers; the directors
+  // drift from orthonormal by O(h⁴) per step, far below what the distances here resolve.
+  using Frame = Eigen::Matrix<double, 3, 4>;  // columns d1, d2, d3, x
+  Frame g;
+  g << base_rotation, base_position;
+  std::vector<Eigen::Vector3d> out{base_position};
+  for (std::size_t k = 0; k < section_length.size(); ++k) {
+    Eigen::Vector4d xi;
+    for (int c = 0; c < 4; ++c)
+      xi[c] = 0.5 * (strain[4 * k + static_cast<std::size_t>(c)] + strain[4 * k + 4 + static_cast<std::size_t>(c)]);
+    // Material-frame curvature u = (κ1, κ2, τ): d_i' = R u × e_i, i.e. R' = R [u]×.
+    Eigen::Matrix3d skew;
+    skew << 0.0, -xi[2], xi[1], xi[2], 0.0, -xi[0], -xi[1], xi[0], 0.0;
+    auto rate = [&](const Frame& y) {
+      Frame d;
+      d.leftCols<3>() = y.leftCols<3>() * skew;
+      d.col(3) = (1.0 + xi[3]) * y.col(2);
+      return d;
+    };
+    const double h = section_length[k] / steps;
+    for (int i = 0; i < steps; ++i) {
+      const Frame k1 = rate(g), k2 = rate(g + 0.5 * h * k1), k3 = rate(g + 0.5 * h * k2), k4 = rate(g + h * k3);
+      g += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+      out.emplace_back(g.col(3));
+    }
+  }
+  return out;
+}
+
+double farthest_from_polyline(std::span<const Eigen::Vector3d> points, std::span<const Eigen::Vector3d> vertices) {
+  double farthest = 0.0;
+  for (const Eigen::Vector3d& p : points) {
+    double nearest = (p - vertices.front()).squaredNorm();
+    for (std::size_t i = 0; i + 1 < vertices.size(); ++i) {
+      const Eigen::Vector3d a = vertices[i], ab = vertices[i + 1] - a;
+      const double t = ab.squaredNorm() > 0.0 ? std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+      nearest = std::min(nearest, (a + t * ab - p).squaredNorm());
+    }
+    farthest = std::max(farthest, std::sqrt(nearest));
+  }
+  return farthest;
 }
 
 }  // namespace haustra::reference

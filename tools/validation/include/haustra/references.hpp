@@ -1,6 +1,9 @@
 #pragma once
 // Independent reference solutions for the validation cases. None of these uses the engine: they
 // solve the continuum problems directly (closed forms, or ODE shooting with RK4).
+#include <Eigen/Core>
+#include <span>
+#include <vector>
 
 namespace haustra::reference {
 
@@ -24,5 +27,18 @@ double clamped_beam_deflection(double x, double span, double load_per_length, do
 // Inextensible catenary of length L hanging between supports at (0, 0) and (D, 0), D < L:
 // the point at arc length s from the left support.
 PlanarPoint catenary_point(double s, double length, double span);
+
+// A rod's centreline from its base pose and node strains, by integrating the Cosserat kinematics
+// x' = (1 + ε) d3, d_i' = u × d_i with RK4 — not the engine's closed-form section maps. Section k
+// (length h_k) carries the mean of its end nodes' strains (docs/model.md). base_rotation holds d1,
+// d2, d3 as columns. Returns `steps` points per section after the base point.
+std::vector<Eigen::Vector3d> integrate_rod_centreline(const Eigen::Vector3d& base_position,
+                                                      const Eigen::Matrix3d& base_rotation,
+                                                      std::span<const double> section_length,
+                                                      std::span<const double> strain, int steps);
+
+// The largest distance of any of `points` from the polyline through `vertices` (brute force over
+// its segments).
+double farthest_from_polyline(std::span<const Eigen::Vector3d> points, std::span<const Eigen::Vector3d> vertices);
 
 }  // namespace haustra::reference
