@@ -1,5 +1,10 @@
 #include "checkpoint.hpp"
 
+#include <filesystem>
+#include <fstream>
+
+#include "world_impl.hpp"
+
 #include <fmt/format.h>
 
 #include <array>
@@ -292,3 +297,51 @@ void restore_checkpoint(const WorldModel& model, WorldState& state, std::span<co
 }
 
 }  // namespace haustra::detail
+
+namespace haustra {
+
+std::vector<std::byte> World::save_checkpoint() const { return detail::save_checkpoint(impl_->model, impl_->state); }
+
+void World::restore_checkpoint(std::span<const std::byte> bytes, const std::string& source) {
+  detail::restore_checkpoint(impl_->model, impl_->state, bytes, source);
+  impl_->state.frame_start.copy_from(impl_->state.now);
+  impl_->profile = FrameProfile{};
+  impl_->follow_rod();
+}
+
+void World::save_checkpoint_file(const std::string& path) const {
+  const std::vector<std::byte> bytes = save_checkpoint();
+  const std::filesystem::path target(path);
+  std::filesystem::path temp = target;
+  temp += ".partial";
+  {
+    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot open '{}' for writing", path, temp.string()));
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    out.close();
+    if (!out) {
+      std::error_code ignored;
+      std::filesystem::remove(temp, ignored);
+      throw Error(ErrorCode::io, fmt::format("checkpoint '{}': writing {} bytes failed (disk full?)", path, bytes.size()));
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(temp, target, ec);
+  if (ec) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot rename '{}' over it: {}", path, temp.string(), ec.message()));
+}
+
+void World::restore_checkpoint_file(const std::string& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot read it: {}", path, ec.message()));
+  // A checkpoint holds a few hundred bytes per node and bead: 1 GiB is far beyond any world.
+  constexpr std::uintmax_t kMaxBytes = std::uintmax_t{1} << 30;
+  if (size > kMaxBytes) throw Error(ErrorCode::parse, fmt::format("checkpoint '{}': {} bytes is not a checkpoint of this engine", path, size));
+  std::vector<std::byte> bytes(size);
+  std::ifstream in(path, std::ios::binary);
+  in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size));
+  if (!in) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': reading {} bytes failed", path, size));
+  restore_checkpoint(bytes, path);
+}
+
+}  // namespace haustra

@@ -1,6 +1,10 @@
+// Adding and removing segments between frames: the world rebuilt from its new description, every
+// other segment's state carried over (decision 0031).
 #include "state_carry_over.hpp"
 
 #include <algorithm>
+
+#include "world_impl.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -72,3 +76,43 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
 }
 
 }  // namespace haustra::detail
+
+namespace haustra {
+
+// The new model is built first: a description it refuses leaves the world as it was.
+void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map) {
+  auto fresh = std::make_unique<Impl>(next, detail::build_world_model(next));
+  detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, rod_map);
+  fresh->events = impl_->events;
+  fresh->follow_rod();
+  fresh->profile = FrameProfile{};
+  impl_ = std::move(fresh);
+}
+
+std::size_t World::add_segment(const SegmentDesc& segment) {
+  WorldDesc next = impl_->desc;
+  next.segments.push_back(segment);
+  std::vector<std::size_t> rod_map(impl_->model.segments.size());
+  for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
+  const std::size_t first = impl_->model.pieces.size();
+  rebuild(std::move(next), rod_map);
+  return first;
+}
+
+void World::remove_segment(std::size_t segment) {
+  const detail::SegmentPiece& piece = impl_->piece(segment);
+  const detail::SegmentModel& rod = impl_->model.segments[piece.rod];
+  if (piece.first_node != 0)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("segment '{}' is a piece of the chain '{}': a chain is removed whole, through its first "
+                            "segment '{}'",
+                            piece.info.name, rod.info.name, impl_->model.pieces[rod.first_piece].info.name));
+  WorldDesc next = impl_->desc;
+  next.segments.erase(next.segments.begin() + static_cast<std::ptrdiff_t>(piece.rod));
+  std::vector<std::size_t> rod_map(impl_->model.segments.size());
+  for (std::size_t r = 0; r < rod_map.size(); ++r)
+    rod_map[r] = r < piece.rod ? r : r == piece.rod ? detail::kRodRemoved : r - 1;
+  rebuild(std::move(next), rod_map);
+}
+
+}  // namespace haustra

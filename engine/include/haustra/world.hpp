@@ -278,9 +278,8 @@ class World {
   [[nodiscard]] std::span<const Event> events() const;
   [[nodiscard]] int threads() const;
 
-  struct Impl;
-
  private:
+  struct Impl;  // engine/src/world_impl.hpp
   explicit World(std::unique_ptr<Impl> impl);
   void rebuild(WorldDesc next, std::span<const std::size_t> rod_map);
   std::shared_ptr<Impl> impl_;  // shared with buffers_keeper()'s handles
