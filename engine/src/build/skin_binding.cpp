@@ -1,3 +1,4 @@
+// Binding an organ mesh to its cage: mean value coordinates, localized to the rings of largest weight.
 #include "skin_binding.hpp"
 
 

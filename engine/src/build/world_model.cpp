@@ -1,3 +1,4 @@
+// build_world_model: a world description checked and turned into the immutable model (mjModel).
 #include "world_model.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// Instruments: scripted and host poses, grasps and releases, the force on the grasper.
 #include "instruments.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// The per-frame state (mjData) sized once from the model.
 #include "world_state.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// Procedural organ meshes: a tube with haustra and taeniae around a rod's rest curve.
 #include "haustra/procedural_organ.hpp"
 
 #include <fmt/format.h>

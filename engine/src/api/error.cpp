@@ -1,3 +1,4 @@
+// The error codes' names.
 #include "haustra/error.hpp"
 
 namespace haustra {

@@ -1,3 +1,4 @@
+// A rod's configuration as a continuous curve (pose at any arc length).
 #include "haustra/rod_curve.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// Rod stages of the lagged scheme and the guard: loads, sweeps, the solve, constraints, filter, checks.
 #include "rod_stages.hpp"
 
 #include <Eigen/Dense>

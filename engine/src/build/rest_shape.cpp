@@ -1,3 +1,4 @@
+// Rest shapes: straight, arc, or a centreline resampled into biarcs and turned into rest strains.
 #include "haustra/rest_shape.hpp"
 
 #include <algorithm>

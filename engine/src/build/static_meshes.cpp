@@ -1,3 +1,4 @@
+// Static obstacle meshes of the environment: loaded, checked and put in an Embree scene.
 #include "static_meshes.hpp"
 
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// Scene files: TOML read into a world description, every value checked with file, line and field.
 #include "haustra/scene.hpp"
 
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// Triangle meshes read and written through assimp.
 #include "haustra/mesh_io.hpp"
 
 #include <fmt/format.h>

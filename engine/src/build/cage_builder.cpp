@@ -1,3 +1,5 @@
+// The cage around an organ mesh: rings on the beads and between them, grown until the mesh is inside
+// (decision 0017).
 #include "cage_builder.hpp"
 
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// Mesh stages: cage rings follow the rod, skinning, normals.
 #include "mesh_stages.hpp"
 
 #include "haustra/kernels/mesh_normals.hpp"

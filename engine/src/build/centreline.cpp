@@ -1,3 +1,4 @@
+// Centreline files (JSON polylines with units) read and checked.
 #include "haustra/centreline.hpp"
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// Embree scenes of triangle meshes: ray casts and closest points for the cage builder, static obstacles and
+// the renderer.
 #include "haustra/embree_scene.hpp"
 
 #include <fmt/format.h>

@@ -1,3 +1,5 @@
+// Collision stages: beads follow nodes, broad and narrow phase, penalty forces and their stiffness, the
+// report.
 #include "collision.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// Checkpoints: the state a later frame depends on, to bytes and back, and to files (decision 0026).
 #include "checkpoint.hpp"
 
 #include <filesystem>

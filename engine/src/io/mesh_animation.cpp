@@ -1,3 +1,4 @@
+// Deformed meshes over frames written as PLY files and one animated glTF.
 #include "haustra/mesh_animation.hpp"
 
 #include <fmt/format.h>
