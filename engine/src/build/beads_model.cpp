@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "field_checks.hpp"
 #include "haustra/error.hpp"
 #include "haustra/kernels/broad_phase.hpp"
 #include "haustra/embree_scene.hpp"
@@ -13,9 +14,6 @@
 namespace haustra::detail {
 namespace {
 
-[[noreturn]] void fail(const std::string& field, const std::string& detail) {
-  throw FieldError(ErrorCode::invalid_argument, field, detail);
-}
 
 void check_finite(const std::string& field, const Eigen::Vector3d& v) {
   if (!v.allFinite()) fail(field, "expected three finite numbers");

@@ -1,4 +1,5 @@
 // Procedural organ meshes: a tube with haustra and taeniae around a rod's rest curve.
+#include "field_checks.hpp"
 #include "haustra/procedural_organ.hpp"
 
 #include <fmt/format.h>
@@ -11,9 +12,7 @@
 namespace haustra {
 namespace {
 
-[[noreturn]] void fail(const std::string& field, const std::string& detail) {
-  throw FieldError(ErrorCode::invalid_argument, field, detail);
-}
+using detail::fail;
 
 void check_fraction(const std::string& field, double v, double hi) {
   if (!std::isfinite(v) || v < 0.0 || v > hi) fail(field, fmt::format("expected a fraction in [0, {}], got {}", hi, v));
