@@ -8,14 +8,18 @@
 // thread allocates and the caller frees looks like a race, and a build spread over a host's arena
 // would also compete with the host's own work. The scenes here are small (a cage has hundreds of
 // triangles, an organ mesh tens of thousands), so a single-threaded build costs milliseconds.
-#include <embree3/rtcore.h>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
+
+// Embree's handles, declared rather than included: Embree stays off the engine's public include
+// and link lines.
+struct RTCDeviceTy;
+struct RTCSceneTy;
+struct RTCPointQueryFunctionArguments;
 
 namespace haustra {
 
@@ -31,9 +35,6 @@ class EmbreeScene {
                          std::span<const std::array<std::uint32_t, 3>> triangles);
   // Builds the acceleration structure; throws Error{internal} with Embree's complaint.
   void commit();
-
-  [[nodiscard]] RTCScene scene() const { return scene_; }
-  [[nodiscard]] RTCDevice device() const { return device_; }
 
   // Queries on a committed scene; thread-safe. Triangles are named by (geometry, primitive).
   struct Hit {
@@ -67,8 +68,8 @@ class EmbreeScene {
   struct ClosestQuery;
   static bool on_closest(RTCPointQueryFunctionArguments* args);
 
-  RTCDevice device_ = nullptr;
-  RTCScene scene_ = nullptr;
+  RTCDeviceTy* device_ = nullptr;
+  RTCSceneTy* scene_ = nullptr;
   unsigned geometries_ = 0;
   std::vector<Mesh> meshes_;
 };

@@ -2,6 +2,8 @@
 // the renderer.
 #include "haustra/embree_scene.hpp"
 
+#include <embree3/rtcore.h>
+
 #include <fmt/format.h>
 
 #include <cmath>

@@ -15,7 +15,7 @@
 #include "haustra/kernels/tissue_law.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/rod_pose_buffer.hpp"
-#include "haustra/world.hpp"
+#include "haustra/world_types.hpp"
 #include "skin_binding.hpp"
 #include "haustra/world_desc.hpp"
 
