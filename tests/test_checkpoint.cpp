@@ -8,6 +8,7 @@
 
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
+#include "scene_fixtures.hpp"
 #include "haustra/world.hpp"
 
 using namespace haustra;
@@ -15,9 +16,7 @@ using namespace haustra;
 namespace {
 
 std::unique_ptr<World> scene_world(const std::string& name, std::vector<std::string> sets = {}) {
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
-  scene.world.threads = 1;
-  return create_world(scene);
+  return test::scene_world(name, 1, std::move(sets));
 }
 
 // Everything a host can read after a frame, as bits: nodes, frames, mesh, normals, instruments.

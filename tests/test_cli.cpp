@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 const std::string kCli = HAUSTRA_CLI;
-const std::string kScenes = std::string(HAUSTRA_SOURCE_DIR) + "/scenes/";
+const std::string kCliScenes = std::string(HAUSTRA_SOURCE_DIR) + "/scenes/";
 
 struct Result {
   int code;
@@ -55,7 +55,7 @@ fs::path out_dir(const std::string& name) {
 
 TEST_CASE("haustra run writes a summary with counts, stage times and final positions") {
   const fs::path dir = out_dir("cantilever");
-  const Result r = run("run " + kScenes + "cantilever.toml --quiet --out " + dir.string());
+  const Result r = run("run " + kCliScenes + "cantilever.toml --quiet --out " + dir.string());
   INFO(r.out << r.err);
   REQUIRE(r.code == 0);
   CHECK(r.out.find("outputs in") != std::string::npos);
@@ -83,7 +83,7 @@ TEST_CASE("haustra run writes a summary with counts, stage times and final posit
 
 TEST_CASE("haustra run drop: summary.json has the floor and self penetration of every frame") {
   const fs::path dir = out_dir("drop");
-  const Result r = run("run " + kScenes + "drop.toml --frames 90 --out " + dir.string());
+  const Result r = run("run " + kCliScenes + "drop.toml --frames 90 --out " + dir.string());
   INFO(r.out << r.err);
   REQUIRE(r.code == 0);
   CHECK(r.out.find("contacts (55 beads): deepest into the environment") != std::string::npos);
@@ -112,7 +112,7 @@ TEST_CASE("haustra run drop: summary.json has the floor and self penetration of 
 
 TEST_CASE("haustra run grasp-pull: the instrument force of every frame, grasping from 0.6 s") {
   const fs::path dir = out_dir("grasp-pull");
-  const Result r = run("run " + kScenes + "grasp-pull.toml --frames 60 --quiet --out " + dir.string());
+  const Result r = run("run " + kCliScenes + "grasp-pull.toml --frames 60 --quiet --out " + dir.string());
   INFO(r.out << r.err);
   REQUIRE(r.code == 0);
   const auto j = summary(dir);
@@ -127,8 +127,8 @@ TEST_CASE("haustra run grasp-pull: the instrument force of every frame, grasping
 TEST_CASE("haustra run: --threads 1 and --threads 2 give bit-identical final positions") {
   for (const std::string scene : {"ropes", "rope"}) {
     const fs::path one = out_dir(scene + "-1"), two = out_dir(scene + "-2");
-    REQUIRE(run("run " + kScenes + scene + ".toml --quiet --frames 60 --threads 1 --out " + one.string()).code == 0);
-    REQUIRE(run("run " + kScenes + scene + ".toml --quiet --frames 60 --threads 2 --out " + two.string()).code == 0);
+    REQUIRE(run("run " + kCliScenes + scene + ".toml --quiet --frames 60 --threads 1 --out " + one.string()).code == 0);
+    REQUIRE(run("run " + kCliScenes + scene + ".toml --quiet --frames 60 --threads 2 --out " + two.string()).code == 0);
     const auto a = summary(one), b = summary(two);
     CHECK(a["threads"] == 1);
     CHECK(b["threads"] == 2);
@@ -139,7 +139,7 @@ TEST_CASE("haustra run: --threads 1 and --threads 2 give bit-identical final pos
 
 TEST_CASE("haustra run: --set and --dt override the scene") {
   const fs::path dir = out_dir("set");
-  const Result r = run("run " + kScenes + "ropes.toml --quiet --frames 2 --dt 0.001 --set segment.nodes=11 --set "
+  const Result r = run("run " + kCliScenes + "ropes.toml --quiet --frames 2 --dt 0.001 --set segment.nodes=11 --set "
                        "segment[0].nodes=21 --out " + dir.string());
   INFO(r.err);
   REQUIRE(r.code == 0);
@@ -149,7 +149,7 @@ TEST_CASE("haustra run: --set and --dt override the scene") {
 }
 
 TEST_CASE("haustra run: bad input exits with code 2 and names the file and line") {
-  const Result r = run("run " + kScenes + "ropes.toml --set segment[2].radius=25");
+  const Result r = run("run " + kCliScenes + "ropes.toml --set segment[2].radius=25");
   CHECK(r.code == 2);
   CHECK(r.err.find("ropes.toml") != std::string::npos);
   CHECK(r.err.find("segment[2].radius") != std::string::npos);
@@ -161,7 +161,7 @@ TEST_CASE("haustra run: bad input exits with code 2 and names the file and line"
 TEST_CASE("haustra run: an instability exits with code 3, says why, and still writes the summary") {
   const fs::path dir = out_dir("unstable");
   // PL²/B = 30: the lagged fixed-point iteration wanders instead of converging.
-  const Result r = run("run " + kScenes + "cantilever.toml --quiet --set solver.mode=lagged --set "
+  const Result r = run("run " + kCliScenes + "cantilever.toml --quiet --set solver.mode=lagged --set "
                        "solver.on_instability=stop --set \"segment.load[0].force=[0,0,-1.884955592e-05]\" --out " +
                        dir.string());
   CHECK(r.code == 3);
@@ -191,7 +191,7 @@ TEST_CASE("haustra validate --json reports every case, all passing") {
 
 TEST_CASE("haustra run grasps and pulls the CT colon and writes its deformed mesh: files and an animated glTF") {
   const fs::path dir = out_dir("anatomy");
-  const Result r = run("run " + kScenes + "anatomy-grasp.toml --frames 40 --mesh-every 20 --out " + dir.string());
+  const Result r = run("run " + kCliScenes + "anatomy-grasp.toml --frames 40 --mesh-every 20 --out " + dir.string());
   INFO(r.out << r.err);
   REQUIRE(r.code == 0);
   // The builder's report: cage size, rings, inflation, embedding, MVC diagnostics.

@@ -8,17 +8,15 @@
 #include <cstring>
 
 #include "haustra/scene.hpp"
+#include "scene_fixtures.hpp"
 #include "haustra/world.hpp"
 
 using namespace haustra;
 
 namespace {
 
-std::unique_ptr<World> scene_world(const std::string& name, int threads = 1, std::vector<std::string> sets = {}) {
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
-  scene.world.threads = threads;
-  return create_world(scene);
-}
+using test::positions;
+using test::scene_world;
 
 Eigen::Vector3d bead_centre(const World& w, std::size_t b) { return w.node_positions().get(w.bead_nodes()[b]); }
 
@@ -41,13 +39,6 @@ double brute_force_floor_ratio(const World& w) {
   for (std::size_t b = 0; b < w.bead_count(); ++b)
     worst = std::max(worst, (w.bead_radii()[b] - bead_centre(w, b).z()) / w.bead_radii()[b]);
   return worst;
-}
-
-std::vector<double> positions(const World& w) {
-  const auto p = w.node_positions();
-  std::vector<double> out;
-  for (std::size_t k = 0; k < w.node_count(); ++k) out.insert(out.end(), {p.x[k], p.y[k], p.z[k]});
-  return out;
 }
 
 double max_node_speed(const std::vector<double>& before, const std::vector<double>& after, double dt) {

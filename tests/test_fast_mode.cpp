@@ -6,6 +6,7 @@
 #include <cmath>
 #include <string>
 
+#include "scene_fixtures.hpp"
 #include "haustra/references.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
@@ -14,11 +15,6 @@ using namespace haustra;
 
 namespace {
 
-SceneDesc scene(const std::string& name, std::vector<std::string> sets = {}) {
-  SceneDesc s = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
-  s.world.threads = 1;
-  return s;
-}
 
 double largest_distance(const World& a, const World& b) {
   const auto pa = a.node_positions(), pb = b.node_positions();
@@ -34,7 +30,7 @@ TEST_CASE("fast mode reaches the elastica under a large load applied at once, re
   // scenes/cantilever.toml: PL²/B = 3 from straight. One chord iteration a frame converges
   // linearly; measured: within 1e-4 m of the elastica from frame 11 (the discretization's error is
   // 2.5e-5), 8 of the first 15 frames reused a factorization.
-  SceneDesc s = scene("cantilever", {"solver.mode=fast"});
+  SceneDesc s = test::scene_desc("cantilever", {"solver.mode=fast"});
   auto w = create_world(s);
   const auto ref = reference::elastica_cantilever_tip(3.0);
   int chords = 0;
@@ -60,8 +56,8 @@ TEST_CASE("fast mode on drop: the fall as converged Newton's, factorizations reu
   // Measured: at frame 10 (falling, nothing touches yet) within 1e-12 m of Newton iterated to
   // convergence; over 150 frames about two thirds of the iterations reuse a factorization, and a
   // bead that starts touching forces a new one.
-  SceneDesc fast = scene("drop", {"solver.mode=fast"});
-  SceneDesc exact = scene("drop", {"solver.iterations=40", "solver.tolerance=1e-10"});
+  SceneDesc fast = test::scene_desc("drop", {"solver.mode=fast"});
+  SceneDesc exact = test::scene_desc("drop", {"solver.iterations=40", "solver.tolerance=1e-10"});
   auto a = create_world(fast);
   auto b = create_world(exact);
   for (int f = 0; f < 10; ++f) {

@@ -6,6 +6,7 @@
 
 #include <string>
 
+#include "scene_fixtures.hpp"
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
@@ -25,11 +26,6 @@ std::size_t heap_in_use() {
   return m.uordblks + m.hblkhd;
 }
 
-SceneDesc scene(const std::string& name, std::vector<std::string> sets = {}) {
-  SceneDesc s = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
-  s.world.threads = 1;
-  return s;
-}
 
 }  // namespace
 
@@ -43,7 +39,7 @@ TEST_CASE("the memory estimate is what building and stepping a world allocates, 
   for (const Case& c : {Case{"drop", {}}, Case{"drop", {"segment.nodes=100000"}}, Case{"drop", {"segment.mesh.source=procedural"}},
                         Case{"drop", {"solver.mode=fast", "segment.nodes=2000"}}, Case{"demo", {}}, Case{"bowel", {}},
                         Case{"sag", {}}, Case{"grasp-pull", {}}}) {
-    const SceneDesc s = scene(c.name, c.sets);
+    const SceneDesc s = test::scene_desc(c.name, c.sets);
     const MemoryEstimate e = estimate_memory(s.world);
     const std::size_t before = heap_in_use();
     auto w = create_world(s);
@@ -60,7 +56,7 @@ TEST_CASE("the memory estimate is what building and stepping a world allocates, 
 
 TEST_CASE("a world that would not fit is refused before it is built, saying what it would need") {
   // 10 million nodes of drop's rectum take about 32 GB: refused against a 1 GB budget at once.
-  SceneDesc s = scene("drop", {"segment.nodes=10000000", "world.memory_limit=1e9"});
+  SceneDesc s = test::scene_desc("drop", {"segment.nodes=10000000", "world.memory_limit=1e9"});
   const MemoryEstimate e = estimate_memory(s.world);
   CHECK(e.nodes == 10'000'000);
   CHECK(e.total > 20'000'000'000ULL);

@@ -12,12 +12,12 @@ using namespace haustra;
 
 namespace {
 
-const std::string kScenes = std::string(HAUSTRA_SOURCE_DIR) + "/scenes";
+const std::string kSceneFolder = std::string(HAUSTRA_SOURCE_DIR) + "/scenes";
 
 // The error message for a scene text, or "" if it loads and builds.
 std::string error_of(const std::string& text, std::vector<std::string> sets = {}) {
   try {
-    const SceneDesc s = parse_scene(text, kScenes + "/test.toml", sets);
+    const SceneDesc s = parse_scene(text, kSceneFolder + "/test.toml", sets);
     create_world(s);
   } catch (const Error& e) {
     return e.what();
@@ -31,7 +31,7 @@ const char* const kMinimal = test::kMinimalScene;
 
 TEST_CASE("every scene in scenes/ loads and builds") {
   int count = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(kScenes)) {
+  for (const auto& entry : std::filesystem::directory_iterator(kSceneFolder)) {
     if (entry.path().extension() != ".toml") continue;
     INFO(entry.path().string());
     SceneDesc s = load_scene(entry.path());
@@ -188,7 +188,7 @@ tip = [0, 0, 0.3]
 time = 1.0
 grasp = true
 )",
-                                  kScenes + "/contact.toml");
+                                  kSceneFolder + "/contact.toml");
   const WorldDesc& w = s.world;
   CHECK(w.solver.max_iterations == 5);
   CHECK(w.solver.attachment_tolerance == 1e-5);

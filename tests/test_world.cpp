@@ -4,6 +4,7 @@
 
 #include <cstring>
 
+#include "scene_fixtures.hpp"
 #include "allocation_counter.hpp"
 #include "host_job_pool.hpp"
 #include "haustra/error.hpp"
@@ -14,12 +15,7 @@ using namespace haustra;
 
 namespace {
 
-std::vector<double> positions(const World& w) {
-  const auto p = w.node_positions();
-  std::vector<double> out;
-  for (std::size_t k = 0; k < w.node_count(); ++k) out.insert(out.end(), {p.x[k], p.y[k], p.z[k]});
-  return out;
-}
+using test::positions;
 
 std::vector<double> run_scene(const std::string& name, int threads, int frames, std::vector<std::string> sets = {},
                               HostJobPool* pool = nullptr) {
