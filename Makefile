@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan python python-asan bench bench-quick bench-peers validate stability-doc study skinning-doc figures soak fuzz clean
+.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study skinning-doc figures soak fuzz clean
 
 all: build
 
@@ -36,6 +36,10 @@ python-asan: deps
 	  HAUSTRA_SOURCE=$(abspath .) MPLBACKEND=Agg ASAN_OPTIONS=detect_leaks=0 \
 	  LD_PRELOAD="$$(gcc -print-file-name=libasan.so) $$(gcc -print-file-name=libubsan.so)" \
 	  /usr/bin/python3 -m pytest -q -p no:cacheprovider $(abspath python/tests)
+
+# docs/results.md: the reference cases, the figures the tests assert, the last `make bench`.
+results: build
+	@/usr/bin/python3 scripts/results.py build/release docs/results.md
 
 # Release tests and the instruction-count gate, then the whole suite under ASan+UBSan and the
 # threaded tests under TSan.

@@ -4,6 +4,7 @@
 #include <random>
 #include <unsupported/Eigen/MatrixFunctions>
 
+#include "measured.hpp"
 #include "haustra/kernels/block_tridiagonal.hpp"
 #include "haustra/kernels/inertia_filter.hpp"
 #include "haustra/kernels/mass_matrix.hpp"
@@ -270,7 +271,7 @@ TEST_CASE("block-tridiagonal solve pivots: rows swap within a block and across i
     MESSAGE("seed " << seed << ": worst " << run.worst << ", " << run.swaps << " swaps, " << run.crossing << " across blocks");
     CHECK(run.swaps > 10);
     CHECK(run.crossing > 5);
-    CHECK(run.worst < 1e-12);
+    test::measured("banded LU with pivoting across blocks vs a dense LU, seed " + std::to_string(seed), run.worst, 1e-12);
   }
 }
 

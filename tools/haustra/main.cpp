@@ -156,7 +156,7 @@ int run(const RunOptions& o) {
   return 0;
 }
 
-int validate(bool json, const std::string& assets) {
+int validate(bool json, bool markdown, const std::string& assets) {
   validation::Options options;
   if (!assets.empty()) options.assets = assets;
   const auto t0 = std::chrono::steady_clock::now();
@@ -176,6 +176,13 @@ int validate(bool json, const std::string& assets) {
                    {"pass", r.pass},
                    {"note", r.note}});
     fmt::print("{}\n", j.dump(2));
+  } else if (markdown) {
+    // The table of docs/results.md: one row per check, the numbers as measured.
+    fmt::print("| case | quantity | reference | value | {} error | tolerance | |\n|---|---|---|---|---|---|---|\n",
+               "relative / absolute");
+    for (const auto& r : results)
+      fmt::print("| {} | {} | {:.8g} | {:.8g} | {:.3g}{} | {:.3g} | {} |\n", r.name, r.quantity, r.reference, r.value,
+                 r.error, r.absolute ? " (abs.)" : "", r.tolerance, r.pass ? "pass" : "**FAIL**");
   } else {
     for (const auto& r : results) {
       fmt::print("{} {}\n     {}\n     reference {:<14.8g} value {:<14.8g} {} error {:<10.3g} tolerance {:<8.3g}{}\n",
@@ -388,10 +395,11 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   run_cmd->add_option("--mesh-format", ro.mesh_format, "ply, obj or stl")->check(CLI::IsMember({"ply", "obj", "stl"}));
 
-  bool json = false;
+  bool json = false, validate_markdown = false;
   std::string assets;
   CLI::App* validate_cmd = app.add_subcommand("validate", "run the reference cases against analytic solutions");
   validate_cmd->add_flag("--json", json, "print the results as JSON");
+  validate_cmd->add_flag("--markdown", validate_markdown, "print the results as a Markdown table (docs/results.md)");
   validate_cmd->add_option("--assets", assets, "directory holding large-intestine-A-DSJ-centreline.json");
 
   bool markdown = false;
@@ -434,7 +442,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     if (*run_cmd) return run(ro);
-    if (*validate_cmd) return validate(json, assets);
+    if (*validate_cmd) return validate(json, validate_markdown, assets);
     if (*stability_cmd) return stability(markdown, stability_csv);
     if (*skinning_cmd) return skinning(skinning_markdown);
     if (*study_cmd) return study(study_markdown, study_csv);
