@@ -22,28 +22,15 @@
 
 namespace {
 
-const char* kScene = R"(
-[world]
-dt = 0.01
-[[segment]]
-name = "colon"
-nodes = 21
-radius = 0.02
-[segment.rest]
-length = 0.4
-[segment.beads]
-count = 8
-[segment.mesh]
-source = "procedural"
-[segment.mesh.procedural]
-vertices = 1500
-[[instrument]]
-name = "grasper"
-grasp_reach = 0.015
-tip = [0.2, 0.0, 0.2]
-)";
 
 // A scene file of this process's own, removed at the end.
+// A scene of tests/scenes/, by name.
+struct TestScene {
+  std::filesystem::path path;
+  explicit TestScene(const char* name)
+      : path(std::filesystem::path(HAUSTRA_SOURCE_DIR) / "tests" / "scenes" / (std::string(name) + ".toml")) {}
+};
+
 struct SceneFile {
   std::filesystem::path path;
   explicit SceneFile(const std::string& text)
@@ -75,7 +62,7 @@ TEST_CASE("C API: version and ABI check") {
 }
 
 TEST_CASE("C API: a world from a scene, stepped, read without copies, driven by the host") {
-  const SceneFile scene(kScene);
+  const TestScene scene("c-api-colon");
   haustra_world* w = nullptr;
   REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &w) == HAUSTRA_OK);
   REQUIRE(w != nullptr);
@@ -163,7 +150,7 @@ TEST_CASE("C API: a world from a scene, stepped, read without copies, driven by 
 }
 
 TEST_CASE("C API: wrong handles, NULL pointers, bad values and calls after destroy are refused") {
-  const SceneFile scene(kScene);
+  const TestScene scene("c-api-colon");
   haustra_world* w = nullptr;
   REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &w) == HAUSTRA_OK);
   haustra_counts c{};
@@ -303,21 +290,7 @@ TEST_CASE("C API: wrong handles, NULL pointers, bad values and calls after destr
 }
 
 TEST_CASE("C API: an unstable frame is refused, the buffers keep the last good frame and the world steps on") {
-  const SceneFile scene(R"(
-[world]
-gravity = [0.0, 0.0, 0.0]
-[solver]
-mode = "lagged"
-on_instability = "stop"
-[[segment]]
-nodes = 41
-radius = 0.02
-[segment.rest]
-length = 0.6
-[segment.law]
-bending = "elastic"
-torsion = "elastic"
-)");
+  const TestScene scene("lagged-elastic-colon");
   haustra_world* w = nullptr;
   REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &w) == HAUSTRA_OK);
   REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
@@ -373,40 +346,6 @@ std::uint64_t frame_hash(const haustra_vec3_view& n, const haustra_vec3f_view& m
   h = fnv(n.z, n.count * sizeof(double), h);
   return fnv(m.z, m.count * sizeof(float), h);
 }
-
-// Two segments side by side over a floor, falling onto it and onto each other.
-const char* kTwoSegments = R"(
-[world]
-dt = 0.01
-[[environment.plane]]
-name = "floor"
-point = [0.0, 0.0, 0.0]
-[[segment]]
-name = "a"
-nodes = 31
-base = "free"
-base_position = [0.0, 0.0, 0.05]
-radius = 0.02
-[segment.rest]
-length = 0.5
-[segment.beads]
-count = 12
-[segment.mesh]
-source = "procedural"
-[segment.mesh.procedural]
-vertices = 1500
-[[segment]]
-name = "b"
-nodes = 31
-base = "free"
-base_position = [0.25, -0.25, 0.1]
-base_tangent = [0.0, 1.0, 0.0]
-radius = 0.02
-[segment.rest]
-length = 0.5
-[segment.beads]
-count = 12
-)";
 
 }  // namespace
 
@@ -505,7 +444,7 @@ TEST_CASE("C API: a world from definitions alone, no scene file") {
 }
 
 TEST_CASE("C API: the same bits with 1 thread, 2 threads and the host job system's threads") {
-  const SceneFile scene(kTwoSegments);
+  const TestScene scene("c-api-two-segments");
   auto run = [&](int threads, HostJobPool* pool) {
     haustra_world_def def;
     REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
@@ -529,7 +468,7 @@ TEST_CASE("C API: the same bits with 1 thread, 2 threads and the host job system
 }
 
 TEST_CASE("C API: a render thread reads completed frames while the world steps (double-buffered)") {
-  const SceneFile scene(kTwoSegments);
+  const TestScene scene("c-api-two-segments");
   constexpr int kFrames = 150;
   // The reference: what every frame holds, from a world stepped alone.
   std::map<uint64_t, uint64_t> expected;
@@ -602,7 +541,7 @@ TEST_CASE("C API: a render thread reads completed frames while the world steps (
 }
 
 TEST_CASE("C API: checkpoint to a file, restore, step on: the same bits") {
-  const SceneFile scene(kTwoSegments);
+  const TestScene scene("c-api-two-segments");
   const std::string file =
       (std::filesystem::temp_directory_path() / ("haustra-c-api-" + std::to_string(::getpid()) + ".ckpt")).string();
   haustra_world* w = nullptr;
@@ -624,7 +563,7 @@ TEST_CASE("C API: checkpoint to a file, restore, step on: the same bits") {
   CHECK(haustra_world_restore_checkpoint(w, "/no/such/file.ckpt") == HAUSTRA_IO);
   CHECK(says("/no/such/file.ckpt"));
   CHECK(haustra_world_save_checkpoint(w, "/no/such/dir/file.ckpt") == HAUSTRA_IO);
-  const SceneFile other(kScene);
+  const TestScene other("c-api-colon");
   haustra_world* o = nullptr;
   REQUIRE(haustra_world_create_from_scene(other.path.c_str(), 1, &o) == HAUSTRA_OK);
   CHECK(haustra_world_restore_checkpoint(o, file.c_str()) == HAUSTRA_PARSE);

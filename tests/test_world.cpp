@@ -289,29 +289,7 @@ TEST_CASE("a host that pushes too hard: the frame is refused, nodes and mesh buf
   // host pulls the tip, which that scheme cannot hold for an elastic rod (it diverges). With
   // on_instability = "stop" the step throws Error{unstable}; everything a host reads must still be
   // the last good frame, bit for bit, and finite.
-  const SceneDesc scene = parse_scene(R"(
-[world]
-gravity = [0.0, 0.0, 0.0]
-[solver]
-mode = "lagged"
-on_instability = "stop"
-[[segment]]
-name = "colon"
-nodes = 41
-radius = 0.02
-[segment.rest]
-length = 0.6
-[segment.law]
-bending = "elastic"
-torsion = "elastic"
-[segment.beads]
-count = 14
-[segment.mesh]
-source = "procedural"
-[segment.mesh.procedural]
-vertices = 3000
-)",
-                                      std::string(HAUSTRA_SOURCE_DIR) + "/scenes/test.toml");
+  const SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/tests/scenes/lagged-elastic-colon.toml");
   auto w = create_world(scene);
   w->set_external_load(w->node_count() - 1, Eigen::Vector3d(0.0, 0.0, 1e-3), Eigen::Vector3d::Zero());
   for (int f = 0; f < 5; ++f) w->step();
