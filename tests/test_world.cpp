@@ -244,6 +244,7 @@ TEST_CASE("the API rejects bad arguments with a message") {
   CHECK_THROWS_AS(static_cast<void>(w->segment(5)), Error);
   try {
     w->set_attachment_target(0, 2, Eigen::Vector3d::Zero());
+    FAIL("an attachment index the segment does not have was accepted");
   } catch (const Error& e) {
     CHECK(e.code() == ErrorCode::invalid_argument);
     CHECK(std::string(e.what()).find("has 0 attachments") != std::string::npos);
