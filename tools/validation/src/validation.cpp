@@ -13,6 +13,9 @@ namespace haustra::validation {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
+// Cases exact in the model (a circle, a twist, a constant-moment flow): the engine reproduces them
+// to round-off, measured 1e-16..1.6e-15; a bound a little above it still catches any real error.
+constexpr double kRoundOff = 1e-14;
 
 std::string mode_label(SolverMode mode) { return solver_mode_name(mode); }
 
@@ -103,7 +106,7 @@ std::vector<CaseResult> axial_end_force(SolverMode mode) {
   for (std::size_t k = 0; k < w->node_count(); ++k)
     worst = std::max(worst, std::abs(w->strains().at(k, axial) - f / ea));
   return {compare("axial end force, F = EA/4, N = 50", "tip extension / L  (= F/EA)", f / ea, tip(*w).x() - 1.0,
-                  1e-9, fmt::format("largest nodal |ε − F/EA| = {:.2e}", worst))};
+                  1e-13 /* measured 9.8e-15 */, fmt::format("largest nodal |ε − F/EA| = {:.2e}", worst))};
 }
 
 std::vector<CaseResult> pure_end_moment(SolverMode mode) {
@@ -127,8 +130,8 @@ std::vector<CaseResult> pure_end_moment(SolverMode mode) {
       }
       const std::string name = fmt::format("pure end moment, {} turn{}, N = {}", turns, turns == 1.0 ? "" : "s", sections);
       out.push_back(compare(name, "curvature κ1 at the tip node (1/m)  (= M/B)", kappa,
-                            w->strains().at(w->node_count() - 1, kappa1), 1e-10));
-      out.push_back(compare_absolute(name, "largest node distance from the exact circle (m)", 0.0, worst, 1e-10));
+                            w->strains().at(w->node_count() - 1, kappa1), kRoundOff));
+      out.push_back(compare_absolute(name, "largest node distance from the exact circle (m)", 0.0, worst, kRoundOff));
     }
   }
   return out;
@@ -146,8 +149,8 @@ std::vector<CaseResult> end_torque(SolverMode mode) {
   const Eigen::Quaterniond tip_rot = w->node_rotations().get(w->node_count() - 1);
   const Eigen::Vector3d twist = kernels::rotation_log(base.conjugate() * tip_rot);
   return {compare("end torque, N = 40", "torsion τ at the tip node (1/m)  (= torque/T)", tau,
-                  w->strains().at(w->node_count() - 1, torsion), 1e-10),
-          compare("end torque, N = 40", "tip twist angle about d3 (rad)  (= τ L)", tau, twist.z(), 1e-10,
+                  w->strains().at(w->node_count() - 1, torsion), kRoundOff),
+          compare("end torque, N = 40", "tip twist angle about d3 (rad)  (= τ L)", tau, twist.z(), kRoundOff,
                   fmt::format("off-axis rotation {:.1e} rad", twist.head<2>().norm()))};
 }
 
@@ -157,7 +160,7 @@ std::vector<CaseResult> cantilever_small_load(SolverMode mode) {
     const double alpha = 1e-4;
     const CantileverRun run = cantilever(mode, sections + 1, alpha);
     out.push_back(compare(fmt::format("cantilever, small tip load PL²/B = 1e-4, N = {}", sections),
-                          "tip deflection / L  (= PL²/3B)", alpha / 3.0, -run.tip.z(), 0.01,
+                          "tip deflection / L  (= PL²/3B)", alpha / 3.0, -run.tip.z(), 2e-3 /* measured 2e-4 at N = 50: O(h²) */,
                           fmt::format("{} frames to equilibrium", run.frames)));
   }
   return out;
@@ -211,7 +214,7 @@ std::vector<CaseResult> viscous_constant_moment(SolverMode mode) {
   for (int f = 0; f < frames; ++f) w->step();
   const double t = frames * d.dt;
   return {compare("viscous rod under a constant end moment, 1 s", "curvature κ1 after 1 s (1/m)  (= M t/η)",
-                  moment * t / eta, w->strains().at(w->node_count() / 2, kappa1), 1e-10)};
+                  moment * t / eta, w->strains().at(w->node_count() / 2, kappa1), kRoundOff)};
 }
 
 std::vector<CaseResult> held_both_ends_elastic(SolverMode mode) {
@@ -281,10 +284,10 @@ std::vector<CaseResult> held_both_ends_viscous(SolverMode mode) {
   const reference::PlanarPoint mid = reference::catenary_point(0.5 * length, length, span);
   const Eigen::Vector3d r_mid = w->node_positions().get(static_cast<std::size_t>(sections / 2));
   return {compare("held at both ends (pinned), viscous bending, gravity, span 0.94 L, N = 100",
-                  "midspan sag (m)  (catenary of the same length and span)", -mid.z, -r_mid.z(), 0.01,
+                  "midspan sag (m)  (catenary of the same length and span)", -mid.z, -r_mid.z(), 1e-3 /* measured 8.7e-5 */,
                   fmt::format("{} frames to rest", frames)),
           compare_absolute("held at both ends (pinned), viscous bending, gravity, span 0.94 L, N = 100",
-                           "largest node distance from the catenary / sag", 0.0, worst / sag, 0.01)};
+                           "largest node distance from the catenary / sag", 0.0, worst / sag, 1e-3)};
 }
 
 std::vector<CaseResult> centreline_rest_shape(const Options& options, SolverMode mode) {
