@@ -16,109 +16,13 @@
 
 #include "haustra/centreline.hpp"
 #include "haustra/error.hpp"
+#include "haustra/frame_publisher.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
 
-// Not in an anonymous namespace: haustra_world (a global type) holds one.
-namespace haustra::c_api {
-
-// Triple-buffered copies of what a renderer reads (docs/decisions/0029-double-buffered-output.md).
-// The stepping thread fills `back` and swaps it with `ready`; the reader swaps `ready` into
-// `reading` when there is something new. Only index swaps happen under the lock, so neither side
-// waits on the other's copying, and the slot a reader holds is never written.
-class PublishedFrames {
- public:
-  struct Slot {
-    std::uint64_t frame = 0;
-    double time = 0.0;
-    std::vector<double> x, y, z;
-    std::vector<float> px, py, pz, nx, ny, nz;
-  };
-
-  explicit PublishedFrames(const haustra::World& w) {
-    for (Slot& s : slots_) {
-      for (auto* v : {&s.x, &s.y, &s.z}) v->resize(w.node_count());
-      for (auto* v : {&s.px, &s.py, &s.pz, &s.nx, &s.ny, &s.nz}) v->resize(w.mesh_buffer_size());
-    }
-    publish(w);
-  }
-
-  void publish(const haustra::World& w) {  // the stepping thread
-    fill(slots_[back_], w);
-    std::lock_guard lock(mutex_);
-    std::swap(back_, ready_);
-    fresh_ = true;
-  }
-
-  // Segments added or removed (`change` does it): every slot takes the new sizes. It runs under
-  // the lock, so a reader cannot take a slot meanwhile (its acquire waits), and is refused while
-  // the reader holds one.
-  template <class Change>
-  void resize(Change&& change) {
-    std::lock_guard lock(mutex_);
-    if (held_)
-      throw haustra::Error(haustra::ErrorCode::invalid_argument,
-                           "the render thread holds a frame: release it before adding or removing segments");
-    const haustra::World& w = change();
-    for (Slot& s : slots_) {
-      for (auto* v : {&s.x, &s.y, &s.z}) v->resize(w.node_count());
-      for (auto* v : {&s.px, &s.py, &s.pz, &s.nx, &s.ny, &s.nz}) v->resize(w.mesh_buffer_size());
-    }
-    fill(slots_[ready_], w);
-    fresh_ = true;
-  }
-
-  const Slot& acquire() {  // the reading thread
-    std::lock_guard lock(mutex_);
-    if (held_)
-      throw haustra::Error(haustra::ErrorCode::invalid_argument,
-                           "a frame is already acquired: call haustra_world_release_frame before acquiring the next");
-    if (fresh_) {
-      std::swap(ready_, reading_);
-      fresh_ = false;
-    }
-    held_ = true;
-    return slots_[reading_];
-  }
-
-  void release() {
-    std::lock_guard lock(mutex_);
-    if (!held_)
-      throw haustra::Error(haustra::ErrorCode::invalid_argument, "no frame is acquired: call haustra_world_acquire_frame first");
-    held_ = false;
-  }
-
- private:
-  static void fill(Slot& s, const haustra::World& w) {
-    s.frame = w.frame();
-    s.time = w.time();
-    const auto n = w.node_positions();
-    std::copy(n.x.begin(), n.x.end(), s.x.begin());
-    std::copy(n.y.begin(), n.y.end(), s.y.begin());
-    std::copy(n.z.begin(), n.z.end(), s.z.begin());
-    const auto p = w.mesh_positions();
-    std::copy(p.x.begin(), p.x.end(), s.px.begin());
-    std::copy(p.y.begin(), p.y.end(), s.py.begin());
-    std::copy(p.z.begin(), p.z.end(), s.pz.begin());
-    const auto m = w.mesh_normals();
-    std::copy(m.x.begin(), m.x.end(), s.nx.begin());
-    std::copy(m.y.begin(), m.y.end(), s.ny.begin());
-    std::copy(m.z.begin(), m.z.end(), s.nz.begin());
-  }
-
-  std::array<Slot, 3> slots_;
-  std::mutex mutex_;
-  int back_ = 0, ready_ = 1, reading_ = 2;
-  bool fresh_ = false, held_ = false;
-};
-
-}  // namespace haustra::c_api
-
-using haustra::c_api::PublishedFrames;
-
 struct haustra_world {
   std::unique_ptr<haustra::World> world;
-  std::unique_ptr<PublishedFrames> frames;  // double-buffered worlds only
+  std::unique_ptr<haustra::FramePublisher> frames;  // double-buffered worlds only
 };
 
 namespace {
@@ -194,7 +98,7 @@ haustra_status guarded(const char* function, F&& body) noexcept {
 haustra_world* make_handle(std::unique_ptr<haustra::World> world, bool double_buffered) {
   auto handle = std::make_unique<haustra_world>();
   handle->world = std::move(world);
-  if (double_buffered) handle->frames = std::make_unique<PublishedFrames>(*handle->world);
+  if (double_buffered) handle->frames = std::make_unique<haustra::FramePublisher>(*handle->world);
   std::lock_guard lock(g_registry_mutex);
   registry().insert(handle.get());
   return handle.release();
@@ -614,7 +518,7 @@ haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* 
     haustra_frame& o = required(out, "out");
     if (!h.frames)
       throw Error(ErrorCode::invalid_argument, "this world was not created with double_buffered = 1 (haustra_world_def)");
-    const PublishedFrames::Slot& s = h.frames->acquire();
+    const haustra::FramePublisher::Slot& s = h.frames->acquire();
     o = haustra_frame{s.frame,
                       s.time,
                       {s.x.data(), s.y.data(), s.z.data(), s.x.size()},

@@ -1,0 +1,80 @@
+#pragma once
+// The last completed frame, for a reader on another thread (a renderer, a viewer's window): the
+// stepping thread publishes after each step, the reader acquires the newest frame without ever
+// making the stepping thread wait (docs/decisions/0029-double-buffered-output.md). The C API's
+// double-buffered worlds and `haustra view` both read frames through this.
+#include <array>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <vector>
+
+#include "haustra/profile.hpp"
+#include "haustra/world.hpp"
+
+namespace haustra {
+
+// What a frame holds beyond positions, for readers that draw overlays and plots (opt-in: the
+// copies cost the stepping thread a few microseconds per frame).
+struct FrameDetails {
+  std::vector<double> strain, rest_strain;           // 4 per node (κ1 κ2 τ ε)
+  std::vector<Contact> contacts;
+  std::vector<InstrumentReading> instruments;
+  std::vector<std::vector<Eigen::Vector3d>> cages;   // per segment: cage vertices (when wanted)
+  FrameProfile profile;
+  std::size_t event_count = 0;                       // events the world has recorded so far
+};
+
+class FramePublisher {
+ public:
+  struct Slot {
+    std::uint64_t frame = 0;
+    double time = 0.0;
+    std::vector<double> x, y, z;                          // nodes
+    std::vector<float> px, py, pz, nx, ny, nz;            // mesh positions and normals
+    FrameDetails details;                                 // filled when the publisher wants details
+  };
+
+  // details: also copy FrameDetails every frame; cages: and the cage vertices.
+  explicit FramePublisher(const World& world, bool details = false, bool cages = false);
+
+  void publish(const World& world);  // the stepping thread, after each step
+
+  // The world changed its sizes (segments added or removed, a rebuild): `change` makes the change
+  // and returns the world, under the lock, so no reader takes a slot meanwhile. `wait_for_reader`:
+  // wait until the reader releases its slot; otherwise a held slot refuses the change
+  // (Error{invalid_argument}), as the C API documents.
+  template <class Change>
+  void resize(Change&& change, bool wait_for_reader = false) {
+    std::unique_lock lock(mutex_);
+    if (wait_for_reader) released_.wait(lock, [&] { return !held_; });
+    refuse_if_held();
+    const World& w = change();
+    for (Slot& s : slots_) size_slot(s, w);
+    fill(slots_[ready_], w);
+    fresh_ = true;
+  }
+
+  // Whether cages are copied (a reader's toggle; takes effect from the next publish).
+  void want_cages(bool on);
+
+  const Slot& acquire();  // the reading thread; one slot at a time
+  void release();
+  // The newest frame number published (for a reader deciding whether to acquire).
+  [[nodiscard]] std::uint64_t latest_frame();
+
+ private:
+  void size_slot(Slot& s, const World& w) const;
+  void fill(Slot& s, const World& w) const;
+  void refuse_if_held() const;
+
+  std::array<Slot, 3> slots_;
+  std::mutex mutex_;
+  std::condition_variable released_;
+  int back_ = 0, ready_ = 1, reading_ = 2;
+  bool fresh_ = false, held_ = false;
+  bool details_ = false;
+  bool cages_ = false;  // read by the stepping thread under the lock's ordering (want_cages locks)
+};
+
+}  // namespace haustra
