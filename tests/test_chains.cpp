@@ -307,3 +307,63 @@ TEST_CASE("a grasp survives a segment added beside it, and removing the grasped 
   for (int f = 0; f < 10; ++f) changed->step();
   CHECK(changed->events().empty());
 }
+
+TEST_CASE("reconfigure: the same description steps on bit for bit, a new one from frame 0 is a fresh world of it") {
+  SceneDesc s = scene_file("grasp-pull");
+  auto changed = create_world(s);
+  auto unchanged = create_world(s);
+  for (int f = 0; f < 60; ++f) {  // grasping from frame 36
+    changed->step();
+    unchanged->step();
+  }
+  changed->reconfigure(changed->desc());
+  CHECK(changed->frame() == 60);
+  CHECK(changed->instrument(0).grasping);
+  for (int f = 0; f < 30; ++f) {
+    changed->step();
+    unchanged->step();
+  }
+  CHECK(segment_state(*changed, 0) == segment_state(*unchanged, 0));
+  CHECK(changed->instrument(0).force == unchanged->instrument(0).force);
+
+  // Gravity and the solver changed before the first frame: the same bits as a world built so.
+  SceneDesc other = s;
+  other.world.gravity = {0.0, 0.0, -4.0};
+  other.world.solver.iterations = 3;
+  auto reconfigured = create_world(s);
+  reconfigured->reconfigure(other.world);
+  auto built = create_world(other);
+  for (int f = 0; f < 60; ++f) {
+    reconfigured->step();
+    built->step();
+  }
+  CHECK(segment_state(*reconfigured, 0) == segment_state(*built, 0));
+  CHECK(reconfigured->desc().solver.iterations == 3);
+}
+
+TEST_CASE("reconfigure: new beads let a grasp go, new nodes or instruments are refused and leave the world as it was") {
+  SceneDesc s = scene_file("grasp-pull");
+  auto w = create_world(s);
+  for (int f = 0; f < 60; ++f) w->step();
+  REQUIRE(w->instrument(0).grasping);
+  const std::size_t beads = w->bead_count();
+
+  WorldDesc more_nodes = w->desc();
+  more_nodes.segments[0].nodes += 10;
+  CHECK_THROWS_WITH_AS(w->reconfigure(more_nodes), doctest::Contains("keeps every segment's nodes: segments[0]"), Error);
+  WorldDesc no_instruments = w->desc();
+  no_instruments.instruments.clear();
+  CHECK_THROWS_WITH_AS(w->reconfigure(no_instruments), doctest::Contains("keeps the instruments"), Error);
+  CHECK(w->instrument(0).grasping);
+
+  WorldDesc fewer_beads = w->desc();
+  fewer_beads.segments[0].beads.count = static_cast<int>(beads / 2);
+  fewer_beads.segments[0].beads.spacing = 0.0;
+  fewer_beads.segments[0].beads.nodes.clear();
+  w->reconfigure(fewer_beads);
+  CHECK(w->bead_count() == beads / 2);
+  CHECK_FALSE(w->instrument(0).grasping);
+  CHECK(w->frame() == 60);
+  for (int f = 0; f < 30; ++f) w->step();  // the organ falls back without incident
+  CHECK(w->events().empty());
+}

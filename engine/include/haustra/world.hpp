@@ -124,6 +124,12 @@ class World {
   // removed one move down; views into the world's buffers are invalidated.
   std::size_t add_segment(const SegmentDesc& segment);  // returns the new segment's index
   void remove_segment(std::size_t segment);  // a chain goes whole, named by its first segment
+  // The same world under a changed description (solver, filter, gravity, tissue law, beads, cage,
+  // skinning; the viewer's knobs): the model is rebuilt and the state carried over. `next` keeps
+  // the segments and their node counts (else Error{invalid_argument} names the first that differs,
+  // and the world is left as it was). A grasp is let go when its segment's beads change.
+  void reconfigure(WorldDesc next);
+  [[nodiscard]] const WorldDesc& desc() const;  // the description the model was built from
 
   // Keeps the buffers behind every view above alive for as long as the handle lives: past the
   // world's destruction and past add_segment / remove_segment, which move the world to new buffers

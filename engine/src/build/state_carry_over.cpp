@@ -49,7 +49,8 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
     to.base_twist[rod_map[r]] = from.base_twist[r];
     to.base_resistance[rod_map[r]] = from.base_resistance[r];
     copy_range(from.now.attachment, a.attachment_offset, to.now.attachment, b.attachment_offset, a.attachments.size());
-    copy_range(from.collision.bead_motion, a.bead_offset, to.collision.bead_motion, b.bead_offset, a.bead_count);
+    if (a.bead_count == b.bead_count)  // beads re-chosen (reconfigure): they start at rest
+      copy_range(from.collision.bead_motion, a.bead_offset, to.collision.bead_motion, b.bead_offset, a.bead_count);
   }
   to.collision.report = from.collision.report;
   to.robust_substeps = from.robust_substeps;
@@ -68,6 +69,11 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
     }
     const SegmentModel& a = from_model.segments[old_rod];
     const SegmentModel& b = to_model.segments[new_rod];
+    if (a.bead_count != b.bead_count) {  // the grasped bead may be gone: let go
+      to.now.attachment[in.grasp_attachment - a.attachment_offset + b.attachment_offset].active = false;
+      in.grasping = false;
+      continue;
+    }
     in.grasp_segment = new_rod;
     in.grasp_attachment = in.grasp_attachment - a.attachment_offset + b.attachment_offset;
     in.grasp_bead = static_cast<std::uint32_t>(in.grasp_bead - a.bead_offset + b.bead_offset);
@@ -114,5 +120,29 @@ void World::remove_segment(std::size_t segment) {
     rod_map[r] = r < piece.rod ? r : r == piece.rod ? detail::kRodRemoved : r - 1;
   rebuild(std::move(next), rod_map);
 }
+
+void World::reconfigure(WorldDesc next) {
+  const WorldDesc& now = impl_->desc;
+  if (next.segments.size() != now.segments.size())
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("reconfigure keeps the segments: {} given, the world has {} (add_segment / remove_segment "
+                            "change them)",
+                            next.segments.size(), now.segments.size()));
+  for (std::size_t s = 0; s < now.segments.size(); ++s)
+    if (next.segments[s].nodes != now.segments[s].nodes || next.segments[s].chain_pieces != now.segments[s].chain_pieces)
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("reconfigure keeps every segment's nodes: segments[{}] ('{}') has {} nodes in {} pieces, "
+                              "the world {} in {}",
+                              s, next.segments[s].name, next.segments[s].nodes, next.segments[s].chain_pieces,
+                              now.segments[s].nodes, now.segments[s].chain_pieces));
+  if (next.instruments.size() != now.instruments.size())
+    throw Error(ErrorCode::invalid_argument, fmt::format("reconfigure keeps the instruments: {} given, the world has {}",
+                                                         next.instruments.size(), now.instruments.size()));
+  std::vector<std::size_t> rod_map(impl_->model.segments.size());
+  for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
+  rebuild(std::move(next), rod_map);
+}
+
+const WorldDesc& World::desc() const { return impl_->desc; }
 
 }  // namespace haustra
