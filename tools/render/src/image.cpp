@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <string>
 
 #include "haustra/error.hpp"
 
@@ -56,6 +57,37 @@ void Image::save_png(const std::filesystem::path& file) const {
   }
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
+}
+
+Image Image::from_srgb8(int width, int height, std::span<const std::uint8_t> rgb) {
+  auto linear = [](std::uint8_t byte) {
+    const float s = static_cast<float>(byte) / 255.0f;
+    return s <= 0.04045f ? s / 12.92f : std::pow((s + 0.055f) / 1.055f, 2.4f);
+  };
+  if (rgb.size() != static_cast<std::size_t>(3 * width * height))
+    throw Error(ErrorCode::invalid_argument, fmt::format("from_srgb8: {} bytes for {} x {} pixels", rgb.size(), width, height));
+  Image image(width, height);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const std::size_t i = 3 * static_cast<std::size_t>(y * width + x);
+      image.set(x, y, {linear(rgb[i]), linear(rgb[i + 1]), linear(rgb[i + 2])});
+    }
+  return image;
+}
+
+Image Image::load_png(const std::filesystem::path& file) {
+  png_image png{};
+  png.version = PNG_IMAGE_VERSION;
+  if (png_image_begin_read_from_file(&png, file.string().c_str()) == 0)
+    throw Error(ErrorCode::io, fmt::format("{}: cannot read the PNG ({})", file.string(), png.message));
+  png.format = PNG_FORMAT_RGB;
+  std::vector<std::uint8_t> bytes(PNG_IMAGE_SIZE(png));
+  if (png_image_finish_read(&png, nullptr, bytes.data(), 0, nullptr) == 0) {
+    const std::string why = png.message;
+    png_image_free(&png);
+    throw Error(ErrorCode::io, fmt::format("{}: cannot read the PNG ({})", file.string(), why));
+  }
+  return from_srgb8(static_cast<int>(png.width), static_cast<int>(png.height), bytes);
 }
 
 Image contact_sheet(std::span<const Image> tiles, int columns) {

@@ -21,6 +21,10 @@ class Image {
   void set(int x, int y, Rgb c) { pixels_[static_cast<std::size_t>(y * width_ + x)] = c; }
   // Writes 8-bit sRGB. Throws Error{io} naming the file.
   void save_png(const std::filesystem::path& file) const;
+  // Reads an 8-bit PNG (any colour type; alpha dropped) into linear values. Throws Error{io}.
+  static Image load_png(const std::filesystem::path& file);
+  // From 8-bit sRGB rows, top row first (a screenshot's bytes), 3 bytes per pixel.
+  static Image from_srgb8(int width, int height, std::span<const std::uint8_t> rgb);
   // Pastes `tile` with its top-left corner at (x, y), clipped.
   void paste(const Image& tile, int x, int y);
 
