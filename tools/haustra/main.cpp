@@ -7,7 +7,9 @@
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <fstream>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
@@ -23,6 +25,7 @@
 namespace {
 
 using namespace haustra;
+namespace fs = std::filesystem;
 
 // Exit codes: 0 ok, 1 a reference case failed, 2 bad input, 3 the simulation went unstable.
 constexpr int kExitFailedCase = 1;
@@ -374,6 +377,24 @@ int study(bool markdown, const std::string& csv) {
   return 0;
 }
 
+// `haustra view ...` is haustra-view, the binary beside this one: the command line stays free of
+// GLFW and OpenGL (decision 0046).
+int open_viewer(const char* self, const std::vector<std::string>& args) {
+  std::error_code ec;
+  fs::path here = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) here = fs::absolute(self);
+  const fs::path viewer = here.parent_path() / "haustra-view";
+  std::vector<std::string> words{viewer.string()};
+  words.insert(words.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& w : words) argv.push_back(w.data());
+  argv.push_back(nullptr);
+  execv(viewer.c_str(), argv.data());
+  fmt::print(stderr, "error: the viewer is not built ({}: {}): `make view` builds it\n", viewer.string(),
+             std::strerror(errno));
+  return kExitBadInput;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -439,7 +460,12 @@ int main(int argc, char** argv) {
   CLI::App* figure_cmd = app.add_subcommand("figure-cage", "the paper's Fig. 6: beads, cage, linear blend and MVC under a sharp bend");
   figure_cmd->add_option("--out", figure_out, "PNG file");
 
+  CLI::App* view_cmd = app.add_subcommand("view", "open a scene in the interactive viewer (haustra-view; `make view`)");
+  view_cmd->prefix_command();
+  view_cmd->set_help_flag();  // --help goes to the viewer
+
   CLI11_PARSE(app, argc, argv);
+  if (*view_cmd) return open_viewer(argv[0], view_cmd->remaining());
   try {
     if (*run_cmd) return run(ro);
     if (*validate_cmd) return validate(json, validate_markdown, assets);

@@ -1,0 +1,25 @@
+#pragma once
+// The mouse as the grasper and the camera's handle: a press on the organ grasps the nearest bead
+// along the ray (the engine's own grasp), a drag moves it in the view plane (Ctrl: along the view
+// axis), a release lets go; elsewhere the left button orbits, the right pans, the wheel zooms.
+#include <optional>
+
+#include "viewer_state.hpp"
+
+namespace haustra::view {
+
+struct BeadHit {
+  std::size_t bead = 0;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero(), normal = Eigen::Vector3d::UnitZ();
+};
+// The first bead sphere a ray meets.
+std::optional<BeadHit> pick_bead(const Ray& ray, const std::vector<Eigen::Vector3d>& centres,
+                                 const std::vector<double>& radii);
+
+enum class Button { left, right, middle };
+void mouse_press(ViewerState& v, Button button, double x, double y);
+void mouse_move(ViewerState& v, double x, double y);
+void mouse_release(ViewerState& v, Button button);
+void mouse_scroll(ViewerState& v, double steps);
+
+}  // namespace haustra::view

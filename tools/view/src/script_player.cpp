@@ -1,0 +1,83 @@
+// Script lines turned into the same calls the mouse, the keyboard and the panels make.
+#include "script_player.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "mouse.hpp"
+#include "panels.hpp"
+
+namespace haustra::view {
+
+bool ScriptPlayer::tick(ViewerState& v) {
+  while (next_ < lines_.size()) {
+    const ScriptLine& l = lines_[next_];
+    if (!started_) {
+      started_ = true;
+      start_frame_ = v.frame;
+      from_x_ = v.mouse.x;
+      from_y_ = v.mouse.y;
+    }
+    const auto elapsed = static_cast<double>(v.frame - start_frame_);
+    if (l.command == "wait") {
+      if (elapsed < l.frames) return true;
+    } else if (l.command == "move") {
+      const double t = std::min(1.0, elapsed / l.frames);
+      const double to_x = l.relative ? from_x_ + l.x : l.x, to_y = l.relative ? from_y_ + l.y : l.y;
+      mouse_move(v, from_x_ + t * (to_x - from_x_), from_y_ + t * (to_y - from_y_));
+      if (t < 1.0) return true;
+    } else if (l.command == "press") {
+      double x = l.x, y = l.y;
+      if (l.at_bead) {
+        const auto k = static_cast<std::size_t>(l.x);
+        if (k >= v.bead_centres.size()) {
+          v.note(fmt::format("script line {}: no bead {} (the scene has {})", l.line, k, v.bead_centres.size()));
+          v.quit = true;
+          return false;
+        }
+        const Eigen::Vector2d p = v.camera.project(v.bead_centres[k]);
+        x = p.x();
+        y = p.y();
+      }
+      mouse_move(v, x, y);
+      mouse_press(v, Button::left, x, y);
+    } else if (l.command == "release") {
+      mouse_release(v, Button::left);
+    } else if (l.command == "ctrl") {
+      v.mouse.ctrl = l.words[0] == "down";
+    } else if (l.command == "toggle") {
+      const std::string& w = l.words[0];
+      bool& flag = w == "beads" ? v.draw.beads : w == "cage" ? v.draw.cage : w == "centreline" ? v.draw.centreline : v.draw.contacts;
+      flag = !flag;
+      if (w == "cage") v.sim.frames().want_cages(flag);
+    } else if (l.command == "colour") {
+      const std::string& w = l.words[0];
+      v.draw.colour = w == "strain" ? Colouring::strain : w == "penetration" ? Colouring::penetration : Colouring::tissue;
+    } else if (l.command == "knob") {
+      turn_knob(v, l.words[0], l.words[1]);
+    } else if (l.command == "pause" || l.command == "resume") {
+      v.sim.post(SetPaused{l.command == "pause"});
+    } else if (l.command == "step") {
+      v.sim.post(StepOnce{});
+    } else if (l.command == "reset") {
+      v.sim.post(Reset{});
+    } else if (l.command == "save") {
+      v.sim.post(SaveCheckpoint{});
+    } else if (l.command == "restore") {
+      v.sim.post(RestoreCheckpoint{});
+    } else if (l.command == "screenshot") {
+      v.screenshot_pending = l.words[0];
+      ++next_;
+      started_ = false;
+      return true;  // taken after this window frame is drawn
+    } else if (l.command == "quit") {
+      v.quit = true;
+    }
+    ++next_;
+    started_ = false;
+  }
+  return false;
+}
+
+}  // namespace haustra::view

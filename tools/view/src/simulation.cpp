@@ -1,0 +1,278 @@
+// The physics thread: real-time pacing, commands between frames, rebuilds that keep the state,
+// publishing, and the log of what changed.
+#include "simulation.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+
+#include "haustra/error.hpp"
+#include "knobs.hpp"
+
+namespace haustra::view {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// Per mesh vertex, the nearest node of its own segment (for colouring the mesh by a node's strain).
+std::vector<std::uint32_t> nearest_nodes(const World& w) {
+  std::vector<std::uint32_t> out(w.mesh_buffer_size(), 0);
+  const auto p = w.mesh_positions();
+  const auto n = w.node_positions();
+  for (std::size_t s = 0; s < w.segment_count(); ++s) {
+    const MeshInfo& m = w.mesh(s);
+    if (!m.enabled) continue;
+    const Range r = w.segment(s).nodes;
+    for (std::size_t v = m.vertices.offset; v < m.vertices.offset + m.vertices.count; ++v) {
+      const Eigen::Vector3d x(p.x[v], p.y[v], p.z[v]);
+      double best = 1e300;
+      for (std::size_t k = r.offset; k < r.offset + r.count; ++k) {
+        const double d = (n.get(k) - x).squaredNorm();
+        if (d < best) {
+          best = d;
+          out[v] = static_cast<std::uint32_t>(k);
+        }
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+InstrumentDesc mouse_instrument() {
+  InstrumentDesc d;
+  d.name = "mouse";
+  d.radius = 0.002;
+  d.length = 0.08;
+  d.grasp_reach = 0.01;
+  d.force_filter = 0.05;  // s: the haptic loop's usual low-pass
+  d.tip = kParked;
+  return d;
+}
+
+Simulation::Simulation(const SceneDesc& scene, int threads, std::string checkpoint_file, bool start_paused)
+    : scene_(scene), threads_(threads), checkpoint_file_(std::move(checkpoint_file)), paused_(start_paused) {
+  scene_.world.threads = threads_;
+  scene_.world.instruments.push_back(mouse_instrument());
+  world_ = create_world(scene_);
+  frames_ = std::make_unique<FramePublisher>(*world_, /*details=*/true, /*cages=*/false);
+  publish_model();
+  stats_.paused = paused_;
+}
+
+Simulation::~Simulation() {
+  {
+    std::lock_guard lock(command_mutex_);
+    quit_ = true;
+  }
+  command_ready_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void Simulation::start() { thread_ = std::thread([this] { run(); }); }
+
+void Simulation::post(Command command) {
+  {
+    std::lock_guard lock(command_mutex_);
+    commands_.push_back(std::move(command));
+  }
+  command_ready_.notify_all();
+}
+
+std::shared_ptr<const ModelInfo> Simulation::model() const {
+  std::lock_guard lock(model_mutex_);
+  return model_;
+}
+
+SimulationStats Simulation::stats() const {
+  std::lock_guard lock(log_mutex_);
+  return stats_;
+}
+
+std::vector<std::string> Simulation::take_log() {
+  std::lock_guard lock(log_mutex_);
+  return std::exchange(log_, {});
+}
+
+void Simulation::log(std::string message) {
+  std::lock_guard lock(log_mutex_);
+  log_.push_back(fmt::format("[{:.3f} s] {}", world_->time(), message));
+}
+
+void Simulation::publish_model() {
+  auto info = std::make_shared<ModelInfo>();
+  const World& w = *world_;
+  info->generation = ++generation_;
+  info->desc = w.desc();
+  info->node_count = w.node_count();
+  for (std::size_t s = 0; s < w.segment_count(); ++s) {
+    info->segment_nodes.push_back(w.segment(s).nodes);
+    info->meshes.push_back(w.mesh(s));
+    const auto cage = w.mesh(s).enabled ? w.cage_triangles(s) : std::span<const std::array<std::uint32_t, 3>>{};
+    info->cage_triangles.emplace_back(cage.begin(), cage.end());
+  }
+  const auto tris = w.mesh_triangles();
+  info->triangles.assign(tris.begin(), tris.end());
+  info->vertex_node = nearest_nodes(w);
+  info->bead_nodes.assign(w.bead_nodes().begin(), w.bead_nodes().end());
+  info->bead_radii.assign(w.bead_radii().begin(), w.bead_radii().end());
+  info->mouse = w.instrument_count() - 1;
+  std::lock_guard lock(model_mutex_);
+  model_ = std::move(info);
+}
+
+void Simulation::rebuild(WorldDesc next, const std::string& what, bool keep_state) {
+  const auto t0 = Clock::now();
+  try {
+    // The window holds a frame for its upload only: wait for it, then swap the world and the
+    // model together, under the publisher's lock.
+    frames_->resize(
+        [&]() -> const World& {
+          if (keep_state) {
+            world_->reconfigure(std::move(next));
+          } else {
+            SceneDesc fresh = scene_;
+            fresh.world = std::move(next);
+            world_ = create_world(fresh);
+          }
+          publish_model();
+          return *world_;
+        },
+        /*wait_for_reader=*/true);
+    unstable_ = false;
+    log(fmt::format("{}: model rebuilt in {:.1f} ms{}", what, 1e3 * seconds_since(t0),
+                    keep_state ? " (state kept)" : " (back to frame 0)"));
+  } catch (const Error& e) {
+    log(fmt::format("{}: refused, the world is as it was: {}", what, e.what()));
+  }
+}
+
+void Simulation::apply(Command& command) {
+  World& w = *world_;
+  const std::size_t mouse = w.instrument_count() - 1;
+  std::visit(
+      [&](auto& c) {
+        using T = std::decay_t<decltype(c)>;
+        if constexpr (std::is_same_v<T, GraspAt>) {
+          mouse_axis_ = c.axis;
+          w.set_instrument_pose(mouse, c.tip, c.axis);
+          w.set_instrument_grasp(mouse, true);
+          park_after_step_ = false;
+        } else if constexpr (std::is_same_v<T, MoveTip>) {
+          w.set_instrument_pose(mouse, c.tip, mouse_axis_);
+        } else if constexpr (std::is_same_v<T, Release>) {
+          w.set_instrument_grasp(mouse, false);
+          park_after_step_ = true;
+        } else if constexpr (std::is_same_v<T, SetPaused>) {
+          paused_ = c.paused;
+          log(paused_ ? "paused" : "running");
+        } else if constexpr (std::is_same_v<T, StepOnce>) {
+          paused_ = true;
+          step_once();
+        } else if constexpr (std::is_same_v<T, Reset>) {
+          rebuild(world_->desc(), "reset", false);
+        } else if constexpr (std::is_same_v<T, SaveCheckpoint>) {
+          checkpoint_ = w.save_checkpoint();
+          if (!checkpoint_file_.empty()) w.save_checkpoint_file(checkpoint_file_);
+          log(fmt::format("checkpoint saved at frame {} ({} kB{})", w.frame(), checkpoint_.size() / 1024,
+                          checkpoint_file_.empty() ? ", in memory" : ", " + checkpoint_file_));
+        } else if constexpr (std::is_same_v<T, RestoreCheckpoint>) {
+          try {
+            if (!checkpoint_file_.empty()) w.restore_checkpoint_file(checkpoint_file_);
+            else if (checkpoint_.empty()) throw Error(ErrorCode::invalid_argument, "no checkpoint saved yet");
+            else w.restore_checkpoint(checkpoint_, "the checkpoint saved in this session");
+            unstable_ = false;
+            frames_->publish(w);
+            log(fmt::format("checkpoint restored: frame {}", w.frame()));
+          } catch (const Error& e) {
+            log(fmt::format("restore refused, the world is as it was: {}", e.what()));
+          }
+        } else if constexpr (std::is_same_v<T, Reconfigure>) {
+          try {
+            KnobChange change = set_knob(world_->desc(), c.knob, c.value, scene_.world.dt);
+            rebuild(std::move(change.desc), change.what, true);
+          } catch (const Error& e) {
+            log(e.what());
+          }
+        }
+      },
+      command);
+}
+
+void Simulation::step_once() {
+  World& w = *world_;
+  try {
+    w.step();
+  } catch (const Error& e) {
+    if (e.code() != ErrorCode::unstable) throw;
+    unstable_ = true;
+    paused_ = true;
+    went_unstable_ = true;
+    log(fmt::format("stopped: {} (reset, restore a checkpoint or change a knob)", e.what()));
+  }
+  if (park_after_step_) {
+    w.set_instrument_pose(w.instrument_count() - 1, kParked, Eigen::Vector3d::UnitZ());
+    park_after_step_ = false;
+  }
+  const auto events = w.events();
+  for (; events_logged_ < events.size(); ++events_logged_) log(std::string(events[events_logged_].message()));
+  frames_->publish(w);
+}
+
+void Simulation::run() {
+  auto clock_start = Clock::now();
+  double sim_start = world_->time();
+  auto window_start = Clock::now();
+  double window_sim = world_->time();
+  int window_steps = 0;
+  std::vector<Command> pending;
+  for (;;) {
+    {
+      std::unique_lock lock(command_mutex_);
+      if (paused_ || unstable_)
+        command_ready_.wait_for(lock, std::chrono::milliseconds(20), [&] { return quit_ || !commands_.empty(); });
+      if (quit_) return;
+      pending.swap(commands_);
+    }
+    for (Command& c : pending) apply(c);
+    if (!pending.empty() || paused_ || unstable_) {  // the clock and the real-time window restart after any change
+      clock_start = window_start = Clock::now();
+      sim_start = window_sim = world_->time();
+      window_steps = 0;
+    }
+    pending.clear();
+    {
+      std::lock_guard lock(log_mutex_);
+      stats_.paused = paused_;
+      stats_.unstable = unstable_;
+    }
+    if (paused_ || unstable_) continue;
+    const double ahead = (world_->time() - sim_start) - seconds_since(clock_start);
+    if (ahead > 0.0) {  // ahead of the wall clock: wait (commands wake us)
+      std::unique_lock lock(command_mutex_);
+      command_ready_.wait_for(lock, std::chrono::duration<double>(std::min(ahead, 0.002)),
+                              [&] { return quit_ || !commands_.empty(); });
+      continue;
+    }
+    if (ahead < -0.25) {  // cannot keep up: run flat out, the real-time factor says so
+      clock_start = Clock::now();
+      sim_start = world_->time();
+    }
+    step_once();
+    ++window_steps;
+    const double elapsed = seconds_since(window_start);
+    if (elapsed >= 0.5) {
+      std::lock_guard lock(log_mutex_);
+      stats_.real_time_factor = (world_->time() - window_sim) / elapsed;
+      stats_.steps_per_second = window_steps / elapsed;
+      window_start = Clock::now();
+      window_sim = world_->time();
+      window_steps = 0;
+    }
+  }
+}
+
+}  // namespace haustra::view

@@ -1,0 +1,115 @@
+#pragma once
+// The viewer's physics thread: owns the world, steps it at the scene's dt in real time, applies the
+// window's commands between frames and publishes every frame through the engine's FramePublisher,
+// so the window draws the latest completed frame and never makes a step wait.
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <variant>
+#include <vector>
+
+#include "haustra/frame_publisher.hpp"
+#include "haustra/scene.hpp"
+#include "haustra/world.hpp"
+
+namespace haustra::view {
+
+// What one model looks like, constant until the next rebuild (reset, a knob, the rate toggle).
+struct ModelInfo {
+  std::uint64_t generation = 0;
+  WorldDesc desc;  // what the model was built from (the knobs start here)
+  std::size_t node_count = 0;
+  std::vector<Range> segment_nodes;
+  std::vector<MeshInfo> meshes;                                   // per segment
+  std::vector<std::array<std::uint32_t, 3>> triangles;            // all meshes, global vertex indices
+  std::vector<std::uint32_t> vertex_node;                         // per mesh vertex: its nearest node at build
+  std::vector<std::vector<std::array<std::uint32_t, 3>>> cage_triangles;  // per segment
+  std::vector<std::uint32_t> bead_nodes;
+  std::vector<double> bead_radii;
+  std::size_t mouse = 0;  // the instrument the mouse drives (the viewer adds it to the scene)
+};
+
+struct GraspAt { Eigen::Vector3d tip, axis; };
+struct MoveTip { Eigen::Vector3d tip; };
+struct Release {};
+struct SetPaused { bool paused; };
+struct StepOnce {};
+struct Reset {};
+struct SaveCheckpoint {};
+struct RestoreCheckpoint {};
+// A knob (knobs.hpp), applied to the description the world has when the command is taken, so
+// several knobs turned between two frames all hold.
+struct Reconfigure { std::string knob, value; };
+using Command = std::variant<GraspAt, MoveTip, Release, SetPaused, StepOnce, Reset, SaveCheckpoint, RestoreCheckpoint,
+                             Reconfigure>;
+
+struct SimulationStats {
+  double real_time_factor = 0.0;  // simulated seconds per wall second over the last half second
+  double steps_per_second = 0.0;
+  bool paused = false;
+  bool unstable = false;          // the last step was refused; paused until a reset or restore
+};
+
+class Simulation {
+ public:
+  // Builds the world from the scene (plus the mouse's instrument); throws haustra::Error as
+  // `haustra run` does. checkpoint: a file for save/restore ("" keeps checkpoints in memory).
+  Simulation(const SceneDesc& scene, int threads, std::string checkpoint_file, bool start_paused);
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  void start();
+  void post(Command command);
+  FramePublisher& frames() { return *frames_; }
+  // The model of the frames acquired from now on: read it after acquire() (a rebuild waits for
+  // the window to release its frame, so the two always match).
+  [[nodiscard]] std::shared_ptr<const ModelInfo> model() const;
+  [[nodiscard]] SimulationStats stats() const;
+  std::vector<std::string> take_log();  // messages since the last call: changes, events, errors
+  [[nodiscard]] bool went_unstable() const { return went_unstable_.load(); }
+
+ private:
+  void run();
+  void apply(Command& command);
+  void step_once();
+  void rebuild(WorldDesc next, const std::string& what, bool keep_state);
+  void publish_model();
+  void log(std::string message);
+
+  SceneDesc scene_;
+  int threads_ = 0;
+  std::string checkpoint_file_;
+  std::vector<std::byte> checkpoint_;
+  std::unique_ptr<World> world_;
+  std::unique_ptr<FramePublisher> frames_;
+  std::shared_ptr<const ModelInfo> model_;
+  mutable std::mutex model_mutex_;
+  std::uint64_t generation_ = 0;
+
+  std::mutex command_mutex_;
+  std::condition_variable command_ready_;
+  std::vector<Command> commands_;
+  bool quit_ = false;
+
+  mutable std::mutex log_mutex_;
+  std::vector<std::string> log_;
+  SimulationStats stats_;
+  std::size_t events_logged_ = 0;
+  bool paused_ = false, unstable_ = false, park_after_step_ = false;
+  std::atomic<bool> went_unstable_{false};
+  Eigen::Vector3d mouse_axis_ = Eigen::Vector3d::UnitZ();
+  std::thread thread_;
+};
+
+// The mouse's instrument, added to every scene the viewer opens: a thin grasper parked far above
+// the scene until a press puts it on a bead.
+InstrumentDesc mouse_instrument();
+inline const Eigen::Vector3d kParked(0.0, 0.0, 1.0e3);
+
+}  // namespace haustra::view

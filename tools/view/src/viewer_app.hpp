@@ -1,0 +1,24 @@
+#pragma once
+// `haustra view`: the window's life from opening to exit code.
+#include <string>
+#include <vector>
+
+namespace haustra::view {
+
+struct ViewerOptions {
+  std::string scene;
+  std::vector<std::string> sets;  // scene overrides, as `haustra run --set`
+  int threads = 0;
+  std::string script;             // scripted input (script.hpp)
+  std::string screenshot;         // the last frame drawn, at exit
+  std::string record;             // JSON of what happened (for tests)
+  std::string checkpoint;         // file for Save / Restore ("" : in memory)
+  int width = 1280, height = 720;
+  bool paused = false;
+};
+
+// Exit codes as `haustra run`: 0 ok, 2 bad input (scene, script, no display), 3 the simulation
+// went unstable during a scripted run.
+int run_viewer(const ViewerOptions& options);
+
+}  // namespace haustra::view

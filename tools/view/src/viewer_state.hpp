@@ -1,0 +1,95 @@
+#pragma once
+// What the window knows between its frames: the camera, the display options, what it copied from
+// the last published frame, the force plot, the mouse's state and the log.
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gl_scene.hpp"
+#include "orbit_camera.hpp"
+#include "simulation.hpp"
+
+namespace haustra::view {
+
+inline constexpr float kPanelWidth = 370.0f;  // the panels' column on the left, pixels
+
+// The force on the mouse's grasper over the last seconds, one sample per frame the window saw.
+struct ForcePlot {
+  static constexpr std::size_t kSamples = 300;
+  std::deque<float> raw, filtered;  // |F|, N
+  void push(float r, float f) {
+    raw.push_back(r);
+    filtered.push_back(f);
+    if (raw.size() > kSamples) {
+      raw.pop_front();
+      filtered.pop_front();
+    }
+  }
+};
+
+struct MouseState {
+  enum class Mode { idle, grasping, orbiting, panning };
+  Mode mode = Mode::idle;
+  double x = 0, y = 0;  // the pointer, window coordinates
+  bool ctrl = false;
+  Eigen::Vector3d hit = Eigen::Vector3d::Zero();     // where the press met the bead, then where it is dragged
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // tip − hit
+  std::size_t bead = 0;
+};
+
+// What a test reads back (--record): the frames seen, the presses and releases, the plot.
+struct Sample {
+  std::uint64_t frame = 0;
+  double time = 0.0;
+  bool grasping = false;
+  std::size_t node = 0;  // global index of the grasped node
+  Eigen::Vector3d node_position = Eigen::Vector3d::Zero(), tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d force = Eigen::Vector3d::Zero(), filtered_force = Eigen::Vector3d::Zero();
+};
+struct InputEvent {
+  std::string kind;  // press, release
+  std::uint64_t frame = 0;
+  double x = 0, y = 0;
+  bool on_organ = false;
+  std::size_t bead = 0;
+  Eigen::Vector3d hit = Eigen::Vector3d::Zero();
+  OrbitCamera camera;
+};
+
+struct ViewerState {
+  explicit ViewerState(Simulation& s) : sim(s) {}
+  Simulation& sim;
+  std::string scene_name;
+  double scene_dt = 1.0 / 60.0;
+  int scene_frames = 60;
+  OrbitCamera camera;
+  bool camera_fitted = false;
+  DrawOptions draw;
+  bool show_panels = true;
+
+  // Copied from the last frame the window acquired.
+  std::shared_ptr<const ModelInfo> model;
+  std::uint64_t frame = 0;
+  double time = 0.0;
+  FrameProfile profile;
+  std::vector<InstrumentReading> instruments;
+  std::vector<Eigen::Vector3d> bead_centres;
+  std::size_t contact_count = 0;
+
+  ForcePlot plot;
+  MouseState mouse;
+  std::vector<std::string> log;
+  void note(std::string line) { log.push_back(std::move(line)); }
+
+  bool recording = false;
+  std::vector<Sample> samples;
+  std::vector<InputEvent> events;
+  std::vector<std::string> screenshots;
+  std::string screenshot_pending;
+  bool quit = false;
+};
+
+}  // namespace haustra::view
