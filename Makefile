@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study skinning-doc figures soak fuzz clean
+.PHONY: all deps configure build demo view test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study skinning-doc figures soak fuzz clean
 
 all: build
 
@@ -23,6 +23,10 @@ demo: build
 	@$(BIN)/haustra run scenes/demo.toml --out $(DEMO_OUT)
 	@echo
 	@echo "demo outputs: $(abspath $(DEMO_OUT))/ (summary.json, frames.csv, nodes.csv, mesh/ deformed meshes, mesh.glb animation)"
+
+# The interactive viewer on the demo: grasp the rectum with the mouse (docs/guide.md, "The viewer").
+view: build
+	@$(BIN)/haustra view scenes/demo.toml
 
 # The Python module, built with the release tree (its tests run in `make test`, as ctest's `python`).
 python: build
