@@ -4,6 +4,7 @@
 // making the stepping thread wait (docs/decisions/0029-double-buffered-output.md). The C API's
 // double-buffered worlds and `haustra view` both read frames through this.
 #include <array>
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <mutex>
@@ -60,8 +61,6 @@ class FramePublisher {
 
   const Slot& acquire();  // the reading thread; one slot at a time
   void release();
-  // The newest frame number published (for a reader deciding whether to acquire).
-  [[nodiscard]] std::uint64_t latest_frame();
 
  private:
   void size_slot(Slot& s, const World& w) const;
@@ -74,7 +73,7 @@ class FramePublisher {
   int back_ = 0, ready_ = 1, reading_ = 2;
   bool fresh_ = false, held_ = false;
   bool details_ = false;
-  bool cages_ = false;  // read by the stepping thread under the lock's ordering (want_cages locks)
+  std::atomic<bool> cages_{false};  // set by the reader, read by the stepping thread
 };
 
 }  // namespace haustra

@@ -30,10 +30,7 @@ void FramePublisher::publish(const World& world) {
   fresh_ = true;
 }
 
-void FramePublisher::want_cages(bool on) {
-  std::lock_guard lock(mutex_);
-  cages_ = on;
-}
+void FramePublisher::want_cages(bool on) { cages_ = on; }
 
 const FramePublisher::Slot& FramePublisher::acquire() {
   std::lock_guard lock(mutex_);
@@ -55,11 +52,6 @@ void FramePublisher::release() {
     held_ = false;
   }
   released_.notify_all();
-}
-
-std::uint64_t FramePublisher::latest_frame() {
-  std::lock_guard lock(mutex_);
-  return slots_[fresh_ ? ready_ : reading_].frame;
 }
 
 void FramePublisher::refuse_if_held() const {
