@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <optional>
 #include <cmath>
 
 #include "field_checks.hpp"
@@ -155,6 +156,31 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
   }
 }
 
+// Beads whose node the mesh does not surround (a centreline running past an open end, rays
+// escaping there) take the radius of the nearest bead it does surround, along the rod. None
+// surrounded: the mesh is not around this rod at all.
+void fill_uncovered_radii(std::vector<std::optional<double>>& radii, const std::vector<double>& arcs,
+                          const std::string& where, double reach) {
+  std::size_t covered = 0;
+  for (const auto& r : radii) covered += r ? 1 : 0;
+  if (covered == radii.size()) return;
+  if (covered == 0)
+    throw FieldError(ErrorCode::invalid_geometry, where + ".radius",
+                     fmt::format("no bead's node has the organ mesh around it (16 rays in its normal plane, within "
+                                 "{:.3g} m): the mesh does not surround the rod",
+                                 reach));
+  const std::vector<std::optional<double>> measured = radii;
+  for (std::size_t i = 0; i < radii.size(); ++i) {
+    if (radii[i]) continue;
+    double best = 1e300;
+    for (std::size_t j = 0; j < measured.size(); ++j)
+      if (measured[j] && std::abs(arcs[j] - arcs[i]) < best) {
+        best = std::abs(arcs[j] - arcs[i]);
+        radii[i] = measured[j];
+      }
+  }
+}
+
 void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& initial_positions,
                  const std::vector<RodPoseBuffer>& rest_poses, const std::vector<TriangleMesh>& meshes, WorldModel& m) {
   BeadModel& beads = m.beads;
@@ -198,21 +224,27 @@ void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& init
     rod_nodes.erase(std::unique(rod_nodes.begin(), rod_nodes.end()), rod_nodes.end());
     double arc = 0.0;
     std::size_t last = 0;
+    std::vector<double> arcs;
+    std::vector<std::optional<double>> radii;
     for (std::size_t k : rod_nodes) {
       for (; last < k; ++last) arc += h[last];
       const double fraction = arc / seg.info.length;
-      double r = !b.radius_profile.empty() ? profile_radius(b.radius_profile, fraction)
-                 : b.radius != 0.0         ? b.radius
-                                           : desc.segments[si].cross_section.radius;
+      std::optional<double> r = !b.radius_profile.empty() ? profile_radius(b.radius_profile, fraction)
+                                : b.radius != 0.0         ? b.radius
+                                                          : desc.segments[si].cross_section.radius;
       if (b.radius_from_mesh) {
         const kernels::RodPoses<const double> rest = rest_poses[si].view();
         r = mesh_cross_section_radius(*wall, {rest.node_rotation.get(k), rest.node_position.get(k)},
-                                      10.0 * desc.segments[si].cross_section.radius,
-                                      fmt::format("{}.radius (bead on node {})", where, k));
+                                      10.0 * desc.segments[si].cross_section.radius);
       }
-      beads.node.push_back(static_cast<std::uint32_t>(seg.node_offset + k));
+      arcs.push_back(arc);
+      radii.push_back(r);
+    }
+    fill_uncovered_radii(radii, arcs, where, 10.0 * desc.segments[si].cross_section.radius);
+    for (std::size_t i = 0; i < rod_nodes.size(); ++i) {
+      beads.node.push_back(static_cast<std::uint32_t>(seg.node_offset + rod_nodes[i]));
       beads.segment.push_back(static_cast<std::uint32_t>(si));
-      beads.radius.push_back(r);
+      beads.radius.push_back(*radii[i]);
       beads.modulus.push_back(desc.segments[si].material.youngs_modulus);
     }
     seg.bead_count = beads.size() - seg.bead_offset;

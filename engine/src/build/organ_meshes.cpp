@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 #include "haustra/kernels/mesh_normals.hpp"
 #include "haustra/error.hpp"
@@ -22,8 +23,7 @@ constexpr std::size_t kChunkBlocks = 64;  // 512 vertices per skinning task
 
 }  // namespace
 
-double mesh_cross_section_radius(const EmbreeScene& wall, const kernels::Pose& station, double reach,
-                                 const std::string& where) {
+std::optional<double> mesh_cross_section_radius(const EmbreeScene& wall, const kernels::Pose& station, double reach) {
   constexpr int kRays = 16;
   const Eigen::Matrix3d r = station.rotation.toRotationMatrix();
   std::vector<double> hits;
@@ -33,11 +33,7 @@ double mesh_cross_section_radius(const EmbreeScene& wall, const kernels::Pose& s
     const EmbreeScene::Hit h = wall.first_hit(station.position, dir, 0.0, reach);
     if (h.found) hits.push_back(h.distance);
   }
-  if (hits.size() < kRays / 2)
-    fail(ErrorCode::invalid_geometry, where,
-         fmt::format("only {} of {} rays from the node meet the organ mesh within {:.3g} m: the mesh does not surround "
-                     "the rod there",
-                     hits.size(), kRays, reach));
+  if (hits.size() < kRays / 2) return std::nullopt;  // past an open end, or outside the mesh
   std::nth_element(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(hits.size() / 2), hits.end());
   return hits[hits.size() / 2];
 }

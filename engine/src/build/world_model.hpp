@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <optional>
 #include <vector>
 
 #include <memory>
@@ -201,7 +202,8 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
                        std::vector<TriangleMesh>& meshes, WorldModel& m);
 // The median distance from a station to the mesh wall over a ring of rays in its (d1, d2) plane;
 // wall: an Embree scene of the mesh. Throws when no ray meets the wall within `reach`.
-double mesh_cross_section_radius(const EmbreeScene& wall, const kernels::Pose& station, double reach,
-                                 const std::string& where);
+// The median distance from a rod station to the mesh over 16 rays in its normal plane; none when
+// fewer than half the rays meet the mesh within `reach` (past an open end, outside the mesh).
+std::optional<double> mesh_cross_section_radius(const EmbreeScene& wall, const kernels::Pose& station, double reach);
 
 }  // namespace haustra::detail

@@ -16,6 +16,7 @@ bool ScriptPlayer::tick(ViewerState& v) {
     if (!started_) {
       started_ = true;
       start_frame_ = v.frame;
+      v.events.push_back({"script " + l.command, v.frame, v.mouse.x, v.mouse.y, false, 0, Eigen::Vector3d::Zero(), v.camera});
       from_x_ = v.mouse.x;
       from_y_ = v.mouse.y;
     }
