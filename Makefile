@@ -130,10 +130,11 @@ study: build
 	@/usr/bin/python3 scripts/plots.py tradeoff out/tradeoff.csv docs/figures/tradeoff.png
 	@echo "wrote $(abspath docs/tradeoff.md) and $(abspath docs/figures/tradeoff.png)"
 
-# Regenerates docs/skinning.md's table (the localization study).
+# Regenerates docs/skinning.md's tables (the localization study and real anatomy).
 skinning-doc: build
 	@$(BIN)/haustra skinning --markdown > docs/skinning-table.md
-	@echo "wrote $(abspath docs/skinning-table.md)"
+	@$(BIN)/haustra skinning --anatomy > docs/skinning-anatomy.md
+	@echo "wrote $(abspath docs/skinning-table.md) and $(abspath docs/skinning-anatomy.md) (docs/skinning.md copies both)"
 
 # The long soak (docs/reliability.md): 1,000,000 frames of grasp and release on `drop`, about
 # 25 minutes on one core; samples in out/soak/soak.csv, plots in docs/figures/soak-*.png.

@@ -28,7 +28,7 @@ constexpr double kBytesPerVertex = 12.0 + 4.0 + kSlots * 16.0 + kSlots * 4.0 / 8
 
 struct Binding {
   std::vector<float> rx, ry, rz, coef, delta, ox, oy, oz;
-  std::vector<std::uint32_t> vertex, ring;
+  std::vector<std::uint32_t> vertex, ring, slot_start;
   std::size_t blocks;
   explicit Binding(std::size_t vertices) : blocks((vertices + kSkinLanes - 1) / kSkinLanes) {
     std::mt19937 rng(3);
@@ -52,10 +52,11 @@ struct Binding {
     ring.resize(blocks * kSlots);
     for (std::size_t b = 0; b < blocks; ++b)
       for (std::size_t s = 0; s < kSlots; ++s) ring[b * kSlots + s] = static_cast<std::uint32_t>((b * rings / blocks + s) % rings);
+    for (std::size_t b = 0; b <= blocks; ++b) slot_start.push_back(static_cast<std::uint32_t>(b * kSlots));
     delta.resize(kRingDeltaFloats * rings);
     for (auto& d : delta) d = 0.01f * u(rng);
   }
-  [[nodiscard]] SkinBindingView view() const { return {kSlots, rx, ry, rz, vertex, ring, coef}; }
+  [[nodiscard]] SkinBindingView view() const { return {slot_start, rx, ry, rz, vertex, ring, coef}; }
 };
 
 void counters(benchmark::State& state, double vertices) {

@@ -13,6 +13,8 @@ packages=(
   valgrind
   # the Python module (`make python`) and its tests and examples (decision 0043)
   python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-matplotlib
+  # `haustra import` computes centrelines with CGAL (decision 0047)
+  libcgal-dev
   # the viewer (`make view`, decision 0046) and its test under Xvfb with Mesa's software OpenGL
   libglfw3-dev libimgui-dev libgl-dev xvfb xauth libgl1-mesa-dri
 )

@@ -197,7 +197,8 @@ TEST_CASE("haustra run grasps and pulls the CT colon and writes its deformed mes
   // The builder's report: cage size, rings, inflation, embedding, MVC diagnostics.
   CHECK(r.out.find("cage: 109 rings") != std::string::npos);
   CHECK(r.out.find("0 mesh vertices outside, 0 mesh edges crossing, 0 cage self-intersections") != std::string::npos);
-  CHECK(r.out.find("mean value coordinates: 4 rings per vertex") != std::string::npos);
+  CHECK(r.out.find("mean value coordinates: ") != std::string::npos);
+  CHECK(r.out.find(" rings per vertex (up to ") != std::string::npos);
   CHECK(r.out.find("grasping segment 0") != std::string::npos);
   for (const char* f : {"frame_00000.ply", "frame_00020.ply", "frame_00040.ply"}) CHECK(fs::exists(dir / "mesh" / f));
   // The centreline and the beads of the same frames as CSV: a header, then 3 frames × 167 nodes

@@ -114,10 +114,13 @@ double worst_winding_error(const detail::CageModel& cage) {
 TEST_CASE("the rigid-group skinning kernel equals its scalar reference") {
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  std::uniform_int_distribution<std::uint32_t> ring(0, 39);
-  const std::size_t blocks = 300, slots = 5, vertices = blocks * kernels::kSkinLanes - 3;
-  std::vector<float> rx(blocks * 8), ry(blocks * 8), rz(blocks * 8), coef(blocks * slots * 32), delta(40 * 12);
-  std::vector<std::uint32_t> vertex(blocks * 8), rings(blocks * slots);
+  std::uniform_int_distribution<std::uint32_t> ring(0, 39), slots_of(1, 9);
+  const std::size_t blocks = 300, vertices = blocks * kernels::kSkinLanes - 3;
+  std::vector<std::uint32_t> slot_start{0};  // blocks keep 1 to 9 rings each
+  for (std::size_t b = 0; b < blocks; ++b) slot_start.push_back(slot_start.back() + slots_of(rng));
+  const std::size_t slots = slot_start.back();
+  std::vector<float> rx(blocks * 8), ry(blocks * 8), rz(blocks * 8), coef(slots * 32), delta(40 * 12);
+  std::vector<std::uint32_t> vertex(blocks * 8), rings(slots);
   for (std::size_t i = 0; i < rx.size(); ++i) {
     rx[i] = u(rng);
     ry[i] = u(rng);
@@ -127,7 +130,7 @@ TEST_CASE("the rigid-group skinning kernel equals its scalar reference") {
   for (auto& c : coef) c = 0.1f * u(rng);
   for (auto& d : delta) d = u(rng);
   for (auto& r : rings) r = ring(rng);
-  const kernels::SkinBindingView view{slots, rx, ry, rz, vertex, rings, coef};
+  const kernels::SkinBindingView view{slot_start, rx, ry, rz, vertex, rings, coef};
   Skinned fast(vertices), slow(vertices);
   kernels::skin_rigid_groups(view, delta, 0, blocks / 2, fast.out());
   kernels::skin_rigid_groups(view, delta, blocks / 2, blocks - blocks / 2, fast.out());  // two chunks
@@ -135,7 +138,7 @@ TEST_CASE("the rigid-group skinning kernel equals its scalar reference") {
   double worst = 0.0;
   for (std::size_t v = 0; v < vertices; ++v) worst = std::max(worst, (fast.at(v) - slow.at(v)).norm());
   MESSAGE("largest difference " << worst << " (positions and sums of order 1)");
-  CHECK(worst < 4e-6);  // float rounding of 21 terms
+  CHECK(worst < 6e-6);  // float rounding of up to 37 terms
 }
 
 TEST_CASE("procedural organ: closed, outward, the vertex count asked for, the volume of its shape") {
@@ -206,7 +209,7 @@ TEST_CASE("rigid-group skinning equals the plain sparse product over cage vertic
   const TriangleMesh input = regenerate(m, d);
   SkinReport report;
   detail::CageWeights csr;
-  (void)detail::bind_mean_value(mesh.cage, input, 0, report, &csr);
+  (void)detail::bind_mean_value(mesh.cage, input, 0, 0.0, report, &csr);
   std::mt19937 rng(17);
   const double size = size_of(input.vertices);
   double worst = 0.0, moved = 0.0;
@@ -280,11 +283,17 @@ TEST_CASE("the CT colon: cage built around its own mesh, embedded, bound with di
 
 TEST_CASE("localization study: error falls with K, and MVC follows rigid cross-sections closer than linear blend") {
   const validation::SkinningStudy s = validation::run_skinning_study();
-  REQUIRE(s.rows.size() == 7);
+  REQUIRE(s.rows.size() == 8);
   CHECK(s.rows[0].max_error == 0.0);  // full MVC against itself
   for (std::size_t i = 2; i < 6; ++i) CHECK(s.rows[i].max_error < s.rows[i - 1].max_error);
   const auto& k4 = s.rows[3];
-  const auto& lbs = s.rows[6];
+  const auto& adaptive = s.rows[6];  // at least 4 rings, more until 2 % of the weight or less is left out
+  MESSAGE("K = 4: " << k4.max_error << " m from full MVC, " << k4.slots << " rings; per vertex: " << adaptive.max_error
+                    << " m, " << adaptive.slots << " rings on average");
+  CHECK(adaptive.max_error < 1e-3);  // the bound it is chosen for (measured 0.97 mm; K = 4: 1.44 mm)
+  CHECK(adaptive.max_error < k4.max_error);
+  CHECK(adaptive.slots > 4.0);
+  const auto& lbs = s.rows[7];
   CHECK(lbs.transport_max > 2.0 * k4.transport_max);
   CHECK(lbs.twist_volume_change < -0.01);                 // the candy wrapper
   CHECK(std::abs(k4.twist_volume_change) < std::abs(lbs.twist_volume_change));

@@ -24,15 +24,15 @@ inline Lanes load(const float* p) {
 
 void skin_rigid_groups(const SkinBindingView& binding, std::span<const float> ring_delta, std::size_t first,
                        std::size_t count, const FloatVec3Out& out) {
-  const std::size_t slots = binding.slots;
   const float* delta = ring_delta.data();
   for (std::size_t block = first; block < first + count; ++block) {
     const std::size_t base = block * kSkinLanes;
     Lanes x = load(binding.rest_x.data() + base);
     Lanes y = load(binding.rest_y.data() + base);
     Lanes z = load(binding.rest_z.data() + base);
-    const std::uint32_t* ring = binding.ring.data() + block * slots;
-    const float* coef = binding.coefficient.data() + block * slots * kSkinCoefficients * kSkinLanes;
+    const std::size_t first_slot = binding.slot_start[block], slots = binding.slot_start[block + 1] - first_slot;
+    const std::uint32_t* ring = binding.ring.data() + first_slot;
+    const float* coef = binding.coefficient.data() + first_slot * kSkinCoefficients * kSkinLanes;
     for (std::size_t s = 0; s < slots; ++s, coef += kSkinCoefficients * kSkinLanes) {
       // One ring for all lanes: its 3×4 delta is broadcast against 8 vertices' coefficients.
       const float* t = delta + kRingDeltaFloats * ring[s];
@@ -54,17 +54,16 @@ void skin_rigid_groups(const SkinBindingView& binding, std::span<const float> ri
 
 void skin_rigid_groups_reference(const SkinBindingView& binding, std::span<const float> ring_delta,
                                  const FloatVec3Out& out) {
-  const std::size_t slots = binding.slots;
   for (std::size_t i = 0; i < binding.rest_x.size(); ++i) {
     const std::uint32_t v = binding.vertex[i];
     if (v == kNoVertex) continue;
     const std::size_t block = i / kSkinLanes, lane = i % kSkinLanes;
     double d[3] = {0.0, 0.0, 0.0};
-    for (std::size_t s = 0; s < slots; ++s) {
-      const std::size_t c = ((block * slots + s) * kSkinCoefficients) * kSkinLanes + lane;
+    for (std::size_t s = binding.slot_start[block]; s < binding.slot_start[block + 1]; ++s) {
+      const std::size_t c = (s * kSkinCoefficients) * kSkinLanes + lane;
       const double coef[4] = {binding.coefficient[c + kSkinLanes], binding.coefficient[c + 2 * kSkinLanes],
                               binding.coefficient[c + 3 * kSkinLanes], binding.coefficient[c]};  // Ax Ay Az b
-      const float* t = ring_delta.data() + kRingDeltaFloats * binding.ring[block * slots + s];
+      const float* t = ring_delta.data() + kRingDeltaFloats * binding.ring[s];
       for (int r = 0; r < 3; ++r)
         for (int k = 0; k < 4; ++k) d[r] += static_cast<double>(t[4 * r + k]) * coef[k];
     }

@@ -14,6 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "haustra/error.hpp"
+#include "haustra/anatomy_study.hpp"
+#include "haustra/import.hpp"
 #include "haustra/render.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/stability.hpp"
@@ -434,6 +436,12 @@ int main(int argc, char** argv) {
   CLI::App* skinning_cmd = app.add_subcommand(
       "skinning", "localization study: rings kept per mesh vertex against cost and error, and linear-blend skinning");
   skinning_cmd->add_flag("--markdown", skinning_markdown, "print the table of docs/skinning.md");
+  bool skinning_anatomy = false;
+  skinning_cmd->add_flag("--anatomy", skinning_anatomy,
+                         "the real-anatomy table instead: the CT colon and procedural organs imported, deformed, K = 4 "
+                         "against the per-vertex localization");
+  std::string skinning_assets = HAUSTRA_DEFAULT_ASSETS;
+  skinning_cmd->add_option("--assets", skinning_assets, "directory holding large-intestine-A-DSJ.obj and its centreline");
 
   bool study_markdown = false;
   std::string study_csv;
@@ -460,6 +468,21 @@ int main(int argc, char** argv) {
   CLI::App* figure_cmd = app.add_subcommand("figure-cage", "the paper's Fig. 6: beads, cage, linear blend and MVC under a sharp bend");
   figure_cmd->add_option("--out", figure_out, "PNG file");
 
+  import::ImportOptions io;
+  CLI::App* import_cmd = app.add_subcommand(
+      "import", "a segmented organ surface to a scene that runs: centreline read or computed, trimmed, rod, beads, cage");
+  import_cmd->add_option("mesh", io.mesh, "surface (OBJ, STL, OFF, glTF), open or closed ends, mm or m")
+      ->required()->check(CLI::ExistingFile);
+  import_cmd->add_option("--centreline", io.centreline, "its midline (JSON with units and points); default: computed")
+      ->check(CLI::ExistingFile);
+  import_cmd->add_option("--out", io.out, "the scene file to write (default: MESH's name .toml here)");
+  import_cmd->add_option("--units", io.units, "auto (default: from the size), mm or m")->check(CLI::IsMember({"auto", "mm", "m"}));
+  import_cmd->add_option("--ends", io.ends, "held (default: both ends), base (the first) or free")
+      ->check(CLI::IsMember({"held", "base", "free"}));
+  import_cmd->add_option("--nodes", io.nodes, "rod nodes (default: one per 5 mm, 41 to 401)")->check(CLI::Range(3, 20000));
+  import_cmd->add_option("--beads", io.beads, "beads (default: a third of the nodes)")->check(CLI::Range(2, 20000));
+  import_cmd->add_flag("--reverse", io.reverse, "run the rod from the other end");
+
   CLI::App* view_cmd = app.add_subcommand("view", "open a scene in the interactive viewer (haustra-view; `make view`)");
   view_cmd->prefix_command();
   view_cmd->set_help_flag();  // --help goes to the viewer
@@ -468,8 +491,19 @@ int main(int argc, char** argv) {
   if (*view_cmd) return open_viewer(argv[0], view_cmd->remaining());
   try {
     if (*run_cmd) return run(ro);
+    if (*import_cmd) {
+      const import::ImportReport report = import::import_surface(io);
+      fmt::print("{}scene: {} (centreline: {})\nrun it: haustra run {}\n", report.text(), report.scene.string(),
+                 report.centreline_file.string(), report.scene.string());
+      return 0;
+    }
     if (*validate_cmd) return validate(json, validate_markdown, assets);
     if (*stability_cmd) return stability(markdown, stability_csv);
+    if (*skinning_cmd && skinning_anatomy) {
+      const auto organs = import::import_study_organs(skinning_assets, fs::temp_directory_path() / "haustra-anatomy-study");
+      fmt::print("{}", import::anatomy_markdown(import::run_anatomy_study(organs)));
+      return 0;
+    }
     if (*skinning_cmd) return skinning(skinning_markdown);
     if (*study_cmd) return study(study_markdown, study_csv);
     if (*render_cmd) return render_frames(rc);

@@ -282,10 +282,10 @@ void print_mesh_info(std::FILE* out, const World& world, std::size_t segment) {
              std::isfinite(c.tightest_bend) && c.tightest_bend < 1e3 ? fmt::format("{:.1f} mm", 1e3 * c.tightest_bend) : "none (straight)");
   if (k.method == SkinningMethod::mean_value)
     fmt::print(out,
-               "    mean value coordinates: {} rings per vertex; min weight {:.3g}; negative mass max {:.3g}, mean {:.3g} "
+               "    mean value coordinates: {:.2f} rings per vertex (up to {}); min weight {:.3g}; negative mass max {:.3g}, mean {:.3g} "
                "({} vertices); weight left out max {:.3g}, mean {:.3g}; rest correction max {:.2f} mm; rest error {:.2g} m; "
                "{:.2f} s\n",
-               k.rings_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass, k.negative_vertices,
+               k.mean_rings_per_vertex, k.rings_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass, k.negative_vertices,
                k.max_dropped_mass, k.mean_dropped_mass, 1e3 * k.max_rest_correction, k.rest_error, k.seconds);
   else
     fmt::print(out, "    linear-blend skinning on the bead frames (2 per vertex); rest error {:.2g} m\n", k.rest_error);

@@ -91,6 +91,9 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
       if (node < off) first_bead = b + 1;
       if (node < off + n) end_bead = b + 1;
     }
+    if (!std::isfinite(d.weight_left_out) || d.weight_left_out < 0.0 || d.weight_left_out >= 1.0)
+      fail(ErrorCode::invalid_argument, where + ".weight_left_out",
+           fmt::format("expected a fraction in [0, 1) of each vertex's weight, got {}", d.weight_left_out));
     if (d.rings_per_vertex < 0 || d.rings_per_vertex > 4096)
       fail(ErrorCode::invalid_argument, where + ".rings_per_vertex",
            fmt::format("expected 0 (all rings) or a count up to 4096, got {}", d.rings_per_vertex));
@@ -129,7 +132,7 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
       throw FieldError(e.code(), e.field(), fmt::format("{} (mesh {})", e.detail(), d.file));
     }
     out.binding = d.skinning == SkinningMethod::mean_value
-                      ? bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, out.info.skin)
+                      ? bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, d.weight_left_out, out.info.skin)
                       : bind_linear_blend(out.cage, meshes[pi], out.info.skin);
 
     out.ring_offset = m.ring_total;

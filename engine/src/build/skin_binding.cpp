@@ -16,19 +16,22 @@ namespace {
 using kernels::kSkinCoefficients;
 using kernels::kSkinLanes;
 
-// Per vertex, its kept rings (ascending) and their coefficients (b, A), before packing.
+// Per vertex, its kept rings (ascending) and their coefficients (b, A), before packing; vertices
+// may keep different numbers of rings.
 struct Slots {
-  std::size_t keep = 0;
-  std::vector<std::uint32_t> ring;  // vertices × keep
-  std::vector<double> coef;         // vertices × keep × 4: b, Ax, Ay, Az
-  void resize(std::size_t vertices, std::size_t k) {
-    keep = k;
-    ring.assign(vertices * k, 0);
-    coef.assign(vertices * k * 4, 0.0);
+  std::vector<std::vector<std::uint32_t>> ring;  // per vertex
+  std::vector<std::vector<double>> coef;         // per vertex: 4 per kept ring (b, Ax, Ay, Az)
+  void resize(std::size_t vertices) {
+    ring.assign(vertices, {});
+    coef.assign(vertices, {});
   }
   void set(std::size_t v, std::size_t slot, std::uint32_t g, double b, const Eigen::Vector3d& a) {
-    ring[v * keep + slot] = g;
-    double* c = &coef[(v * keep + slot) * 4];
+    if (ring[v].size() <= slot) {
+      ring[v].resize(slot + 1);
+      coef[v].resize(4 * (slot + 1));
+    }
+    ring[v][slot] = g;
+    double* c = &coef[v][4 * slot];
     c[0] = b;
     c[1] = a.x();
     c[2] = a.y();
@@ -36,29 +39,31 @@ struct Slots {
   }
 };
 
-// Packs vertices into blocks that share their ring set: vertices sorted by ring set (then index),
-// each set filling whole blocks, the last one padded.
+// Packs vertices into blocks that share their ring set: vertices sorted by ring set (shorter sets
+// first, then lexicographically, then by index), each set filling whole blocks, the last padded.
 SkinBinding pack(const TriangleMesh& mesh, const Slots& slots) {
-  const std::size_t n = mesh.vertices.size(), k = slots.keep;
+  const std::size_t n = mesh.vertices.size();
   std::vector<std::uint32_t> order(n);
   std::iota(order.begin(), order.end(), 0U);
-  auto set_of = [&](std::uint32_t v) { return std::span<const std::uint32_t>(slots.ring).subspan(v * k, k); };
   std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    const auto ra = set_of(a), rb = set_of(b);
+    const auto &ra = slots.ring[a], &rb = slots.ring[b];
+    if (ra.size() != rb.size()) return ra.size() < rb.size();
     return std::lexicographical_compare(ra.begin(), ra.end(), rb.begin(), rb.end());
   });
   SkinBinding b;
   b.vertices = n;
-  b.slots = k;
+  b.slot_start.push_back(0);
   std::size_t i = 0;
   while (i < n) {
+    const std::vector<std::uint32_t>& set = slots.ring[order[i]];
     std::size_t j = i;
-    while (j < n && std::equal(set_of(order[i]).begin(), set_of(order[i]).end(), set_of(order[j]).begin())) ++j;
+    while (j < n && slots.ring[order[j]] == set) ++j;
+    const std::size_t k = set.size();
     for (std::size_t first = i; first < j; first += kSkinLanes) {
-      const std::size_t block = b.ring.size() / std::max<std::size_t>(k, 1);
-      const auto rings = set_of(order[first]);
-      b.ring.insert(b.ring.end(), rings.begin(), rings.end());
-      b.coefficient.resize((block + 1) * k * kSkinCoefficients * kSkinLanes, 0.0f);
+      const std::size_t slot0 = b.ring.size();
+      b.ring.insert(b.ring.end(), set.begin(), set.end());
+      b.slot_start.push_back(static_cast<std::uint32_t>(b.ring.size()));
+      b.coefficient.resize(b.ring.size() * kSkinCoefficients * kSkinLanes, 0.0f);
       for (std::size_t l = 0; l < kSkinLanes; ++l) {
         const bool real = first + l < j;
         const std::uint32_t v = real ? order[first + l] : kernels::kNoVertex;
@@ -69,8 +74,8 @@ SkinBinding pack(const TriangleMesh& mesh, const Slots& slots) {
         if (!real) continue;
         for (std::size_t s = 0; s < k; ++s)
           for (std::size_t c = 0; c < kSkinCoefficients; ++c)
-            b.coefficient[((block * k + s) * kSkinCoefficients + c) * kSkinLanes + l] =
-                static_cast<float>(slots.coef[(v * k + s) * 4 + c]);
+            b.coefficient[((slot0 + s) * kSkinCoefficients + c) * kSkinLanes + l] =
+                static_cast<float>(slots.coef[v][4 * s + c]);
       }
     }
     i = j;
@@ -88,20 +93,21 @@ double rest_error(const SkinBinding& b, const TriangleMesh& mesh) {
 
 }  // namespace
 
-SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int rings_per_vertex, SkinReport& report,
-                            CageWeights* csr) {
+SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int rings_per_vertex,
+                            double weight_left_out, SkinReport& report, CageWeights* csr) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t rings = cage.ring_station.size();
   const std::size_t n = cage.rest_vertices.size();
-  const std::size_t keep = rings_per_vertex <= 0 ? rings : std::min(rings, static_cast<std::size_t>(rings_per_vertex));
+  const std::size_t at_least = rings_per_vertex <= 0 ? rings : std::min(rings, static_cast<std::size_t>(rings_per_vertex));
   Slots slots;
-  slots.resize(mesh.vertices.size(), keep);
+  slots.resize(mesh.vertices.size());
   // Weights in the binding pose, where the cage embeds the mesh without folds.
   const kernels::CageView view{cage.binding_vertices, cage.triangles};
   const kernels::CageFrame frame = kernels::cage_frame(cage.binding_vertices);
 
   struct VertexStats {
     double min_weight = 0.0, negative_mass = 0.0, dropped_mass = 0.0, correction = 0.0;
+    std::size_t kept = 0;
     kernels::MvcLocation location = kernels::MvcLocation::general;
   };
   std::vector<VertexStats> stats(mesh.vertices.size());
@@ -122,14 +128,19 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
         weight[g] += w[j];
         moment[g] += w[j] * cage.offset[j];
       }
-      // The `keep` rings of largest weight mass (ties: lower ring first), then in ring order.
+      // The rings of largest weight mass (ties: lower ring first): at least `at_least`, and more
+      // while the mass left out exceeds `weight_left_out` of the total; then in ring order.
       std::iota(order.begin(), order.end(), 0U);
-      std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep), order.end(),
-                        [&](std::uint32_t a, std::uint32_t c) { return mass[a] != mass[c] ? mass[a] > mass[c] : a < c; });
+      std::sort(order.begin(), order.end(),
+                [&](std::uint32_t a, std::uint32_t c) { return mass[a] != mass[c] ? mass[a] > mass[c] : a < c; });
+      double total_mass = 0.0, dropped = 0.0;
+      for (std::size_t g = 0; g < rings; ++g) total_mass += mass[g];
+      for (std::size_t k = at_least; k < rings; ++k) dropped += mass[order[k]];
+      std::size_t keep = at_least;
+      while (weight_left_out > 0.0 && keep < rings && dropped > weight_left_out * total_mass) dropped -= mass[order[keep++]];
       std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep));
-      double kept = 0.0, dropped = 0.0;
+      double kept = 0.0;
       for (std::size_t k = 0; k < keep; ++k) kept += weight[order[k]];
-      for (std::size_t k = keep; k < rings; ++k) dropped += mass[order[k]];
       // Renormalized to a partition of unity, so a rigid translation of the rod stays exact.
       const double scale = kept != 0.0 ? 1.0 / kept : 1.0;
       // Carried to the rings' rest poses, the kept weights put the vertex at Σ b_g c_g + R_g A_g;
@@ -148,7 +159,7 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
         const Eigen::Vector3d ag = scale * moment[order[k]] + bg * (cage.ring_rest[order[k]].rotation.transpose() * correction);
         slots.set(v, k, order[k], bg, ag);
       }
-      stats[v] = {r.min_weight, r.negative_mass, dropped, correction.norm(), r.location};
+      stats[v] = {r.min_weight, r.negative_mass, dropped, correction.norm(), keep, r.location};
       if (csr != nullptr) {
         std::vector<std::uint8_t> kept_ring(rings, 0);
         for (std::size_t k = 0; k < keep; ++k) kept_ring[order[k]] = 1;
@@ -161,9 +172,10 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
 
   report = SkinReport{};
   report.method = SkinningMethod::mean_value;
-  report.rings_per_vertex = keep;
-  double negative_sum = 0.0, dropped_sum = 0.0;
+  double negative_sum = 0.0, dropped_sum = 0.0, kept_sum = 0.0;
   for (const VertexStats& s : stats) {
+    report.rings_per_vertex = std::max(report.rings_per_vertex, s.kept);
+    kept_sum += static_cast<double>(s.kept);
     report.min_weight = std::min(report.min_weight, s.min_weight);
     report.max_negative_mass = std::max(report.max_negative_mass, s.negative_mass);
     report.max_dropped_mass = std::max(report.max_dropped_mass, s.dropped_mass);
@@ -177,6 +189,7 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
   const auto count = static_cast<double>(std::max<std::size_t>(stats.size(), 1));
   report.mean_negative_mass = negative_sum / count;
   report.mean_dropped_mass = dropped_sum / count;
+  report.mean_rings_per_vertex = kept_sum / count;
   SkinBinding b = pack(mesh, slots);
   report.rest_error = rest_error(b, mesh);
   if (csr != nullptr) {
@@ -201,7 +214,7 @@ SkinBinding bind_linear_blend(const CageModel& cage, const TriangleMesh& mesh, S
   for (std::size_t g = 0; g < cage.ring_bead.size(); ++g)
     if (cage.ring_bead[g] >= 0) joints.push_back(static_cast<std::uint32_t>(g));
   Slots slots;
-  slots.resize(mesh.vertices.size(), 2);
+  slots.resize(mesh.vertices.size());
   parallel_each(mesh.vertices.size(), [&](std::size_t v) {
     const Eigen::Vector3d& x = mesh.vertices[v];
     double best = std::numeric_limits<double>::infinity(), best_t = 0.0;
@@ -228,6 +241,7 @@ SkinBinding bind_linear_blend(const CageModel& cage, const TriangleMesh& mesh, S
   report = SkinReport{};
   report.method = SkinningMethod::linear_blend;
   report.rings_per_vertex = 2;
+  report.mean_rings_per_vertex = 2.0;
   report.rest_error = rest_error(b, mesh);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return b;

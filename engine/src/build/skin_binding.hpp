@@ -16,14 +16,14 @@ namespace haustra::detail {
 
 struct SkinBinding {
   std::size_t vertices = 0;
-  std::size_t slots = 0;
+  std::vector<std::uint32_t> slot_start;     // blocks + 1
   std::vector<float> rest_x, rest_y, rest_z;  // blocks × lanes
   std::vector<std::uint32_t> vertex;         // blocks × lanes: mesh vertex (local), or kNoVertex
-  std::vector<std::uint32_t> ring;           // blocks × slots, local to the segment's rings
+  std::vector<std::uint32_t> ring;           // per slot, local to the segment's rings, local to the segment's rings
   std::vector<float> coefficient;
   [[nodiscard]] std::size_t blocks() const { return rest_x.size() / kernels::kSkinLanes; }
   [[nodiscard]] kernels::SkinBindingView view() const {
-    return {slots, rest_x, rest_y, rest_z, vertex, ring, coefficient};
+    return {slot_start, rest_x, rest_y, rest_z, vertex, ring, coefficient};
   }
 };
 
@@ -33,9 +33,11 @@ struct CageWeights {
   std::vector<double> weight;
 };
 
-// rings_per_vertex: 0 keeps every ring (full MVC). csr: when given, filled with the kept weights.
-SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int rings_per_vertex, SkinReport& report,
-                            CageWeights* csr = nullptr);
+// rings_per_vertex: rings kept at least (0: every ring, full MVC); weight_left_out: more rings are
+// kept, per vertex, while the weight mass left out exceeds this fraction of the vertex's total
+// (0: exactly rings_per_vertex). csr: when given, filled with the kept weights.
+SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int rings_per_vertex,
+                            double weight_left_out, SkinReport& report, CageWeights* csr = nullptr);
 
 // Linear-blend skinning on the bead rings: each vertex on the two beads whose centre segment is
 // nearest, weights by its position along that segment.

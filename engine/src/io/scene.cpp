@@ -220,7 +220,7 @@ StrainLaw read_law(const Reader& r, const toml::table& t, std::string_view key, 
 
 OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::string& path,
                               const std::filesystem::path& scene_dir) {
-  r.check_keys(t, path, {"source", "file", "scale", "translate", "procedural", "cage", "skinning", "rings_per_vertex", "normals"});
+  r.check_keys(t, path, {"source", "file", "scale", "translate", "procedural", "cage", "skinning", "rings_per_vertex", "weight_left_out", "normals"});
   OrganMeshDesc d;
   d.enabled = true;
   const toml::node* file_node = t.get("file");
@@ -238,6 +238,7 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
   d.skinning = r.choice<SkinningMethod>(t, "skinning", path + ".skinning", d.skinning,
                                         {{"mvc", SkinningMethod::mean_value}, {"linear-blend", SkinningMethod::linear_blend}});
   d.rings_per_vertex = r.integer(t, "rings_per_vertex", path + ".rings_per_vertex", d.rings_per_vertex);
+  d.weight_left_out = r.number(t, "weight_left_out", path + ".weight_left_out", d.weight_left_out);
   d.normals = r.boolean(t, "normals", path + ".normals", d.normals);
   if (const toml::table* p = r.table(t, "procedural", path + ".procedural")) {
     const std::string pp = path + ".procedural";

@@ -9,10 +9,12 @@
 // blend skinning has the same shape (b_g its joint weights, A_g = b_g R_gᵀ(x − c_g)), so one
 // kernel serves both.
 //
-// Layout: vertices in blocks of kSkinLanes that share the same `slots` rings (the binding sorts
-// vertices by their ring set, so a ring's delta is broadcast to all lanes and the sum is plain
-// 8-wide FMAs, no gathers); per block and slot one ring index and 4 × kSkinLanes coefficients
-// (b, Ax, Ay, Az), lane-contiguous; per lane the mesh vertex it writes (kNoVertex for padding).
+// Layout: vertices in blocks of kSkinLanes that share the same rings (the binding sorts vertices by
+// their ring set, so a ring's delta is broadcast to all lanes and the sum is plain 8-wide FMAs, no
+// gathers); a block has as many slots as its vertices keep rings (slot_start: offsets, so blocks
+// that need more rings pay for them alone); per slot one ring index and 4 × kSkinLanes
+// coefficients (b, Ax, Ay, Az), lane-contiguous; per lane the mesh vertex it writes (kNoVertex for
+// padding).
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
@@ -25,11 +27,11 @@ inline constexpr std::size_t kSkinCoefficients = 4;  // b, Ax, Ay, Az
 inline constexpr std::uint32_t kNoVertex = 0xFFFFFFFFU;
 
 struct SkinBindingView {
-  std::size_t slots = 0;                          // rings per vertex
+  std::span<const std::uint32_t> slot_start;      // blocks + 1: block b's slots are [start[b], start[b + 1])
   std::span<const float> rest_x, rest_y, rest_z;  // blocks × kSkinLanes
   std::span<const std::uint32_t> vertex;          // blocks × kSkinLanes: output index, or kNoVertex
-  std::span<const std::uint32_t> ring;            // blocks × slots
-  std::span<const float> coefficient;             // blocks × slots × 4 × kSkinLanes
+  std::span<const std::uint32_t> ring;            // per slot
+  std::span<const float> coefficient;             // per slot: 4 × kSkinLanes
   [[nodiscard]] std::size_t blocks() const { return rest_x.size() / kSkinLanes; }
 };
 

@@ -12,7 +12,7 @@ namespace haustra::validation {
 struct SkinningStudyRow {
   std::string method;          // "MVC, K = 4", "MVC, all rings", "linear blend"
   int rings_per_vertex = 0;    // 0: all
-  double slots = 0.0;          // rings per vertex actually stored
+  double slots = 0.0;          // rings per vertex actually stored (mean over the vertices)
   double bytes_per_vertex = 0.0;
   double skin_us = 0.0;        // median skinning time per frame, µs
   double rest_error = 0.0;     // m, max over vertices
@@ -39,7 +39,8 @@ SkinningStudy run_skinning_study();
 
 // The study's organ (a straight procedural rectum, 30 cm, 11 beads, 10,000 vertices) with the
 // given skinning, and its poses (node strains, 4 per node; the first is the 90° bend).
-WorldDesc study_organ(SkinningMethod method, int rings_per_vertex);
+// weight_left_out: 0 keeps exactly rings_per_vertex (the K sweep).
+WorldDesc study_organ(SkinningMethod method, int rings_per_vertex, double weight_left_out = 0.0);
 struct StudyPose {
   std::string name;
   std::vector<double> strain;

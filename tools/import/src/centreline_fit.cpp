@@ -1,0 +1,132 @@
+// Resampling, smoothing, coverage by rays, curvature and touching parts of a centreline.
+#include "centreline_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "haustra/shapes.hpp"
+
+namespace haustra::import {
+
+double polyline_length(const Polyline& p) {
+  double l = 0.0;
+  for (std::size_t i = 1; i < p.size(); ++i) l += (p[i] - p[i - 1]).norm();
+  return l;
+}
+
+Polyline resample(const Polyline& p, double spacing) {
+  const double total = polyline_length(p);
+  const auto n = static_cast<std::size_t>(std::max(1.0, std::round(total / spacing)));
+  const double step = total / static_cast<double>(n);
+  Polyline out{p.front()};
+  std::size_t i = 1;
+  double at = 0.0;  // arc length at p[i - 1]
+  for (std::size_t k = 1; k < n; ++k) {
+    const double want = step * static_cast<double>(k);
+    while (i + 1 < p.size() && at + (p[i] - p[i - 1]).norm() < want) {
+      at += (p[i] - p[i - 1]).norm();
+      ++i;
+    }
+    const double len = (p[i] - p[i - 1]).norm();
+    const double t = len > 0.0 ? std::clamp((want - at) / len, 0.0, 1.0) : 0.0;
+    out.push_back(p[i - 1] + t * (p[i] - p[i - 1]));
+  }
+  out.push_back(p.back());
+  return out;
+}
+
+Polyline smooth(const Polyline& p, double spacing, double sigma) {
+  const auto reach = static_cast<std::ptrdiff_t>(std::ceil(2.5 * sigma / spacing));
+  const auto n = static_cast<std::ptrdiff_t>(p.size());
+  Polyline out(p.size());
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    const std::ptrdiff_t w = std::min({reach, i, n - 1 - i});
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    double total = 0.0;
+    for (std::ptrdiff_t j = -w; j <= w; ++j) {
+      const double x = static_cast<double>(j) * spacing / sigma;
+      const double g = std::exp(-0.5 * x * x);
+      sum += g * p[static_cast<std::size_t>(i + j)];
+      total += g;
+    }
+    out[static_cast<std::size_t>(i)] = sum / total;
+  }
+  return out;
+}
+
+Coverage coverage(const EmbreeScene& wall, const Polyline& p, double reach) {
+  constexpr int kRays = 16;
+  Coverage c{std::vector<bool>(p.size(), false), std::vector<double>(p.size(), 0.0)};
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Eigen::Vector3d t = (p[std::min(i + 1, p.size() - 1)] - p[i > 0 ? i - 1 : 0]).normalized();
+    const auto [u, v] = render::across(t);
+    std::vector<double> hits;
+    for (int k = 0; k < kRays; ++k) {
+      const double a = 2.0 * std::numbers::pi * k / kRays;
+      const EmbreeScene::Hit h = wall.first_hit(p[i], std::cos(a) * u + std::sin(a) * v, 0.0, reach);
+      if (h.found) hits.push_back(h.distance);
+    }
+    if (hits.size() < 3 * kRays / 4) continue;
+    std::nth_element(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(hits.size() / 2), hits.end());
+    c.covered[i] = true;
+    c.radius[i] = hits[hits.size() / 2];
+  }
+  return c;
+}
+
+Polyline recentre(const EmbreeScene& wall, const Polyline& p, double spacing, double sigma, int passes) {
+  constexpr int kRays = 16;
+  Polyline line = p;
+  for (int pass = 0; pass < passes; ++pass) {
+    Polyline moved = line;
+    for (std::size_t i = 0; i < line.size(); ++i) {
+      const Eigen::Vector3d t = (line[std::min(i + 1, line.size() - 1)] - line[i > 0 ? i - 1 : 0]).normalized();
+      const auto [u, v] = render::across(t);
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      int hits = 0;
+      for (int k = 0; k < kRays; ++k) {
+        const double a = 2.0 * std::numbers::pi * k / kRays;
+        const Eigen::Vector3d d = std::cos(a) * u + std::sin(a) * v;
+        const EmbreeScene::Hit h = wall.first_hit(line[i], d, 0.0, 0.1);
+        if (!h.found) continue;
+        sum += line[i] + h.distance * d;
+        ++hits;
+      }
+      if (hits >= 3 * kRays / 4) moved[i] = sum / hits;
+    }
+    line = smooth(resample(moved, spacing), spacing, sigma);
+  }
+  return line;
+}
+
+std::vector<double> bend_radii(const Polyline& p, double spacing, double half_window) {
+  const auto w = static_cast<std::size_t>(std::max(1.0, std::round(half_window / spacing)));
+  std::vector<double> r(p.size(), 1e300);
+  for (std::size_t i = w; i + w < p.size(); ++i) {
+    const Eigen::Vector3d a = p[i - w], b = p[i], c = p[i + w];
+    const double area2 = (b - a).cross(c - a).norm();  // twice the triangle's area
+    if (area2 > 0.0) r[i] = (b - a).norm() * (c - b).norm() * (c - a).norm() / (2.0 * area2);
+  }
+  return r;
+}
+
+std::vector<std::pair<double, double>> touching_parts(const Polyline& p, double spacing, double apart, double near) {
+  std::vector<std::pair<double, double>> out;
+  const auto gap = static_cast<std::size_t>(std::ceil(apart / spacing));
+  std::size_t last_i = 0;
+  bool any = false;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    for (std::size_t j = i + gap; j < p.size(); ++j) {
+      if ((p[i] - p[j]).norm() >= near) continue;
+      // One report per stretch: skip pairs within `apart` of the last reported one.
+      if (any && i < last_i + gap) break;
+      out.emplace_back(static_cast<double>(i) * spacing, static_cast<double>(j) * spacing);
+      last_i = i;
+      any = true;
+      break;
+    }
+  return out;
+}
+
+}  // namespace haustra::import
