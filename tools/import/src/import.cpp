@@ -210,7 +210,11 @@ ImportReport import_surface(const ImportOptions& o) {
       ++inside;
       radii.push_back(cov.radius[i]);
     }
-  if (inside < 10 || static_cast<double>(inside) < 0.8 * static_cast<double>(end - begin))
+  if (inside < 10)
+    throw Error(ErrorCode::invalid_geometry,
+                fmt::format("{}: no tube in this mesh: the surface surrounds only {} mm of its centreline ({})", file,
+                            inside, r.centreline_source));
+  if (static_cast<double>(inside) < 0.8 * static_cast<double>(end - begin))
     throw Error(ErrorCode::invalid_geometry,
                 fmt::format("{}: the centreline ({}) leaves the mesh: between its ends inside the surface only {} of {} "
                             "points have the wall around them — is it this mesh's midline, in its units?",
