@@ -135,6 +135,8 @@ std::string ImportReport::text() const {
   for (const auto& [a, b] : touching)
     t += fmt::format("loops: the wall at {:.0f} mm touches the wall at {:.0f} mm\n", 1e3 * a, 1e3 * b);
   t += fmt::format("rod: {} nodes, {} beads sized from the mesh\n", nodes, beads);
+  for (const std::string& why : retries)
+    t += fmt::format("fewer beads: the cage did not embed the mesh with {}\n", why.substr(0, why.find(" (mesh ")));
   if (cage_rings > 0)
     t += fmt::format("built in {:.2f} s: cage of {} rings ({} dropped), {} mesh vertices outside it at the curved rest "
                      "pose, weight left out by localization up to {:.3f}, rest correction up to {:.2f} mm\n",
@@ -246,22 +248,36 @@ ImportReport import_surface(const ImportOptions& o) {
   write_centreline(r.centreline_file, line, r.centreline_source);
   write_scene(o, r);
 
-  // Built once: what fails here would fail in `haustra run`.
+  // Built once: what fails here would fail in `haustra run`. A cage that cannot embed the mesh
+  // gets fewer, wider-spaced rings (rings sit on beads): a quarter fewer beads at a time, down to
+  // one bead per eight nodes, unless --beads fixed them.
   const auto t0 = std::chrono::steady_clock::now();
-  try {
-    const SceneDesc scene = load_scene(r.scene);
-    const auto world = create_world(scene);
-    const MeshInfo& m = world->mesh(0);
-    r.cage_rings = m.cage.rings;
-    r.dropped_rings = m.cage.dropped_rings;
-    r.rest_pose_outside = m.cage.rest_pose_outside;
-    r.max_dropped_mass = m.skin.max_dropped_mass;
-    r.max_rest_correction = m.skin.max_rest_correction;
-  } catch (const Error& e) {
-    throw Error(e.code(), fmt::format("{}\nthe imported scene {} does not build. Flags that change what failed: --nodes N "
-                                      "and --beads N (rings sit on beads: fewer beads, fewer rings to cross), "
-                                      "--centreline FILE (a midline of your own), --units",
-                                      e.what(), r.scene.string()));
+  for (;;) {
+    try {
+      const SceneDesc scene = load_scene(r.scene);
+      const auto world = create_world(scene);
+      const MeshInfo& m = world->mesh(0);
+      r.cage_rings = m.cage.rings;
+      r.dropped_rings = m.cage.dropped_rings;
+      r.rest_pose_outside = m.cage.rest_pose_outside;
+      r.max_dropped_mass = m.skin.max_dropped_mass;
+      r.max_rest_correction = m.skin.max_rest_correction;
+      break;
+    } catch (const Error& e) {
+      const int fewer = r.beads * 3 / 4;
+      if (o.beads == 0 && e.code() == ErrorCode::invalid_geometry && fewer >= std::max(8, r.nodes / 8)) {
+        r.retries.push_back(fmt::format("{} beads: {}", r.beads, e.what()));
+        r.beads = fewer;
+        write_scene(o, r);
+        continue;
+      }
+      throw Error(e.code(), fmt::format("{}\nthe imported scene {} does not build{}. Flags that change what failed: --nodes N "
+                                        "and --beads N (rings sit on beads: fewer beads, fewer rings to cross), "
+                                        "--centreline FILE (a midline of your own), --units",
+                                        e.what(), r.scene.string(),
+                                        r.retries.empty() ? "" : fmt::format(" (with {} beads, after {} tries with more)",
+                                                                             r.beads, r.retries.size())));
+    }
   }
   r.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_scene(o, r);  // again, with what the build found in its comments

@@ -40,6 +40,7 @@ struct ImportReport {
   // From building the written scene once.
   std::size_t cage_rings = 0, dropped_rings = 0, rest_pose_outside = 0;
   double max_dropped_mass = 0.0, max_rest_correction = 0.0, build_seconds = 0.0;
+  std::vector<std::string> retries;  // builds that failed with more beads (the cage), and why
   [[nodiscard]] std::string text() const;  // what was done, for the terminal
 };
 
