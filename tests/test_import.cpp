@@ -140,6 +140,11 @@ TEST_CASE("haustra import: a colon mesh 20 mm shorter at each end than its centr
   CHECK(r.report.trimmed_start == doctest::Approx(0.020).epsilon(0.3));
   CHECK(r.report.trimmed_end == doctest::Approx(0.020).epsilon(0.4));
   CHECK(r.skin_error < 1e-3);
+  // Without the midline: both ends open, the skeleton's spurs cut (a hook here once broke the cage).
+  const Imported c = import_and_run({dir / "cut.obj", {}, dir / "cut-computed.toml"});
+  MESSAGE(c.report.text() << "skin error " << c.skin_error);
+  CHECK(c.report.tightest_bend > 0.25 * c.report.median_radius);  // no hook (it was 0.6 mm)
+  CHECK(c.skin_error < 1e-3);
 }
 
 TEST_CASE("haustra import: a procedural organ bent at 1.2 times its radius, closed, in metres") {

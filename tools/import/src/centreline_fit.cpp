@@ -75,6 +75,15 @@ Coverage coverage(const EmbreeScene& wall, const Polyline& p, double reach) {
   return c;
 }
 
+Polyline remove_backtracks(const Polyline& p) {
+  Polyline out;
+  for (const Eigen::Vector3d& q : p) {
+    while (out.size() >= 2 && (q - out.back()).dot(out.back() - out[out.size() - 2]) < 0.0) out.pop_back();
+    if (out.empty() || (q - out.back()).norm() > 0.0) out.push_back(q);
+  }
+  return out;
+}
+
 Polyline recentre(const EmbreeScene& wall, const Polyline& p, double spacing, double sigma, int passes) {
   constexpr int kRays = 16;
   Polyline line = p;
@@ -95,7 +104,7 @@ Polyline recentre(const EmbreeScene& wall, const Polyline& p, double spacing, do
       }
       if (hits >= 3 * kRays / 4) moved[i] = sum / hits;
     }
-    line = smooth(resample(moved, spacing), spacing, sigma);
+    line = smooth(resample(remove_backtracks(moved), spacing), spacing, sigma);
   }
   return line;
 }

@@ -23,6 +23,10 @@ struct Coverage {
 };
 Coverage coverage(const EmbreeScene& wall, const Polyline& p, double reach);
 
+// Spurs cut: a point that would make the line turn back on itself (its step against the one before)
+// removes the points before it until the line runs forward again.
+Polyline remove_backtracks(const Polyline& p);
+
 // Each point moved to the centroid of the wall points its 16 normal-plane rays meet (where at least
 // 12 do), `passes` times, smoothed over `sigma` after each pass: a skeleton pulled towards bulges
 // comes back to the middle of the lumen.

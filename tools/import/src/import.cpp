@@ -188,7 +188,8 @@ ImportReport import_surface(const ImportOptions& o) {
     for (std::size_t i = 0; i < line.size(); ++i)
       if (first_look.covered[i]) rs.push_back(first_look.radius[i]);
     const double radius = rs.empty() ? 0.01 : (std::nth_element(rs.begin(), rs.begin() + static_cast<std::ptrdiff_t>(rs.size() / 2), rs.end()), rs[rs.size() / 2]);
-    line = recentre(wall, smooth(line, kSpacing, 0.5 * radius), kSpacing, 0.5 * radius, 3);
+    line = recentre(wall, smooth(resample(remove_backtracks(line), kSpacing), kSpacing, 0.5 * radius), kSpacing,
+                    0.5 * radius, 3);
     r.centreline_source += fmt::format(", moved to the middle of the lumen and smoothed over {:.1f} mm (half its radius)",
                                        0.5e3 * radius);
   }
