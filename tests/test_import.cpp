@@ -100,7 +100,7 @@ TEST_CASE("haustra import: the CT colon without its midline: the computed centre
   MESSAGE(r.report.text() << "Hausdorff to the CT midline " << d << " m; skin error " << r.skin_error << " m");
   // MCF skeletons stop about a radius short of each end (17.6 mm here); in between the two agree
   // to about 11 mm, the size of the CT midline's own wiggles.
-  CHECK(d < 0.025);  // measured 0.0193 m
+  CHECK(d < 0.025);  // measured 0.017-0.021 m (CGAL's skeleton varies from run to run)
   CHECK(r.skin_error < 1e-3);
 }
 

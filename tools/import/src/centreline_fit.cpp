@@ -75,11 +75,26 @@ Coverage coverage(const EmbreeScene& wall, const Polyline& p, double reach) {
   return c;
 }
 
-Polyline remove_backtracks(const Polyline& p) {
+Polyline remove_backtracks(const Polyline& p, double near, double loop) {
   Polyline out;
+  std::vector<double> arc;  // of each kept point
   for (const Eigen::Vector3d& q : p) {
-    while (out.size() >= 2 && (q - out.back()).dot(out.back() - out[out.size() - 2]) < 0.0) out.pop_back();
-    if (out.empty() || (q - out.back()).norm() > 0.0) out.push_back(q);
+    while (out.size() >= 2 && (q - out.back()).dot(out.back() - out[out.size() - 2]) < 0.0) {
+      out.pop_back();
+      arc.pop_back();
+    }
+    if (near > 0.0 && !out.empty()) {  // the earliest point within `loop` of arc that q returns to
+      for (std::size_t j = out.size(); j-- > 0 && arc.back() - arc[j] < 4.0 * loop;)
+        if (arc.back() - arc[j] > loop && (q - out[j]).norm() < near) {
+          out.resize(j + 1);
+          arc.resize(j + 1);
+          break;
+        }
+    }
+    if (out.empty() || (q - out.back()).norm() > 0.0) {
+      arc.push_back(out.empty() ? 0.0 : arc.back() + (q - out.back()).norm());
+      out.push_back(q);
+    }
   }
   return out;
 }
@@ -104,9 +119,21 @@ Polyline recentre(const EmbreeScene& wall, const Polyline& p, double spacing, do
       }
       if (hits >= 3 * kRays / 4) moved[i] = sum / hits;
     }
-    line = smooth(resample(remove_backtracks(moved), spacing), spacing, sigma);
+    line = smooth(resample(remove_backtracks(moved, sigma, 4.0 * sigma), spacing), spacing, sigma);
   }
   return line;
+}
+
+Polyline straighten_ends(const Polyline& p, double spacing, double length) {
+  const auto k = static_cast<std::size_t>(std::round(length / spacing));
+  if (p.size() < 4 * k + 2 || k == 0) return p;
+  Polyline out = p;
+  const Eigen::Vector3d t0 = (p[2 * k] - p[k]).normalized(), t1 = (p[p.size() - 1 - k] - p[p.size() - 1 - 2 * k]).normalized();
+  for (std::size_t i = 0; i < k; ++i) {
+    out[i] = p[k] - static_cast<double>(k - i) * spacing * t0;
+    out[p.size() - 1 - i] = p[p.size() - 1 - k] + static_cast<double>(k - i) * spacing * t1;
+  }
+  return out;
 }
 
 std::vector<double> bend_radii(const Polyline& p, double spacing, double half_window) {

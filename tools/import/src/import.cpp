@@ -188,10 +188,13 @@ ImportReport import_surface(const ImportOptions& o) {
     for (std::size_t i = 0; i < line.size(); ++i)
       if (first_look.covered[i]) rs.push_back(first_look.radius[i]);
     const double radius = rs.empty() ? 0.01 : (std::nth_element(rs.begin(), rs.begin() + static_cast<std::ptrdiff_t>(rs.size() / 2), rs.end()), rs[rs.size() / 2]);
-    line = recentre(wall, smooth(resample(remove_backtracks(line), kSpacing), kSpacing, 0.5 * radius), kSpacing,
-                    0.5 * radius, 3);
-    r.centreline_source += fmt::format(", moved to the middle of the lumen and smoothed over {:.1f} mm (half its radius)",
-                                       0.5e3 * radius);
+    line = recentre(wall,
+                    smooth(resample(remove_backtracks(line, 0.5 * radius, 2.0 * radius), kSpacing), kSpacing, 0.5 * radius),
+                    kSpacing, 0.5 * radius, 3);
+    line = straighten_ends(line, kSpacing, radius);
+    r.centreline_source += fmt::format(", moved to the middle of the lumen and smoothed over {:.1f} mm (half its radius), "
+                                       "its last {:.0f} mm at each end straight",
+                                       0.5e3 * radius, 1e3 * radius);
   }
   r.raw_length = polyline_length(line);
 
