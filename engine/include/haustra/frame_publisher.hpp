@@ -23,7 +23,6 @@ struct FrameDetails {
   std::vector<InstrumentReading> instruments;
   std::vector<std::vector<Eigen::Vector3d>> cages;   // per segment: cage vertices (when wanted)
   FrameProfile profile;
-  std::size_t event_count = 0;                       // events the world has recorded so far
 };
 
 class FramePublisher {

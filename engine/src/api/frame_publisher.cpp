@@ -84,7 +84,6 @@ void FramePublisher::fill(Slot& s, const World& w) const {
     else d.cages[g].clear();
   }
   d.profile = w.last_profile();
-  d.event_count = w.events().size();
 }
 
 }  // namespace haustra

@@ -55,22 +55,46 @@ Polyline smooth(const Polyline& p, double spacing, double sigma) {
   return out;
 }
 
+namespace {
+
+constexpr int kRays = 16;
+
+// Where 16 rays from `at`, evenly around `tangent` in its normal plane, first meet the wall within
+// `reach`: distances and points of the rays that do.
+struct PlaneHits {
+  std::vector<double> distance;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();  // of the points hit
+};
+PlaneHits normal_plane_hits(const EmbreeScene& wall, const Eigen::Vector3d& at, const Eigen::Vector3d& tangent,
+                            double reach) {
+  const auto [u, v] = render::across(tangent);
+  PlaneHits h;
+  for (int k = 0; k < kRays; ++k) {
+    const double a = 2.0 * std::numbers::pi * k / kRays;
+    const Eigen::Vector3d d = std::cos(a) * u + std::sin(a) * v;
+    const EmbreeScene::Hit hit = wall.first_hit(at, d, 0.0, reach);
+    if (!hit.found) continue;
+    h.distance.push_back(hit.distance);
+    h.sum += at + hit.distance * d;
+  }
+  return h;
+}
+
+Eigen::Vector3d tangent_at(const Polyline& p, std::size_t i) {
+  return (p[std::min(i + 1, p.size() - 1)] - p[i > 0 ? i - 1 : 0]).normalized();
+}
+
+}  // namespace
+
 Coverage coverage(const EmbreeScene& wall, const Polyline& p, double reach) {
-  constexpr int kRays = 16;
   Coverage c{std::vector<bool>(p.size(), false), std::vector<double>(p.size(), 0.0)};
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const Eigen::Vector3d t = (p[std::min(i + 1, p.size() - 1)] - p[i > 0 ? i - 1 : 0]).normalized();
-    const auto [u, v] = render::across(t);
-    std::vector<double> hits;
-    for (int k = 0; k < kRays; ++k) {
-      const double a = 2.0 * std::numbers::pi * k / kRays;
-      const EmbreeScene::Hit h = wall.first_hit(p[i], std::cos(a) * u + std::sin(a) * v, 0.0, reach);
-      if (h.found) hits.push_back(h.distance);
-    }
-    if (hits.size() < 3 * kRays / 4) continue;
-    std::nth_element(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(hits.size() / 2), hits.end());
+    PlaneHits h = normal_plane_hits(wall, p[i], tangent_at(p, i), reach);
+    if (h.distance.size() < 3 * kRays / 4) continue;
+    std::nth_element(h.distance.begin(), h.distance.begin() + static_cast<std::ptrdiff_t>(h.distance.size() / 2),
+                     h.distance.end());
     c.covered[i] = true;
-    c.radius[i] = hits[hits.size() / 2];
+    c.radius[i] = h.distance[h.distance.size() / 2];
   }
   return c;
 }
@@ -100,24 +124,12 @@ Polyline remove_backtracks(const Polyline& p, double near, double loop) {
 }
 
 Polyline recentre(const EmbreeScene& wall, const Polyline& p, double spacing, double sigma, int passes) {
-  constexpr int kRays = 16;
   Polyline line = p;
   for (int pass = 0; pass < passes; ++pass) {
     Polyline moved = line;
     for (std::size_t i = 0; i < line.size(); ++i) {
-      const Eigen::Vector3d t = (line[std::min(i + 1, line.size() - 1)] - line[i > 0 ? i - 1 : 0]).normalized();
-      const auto [u, v] = render::across(t);
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      int hits = 0;
-      for (int k = 0; k < kRays; ++k) {
-        const double a = 2.0 * std::numbers::pi * k / kRays;
-        const Eigen::Vector3d d = std::cos(a) * u + std::sin(a) * v;
-        const EmbreeScene::Hit h = wall.first_hit(line[i], d, 0.0, 0.1);
-        if (!h.found) continue;
-        sum += line[i] + h.distance * d;
-        ++hits;
-      }
-      if (hits >= 3 * kRays / 4) moved[i] = sum / hits;
+      const PlaneHits h = normal_plane_hits(wall, line[i], tangent_at(line, i), 0.1);
+      if (h.distance.size() >= 3 * kRays / 4) moved[i] = h.sum / static_cast<double>(h.distance.size());
     }
     line = smooth(resample(remove_backtracks(moved, sigma, 4.0 * sigma), spacing), spacing, sigma);
   }

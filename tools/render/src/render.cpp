@@ -85,6 +85,27 @@ Camera fit_camera(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, const Ei
   return c;
 }
 
+std::vector<std::uint32_t> nearest_nodes(const World& w) {
+  std::vector<std::uint32_t> out(w.mesh_buffer_size(), 0);
+  const auto p = w.mesh_positions();
+  const auto n = w.node_positions();
+  for (std::size_t s = 0; s < w.segment_count(); ++s) {
+    const MeshInfo& m = w.mesh(s);
+    if (!m.enabled) continue;
+    const Range r = w.segment(s).nodes;
+    for (std::size_t v = m.vertices.offset; v < m.vertices.offset + m.vertices.count; ++v) {
+      const Eigen::Vector3d x(p.x[v], p.y[v], p.z[v]);
+      double best = 1e300;
+      for (std::size_t k = r.offset; k < r.offset + r.count; ++k)
+        if ((n.get(k) - x).squaredNorm() < best) {
+          best = (n.get(k) - x).squaredNorm();
+          out[v] = static_cast<std::uint32_t>(k);
+        }
+    }
+  }
+  return out;
+}
+
 Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o) {
   Picture pic;
   const double aspect = static_cast<double>(o.width) / o.height;
@@ -104,23 +125,18 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
     const auto p = world.mesh_positions();
     const auto n = world.mesh_normals();
     std::vector<double> value;
+    const std::vector<std::uint32_t> nearest =
+        o.overlays.colour == Colouring::strain ? nearest_nodes(world) : std::vector<std::uint32_t>{};
     for (std::size_t s = 0; s < world.segment_count(); ++s) {
       const MeshInfo& m = world.mesh(s);
       if (!m.enabled) continue;
       const auto base = static_cast<std::uint32_t>(g.vertices.size());
-      const Range nr = world.segment(s).nodes;
       for (std::size_t v = m.vertices.offset; v < m.vertices.offset + m.vertices.count; ++v) {
         const Eigen::Vector3d x(p.x[v], p.y[v], p.z[v]);
         g.vertices.push_back(x);
         g.normals.push_back(Eigen::Vector3d(n.x[v], n.y[v], n.z[v]));
         if (o.overlays.colour == Colouring::strain) {
-          std::size_t best = nr.offset;
-          double d = 1e300;
-          for (std::size_t k = nr.offset; k < nr.offset + nr.count; ++k)
-            if ((nodes.get(k) - x).squaredNorm() < d) {
-              d = (nodes.get(k) - x).squaredNorm();
-              best = k;
-            }
+          const std::size_t best = nearest[v];
           const Eigen::Vector4d q = world.strains().get(best) - world.rest_strains().get(best);
           value.push_back(q.head<2>().norm());
         }

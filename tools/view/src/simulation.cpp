@@ -7,6 +7,7 @@
 #include <chrono>
 
 #include "haustra/error.hpp"
+#include "haustra/render.hpp"
 #include "knobs.hpp"
 
 namespace haustra::view {
@@ -15,30 +16,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-// Per mesh vertex, the nearest node of its own segment (for colouring the mesh by a node's strain).
-std::vector<std::uint32_t> nearest_nodes(const World& w) {
-  std::vector<std::uint32_t> out(w.mesh_buffer_size(), 0);
-  const auto p = w.mesh_positions();
-  const auto n = w.node_positions();
-  for (std::size_t s = 0; s < w.segment_count(); ++s) {
-    const MeshInfo& m = w.mesh(s);
-    if (!m.enabled) continue;
-    const Range r = w.segment(s).nodes;
-    for (std::size_t v = m.vertices.offset; v < m.vertices.offset + m.vertices.count; ++v) {
-      const Eigen::Vector3d x(p.x[v], p.y[v], p.z[v]);
-      double best = 1e300;
-      for (std::size_t k = r.offset; k < r.offset + r.count; ++k) {
-        const double d = (n.get(k) - x).squaredNorm();
-        if (d < best) {
-          best = d;
-          out[v] = static_cast<std::uint32_t>(k);
-        }
-      }
-    }
-  }
-  return out;
-}
 
 }  // namespace
 
@@ -116,7 +93,7 @@ void Simulation::publish_model() {
   }
   const auto tris = w.mesh_triangles();
   info->triangles.assign(tris.begin(), tris.end());
-  info->vertex_node = nearest_nodes(w);
+  info->vertex_node = render::nearest_nodes(w);
   info->bead_nodes.assign(w.bead_nodes().begin(), w.bead_nodes().end());
   info->bead_radii.assign(w.bead_radii().begin(), w.bead_radii().end());
   info->mouse = w.instrument_count() - 1;

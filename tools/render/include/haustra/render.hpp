@@ -64,6 +64,10 @@ Camera fit_camera(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, const Ei
                   double aspect);
 Camera fit_camera(const World& world, const Eigen::Vector3d& from, double fov_degrees, double aspect);
 
+// Per mesh vertex (an index into the world's mesh buffers), the nearest node of its own segment at
+// the world's current pose: what colours a vertex by its node's strain.
+std::vector<std::uint32_t> nearest_nodes(const World& world);
+
 // desc: the description the world was built from (for planes, obstacles and instrument sizes).
 Picture render(const World& world, const WorldDesc& desc, const RenderOptions& options);
 
