@@ -17,23 +17,13 @@
 #include "haustra/procedural_organ.hpp"
 #include "haustra/rod_curve.hpp"
 #include "haustra/scene.hpp"
+#include "haustra/skinning_study.hpp"
 #include "haustra/world.hpp"
 
 namespace haustra::import {
 namespace {
 
 using Points = std::vector<Eigen::Vector3d>;
-
-Points mesh_points(const World& w) {
-  const MeshInfo& m = w.mesh(0);
-  const auto p = w.mesh_positions();
-  Points out(m.vertices.count);
-  for (std::size_t v = 0; v < out.size(); ++v) {
-    const std::size_t i = m.vertices.offset + v;
-    out[v] = {p.x[i], p.y[i], p.z[i]};
-  }
-  return out;
-}
 
 // Rigid cross-sections: each vertex at its rest arc length s (nearest point of the rest centreline,
 // sampled every 0.5 mm) and offset o in the rod's frame there, carried by the posed rod.
@@ -79,19 +69,8 @@ Points carried(const World& w, const Material& m) {
   return out;
 }
 
-TriangleMesh mesh_of(const World& w, const Points& x) {
-  const MeshInfo& m = w.mesh(0);
-  TriangleMesh out{x, {}};
-  for (std::size_t i = 0; i < m.triangles.count; ++i) {
-    auto tri = w.mesh_triangles()[m.triangles.offset + i];
-    for (auto& v : tri) v -= static_cast<std::uint32_t>(m.vertices.offset);
-    out.triangles.push_back(tri);
-  }
-  return out;
-}
-
 double volume_of(const World& w, const Points& x) {
-  const TriangleMesh m = mesh_of(w, x);
+  const TriangleMesh m = validation::organ_mesh(w, x);
   return mesh_volume(m.vertices, m.triangles);
 }
 
@@ -217,9 +196,9 @@ AnatomyStudy run_anatomy_study(const std::vector<std::pair<std::string, std::fil
       s.world.segments[0].mesh.normals = false;
       worlds.push_back(create_world(s));
     }
-    const Points rest = mesh_points(*worlds.back());
+    const Points rest = validation::organ_points(*worlds.back());
     const Material mat = material(*worlds.back(), rest);
-    const bool closed = is_closed(mesh_of(*worlds.back(), rest));
+    const bool closed = is_closed(validation::organ_mesh(*worlds.back(), rest));
     std::vector<std::vector<Points>> posed(worlds.size());
     std::vector<std::vector<double>> times(worlds.size());
     std::vector<Points> rigid;
@@ -228,7 +207,7 @@ AnatomyStudy run_anatomy_study(const std::vector<std::pair<std::string, std::fil
         const double before = worlds[v]->last_profile().seconds[static_cast<std::size_t>(Stage::skin)];
         deform(*worlds[v], d);
         if (d != 2) times[v].push_back(worlds[v]->last_profile().seconds[static_cast<std::size_t>(Stage::skin)] - before);
-        posed[v].push_back(mesh_points(*worlds[v]));
+        posed[v].push_back(validation::organ_points(*worlds[v]));
         if (v + 1 == worlds.size()) rigid.push_back(carried(*worlds[v], mat));
       }
     const double rest_volume = volume_of(*worlds.back(), rest);

@@ -74,26 +74,9 @@ std::vector<StudyPose> study_poses() {
 
 namespace {
 
-std::vector<Eigen::Vector3d> positions(const World& w) {
-  const MeshInfo& m = w.mesh(0);
-  const auto p = w.mesh_positions();
-  std::vector<Eigen::Vector3d> out(m.vertices.count);
-  for (std::size_t v = 0; v < out.size(); ++v) {
-    const std::size_t i = m.vertices.offset + v;
-    out[v] = Eigen::Vector3d(p.x[i], p.y[i], p.z[i]);
-  }
-  return out;
-}
-
 double volume(const World& w, const std::vector<Eigen::Vector3d>& x) {
-  const MeshInfo& m = w.mesh(0);
-  std::vector<std::array<std::uint32_t, 3>> t;
-  for (std::size_t i = 0; i < m.triangles.count; ++i) {
-    auto tri = w.mesh_triangles()[m.triangles.offset + i];
-    for (auto& v : tri) v -= static_cast<std::uint32_t>(m.vertices.offset);
-    t.push_back(tri);
-  }
-  return mesh_volume(x, t);
+  const TriangleMesh m = organ_mesh(w, x);
+  return mesh_volume(m.vertices, m.triangles);
 }
 
 // The reference deformation: every vertex at its rest material coordinates (arc length s and
@@ -136,6 +119,28 @@ std::vector<Eigen::Vector3d> transported(const World& w, const Transport& t, con
 
 }  // namespace
 
+std::vector<Eigen::Vector3d> organ_points(const World& w) {
+  const MeshInfo& m = w.mesh(0);
+  const auto p = w.mesh_positions();
+  std::vector<Eigen::Vector3d> out(m.vertices.count);
+  for (std::size_t v = 0; v < out.size(); ++v) {
+    const std::size_t i = m.vertices.offset + v;
+    out[v] = Eigen::Vector3d(p.x[i], p.y[i], p.z[i]);
+  }
+  return out;
+}
+
+TriangleMesh organ_mesh(const World& w, const std::vector<Eigen::Vector3d>& x) {
+  const MeshInfo& m = w.mesh(0);
+  TriangleMesh out{x, {}};
+  for (std::size_t i = 0; i < m.triangles.count; ++i) {
+    auto tri = w.mesh_triangles()[m.triangles.offset + i];
+    for (auto& v : tri) v -= static_cast<std::uint32_t>(m.vertices.offset);
+    out.triangles.push_back(tri);
+  }
+  return out;
+}
+
 SkinningStudy run_skinning_study() {
   SkinningStudy study;
   study.organ = "a straight procedural rectum, 30 cm, radius 2 cm, 61 nodes, 11 beads 3 cm apart, 10,000-vertex mesh";
@@ -169,7 +174,7 @@ SkinningStudy run_skinning_study() {
     row.bytes_per_vertex = row.slots * 20.0;  // 4 floats and a ring index per slot
     row.rest_error = info.skin.rest_error;
     row.mean_dropped_mass = info.skin.mean_dropped_mass;
-    const std::vector<Eigen::Vector3d> rest = positions(*w);
+    const std::vector<Eigen::Vector3d> rest = organ_points(*w);
     Eigen::Vector3d lo = rest[0], hi = rest[0];
     for (const auto& x : rest) {
       lo = lo.cwiseMin(x);
@@ -187,7 +192,7 @@ SkinningStudy run_skinning_study() {
         w->pose_rod(0, base, ps[pi].strain);
         times.push_back(w->last_profile().seconds[static_cast<std::size_t>(Stage::skin)] - before);
       }
-      const std::vector<Eigen::Vector3d> x = positions(*w);
+      const std::vector<Eigen::Vector3d> x = organ_points(*w);
       if (v.method == SkinningMethod::mean_value && v.k == 0) reference.push_back(x);
       for (std::size_t i = 0; i < x.size(); ++i) errors.push_back((x[i] - reference[pi][i]).norm());
       const std::vector<Eigen::Vector3d> carried = transported(*w, transport, ps[pi].strain);

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "haustra/mesh_io.hpp"
+#include "haustra/world.hpp"
 #include "haustra/world_desc.hpp"
 
 namespace haustra::validation {
@@ -47,5 +49,9 @@ struct StudyPose {
 };
 std::vector<StudyPose> study_poses();
 std::string skinning_markdown(const SkinningStudy& study);
+
+// The first segment's organ mesh as it is now, and with its vertices at x (its own triangles).
+std::vector<Eigen::Vector3d> organ_points(const World& w);
+TriangleMesh organ_mesh(const World& w, const std::vector<Eigen::Vector3d>& x);
 
 }  // namespace haustra::validation
