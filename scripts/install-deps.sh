@@ -16,7 +16,7 @@ packages=(
   # `haustra import` computes centrelines with CGAL (decision 0047)
   libcgal-dev
   # the viewer (`make view`, decision 0046) and its test under Xvfb with Mesa's software OpenGL
-  libglfw3-dev libimgui-dev libgl-dev xvfb xauth libgl1-mesa-dri
+  libglfw3-dev libimgui-dev libgl-dev xvfb xauth xfonts-base libgl1-mesa-dri
 )
 for extra in "$@"; do
   case "$extra" in
