@@ -8,7 +8,7 @@
 #include <string>
 
 #include "haustra/scene.hpp"
-#include "haustra/skinning_study.hpp"
+#include "haustra/studies/skinning_study.hpp"
 #include "haustra/world.hpp"
 
 int main(int argc, char** argv) {

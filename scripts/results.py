@@ -116,7 +116,7 @@ def main():
         "## Reference cases (`haustra validate`)",
         "",
         "Each case runs the engine through its public API and compares one number with an independent",
-        "reference (closed forms, RK4 shooting and integration: `tools/validation/src/references.cpp`).",
+        "reference (closed forms, RK4 shooting and integration: `studies/src/references.cpp`).",
         "",
         *validation,
         "",

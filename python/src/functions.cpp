@@ -10,7 +10,7 @@
 #include "haustra/error.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/scene.hpp"
-#include "haustra/validation.hpp"
+#include "haustra/studies/validation.hpp"
 #include "haustra/world.hpp"
 
 namespace py = pybind11;

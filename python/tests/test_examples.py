@@ -1,4 +1,4 @@
-"""The examples in tools/examples/python run and produce what they say."""
+"""The examples in python/examples run and produce what they say."""
 import os
 import subprocess
 import sys
@@ -7,7 +7,7 @@ import numpy as np
 
 from conftest import SOURCE
 
-EXAMPLES = SOURCE / "tools" / "examples" / "python"
+EXAMPLES = SOURCE / "python" / "examples"
 
 
 def run(script, *args):

@@ -14,15 +14,15 @@
 #include <nlohmann/json.hpp>
 
 #include "haustra/error.hpp"
-#include "haustra/anatomy_study.hpp"
-#include "haustra/import.hpp"
-#include "haustra/render.hpp"
+#include "haustra/studies/anatomy_study.hpp"
+#include "haustra/import/import.hpp"
+#include "haustra/render/render.hpp"
 #include "haustra/scene.hpp"
-#include "haustra/stability.hpp"
-#include "haustra/validation.hpp"
+#include "haustra/studies/stability.hpp"
+#include "haustra/studies/validation.hpp"
 #include "run_report.hpp"
-#include "haustra/skinning_study.hpp"
-#include "haustra/tradeoff_study.hpp"
+#include "haustra/studies/skinning_study.hpp"
+#include "haustra/studies/tradeoff_study.hpp"
 
 namespace {
 

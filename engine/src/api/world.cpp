@@ -3,10 +3,10 @@
 // adding and removing segments state_carry_over.cpp.
 #include <fmt/format.h>
 
-#include "collision.hpp"
+#include "step/collision.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
-#include "instruments.hpp"
-#include "world_impl.hpp"
+#include "step/instruments.hpp"
+#include "step/world_impl.hpp"
 
 namespace haustra {
 

@@ -1,10 +1,10 @@
 // Checkpoints: the state a later frame depends on, to bytes and back, and to files (decision 0026).
-#include "checkpoint.hpp"
+#include "io/checkpoint.hpp"
 
 #include <filesystem>
 #include <fstream>
 
-#include "world_impl.hpp"
+#include "step/world_impl.hpp"
 
 #include <fmt/format.h>
 

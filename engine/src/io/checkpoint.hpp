@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "world_model.hpp"
-#include "world_state.hpp"
+#include "model/world_model.hpp"
+#include "step/world_state.hpp"
 
 namespace haustra::detail {
 

@@ -1,12 +1,12 @@
 // Collision stages: beads follow nodes, broad and narrow phase, penalty forces and their stiffness, the
 // report.
-#include "collision.hpp"
+#include "step/collision.hpp"
 
 #include <algorithm>
 #include <cmath>
 
 #include "haustra/kernels/contact_geometry.hpp"
-#include "static_meshes.hpp"
+#include "model/static_meshes.hpp"
 
 namespace haustra::detail {
 namespace {

@@ -5,13 +5,13 @@
 #include <type_traits>
 #include <fmt/format.h>
 
-#include "collision.hpp"
+#include "step/collision.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
-#include "instruments.hpp"
-#include "mesh_stages.hpp"
-#include "newton_stages.hpp"
-#include "rod_stages.hpp"
-#include "world_impl.hpp"
+#include "step/instruments.hpp"
+#include "step/mesh_stages.hpp"
+#include "step/newton_stages.hpp"
+#include "step/rod_stages.hpp"
+#include "step/world_impl.hpp"
 
 namespace haustra {
 

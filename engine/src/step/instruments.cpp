@@ -1,5 +1,5 @@
 // Instruments: scripted and host poses, grasps and releases, the force on the grasper.
-#include "instruments.hpp"
+#include "step/instruments.hpp"
 
 #include <cmath>
 

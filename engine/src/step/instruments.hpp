@@ -4,8 +4,8 @@
 // bead in reach through the segment's grasp attachment slot, opening releases it, and a grasp's
 // target follows the instrument. At the frame's end, the force and torque the tissue exerts on
 // each instrument are summed from its contacts and its grasp.
-#include "world_model.hpp"
-#include "world_state.hpp"
+#include "model/world_model.hpp"
+#include "step/world_state.hpp"
 
 namespace haustra::detail {
 

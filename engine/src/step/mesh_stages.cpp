@@ -1,5 +1,5 @@
 // Mesh stages: cage rings follow the rod, skinning, normals.
-#include "mesh_stages.hpp"
+#include "step/mesh_stages.hpp"
 
 #include "haustra/kernels/mesh_normals.hpp"
 

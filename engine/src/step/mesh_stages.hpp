@@ -1,7 +1,7 @@
 #pragma once
 // The frame's last stages: cage rings follow the rod, the organ meshes follow the rings, normals.
-#include "world_model.hpp"
-#include "world_state.hpp"
+#include "model/world_model.hpp"
+#include "step/world_state.hpp"
 
 namespace haustra::detail {
 

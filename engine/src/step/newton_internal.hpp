@@ -4,8 +4,8 @@
 #include <Eigen/Dense>
 #include <span>
 
-#include "collision.hpp"
-#include "rod_stages.hpp"
+#include "step/collision.hpp"
+#include "step/rod_stages.hpp"
 
 namespace haustra::detail::newton {
 

@@ -4,15 +4,15 @@
 #include <algorithm>
 #include <cmath>
 
-#include "collision.hpp"
+#include "step/collision.hpp"
 #include "haustra/kernels/block_tridiagonal.hpp"
 #include "haustra/kernels/rod_backward_sweep.hpp"
 #include "haustra/kernels/rod_condensed.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/kernels/rod_newton.hpp"
-#include "newton_internal.hpp"
-#include "newton_stages.hpp"
-#include "segment_law.hpp"
+#include "step/newton_internal.hpp"
+#include "step/newton_stages.hpp"
+#include "step/segment_law.hpp"
 
 namespace haustra::detail {
 namespace newton {

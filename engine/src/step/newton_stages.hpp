@@ -1,7 +1,7 @@
 #pragma once
 // The Newton stages of a frame, one segment at a time (newton_stages.cpp): each reads the constant
 // model and writes only its own segment's slice of the state, so segments run in parallel.
-#include "rod_stages.hpp"
+#include "step/rod_stages.hpp"
 
 namespace haustra::detail {
 

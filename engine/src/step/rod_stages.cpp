@@ -1,5 +1,5 @@
 // Rod stages of the lagged scheme and the guard: loads, sweeps, the solve, constraints, filter, checks.
-#include "rod_stages.hpp"
+#include "step/rod_stages.hpp"
 
 #include <Eigen/Dense>
 #include <cmath>
@@ -11,8 +11,8 @@
 #include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/strain_update.hpp"
 #include "haustra/kernels/tissue_law.hpp"
-#include "collision.hpp"
-#include "segment_law.hpp"
+#include "step/collision.hpp"
+#include "step/segment_law.hpp"
 
 namespace haustra::detail {
 namespace {

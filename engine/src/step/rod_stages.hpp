@@ -6,8 +6,8 @@
 #include <string>
 
 #include "haustra/profile.hpp"
-#include "world_model.hpp"
-#include "world_state.hpp"
+#include "model/world_model.hpp"
+#include "step/world_state.hpp"
 
 namespace haustra::detail {
 

@@ -6,7 +6,7 @@
 #include "haustra/kernels/mass_matrix.hpp"
 #include "haustra/kernels/strain_update.hpp"
 #include "haustra/kernels/tissue_law.hpp"
-#include "rod_stages.hpp"
+#include "step/rod_stages.hpp"
 
 namespace haustra::detail {
 

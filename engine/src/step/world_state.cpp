@@ -1,9 +1,9 @@
 // The per-frame state (mjData) sized once from the model.
-#include "world_state.hpp"
+#include "step/world_state.hpp"
 
 #include <algorithm>
 
-#include "collision.hpp"
+#include "step/collision.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 
 namespace haustra::detail {

@@ -13,7 +13,7 @@
 #include "haustra/kernels/rod_condensed.hpp"
 #include "haustra/kernels/rod_newton.hpp"
 #include "haustra/kernels/spans.hpp"
-#include "world_model.hpp"
+#include "model/world_model.hpp"
 
 namespace haustra::detail {
 

@@ -12,7 +12,7 @@
 #include <numbers>
 
 #include "haustra/error.hpp"
-#include "haustra/shapes.hpp"
+#include "haustra/render/shapes.hpp"
 
 namespace haustra::view {
 namespace {

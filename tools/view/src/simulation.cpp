@@ -7,7 +7,7 @@
 #include <chrono>
 
 #include "haustra/error.hpp"
-#include "haustra/render.hpp"
+#include "haustra/render/render.hpp"
 #include "knobs.hpp"
 
 namespace haustra::view {

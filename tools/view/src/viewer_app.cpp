@@ -20,7 +20,7 @@
 
 #include "gl_scene.hpp"
 #include "haustra/error.hpp"
-#include "haustra/image.hpp"
+#include "haustra/render/image.hpp"
 #include "haustra/scene.hpp"
 #include "mouse.hpp"
 #include "panels.hpp"

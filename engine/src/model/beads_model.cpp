@@ -1,0 +1,299 @@
+// Building the beads, their rest-pose exclusions, the environment and the instruments.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <optional>
+#include <cmath>
+
+#include "model/field_checks.hpp"
+#include "haustra/error.hpp"
+#include "haustra/kernels/broad_phase.hpp"
+#include "haustra/embree_scene.hpp"
+#include "model/static_meshes.hpp"
+#include "model/world_model.hpp"
+
+namespace haustra::detail {
+namespace {
+
+
+void check_finite(const std::string& field, const Eigen::Vector3d& v) {
+  if (!v.allFinite()) fail(field, "expected three finite numbers");
+}
+
+void check_unit(const std::string& field, const Eigen::Vector3d& v) {
+  check_finite(field, v);
+  if (!(v.norm() > 0.0)) fail(field, "expected a non-zero direction");
+}
+
+void check_radius(const std::string& field, double r) {
+  if (!std::isfinite(r) || !(r > 0.0)) fail(field, fmt::format("expected a positive radius in m, got {}", r));
+  if (r > 0.5) fail(field, fmt::format("{} m is beyond the plausible maximum 0.5 m (did you mean millimetres?)", r));
+}
+
+// Node indices of one segment's beads, ascending and distinct.
+std::vector<std::size_t> bead_nodes(const BeadsDesc& b, const SegmentModel& seg, std::span<const double> h,
+                                    const std::string& where) {
+  const std::size_t n = seg.node_count;
+  std::vector<std::size_t> nodes;
+  const int ways = (b.count > 0 ? 1 : 0) + (b.spacing > 0.0 ? 1 : 0) + (b.nodes.empty() ? 0 : 1);
+  if (ways > 1) fail(where, "give the beads by count, by spacing or as a node list: one of them");
+  if (!b.nodes.empty()) {
+    for (std::size_t i = 0; i < b.nodes.size(); ++i) {
+      const long long k = b.nodes[i] < 0 ? static_cast<long long>(n) + b.nodes[i] : b.nodes[i];
+      if (k < 0 || k >= static_cast<long long>(n))
+        fail(fmt::format("{}.nodes[{}]", where, i),
+             fmt::format("expected a node index in [{}, {}], got {}", -static_cast<long long>(n), n - 1, b.nodes[i]));
+      nodes.push_back(static_cast<std::size_t>(k));
+    }
+  } else if (b.spacing > 0.0) {
+    if (!std::isfinite(b.spacing)) fail(where + ".spacing", "expected a finite spacing in m");
+    double s = 0.0, next = 0.0;
+    for (std::size_t k = 0; k < n; ++k) {
+      if (k > 0) s += h[k - 1];
+      if (s + 0.5 * (k + 1 < n ? h[k] : 0.0) >= next) {  // the first node at or past the next mark
+        nodes.push_back(k);
+        next = s + b.spacing;
+      }
+    }
+    nodes.push_back(n - 1);
+  } else {
+    if (b.count < 0) fail(where + ".count", fmt::format("expected a positive count, got {}", b.count));
+    const std::size_t count = b.count > 0 ? static_cast<std::size_t>(b.count) : (n + 2) / 3;  // every third node
+    if (count > n) fail(where + ".count", fmt::format("{} beads on {} nodes: at most one bead per node", count, n));
+    for (std::size_t j = 0; j < count; ++j)
+      nodes.push_back(count == 1 ? 0 : static_cast<std::size_t>(std::llround(static_cast<double>(j) * static_cast<double>(n - 1) /
+                                                                              static_cast<double>(count - 1))));
+  }
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  return nodes;
+}
+
+double profile_radius(const std::vector<std::pair<double, double>>& profile, double fraction) {
+  if (fraction <= profile.front().first) return profile.front().second;
+  for (std::size_t i = 1; i < profile.size(); ++i)
+    if (fraction <= profile[i].first) {
+      const auto& [f0, r0] = profile[i - 1];
+      const auto& [f1, r1] = profile[i];
+      return f1 > f0 ? r0 + (r1 - r0) * (fraction - f0) / (f1 - f0) : r1;
+    }
+  return profile.back().second;
+}
+
+}  // namespace
+
+bool BeadModel::excluded(std::uint32_t a, std::uint32_t b) const {
+  const auto lo = exclusion.begin() + exclusion_start[a];
+  const auto hi = exclusion.begin() + exclusion_start[a + 1];
+  return std::binary_search(lo, hi, b);
+}
+
+void build_environment(const WorldDesc& desc, WorldModel& m) {
+  const ContactDesc& c = desc.contact;
+  if (!std::isfinite(c.coefficient) || !(c.coefficient > 0.0))
+    fail("contact.coefficient", fmt::format("expected a positive coefficient, got {}", c.coefficient));
+  if (!std::isfinite(c.exponent) || c.exponent < 1.0 || c.exponent > 4.0)
+    fail("contact.exponent", fmt::format("expected an exponent in [1, 4], got {}", c.exponent));
+  if (!std::isfinite(c.margin) || c.margin > 0.5)
+    fail("contact.margin", fmt::format("expected a margin in m of at most 0.5 (negative: automatic), got {}", c.margin));
+  m.contact = c;
+  m.environment = desc.environment;
+  for (std::size_t i = 0; i < m.environment.planes.size(); ++i) {
+    PlaneDesc& p = m.environment.planes[i];
+    check_finite(fmt::format("environment.plane[{}].point", i), p.point);
+    check_unit(fmt::format("environment.plane[{}].normal", i), p.normal);
+    p.normal.normalize();
+  }
+  for (std::size_t i = 0; i < m.environment.spheres.size(); ++i) {
+    const SphereObstacleDesc& s = m.environment.spheres[i];
+    check_finite(fmt::format("environment.sphere[{}].center", i), s.center);
+    if (!std::isfinite(s.radius) || !(s.radius > 0.0))
+      fail(fmt::format("environment.sphere[{}].radius", i), fmt::format("expected a positive radius in m, got {}", s.radius));
+  }
+  for (std::size_t i = 0; i < m.environment.capsules.size(); ++i) {
+    const CapsuleObstacleDesc& s = m.environment.capsules[i];
+    check_finite(fmt::format("environment.capsule[{}].a", i), s.a);
+    check_finite(fmt::format("environment.capsule[{}].b", i), s.b);
+    if (!std::isfinite(s.radius) || !(s.radius > 0.0))
+      fail(fmt::format("environment.capsule[{}].radius", i), fmt::format("expected a positive radius in m, got {}", s.radius));
+  }
+  for (std::size_t i = 0; i < m.environment.meshes.size(); ++i) {
+    const MeshObstacleDesc& mesh = m.environment.meshes[i];
+    const std::string where = fmt::format("environment.mesh[{}]", i);
+    if (mesh.triangles.empty()) fail(where, "the mesh has no triangles");
+    for (const auto& t : mesh.triangles)
+      for (std::uint32_t v : t)
+        if (v >= mesh.vertices.size())
+          fail(where, fmt::format("a triangle uses vertex {} but there are {}", v, mesh.vertices.size()));
+    for (const auto& v : mesh.vertices)
+      if (!v.allFinite()) fail(where, "vertices must be finite");
+  }
+  m.meshes = std::make_shared<const StaticMeshes>(m.environment.meshes);
+  m.instruments = desc.instruments;
+  for (std::size_t i = 0; i < m.instruments.size(); ++i) {
+    InstrumentDesc& ins = m.instruments[i];
+    const std::string where = fmt::format("instrument[{}]", i);
+    check_radius(where + ".radius", ins.radius);
+    if (!std::isfinite(ins.length) || !(ins.length > 0.0) || ins.length > 10.0)
+      fail(where + ".length", fmt::format("expected a length in (0, 10] m, got {}", ins.length));
+    if (!std::isfinite(ins.grasp_reach) || ins.grasp_reach < 0.0 || ins.grasp_reach > 0.5)
+      fail(where + ".grasp_reach", fmt::format("expected a reach in [0, 0.5] m, got {}", ins.grasp_reach));
+    if (!std::isfinite(ins.force_filter) || ins.force_filter < 0.0 || ins.force_filter > 100.0)
+      fail(where + ".force_filter", fmt::format("expected a time constant in [0, 100] s, got {}", ins.force_filter));
+    check_finite(where + ".tip", ins.tip);
+    check_unit(where + ".axis", ins.axis);
+    ins.axis.normalize();
+    for (std::size_t k = 0; k < ins.keyframes.size(); ++k) {
+      InstrumentKeyframe& kf = ins.keyframes[k];
+      const std::string kw = fmt::format("{}.keyframe[{}]", where, k);
+      if (!std::isfinite(kf.time)) fail(kw + ".time", "expected a finite time in s");
+      if (k > 0 && !(kf.time > ins.keyframes[k - 1].time))
+        fail(kw + ".time", fmt::format("keyframes must come in increasing time: {} after {}", kf.time, ins.keyframes[k - 1].time));
+      check_finite(kw + ".tip", kf.tip);
+      check_unit(kw + ".axis", kf.axis);
+      kf.axis.normalize();
+    }
+  }
+}
+
+// Beads whose node the mesh does not surround (a centreline running past an open end, rays
+// escaping there) take the radius of the nearest bead it does surround, along the rod. None
+// surrounded: the mesh is not around this rod at all.
+void fill_uncovered_radii(std::vector<std::optional<double>>& radii, const std::vector<double>& arcs,
+                          const std::string& where, double reach) {
+  std::size_t covered = 0;
+  for (const auto& r : radii) covered += r ? 1 : 0;
+  if (covered == radii.size()) return;
+  if (covered == 0)
+    throw FieldError(ErrorCode::invalid_geometry, where + ".radius",
+                     fmt::format("no bead's node has the organ mesh around it (16 rays in its normal plane, within "
+                                 "{:.3g} m): the mesh does not surround the rod",
+                                 reach));
+  const std::vector<std::optional<double>> measured = radii;
+  for (std::size_t i = 0; i < radii.size(); ++i) {
+    if (radii[i]) continue;
+    double best = 1e300;
+    for (std::size_t j = 0; j < measured.size(); ++j)
+      if (measured[j] && std::abs(arcs[j] - arcs[i]) < best) {
+        best = std::abs(arcs[j] - arcs[i]);
+        radii[i] = measured[j];
+      }
+  }
+}
+
+void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& initial_positions,
+                 const std::vector<RodPoseBuffer>& rest_poses, const std::vector<TriangleMesh>& meshes, WorldModel& m) {
+  BeadModel& beads = m.beads;
+  for (std::size_t si = 0; si < m.segments.size(); ++si) {
+    SegmentModel& seg = m.segments[si];
+    const BeadsDesc& b = desc.segments[si].beads;
+    seg.bead_offset = beads.size();
+    for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p)
+      m.pieces[p].bead_offset = beads.size();
+    if (!b.enabled) continue;
+    const std::string where = fmt::format("segment[{}].beads", si);
+    const std::span<const double> h = std::span<const double>(m.section_length).subspan(seg.node_offset, seg.node_count - 1);
+    if (b.radius != 0.0) check_radius(where + ".radius", b.radius);
+    for (std::size_t i = 0; i < b.radius_profile.size(); ++i) {
+      const auto& [f, r] = b.radius_profile[i];
+      if (!std::isfinite(f) || f < 0.0 || f > 1.0 || (i > 0 && f < b.radius_profile[i - 1].first))
+        fail(fmt::format("{}.radius_profile[{}]", where, i), "fractions of the length must rise from 0 to 1");
+      check_radius(fmt::format("{}.radius_profile[{}]", where, i), r);
+    }
+    if ((b.radius != 0.0 ? 1 : 0) + (b.radius_profile.empty() ? 0 : 1) + (b.radius_from_mesh ? 1 : 0) > 1)
+      fail(where, "give one of radius, radius_profile or radius = \"mesh\"");
+    const TriangleMesh& own_mesh = meshes[seg.first_piece];  // only a single piece may take radii from it
+    if (b.radius_from_mesh && own_mesh.triangles.empty())
+      fail(where + ".radius", "radius = \"mesh\" needs the segment's organ mesh ([segment.mesh])");
+    std::unique_ptr<EmbreeScene> wall;
+    if (b.radius_from_mesh) {
+      wall = std::make_unique<EmbreeScene>();
+      wall->add_triangles(own_mesh.vertices, own_mesh.triangles);
+      wall->commit();
+    }
+    // A chain places its beads piece by piece (a joint node gets one bead).
+    std::vector<std::size_t> rod_nodes;
+    for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p) {
+      const SegmentPiece& piece = m.pieces[p];
+      SegmentModel span_of_piece;
+      span_of_piece.node_count = piece.info.nodes.count;
+      for (std::size_t k : bead_nodes(b, span_of_piece, h.subspan(piece.first_node, piece.info.nodes.count - 1), where))
+        rod_nodes.push_back(piece.first_node + k);
+    }
+    std::sort(rod_nodes.begin(), rod_nodes.end());
+    rod_nodes.erase(std::unique(rod_nodes.begin(), rod_nodes.end()), rod_nodes.end());
+    double arc = 0.0;
+    std::size_t last = 0;
+    std::vector<double> arcs;
+    std::vector<std::optional<double>> radii;
+    for (std::size_t k : rod_nodes) {
+      for (; last < k; ++last) arc += h[last];
+      const double fraction = arc / seg.info.length;
+      std::optional<double> r = !b.radius_profile.empty() ? profile_radius(b.radius_profile, fraction)
+                                : b.radius != 0.0         ? b.radius
+                                                          : desc.segments[si].cross_section.radius;
+      if (b.radius_from_mesh) {
+        const kernels::RodPoses<const double> rest = rest_poses[si].view();
+        r = mesh_cross_section_radius(*wall, {rest.node_rotation.get(k), rest.node_position.get(k)},
+                                      10.0 * desc.segments[si].cross_section.radius);
+      }
+      arcs.push_back(arc);
+      radii.push_back(r);
+    }
+    fill_uncovered_radii(radii, arcs, where, 10.0 * desc.segments[si].cross_section.radius);
+    for (std::size_t i = 0; i < rod_nodes.size(); ++i) {
+      beads.node.push_back(static_cast<std::uint32_t>(seg.node_offset + rod_nodes[i]));
+      beads.segment.push_back(static_cast<std::uint32_t>(si));
+      beads.radius.push_back(*radii[i]);
+      beads.modulus.push_back(desc.segments[si].material.youngs_modulus);
+    }
+    seg.bead_count = beads.size() - seg.bead_offset;
+    // Each piece's beads: those on its nodes, a joint's going to the later piece.
+    for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p) {
+      SegmentPiece& piece = m.pieces[p];
+      const bool last_piece = p + 1 == seg.first_piece + seg.piece_count;
+      const std::size_t end = piece.first_node + piece.info.nodes.count - (last_piece ? 0 : 1);
+      piece.bead_offset = beads.size();
+      for (std::size_t bead = seg.bead_offset; bead < seg.bead_offset + seg.bead_count; ++bead) {
+        const std::size_t k = beads.node[bead] - seg.node_offset;
+        if (k < piece.first_node) continue;
+        if (k >= end) break;
+        piece.bead_offset = std::min(piece.bead_offset, bead);
+        ++piece.bead_count;
+      }
+      if (piece.bead_count == 0) piece.bead_offset = seg.bead_offset + seg.bead_count;
+    }
+  }
+  // Rest-pose exclusions: pairs of one segment whose spheres overlap or touch at rest.
+  const std::size_t nb = beads.size();
+  std::vector<double> x(nb), y(nb), z(nb);
+  for (std::size_t i = 0; i < nb; ++i) {
+    x[i] = initial_positions[beads.node[i]].x();
+    y[i] = initial_positions[beads.node[i]].y();
+    z[i] = initial_positions[beads.node[i]].z();
+  }
+  const kernels::SphereSet set{x, y, z, beads.radius};
+  double smallest = 1e300;
+  for (double r : beads.radius) smallest = std::min(smallest, r);
+  // "Touch" allows for rounding: a bead chain laid exactly tangent at rest stays excluded.
+  const double touch = nb > 0 ? 1e-9 * smallest : 0.0;
+  std::vector<kernels::SpherePair> pairs(8 * nb + 16);
+  kernels::SphereGrid grid;
+  grid.build(set, touch);
+  std::size_t count = grid.query(set, 0, nb, pairs);
+  if (count > pairs.size()) {
+    pairs.resize(count);
+    count = grid.query(set, 0, nb, pairs);
+  }
+  beads.exclusion_start.assign(nb + 1, 0);
+  for (std::size_t p = 0; p < count; ++p)
+    if (beads.segment[pairs[p].a] == beads.segment[pairs[p].b]) ++beads.exclusion_start[pairs[p].a + 1];
+  for (std::size_t i = 0; i < nb; ++i) beads.exclusion_start[i + 1] += beads.exclusion_start[i];
+  beads.exclusion.assign(beads.exclusion_start[nb], 0);
+  std::vector<std::uint32_t> fill(beads.exclusion_start.begin(), beads.exclusion_start.end() - 1);
+  for (std::size_t p = 0; p < count; ++p)  // pairs come in ascending (a, b): lists come sorted
+    if (beads.segment[pairs[p].a] == beads.segment[pairs[p].b]) beads.exclusion[fill[pairs[p].a]++] = pairs[p].b;
+  m.contact_margin = m.contact.margin >= 0.0 ? m.contact.margin : (nb > 0 ? 0.5 * smallest : 0.0);
+}
+
+}  // namespace haustra::detail

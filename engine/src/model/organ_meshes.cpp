@@ -1,0 +1,171 @@
+// Organ meshes of the segments: loaded or generated at the rest pose, caged and bound to the rings.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <optional>
+
+#include "haustra/kernels/mesh_normals.hpp"
+#include "haustra/error.hpp"
+#include "haustra/procedural_organ.hpp"
+#include "haustra/rod_curve.hpp"
+#include "model/world_model.hpp"
+
+namespace haustra::detail {
+namespace {
+
+[[noreturn]] void fail(ErrorCode code, const std::string& field, const std::string& detail) {
+  throw FieldError(code, field, detail);
+}
+
+constexpr std::size_t kChunkBlocks = 64;  // 512 vertices per skinning task
+
+}  // namespace
+
+std::optional<double> mesh_cross_section_radius(const EmbreeScene& wall, const kernels::Pose& station, double reach) {
+  constexpr int kRays = 16;
+  const Eigen::Matrix3d r = station.rotation.toRotationMatrix();
+  std::vector<double> hits;
+  for (int i = 0; i < kRays; ++i) {
+    const double theta = 2.0 * std::numbers::pi * i / kRays;
+    const Eigen::Vector3d dir = std::cos(theta) * r.col(0) + std::sin(theta) * r.col(1);
+    const EmbreeScene::Hit h = wall.first_hit(station.position, dir, 0.0, reach);
+    if (h.found) hits.push_back(h.distance);
+  }
+  if (hits.size() < kRays / 2) return std::nullopt;  // past an open end, or outside the mesh
+  std::nth_element(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(hits.size() / 2), hits.end());
+  return hits[hits.size() / 2];
+}
+
+std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
+                                            const WorldModel& m) {
+  std::vector<TriangleMesh> meshes(m.pieces.size());
+  for (std::size_t pi = 0; pi < m.pieces.size(); ++pi) {
+    const SegmentPiece& piece = m.pieces[pi];
+    const std::size_t si = piece.rod;
+    const OrganMeshDesc& d = desc.segments[si].mesh;
+    if (!d.enabled) continue;
+    const std::string where = fmt::format("segment[{}].mesh", si);
+    TriangleMesh& mesh = meshes[pi];
+    if (d.source == MeshSource::procedural) {
+      const std::size_t off = piece.info.nodes.offset, n = piece.info.nodes.count;
+      const kernels::RodPoses<const double> rest = rest_poses[si].view();
+      const RodCurve curve(std::span<const double>(m.section_length).subspan(off, n - 1),
+                           std::span<const double>(m.rest_strain).subspan(4 * off, 4 * n),
+                           {rest.node_rotation.get(piece.first_node), rest.node_position.get(piece.first_node)});
+      mesh = procedural_organ(curve, d.procedural, desc.segments[si].cross_section.radius, where + ".procedural");
+    } else {
+      if (d.file.empty()) fail(ErrorCode::invalid_argument, where + ".file", "a mesh from a file needs file = \"path\"");
+      if (!std::isfinite(d.scale) || !(d.scale > 0.0))
+        fail(ErrorCode::invalid_argument, where + ".scale",
+             fmt::format("expected a positive scale (0.001 for millimetres), got {}", d.scale));
+      if (!d.translate.allFinite()) fail(ErrorCode::invalid_argument, where + ".translate", "expected three finite numbers");
+      try {
+        mesh = load_mesh(d.file);
+      } catch (const Error& e) {
+        fail(e.code(), where + ".file", e.what());
+      }
+      for (auto& v : mesh.vertices) v = d.scale * v + d.translate;
+    }
+  }
+  return meshes;
+}
+
+void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
+                       std::vector<TriangleMesh>& meshes, WorldModel& m) {
+  m.meshes_of.assign(m.pieces.size(), SegmentMesh{});
+  for (std::size_t pi = 0; pi < m.pieces.size(); ++pi) {
+    const SegmentPiece& piece = m.pieces[pi];
+    const std::size_t si = piece.rod;
+    const SegmentDesc& sd = desc.segments[si];
+    const OrganMeshDesc& d = sd.mesh;
+    if (!d.enabled) continue;
+    const std::string where = fmt::format("segment[{}].mesh", si);
+    const SegmentModel& seg = m.segments[si];
+    const std::size_t off = piece.info.nodes.offset, n = piece.info.nodes.count;
+    // A piece's cage takes the rod's beads on its nodes, its joints' included.
+    std::size_t first_bead = seg.bead_offset, end_bead = seg.bead_offset;
+    for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
+      const std::size_t node = m.beads.node[b];
+      if (node < off) first_bead = b + 1;
+      if (node < off + n) end_bead = b + 1;
+    }
+    if (!std::isfinite(d.weight_left_out) || d.weight_left_out < 0.0 || d.weight_left_out >= 1.0)
+      fail(ErrorCode::invalid_argument, where + ".weight_left_out",
+           fmt::format("expected a fraction in [0, 1) of each vertex's weight, got {}", d.weight_left_out));
+    if (d.rings_per_vertex < 0 || d.rings_per_vertex > 4096)
+      fail(ErrorCode::invalid_argument, where + ".rings_per_vertex",
+           fmt::format("expected 0 (all rings) or a count up to 4096, got {}", d.rings_per_vertex));
+    if (!std::isfinite(d.cage.clearance) || d.cage.clearance < 0.0 || d.cage.clearance > sd.cross_section.radius)
+      fail(ErrorCode::invalid_argument, where + ".cage.clearance",
+           fmt::format("expected a clearance in [0, {}] m (0: 5 % of the radius), got {}", sd.cross_section.radius,
+                       d.cage.clearance));
+    if (end_bead < first_bead + 2)
+      fail(ErrorCode::invalid_argument, where,
+           seg.piece_count > 1 ? "the cage is built from the beads: give each piece of the chain at least two beads "
+                                 "([segment.beads])"
+                               : "the cage is built from the beads: give the segment at least two beads ([segment.beads])");
+
+    SegmentMesh& out = m.meshes_of[pi];
+    out.enabled = true;
+    out.info.enabled = true;
+    out.info.source = d.source == MeshSource::procedural ? "procedural" : d.file;
+    CageBuildInput in{.rest = rest_poses[si].view().subview(piece.first_node, n),
+                      .section_length = std::span<const double>(m.section_length).subspan(off, n - 1),
+                      .rest_strain = std::span<const double>(m.rest_strain).subspan(4 * off, 4 * n),
+                      .bead_node = {},
+                      .bead_radius = {},
+                      .mesh = &meshes[pi],
+                      .desc = d.cage,
+                      .clearance = d.cage.clearance > 0.0 ? d.cage.clearance : 0.05 * sd.cross_section.radius,
+                      .where = where};
+    for (std::size_t b = first_bead; b < end_bead; ++b) {
+      in.bead_node.push_back(m.beads.node[b] - off);
+      in.bead_radius.push_back(m.beads.radius[b]);
+    }
+    try {
+      out.cage = build_cage(in, out.info.cage);
+    } catch (const FieldError& e) {
+      // Name the mesh too: the field points at the scene, the detail at what is wrong with the file.
+      if (d.source == MeshSource::procedural) throw;
+      throw FieldError(e.code(), e.field(), fmt::format("{} (mesh {})", e.detail(), d.file));
+    }
+    out.binding = d.skinning == SkinningMethod::mean_value
+                      ? bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, d.weight_left_out, out.info.skin)
+                      : bind_linear_blend(out.cage, meshes[pi], out.info.skin);
+
+    out.ring_offset = m.ring_total;
+    m.ring_total += out.cage.ring_station.size();
+    out.vertex_offset = m.mesh_vertex_total;
+    m.mesh_vertex_total += meshes[pi].vertices.size();
+    out.triangle_offset = m.mesh_triangles.size();
+    for (const auto& t : meshes[pi].triangles)
+      m.mesh_triangles.push_back({static_cast<std::uint32_t>(out.vertex_offset + t[0]),
+                                  static_cast<std::uint32_t>(out.vertex_offset + t[1]),
+                                  static_cast<std::uint32_t>(out.vertex_offset + t[2])});
+    out.info.vertices = {out.vertex_offset, meshes[pi].vertices.size()};
+    out.info.triangles = {out.triangle_offset, meshes[pi].triangles.size()};
+    for (std::size_t first = 0; first < out.binding.blocks(); first += kChunkBlocks)
+      m.skin_chunks.push_back({static_cast<std::uint32_t>(pi), first, std::min(kChunkBlocks, out.binding.blocks() - first)});
+    const std::size_t chunk_vertices = kChunkBlocks * kernels::kSkinLanes;
+    if (d.normals)
+      for (std::size_t first = 0; first < meshes[pi].vertices.size(); first += chunk_vertices)
+        m.normal_chunks.push_back({static_cast<std::uint32_t>(pi), out.vertex_offset + first,
+                                   std::min(chunk_vertices, meshes[pi].vertices.size() - first)});
+    m.any_mesh = true;
+    meshes[pi] = TriangleMesh{};  // the binding keeps what stepping needs
+  }
+  // Each vertex's corner pairs (CSR), for its normal in one pass, summed in a fixed order.
+  m.vertex_corner_start.assign(m.mesh_vertex_total + 1, 0);
+  m.vertex_corner_pairs.assign(6 * m.mesh_triangles.size(), 0);
+  kernels::vertex_corner_pairs(m.mesh_triangles, m.mesh_vertex_total, m.vertex_corner_start, m.vertex_corner_pairs);
+  std::size_t blocks = 0;
+  for (NormalChunk& c : m.normal_chunks) {
+    c.first_block = blocks;
+    blocks += kernels::append_normal_blocks(m.vertex_corner_start, m.vertex_corner_pairs, c.first_vertex, c.vertices,
+                                            m.normal_slot_start, m.normal_slots, m.normal_gather_pairs);
+  }
+}
+
+}  // namespace haustra::detail

@@ -1,0 +1,46 @@
+#pragma once
+// Binding an organ mesh to its cage: mean value coordinates of every mesh vertex in the binding
+// pose (in double, in parallel), regrouped by ring into the rigid-group form the skinning kernel
+// applies, localized to the rings of largest weight, and made exact at the curved rest pose
+// (docs/decisions/0018-skinning-localization.md).
+// Linear-blend skinning on the bead rings is bound into the same form, for comparison.
+#include <cstdint>
+#include <vector>
+
+#include "model/cage_builder.hpp"
+#include "haustra/kernels/skinning.hpp"
+#include "haustra/mesh_io.hpp"
+#include "haustra/world.hpp"
+
+namespace haustra::detail {
+
+struct SkinBinding {
+  std::size_t vertices = 0;
+  std::vector<std::uint32_t> slot_start;     // blocks + 1
+  std::vector<float> rest_x, rest_y, rest_z;  // blocks × lanes
+  std::vector<std::uint32_t> vertex;         // blocks × lanes: mesh vertex (local), or kNoVertex
+  std::vector<std::uint32_t> ring;           // per slot, local to the segment's rings, local to the segment's rings
+  std::vector<float> coefficient;
+  [[nodiscard]] std::size_t blocks() const { return rest_x.size() / kernels::kSkinLanes; }
+  [[nodiscard]] kernels::SkinBindingView view() const {
+    return {slot_start, rest_x, rest_y, rest_z, vertex, ring, coefficient};
+  }
+};
+
+// The kept weights over cage vertices, as CSR rows (the plain reference of the rigid-group form).
+struct CageWeights {
+  std::vector<std::uint32_t> start, column;
+  std::vector<double> weight;
+};
+
+// rings_per_vertex: rings kept at least (0: every ring, full MVC); weight_left_out: more rings are
+// kept, per vertex, while the weight mass left out exceeds this fraction of the vertex's total
+// (0: exactly rings_per_vertex). csr: when given, filled with the kept weights.
+SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int rings_per_vertex,
+                            double weight_left_out, SkinReport& report, CageWeights* csr = nullptr);
+
+// Linear-blend skinning on the bead rings: each vertex on the two beads whose centre segment is
+// nearest, weights by its position along that segment.
+SkinBinding bind_linear_blend(const CageModel& cage, const TriangleMesh& mesh, SkinReport& report);
+
+}  // namespace haustra::detail

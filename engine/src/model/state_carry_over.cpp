@@ -1,0 +1,148 @@
+// Adding and removing segments between frames: the world rebuilt from its new description, every
+// other segment's state carried over (decision 0031).
+#include "model/state_carry_over.hpp"
+
+#include <algorithm>
+
+#include "step/world_impl.hpp"
+
+namespace haustra::detail {
+namespace {
+
+template <class From, class To>  // vectors or spans
+void copy_range(const From& from, std::size_t from_offset, To&& to, std::size_t to_offset, std::size_t count) {
+  std::copy_n(from.begin() + static_cast<std::ptrdiff_t>(from_offset), count,
+              to.begin() + static_cast<std::ptrdiff_t>(to_offset));
+}
+
+void copy_vec3(const Vec3Buffer& from, std::size_t fo, Vec3Buffer& to, std::size_t tofs, std::size_t n) {
+  copy_range(from.x, fo, to.x, tofs, n);
+  copy_range(from.y, fo, to.y, tofs, n);
+  copy_range(from.z, fo, to.z, tofs, n);
+}
+
+void copy_rotation(const RotationBuffer& from, std::size_t fo, RotationBuffer& to, std::size_t tofs, std::size_t n) {
+  copy_range(from.w, fo, to.w, tofs, n);
+  copy_range(from.x, fo, to.x, tofs, n);
+  copy_range(from.y, fo, to.y, tofs, n);
+  copy_range(from.z, fo, to.z, tofs, n);
+}
+
+}  // namespace
+
+void carry_over_state(const WorldModel& from_model, const WorldState& from, const WorldModel& to_model,
+                      WorldState& to, std::span<const std::size_t> rod_map) {
+  for (std::size_t r = 0; r < rod_map.size(); ++r) {
+    if (rod_map[r] == kRodRemoved) continue;
+    const SegmentModel& a = from_model.segments[r];
+    const SegmentModel& b = to_model.segments[rod_map[r]];
+    const std::size_t n = a.node_count, fo = a.node_offset, tofs = b.node_offset;
+    copy_range(from.now.strain, 4 * fo, to.now.strain, 4 * tofs, 4 * n);
+    copy_range(from.strain_before_update, 4 * fo, to.strain_before_update, 4 * tofs, 4 * n);
+    copy_vec3(from.now.position, fo, to.now.position, tofs, n);
+    copy_rotation(from.now.rotation, fo, to.now.rotation, tofs, n);
+    copy_vec3(from.now.mid_position, fo, to.now.mid_position, tofs, n);
+    copy_rotation(from.now.mid_rotation, fo, to.now.mid_rotation, tofs, n);
+    copy_vec3(from.external_force, fo, to.external_force, tofs, n);
+    copy_vec3(from.external_moment, fo, to.external_moment, tofs, n);
+    to.now.base[rod_map[r]] = from.now.base[r];
+    to.base_twist[rod_map[r]] = from.base_twist[r];
+    to.base_resistance[rod_map[r]] = from.base_resistance[r];
+    copy_range(from.now.attachment, a.attachment_offset, to.now.attachment, b.attachment_offset, a.attachments.size());
+    if (a.bead_count == b.bead_count)  // beads re-chosen (reconfigure): they start at rest
+      copy_range(from.collision.bead_motion, a.bead_offset, to.collision.bead_motion, b.bead_offset, a.bead_count);
+  }
+  to.collision.report = from.collision.report;
+  to.robust_substeps = from.robust_substeps;
+  to.robust_newton = from.robust_newton;
+  to.robust_good_frames = from.robust_good_frames;
+  to.frame = from.frame;
+  to.time = from.time;
+  to.instruments = from.instruments;
+  for (InstrumentState& in : to.instruments) {
+    if (!in.grasping) continue;
+    const std::size_t old_rod = in.grasp_segment;
+    const std::size_t new_rod = rod_map[old_rod];
+    if (new_rod == kRodRemoved) {  // what it held is gone: the jaws hold nothing
+      in.grasping = false;
+      continue;
+    }
+    const SegmentModel& a = from_model.segments[old_rod];
+    const SegmentModel& b = to_model.segments[new_rod];
+    if (a.bead_count != b.bead_count) {  // the grasped bead may be gone: let go
+      to.now.attachment[in.grasp_attachment - a.attachment_offset + b.attachment_offset].active = false;
+      in.grasping = false;
+      continue;
+    }
+    in.grasp_segment = new_rod;
+    in.grasp_attachment = in.grasp_attachment - a.attachment_offset + b.attachment_offset;
+    in.grasp_bead = static_cast<std::uint32_t>(in.grasp_bead - a.bead_offset + b.bead_offset);
+  }
+  to.frame_start.copy_from(to.now);
+}
+
+}  // namespace haustra::detail
+
+namespace haustra {
+
+// The new model is built first: a description it refuses leaves the world as it was.
+void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map) {
+  auto fresh = std::make_unique<Impl>(next, detail::build_world_model(next));
+  detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, rod_map);
+  fresh->events = impl_->events;
+  fresh->follow_rod();
+  fresh->profile = FrameProfile{};
+  impl_ = std::move(fresh);
+}
+
+std::size_t World::add_segment(const SegmentDesc& segment) {
+  WorldDesc next = impl_->desc;
+  next.segments.push_back(segment);
+  std::vector<std::size_t> rod_map(impl_->model.segments.size());
+  for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
+  const std::size_t first = impl_->model.pieces.size();
+  rebuild(std::move(next), rod_map);
+  return first;
+}
+
+void World::remove_segment(std::size_t segment) {
+  const detail::SegmentPiece& piece = impl_->piece(segment);
+  const detail::SegmentModel& rod = impl_->model.segments[piece.rod];
+  if (piece.first_node != 0)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("segment '{}' is a piece of the chain '{}': a chain is removed whole, through its first "
+                            "segment '{}'",
+                            piece.info.name, rod.info.name, impl_->model.pieces[rod.first_piece].info.name));
+  WorldDesc next = impl_->desc;
+  next.segments.erase(next.segments.begin() + static_cast<std::ptrdiff_t>(piece.rod));
+  std::vector<std::size_t> rod_map(impl_->model.segments.size());
+  for (std::size_t r = 0; r < rod_map.size(); ++r)
+    rod_map[r] = r < piece.rod ? r : r == piece.rod ? detail::kRodRemoved : r - 1;
+  rebuild(std::move(next), rod_map);
+}
+
+void World::reconfigure(WorldDesc next) {
+  const WorldDesc& now = impl_->desc;
+  if (next.segments.size() != now.segments.size())
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("reconfigure keeps the segments: {} given, the world has {} (add_segment / remove_segment "
+                            "change them)",
+                            next.segments.size(), now.segments.size()));
+  for (std::size_t s = 0; s < now.segments.size(); ++s)
+    if (next.segments[s].nodes != now.segments[s].nodes || next.segments[s].chain_pieces != now.segments[s].chain_pieces)
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("reconfigure keeps every segment's nodes: segments[{}] ('{}') has {} nodes in {} pieces, "
+                              "the world {} in {}",
+                              s, next.segments[s].name, next.segments[s].nodes, next.segments[s].chain_pieces,
+                              now.segments[s].nodes, now.segments[s].chain_pieces));
+  if (next.instruments.size() != now.instruments.size())
+    throw Error(ErrorCode::invalid_argument, fmt::format("reconfigure keeps the instruments: {} given, the world has {}",
+                                                         next.instruments.size(), now.instruments.size()));
+  std::vector<std::size_t> rod_map(impl_->model.segments.size());
+  for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
+  rebuild(std::move(next), rod_map);
+}
+
+const WorldDesc& World::desc() const { return impl_->desc; }
+
+}  // namespace haustra

@@ -1,0 +1,109 @@
+// Static obstacle meshes of the environment: loaded, checked and put in an Embree scene.
+#include "model/static_meshes.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <limits>
+
+#include "haustra/error.hpp"
+#include "haustra/kernels/contact_geometry.hpp"
+#include "haustra/mesh_io.hpp"
+
+namespace haustra::detail {
+namespace {
+
+std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
+  return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+}
+
+}  // namespace
+
+StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
+  if (descs.empty()) return;
+  embree_ = std::make_unique<EmbreeScene>();
+  for (std::size_t m = 0; m < descs.size(); ++m) {
+    const MeshObstacleDesc& d = descs[m];
+    Mesh mesh;
+    mesh.vertices = d.vertices;
+    mesh.triangles = d.triangles;
+    mesh.closed = is_closed(TriangleMesh{d.vertices, d.triangles});
+    mesh.vertex_normal.assign(mesh.vertices.size(), Eigen::Vector3d::Zero());
+    for (const auto& t : mesh.triangles) {
+      const Eigen::Vector3d& a = mesh.vertices[t[0]];
+      const Eigen::Vector3d& b = mesh.vertices[t[1]];
+      const Eigen::Vector3d& c = mesh.vertices[t[2]];
+      const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+      mesh.face_normal.push_back(n.allFinite() ? n : Eigen::Vector3d::UnitZ());
+      const Eigen::Vector3d corners[3] = {a, b, c};
+      for (int i = 0; i < 3; ++i) {
+        const Eigen::Vector3d e1 = (corners[(i + 1) % 3] - corners[i]).normalized();
+        const Eigen::Vector3d e2 = (corners[(i + 2) % 3] - corners[i]).normalized();
+        const double angle = std::acos(std::clamp(e1.dot(e2), -1.0, 1.0));
+        if (std::isfinite(angle)) mesh.vertex_normal[t[static_cast<std::size_t>(i)]] += angle * mesh.face_normal.back();
+        // try_emplace with zero: a default Eigen vector is uninitialized (this once made the edge
+        // pseudo-normals, and so which side of the bolster a bead was on, vary from run to run).
+        mesh.edge_normal
+            .try_emplace(edge_key(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)]),
+                         Eigen::Vector3d::Zero())
+            .first->second += mesh.face_normal.back();
+      }
+    }
+    embree_->add_triangles(mesh.vertices, mesh.triangles);
+    meshes_.push_back(std::move(mesh));
+  }
+  embree_->commit();
+}
+
+StaticMeshes::~StaticMeshes() = default;
+
+StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius) const {
+  Hit hit;
+  if (!embree_) return hit;
+  const EmbreeScene::Hit found = embree_->closest(p, radius);
+  if (!found.found) return hit;
+  const Mesh& mesh = meshes_[found.geometry];
+  const auto& t = mesh.triangles[found.triangle];
+  const Eigen::Vector3d point =
+      kernels::closest_point_on_triangle(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
+  const double distance = found.distance;
+  // Which feature holds the closest point: the pseudo-normal of that feature tells the side.
+  const Eigen::Vector3d& a = mesh.vertices[t[0]];
+  const Eigen::Vector3d& b = mesh.vertices[t[1]];
+  const Eigen::Vector3d& c = mesh.vertices[t[2]];
+  const double scale = std::max({(b - a).norm(), (c - a).norm(), 1e-300});
+  const double tol = 1e-9 * scale;
+  Eigen::Vector3d normal = mesh.face_normal[found.triangle];
+  const Eigen::Vector3d corners[3] = {a, b, c};
+  bool on_vertex = false;
+  for (int i = 0; i < 3; ++i)
+    if ((point - corners[i]).norm() <= tol) {
+      normal = mesh.vertex_normal[t[static_cast<std::size_t>(i)]];
+      on_vertex = true;
+    }
+  if (!on_vertex)
+    for (int i = 0; i < 3; ++i) {
+      const Eigen::Vector3d& e0 = corners[i];
+      const Eigen::Vector3d& e1 = corners[(i + 1) % 3];
+      if ((kernels::closest_point_on_segment(point, e0, e1) - point).norm() <= tol) {
+        const auto it = mesh.edge_normal.find(edge_key(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)]));
+        if (it != mesh.edge_normal.end()) normal = it->second;
+      }
+    }
+  normal.normalize();
+  const Eigen::Vector3d away = p - point;
+  hit.found = true;
+  hit.mesh = found.geometry;
+  hit.point = point;
+  if (mesh.closed) {
+    const bool inside = away.dot(normal) < 0.0;
+    hit.push = distance > tol ? Eigen::Vector3d((inside ? -away : away) / distance) : normal;
+    hit.signed_distance = inside ? -distance : distance;
+  } else {
+    hit.push = distance > tol ? Eigen::Vector3d(away / distance) : normal;
+    hit.signed_distance = distance;
+  }
+  return hit;
+}
+
+}  // namespace haustra::detail

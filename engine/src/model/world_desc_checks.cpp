@@ -1,0 +1,127 @@
+// check_world_desc: every field of a world description checked before anything is built; what
+// can only be checked against the model being built (nodes resolved, attachments, pieces) is
+// checked where it is built.
+#include "model/world_desc_checks.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <numbers>
+#include <set>
+
+#include "model/field_checks.hpp"
+#include "haustra/error.hpp"
+#include "haustra/world.hpp"
+
+namespace haustra::detail {
+namespace {
+
+void check_solver(const SolverDesc& s) {
+  check_int("solver.iterations", s.iterations, 1, 10000);
+  check_int("solver.max_iterations", s.max_iterations, 1, 10000);
+  check_int("solver.refactor_frames", s.refactor_frames, 1, 1000000);
+  check_positive("solver.attachment_tolerance", s.attachment_tolerance, "m", 1.0);
+  check_int("solver.max_substeps", s.max_substeps, 1, 1 << 16);
+  check_int("solver.substeps", s.substeps, 1, s.max_substeps);
+  if (!(s.relaxation > 0.0) || s.relaxation > 1.0)
+    fail("solver.relaxation", fmt::format("expected a value in (0, 1], got {}", s.relaxation));
+  check_range("solver.tolerance", s.tolerance, 0.0, 1.0, "a dimensionless tolerance");
+  check_positive("solver.max_axial_strain", s.max_axial_strain, "(strain)", 1e3);
+  check_positive("solver.max_section_angle", s.max_section_angle, "rad", 2.0 * std::numbers::pi);
+  check_positive("solver.max_displacement", s.max_displacement, "segment lengths per frame", 1e6);
+  check_positive("solver.max_attachment_error", s.max_attachment_error, "segment lengths", 1e6);
+}
+
+void check_segment_desc(const WorldDesc& desc, const SegmentDesc& d, const std::string& where,
+                        std::set<std::string>& names) {
+  if (!names.insert(d.name).second) fail(where + ".name", fmt::format("the name '{}' is used twice", d.name));
+  check_int(where + ".nodes", d.nodes, 2, 10'000'000);
+  check_int(where + ".chain.pieces", d.chain_pieces, 1, 4096);
+  const auto pieces = static_cast<std::size_t>(d.chain_pieces);
+  for (std::size_t p = 0; pieces > 1 && p < pieces; ++p) {
+    const std::string piece = fmt::format("{}-{}", d.name, p + 1);
+    if (!names.insert(piece).second) fail(where + ".name", fmt::format("its piece '{}' takes a name already used", piece));
+  }
+  if (pieces > 1) {
+    if (static_cast<long long>(pieces) * (d.nodes - 1) + 1 > 10'000'000)
+      fail(where + ".chain.pieces", fmt::format("{} pieces of {} nodes: at most 10,000,000 nodes per chain",
+                                                pieces, d.nodes));
+    if (d.mesh.enabled && d.mesh.source == MeshSource::file)
+      fail(where + ".mesh.file", "a chain's pieces each get a procedural mesh; a mesh file covers one segment");
+    if (d.beads.radius_from_mesh)
+      fail(where + ".beads.radius", "radius = \"mesh\" is for a segment with a mesh file, not a chain");
+    if (!d.beads.nodes.empty())
+      fail(where + ".beads.nodes", "a chain's beads are given per piece by count or spacing, not as a node list");
+  }
+  if (d.rest.kind != RestShapeKind::centreline)
+    check_positive(where + ".rest.length", d.rest.length, "m", 1000.0);
+  check_vector(where + ".base_position", d.base_position, false);
+  check_vector(where + ".base_tangent", d.base_tangent, true);
+  check_vector(where + ".base_normal", d.base_normal, false);
+  check_positive(where + ".radius", d.cross_section.radius, "m", 0.5, " (lengths are in metres: did you mean millimetres?)");
+  check_positive(where + ".wall_thickness", d.cross_section.wall_thickness, "m", d.cross_section.radius,
+                 " (the wall cannot be thicker than the radius)");
+  check_positive(where + ".youngs_modulus", d.material.youngs_modulus, "Pa", 1e12);
+  check_range(where + ".poisson_ratio", d.material.poisson_ratio, 0.0, 0.4999, "a Poisson ratio");
+  check_positive(where + ".density", d.material.density, "kg/m³", 1e5);
+  if (d.linear_density) check_positive(where + ".linear_density", *d.linear_density, "kg/m", 1e4);
+  if (d.material.response == TissueResponse::exp2) {
+    check_range(where + ".tissue.alpha", d.material.exp2_alpha, 0.0, 1e3, "α ≥ 0 (it multiplies ε²)");
+    check_range(where + ".tissue.beta", d.material.exp2_beta, 0.0, 1e12, "β ≥ 0 in Pa");
+    check_positive(where + ".tissue.gamma", d.material.exp2_gamma, "Pa", 1e12);
+    if (desc.solver.mode == SolverMode::lagged)
+      fail(where + ".tissue.response",
+           "the EXP2 law is solved by Newton iteration: it needs solver.mode = \"newton\" (the lagged scheme "
+           "assumes a constant stiffness)");
+  }
+  const bool any_viscous =
+      std::any_of(d.law.begin(), d.law.end(), [](StrainLaw l) { return l != StrainLaw::elastic; });
+  if (any_viscous) check_positive(where + ".relaxation_time", d.relaxation_time, "s", 1e9);
+  const double drag = d.drag.value_or(d.base == BaseMode::free ? 4.0 : 0.0);
+  if (d.base == BaseMode::free)
+    check_positive(where + ".drag", drag, "N·s/m² (a free base needs the drag of the medium to move against)", 1e9);
+  else
+    check_range(where + ".drag", drag, 0.0, 1e9, "a drag in N·s/m²");
+}
+
+}  // namespace
+
+// A world that would not fit is refused before anything is built (decision 0038).
+void check_memory(const WorldDesc& desc) {
+  check_range("world.memory_limit", desc.memory_limit, 0.0, 1e18, "bytes (0: what the machine has available)");
+  const MemoryEstimate e = estimate_memory(desc);
+  const bool set = desc.memory_limit > 0.0;
+  const std::size_t limit = set ? static_cast<std::size_t>(desc.memory_limit) : available_memory();
+  if (limit == 0 || e.total <= limit) return;
+  auto size = [](std::size_t b) {
+    const double x = static_cast<double>(b);
+    return x >= 1e9 ? fmt::format("{:.2f} GB", x / 1e9) : x >= 1e6 ? fmt::format("{:.1f} MB", x / 1e6) : fmt::format("{:.0f} kB", x / 1e3);
+  };
+  const std::size_t largest =
+      static_cast<std::size_t>(std::max_element(desc.segments.begin(), desc.segments.end(), [](const auto& a, const auto& b) {
+                                 return static_cast<long long>(a.nodes) * a.chain_pieces < static_cast<long long>(b.nodes) * b.chain_pieces;
+                               }) - desc.segments.begin());
+  throw Error(ErrorCode::invalid_argument,
+              fmt::format("the world would need about {} ({} nodes: {} of rod state and {} of Newton workspace, {:.0f} "
+                          "bytes a node; beads {}, organ meshes {}), more than {} {}: lower segment[{}].nodes (or its "
+                          "chain.pieces) or the mesh vertices{}",
+                          size(e.total), e.nodes, size(e.rod_bytes), size(e.solver_bytes),
+                          static_cast<double>(e.rod_bytes + e.solver_bytes) / static_cast<double>(std::max<std::size_t>(e.nodes, 1)),
+                          size(e.bead_bytes), size(e.mesh_bytes), size(limit),
+                          set ? "(world.memory_limit)" : "this machine has available", largest,
+                          set ? ", or raise world.memory_limit" : ""));
+}
+
+void check_world_desc(const WorldDesc& desc) {
+  check_positive("world.dt", desc.dt, "s", 1.0);
+  check_vector("world.gravity", desc.gravity, false);
+  check_int("world.threads", desc.threads, 0, 1024);
+  check_solver(desc.solver);
+  check_range("filter.zeta_scale", desc.filter.zeta_scale, 0.0, 1e12, "a scale factor");
+  std::set<std::string> names;
+  for (std::size_t si = 0; si < desc.segments.size(); ++si)
+    check_segment_desc(desc, desc.segments[si], fmt::format("segment[{}]", si), names);
+  check_memory(desc);
+}
+
+}  // namespace haustra::detail

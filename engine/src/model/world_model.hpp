@@ -1,0 +1,209 @@
+#pragma once
+// The constant part of a world (MuJoCo's mjModel): built once from a WorldDesc, never written while
+// stepping. Per-node arrays are contiguous across segments; a segment is an offset+count range.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <optional>
+#include <vector>
+
+#include <memory>
+
+#include "model/cage_builder.hpp"
+#include "haustra/embree_scene.hpp"
+#include "haustra/kernels/pose.hpp"
+#include "haustra/kernels/mesh_normals.hpp"
+#include "haustra/kernels/tissue_law.hpp"
+#include "haustra/mesh_io.hpp"
+#include "haustra/rod_pose_buffer.hpp"
+#include "haustra/world_types.hpp"
+#include "model/skin_binding.hpp"
+#include "haustra/world_desc.hpp"
+
+namespace haustra::detail {
+
+inline constexpr std::size_t kMaxConstraintRows = 24;  // four clamps (3 position + 3 frame rows)
+
+// An attachment slot: scene attachments hold a fixed node; grasp slots (one per instrument and
+// segment) take whichever node an instrument closes on, at run time. The node and whether the
+// frame is held live in the state; the model fixes the slot's capacity in constraint rows.
+struct AttachmentModel {
+  std::size_t initial_node = 0;  // local to the segment
+  bool hold_frame = false;       // capacity: 6 rows if the frame may be held, else 3
+  std::size_t instrument = 0;    // for grasp slots
+  bool grasp_slot = false;
+  [[nodiscard]] std::size_t rows() const { return hold_frame ? 6 : 3; }
+};
+
+// One rod, solved as a whole: a segment, or a chain of segments (its pieces; decision 0030). The
+// stages that solve and collide see rods; what the API calls a segment is a SegmentPiece.
+struct SegmentModel {
+  SegmentInfo info;
+  std::size_t node_offset = 0;
+  std::size_t node_count = 0;  // N+1
+  double mean_section = 0.0;
+  std::array<double, 4> stiffness{};      // k_c in the law (zero for viscous components)
+  std::array<double, 4> viscosity{};      // η_c (zero for elastic components)
+  std::array<StrainLaw, 4> law{};
+  // EXP2 tissue in bending and stretch (kernels/tissue_law): the stress is evaluated per node and
+  // the Newton system takes its tangent; false: Hooke's constant stiffness.
+  bool exp2 = false;
+  kernels::Exp2Tissue tissue;
+  kernels::TubeSection tube;
+  BaseMode base_mode = BaseMode::clamped;
+  bool has_drag = false;
+  kernels::Pose initial_base;
+  std::vector<AttachmentModel> attachments;
+  std::size_t constraint_rows = 0;        // capacity: all attachments active
+  std::size_t attachment_offset = 0;      // into the world's attachment state arrays
+  // Offsets into the world's constraint scratch (doubles), valid when constraint_rows > 0.
+  std::size_t constraint_scratch_offset = 0;
+  std::size_t bead_offset = 0;   // into the world's bead arrays
+  std::size_t bead_count = 0;
+  std::size_t first_piece = 0;   // into WorldModel::pieces
+  std::size_t piece_count = 1;
+  // Newton splits a long rod's solve at this node into a tip part and a base part that condense at
+  // once (decision 0036); 0: solved whole. Fixed by the model, so any thread count splits alike.
+  std::size_t split_node = 0;
+  [[nodiscard]] std::size_t sections() const { return node_count - 1; }
+};
+
+// Rods from this many nodes are split; the base part takes this fraction of the rod. It carries the
+// joint's 10 unknowns and the back-substitution to the joint, while the tip part's responses run
+// from the joint: `bowel` (641 nodes, ~45 coupled unknowns) measured 2.31, 2.14, 2.04, 2.13 and
+// 2.13 ms a frame on 2 threads at 0.36, 0.42, 0.48, 0.54 and 0.60.
+inline constexpr std::size_t kSplitMinNodes = 256;
+inline constexpr double kSplitBaseFraction = 0.48;
+
+// A unit of the Newton solve's parallel work: a whole rod, or one part of a split rod.
+enum class SolvePartKind : std::uint8_t { whole, tip, base };
+struct SolvePart {
+  std::uint32_t rod = 0;
+  SolvePartKind kind = SolvePartKind::whole;
+};
+
+// What the API calls a segment: a whole rod, or one piece of a chained rod. Pieces of a chain
+// share their joint nodes (the tip node of one is the base node of the next), so their node ranges
+// overlap by one; their beads do not (a bead on a joint node belongs to the later piece).
+struct SegmentPiece {
+  SegmentInfo info;              // its name, global node range and rest length; the rod's stiffnesses
+  std::size_t rod = 0;           // into WorldModel::segments
+  std::size_t first_node = 0;    // local to the rod
+  std::size_t bead_offset = 0;   // into the world's bead arrays
+  std::size_t bead_count = 0;
+};
+
+class StaticMeshes;
+
+// Beads of all segments, ordered by segment then node: what the collision stages read.
+struct BeadModel {
+  std::vector<std::uint32_t> node;      // global node index
+  std::vector<std::uint32_t> segment;
+  std::vector<double> radius;           // m
+  std::vector<double> modulus;          // Young's modulus of its tissue, Pa
+  // Pairs of one segment that overlap or touch at rest never collide: for bead i, the excluded
+  // partners j > i, ascending (CSR).
+  std::vector<std::uint32_t> exclusion_start;
+  std::vector<std::uint32_t> exclusion;
+  [[nodiscard]] std::size_t size() const { return node.size(); }
+  [[nodiscard]] bool excluded(std::uint32_t a, std::uint32_t b) const;
+};
+
+// A segment's organ mesh: its cage, its binding, and where its rings and vertices live in the
+// world's buffers.
+struct SegmentMesh {
+  bool enabled = false;
+  MeshInfo info;
+  CageModel cage;
+  SkinBinding binding;
+  std::size_t ring_offset = 0;
+  std::size_t vertex_offset = 0;  // into the world's mesh buffers
+  std::size_t triangle_offset = 0;
+};
+
+// Skinning and normals run over fixed chunks of blocks, so the work splits the same way whatever
+// the thread count (each vertex is computed alone: any split gives the same bits).
+struct SkinChunk {
+  std::uint32_t piece = 0;
+  std::size_t first_block = 0;  // local to the segment's binding
+  std::size_t blocks = 0;
+};
+
+struct NormalChunk {
+  std::uint32_t piece = 0;
+  std::size_t first_vertex = 0;  // world mesh vertex
+  std::size_t vertices = 0;
+  std::size_t first_block = 0;   // its whole blocks of 8 in WorldModel's normal blocks
+};
+
+struct WorldModel {
+  Eigen::Vector3d gravity;
+  double dt = 0.0;
+  SolverDesc solver;
+  FilterDesc filter;
+  std::vector<SegmentModel> segments;  // the rods
+  std::vector<SegmentPiece> pieces;    // the API's segments, in rod order
+  std::vector<SolvePart> solve_parts;  // the rods' Newton solves as parallel work, in rod order
+  std::size_t node_total = 0;
+  std::size_t attachment_total = 0;
+  std::size_t constraint_scratch_total = 0;
+
+  // Per node, global index. Section k of a segment is stored at its node k (the last node's
+  // entry is 0), so sections share the node offsets.
+  std::vector<double> section_length;
+  std::vector<double> rest_strain;  // 4 per node
+  std::vector<double> node_mass;
+  std::vector<double> node_drag;       // N·s/m, the medium's drag on the node
+  std::vector<double> node_spin_drag;  // N·m·s, on the node's rotation
+  std::vector<double> mass_inv_pivot;
+  std::vector<double> mass_lower;
+  // Initial external loads and attachment targets, copied into the state at creation.
+  std::vector<double> initial_load;  // 6 per node: force xyz, moment xyz
+  BeadModel beads;
+  ContactDesc contact;
+  double contact_margin = 0.0;  // resolved
+  EnvironmentDesc environment;   // normals unit length
+  std::shared_ptr<const StaticMeshes> meshes;
+  std::vector<InstrumentDesc> instruments;  // keyframes sorted, axes unit length
+
+  // Organ meshes (one entry per piece, disabled where a piece has none).
+  std::vector<SegmentMesh> meshes_of;
+  std::size_t ring_total = 0;
+  std::size_t mesh_vertex_total = 0;
+  std::vector<std::array<std::uint32_t, 3>> mesh_triangles;  // world vertex indices
+  // Per vertex (CSR): the other two corners of each incident triangle, and the same as slots of
+  // blocks of 8 vertices (kernels/mesh_normals).
+  std::vector<std::uint32_t> vertex_corner_start, vertex_corner_pairs;
+  std::vector<std::uint32_t> normal_slot_start, normal_gather_pairs;
+  std::vector<kernels::NormalSlot> normal_slots;
+  std::vector<SkinChunk> skin_chunks;
+  std::vector<NormalChunk> normal_chunks;
+  bool any_mesh = false;
+
+  std::vector<Eigen::Vector3d> initial_attachment_target;
+  std::vector<Eigen::Quaterniond> initial_attachment_rotation;
+  std::vector<std::uint8_t> initial_attachment_active;
+};
+
+// Builds the model; throws haustra::Error naming the segment and the field.
+WorldModel build_world_model(const WorldDesc& desc);
+
+// The beads of one segment (nodes and radii) and, with all segments placed, the world's bead
+// arrays and rest-pose exclusions; the environment and the instruments. Part of the builder.
+void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& initial_positions,
+                 const std::vector<RodPoseBuffer>& rest_poses, const std::vector<TriangleMesh>& meshes, WorldModel& m);
+void build_environment(const WorldDesc& desc, WorldModel& m);
+
+// Organ meshes: loaded or generated around each segment's rest pose before the beads (a bead may
+// take its radius from the mesh), then caged and bound once the beads exist.
+std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
+                                            const WorldModel& m);
+void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
+                       std::vector<TriangleMesh>& meshes, WorldModel& m);
+// The median distance from a station to the mesh wall over a ring of rays in its (d1, d2) plane;
+// wall: an Embree scene of the mesh. Throws when no ray meets the wall within `reach`.
+// The median distance from a rod station to the mesh over 16 rays in its normal plane; none when
+// fewer than half the rays meet the mesh within `reach` (past an open end, outside the mesh).
+std::optional<double> mesh_cross_section_radius(const EmbreeScene& wall, const kernels::Pose& station, double reach);
+
+}  // namespace haustra::detail

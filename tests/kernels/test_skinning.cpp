@@ -1,0 +1,461 @@
+// Cages and skinning: the procedural organ, the cage builder (checked without Embree by winding
+// numbers), the rigid-group skinning kernel against its scalar reference and against the plain
+// sparse product over cage vertices, exact rest poses, rigid motions, the real CT colon, and the
+// localization study's orderings.
+#include <doctest/doctest.h>
+
+#include <cstring>
+#include <random>
+
+#include "measured.hpp"
+#include "cage_fixtures.hpp"
+#include "haustra/kernels/cage_rings.hpp"
+#include "haustra/kernels/rod_forward_sweep.hpp"
+#include "haustra/kernels/mesh_normals.hpp"
+#include "haustra/kernels/skinning.hpp"
+#include "haustra/mesh_io.hpp"
+#include "haustra/procedural_organ.hpp"
+#include "haustra/rest_shape.hpp"
+#include "haustra/rod_curve.hpp"
+#include "haustra/rod_pose_buffer.hpp"
+#include "haustra/scene.hpp"
+#include "haustra/studies/skinning_study.hpp"
+#include "haustra/world.hpp"
+#include "model/skin_binding.hpp"
+#include "model/world_model.hpp"
+
+using namespace haustra;
+
+namespace {
+
+WorldDesc straight_organ(int rings_per_vertex, int vertices = 10'000) {
+  WorldDesc w;
+  w.threads = 1;
+  SegmentDesc s;
+  s.nodes = 61;
+  s.rest.length = 0.6;
+  s.base_position = {0.1, -0.2, 0.3};
+  s.base_tangent = Eigen::Vector3d(1.0, 0.3, 0.2).normalized();
+  s.beads.enabled = true;
+  s.beads.count = 21;
+  s.beads.radius = 0.02;
+  s.mesh.enabled = true;
+  s.mesh.procedural.vertices = vertices;
+  s.mesh.rings_per_vertex = rings_per_vertex;
+  w.segments.push_back(s);
+  return w;
+}
+
+TriangleMesh regenerate(const detail::WorldModel& m, const WorldDesc& d) {
+  const detail::SegmentModel& seg = m.segments[0];
+  const RodCurve curve(std::span<const double>(m.section_length).subspan(0, seg.node_count - 1),
+                       std::span<const double>(m.rest_strain).subspan(0, 4 * seg.node_count), seg.initial_base);
+  return procedural_organ(curve, d.segments[0].mesh.procedural, d.segments[0].cross_section.radius);
+}
+
+double size_of(const std::vector<Eigen::Vector3d>& v) {
+  Eigen::Vector3d lo = v[0], hi = v[0];
+  for (const auto& x : v) {
+    lo = lo.cwiseMin(x);
+    hi = hi.cwiseMax(x);
+  }
+  return (hi - lo).norm();
+}
+
+// Random strains: bends and twists up to `amplitude` per metre, a few per cent of stretch.
+std::vector<double> random_strains(std::size_t nodes, double amplitude, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<double> q(4 * nodes);
+  const double a = u(rng), b = u(rng), c = u(rng);
+  for (std::size_t k = 0; k < nodes; ++k) {
+    const double t = static_cast<double>(k) / static_cast<double>(nodes - 1);
+    q[4 * k] = amplitude * std::sin(6.0 * t + a);
+    q[4 * k + 1] = amplitude * std::cos(4.0 * t + b);
+    q[4 * k + 2] = 0.5 * amplitude * std::sin(3.0 * t + c);
+    q[4 * k + 3] = 0.03 * u(rng);
+  }
+  return q;
+}
+
+// Ring deltas of a posed rod for a model's first segment.
+std::vector<float> posed_deltas(const detail::WorldModel& m, const kernels::Pose& base, const std::vector<double>& q,
+                                std::vector<kernels::RingPose>& now) {
+  const detail::SegmentModel& seg = m.segments[0];
+  const detail::CageModel& cage = m.meshes_of[0].cage;
+  RodPoseBuffer buffer(seg.node_count);
+  kernels::rod_forward_sweep(base, std::span<const double>(m.section_length).subspan(0, seg.node_count - 1),
+                             kernels::StrainView<const double>{q}, buffer.view());
+  now.resize(cage.ring_station.size());
+  kernels::ring_poses(buffer.view(), cage.ring_station, now);
+  std::vector<float> delta(kernels::kRingDeltaFloats * now.size());
+  kernels::ring_deltas(cage.ring_rest, now, delta);
+  return delta;
+}
+
+struct Skinned {
+  std::vector<float> x, y, z;
+  explicit Skinned(std::size_t n) : x(n), y(n), z(n) {}
+  kernels::FloatVec3Out out() { return {x, y, z}; }
+  [[nodiscard]] Eigen::Vector3d at(std::size_t v) const { return {x[v], y[v], z[v]}; }
+};
+
+// Winding number of every mesh vertex, in the binding pose, by solid angles over the cage.
+double worst_winding_error(const detail::CageModel& cage) {
+  test::Cage c;
+  c.vertices = cage.binding_vertices;
+  c.triangles = cage.triangles;
+  double worst = 0.0;
+  for (const auto& p : cage.mesh_binding) worst = std::max(worst, std::abs(test::winding_number(c, p) - 1.0));
+  return worst;
+}
+
+}  // namespace
+
+TEST_CASE("the rigid-group skinning kernel equals its scalar reference") {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::uniform_int_distribution<std::uint32_t> ring(0, 39), slots_of(1, 9);
+  const std::size_t blocks = 300, vertices = blocks * kernels::kSkinLanes - 3;
+  std::vector<std::uint32_t> slot_start{0};  // blocks keep 1 to 9 rings each
+  for (std::size_t b = 0; b < blocks; ++b) slot_start.push_back(slot_start.back() + slots_of(rng));
+  const std::size_t slots = slot_start.back();
+  std::vector<float> rx(blocks * 8), ry(blocks * 8), rz(blocks * 8), coef(slots * 32), delta(40 * 12);
+  std::vector<std::uint32_t> vertex(blocks * 8), rings(slots);
+  for (std::size_t i = 0; i < rx.size(); ++i) {
+    rx[i] = u(rng);
+    ry[i] = u(rng);
+    rz[i] = u(rng);
+    vertex[i] = i < vertices ? static_cast<std::uint32_t>((i * 7919) % vertices) : kernels::kNoVertex;
+  }
+  for (auto& c : coef) c = 0.1f * u(rng);
+  for (auto& d : delta) d = u(rng);
+  for (auto& r : rings) r = ring(rng);
+  const kernels::SkinBindingView view{slot_start, rx, ry, rz, vertex, rings, coef};
+  Skinned fast(vertices), slow(vertices);
+  kernels::skin_rigid_groups(view, delta, 0, blocks / 2, fast.out());
+  kernels::skin_rigid_groups(view, delta, blocks / 2, blocks - blocks / 2, fast.out());  // two chunks
+  kernels::skin_rigid_groups_reference(view, delta, slow.out());
+  double worst = 0.0;
+  for (std::size_t v = 0; v < vertices; ++v) worst = std::max(worst, (fast.at(v) - slow.at(v)).norm());
+  MESSAGE("largest difference " << worst << " (positions and sums of order 1)");
+  CHECK(worst < 6e-6);  // float rounding of up to 37 terms
+}
+
+TEST_CASE("procedural organ: closed, outward, the vertex count asked for, the volume of its shape") {
+  const RestShape rest = rest_shape_constant_strain(41, 0.5, {0.0, 3.0, 0.5}, kernels::Pose{});
+  const RodCurve curve(rest.section_length, rest.strain, rest.base);
+  for (int target : {1'000, 10'000, 100'000}) {
+    ProceduralOrganDesc d;
+    d.vertices = target;
+    d.haustra_depth = 0.0;
+    d.taenia_depth = 0.0;
+    const TriangleMesh m = procedural_organ(curve, d, 0.02);
+    CHECK(std::abs(static_cast<double>(m.vertices.size()) - target) / target < 0.05);
+    CHECK(is_closed(m));
+    test::Cage c{m.vertices, m.triangles};
+    CHECK(test::closed_and_oriented(c));
+    // A polygonal tube along the arc (Pappus: area × centreline length, as the bend is gentle)
+    // with two half-ellipsoid ends of length c = 0.25 R.
+    const double r = 0.02, cap = 0.25 * r;
+    const std::size_t around = (m.vertices.size() - 2) / static_cast<std::size_t>(std::lround(
+                                                               static_cast<double>(m.vertices.size() - 2) /
+                                                               std::round(std::sqrt(target * 2.0 * std::numbers::pi * r / (0.5 + 2 * cap)))));
+    const double polygon = 0.5 * static_cast<double>(around) * std::sin(2.0 * std::numbers::pi / static_cast<double>(around)) /
+                           std::numbers::pi;
+    const double expected = polygon * std::numbers::pi * r * r * (0.5 + 4.0 / 3.0 * cap);
+    const double v = mesh_volume(m.vertices, m.triangles);
+    INFO("target " << target << ": volume " << v << ", expected " << expected);
+    CHECK(std::abs(v / expected - 1.0) < 0.01);
+  }
+  ProceduralOrganDesc bad;
+  bad.vertices = 10;
+  CHECK_THROWS_WITH_AS(procedural_organ(curve, bad, 0.02, "segment[0].mesh.procedural"),
+                       doctest::Contains("segment[0].mesh.procedural.vertices"), FieldError);
+}
+
+TEST_CASE("cage around a procedural organ: embedded (checked by winding numbers), rest pose exact") {
+  const WorldDesc d = straight_organ(4);
+  const detail::WorldModel m = detail::build_world_model(d);
+  const detail::SegmentMesh& mesh = m.meshes_of[0];
+  const CageReport& c = mesh.info.cage;
+  MESSAGE("cage: " << c.rings << " rings, " << c.vertices << " vertices, " << c.iterations << " passes");
+  CHECK(c.rings == 21 + 20);
+  CHECK(c.mesh_vertices_outside == 0);
+  CHECK(c.crossing_edges == 0);
+  CHECK(c.self_intersections == 0);
+  test::Cage cage{mesh.cage.binding_vertices, mesh.cage.triangles};
+  CHECK(test::closed_and_oriented(cage));
+  CHECK(test::signed_volume(cage) > 0.0);
+  const double winding = worst_winding_error(mesh.cage);
+  MESSAGE("winding number of every mesh vertex: 1 within " << winding);
+  test::measured("winding number of every procedural mesh vertex in its cage, |w − 1|", winding, 3e-14);
+
+  std::unique_ptr<World> w = World::create(d);
+  const TriangleMesh input = regenerate(m, d);
+  const auto p = w->mesh_positions();
+  double worst = 0.0;
+  for (std::size_t v = 0; v < input.vertices.size(); ++v)
+    worst = std::max(worst, (Eigen::Vector3d(p.x[v], p.y[v], p.z[v]) - input.vertices[v]).norm());
+  const double size = size_of(input.vertices);
+  MESSAGE("rest pose reproduced to " << worst << " m, " << worst / size << " of the mesh size");
+  test::measured("procedural organ's rest pose reproduced by skinning, over the mesh size", worst / size, 5e-7);
+  CHECK(worst == doctest::Approx(w->mesh(0).skin.rest_error).epsilon(1e-9));
+}
+
+TEST_CASE("rigid-group skinning equals the plain sparse product over cage vertices, for random rod poses") {
+  const WorldDesc d = straight_organ(0, 3000);  // every ring: the binding is exactly the MVC
+  const detail::WorldModel m = detail::build_world_model(d);
+  const detail::SegmentMesh& mesh = m.meshes_of[0];
+  const TriangleMesh input = regenerate(m, d);
+  SkinReport report;
+  detail::CageWeights csr;
+  (void)detail::bind_mean_value(mesh.cage, input, 0, 0.0, report, &csr);
+  std::mt19937 rng(17);
+  const double size = size_of(input.vertices);
+  double worst = 0.0, moved = 0.0;
+  for (int trial = 0; trial < 6; ++trial) {
+    std::vector<kernels::RingPose> now;
+    const std::vector<double> q = random_strains(m.segments[0].node_count, 2.0 + 2.0 * trial, rng);
+    const std::vector<float> delta = posed_deltas(m, m.segments[0].initial_base, q, now);
+    Skinned fast(input.vertices.size());
+    kernels::skin_rigid_groups(mesh.binding.view(), delta, 0, mesh.binding.blocks(), fast.out());
+    std::vector<Eigen::Vector3d> cage_now(mesh.cage.offset.size()), reference(input.vertices.size());
+    kernels::cage_vertices(now, mesh.cage.vertex_ring, mesh.cage.offset, cage_now);
+    kernels::skin_csr_reference(csr.start, csr.column, csr.weight, input.vertices, mesh.cage.rest_vertices, cage_now, reference);
+    for (std::size_t v = 0; v < input.vertices.size(); ++v) {
+      worst = std::max(worst, (fast.at(v) - reference[v]).norm());
+      moved = std::max(moved, (reference[v] - input.vertices[v]).norm());
+    }
+  }
+  MESSAGE("largest difference " << worst << " m; vertices moved up to " << moved << " m; mesh size " << size);
+  CHECK(moved > 0.1);
+  CHECK(worst < 2e-6);  // float rounding of coordinates below 1 m, summed over 21 rings
+}
+
+TEST_CASE("a rigid motion of the rod moves the skinned mesh rigidly (curved CT colon, localized weights)") {
+  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/anatomy-grasp.toml");
+  const detail::WorldModel m = detail::build_world_model(scene.world);
+  const detail::SegmentMesh& mesh = m.meshes_of[0];
+  // The mesh at rest, skinned with the rings at rest (one model build: the CT colon's cage and
+  // weights are what this test costs).
+  std::vector<float> rest_delta(kernels::kRingDeltaFloats * mesh.cage.ring_rest.size());
+  kernels::ring_deltas(mesh.cage.ring_rest, mesh.cage.ring_rest, rest_delta);
+  Skinned at_rest(mesh.binding.vertices);
+  kernels::skin_rigid_groups(mesh.binding.view(), rest_delta, 0, mesh.binding.blocks(), at_rest.out());
+  std::vector<Eigen::Vector3d> rest(mesh.binding.vertices);
+  for (std::size_t v = 0; v < rest.size(); ++v) rest[v] = at_rest.at(v);
+  const Eigen::Quaterniond q = Eigen::Quaterniond(Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()));
+  const Eigen::Vector3d t(0.4, -0.1, 0.25);
+  std::vector<kernels::RingPose> now = mesh.cage.ring_rest;
+  for (auto& r : now) {
+    r.centre = q * r.centre + t;
+    r.rotation = q.toRotationMatrix() * r.rotation;
+  }
+  std::vector<float> delta(kernels::kRingDeltaFloats * now.size());
+  kernels::ring_deltas(mesh.cage.ring_rest, now, delta);
+  Skinned moved(rest.size());
+  kernels::skin_rigid_groups(mesh.binding.view(), delta, 0, mesh.binding.blocks(), moved.out());
+  double worst = 0.0;
+  for (std::size_t v = 0; v < rest.size(); ++v) worst = std::max(worst, (moved.at(v) - (q * rest[v] + t)).norm());
+  // float rounding of coordinates below 1 m, summed over the rings (measured 8.8e-8 m)
+  test::measured("CT colon moved rigidly with its rod: the skinned mesh's largest deviation from the rigid motion", worst,
+                 8e-7, "m");
+}
+
+TEST_CASE("the CT colon: cage built around its own mesh, embedded, bound with diagnostics") {
+  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/anatomy-grasp.toml");
+  const detail::WorldModel m = detail::build_world_model(scene.world);
+  const MeshInfo& info = m.meshes_of[0].info;
+  CHECK(info.vertices.count == 9958);
+  CHECK(info.triangles.count == 19838);
+  CHECK(info.cage.mesh_vertices_outside == 0);
+  CHECK(info.cage.crossing_edges == 0);
+  CHECK(info.cage.self_intersections == 0);
+  const double winding = worst_winding_error(m.meshes_of[0].cage);
+  MESSAGE("CT colon: " << info.cage.rings << " rings; every mesh vertex at winding number 1 within " << winding
+                       << "; min MVC weight " << info.skin.min_weight << ", worst negative mass "
+                       << info.skin.max_negative_mass);
+  test::measured("winding number of every CT colon mesh vertex in its cage, |w − 1|", winding, 3e-14);
+  CHECK(info.skin.min_weight < 0.0);  // a real, bent organ: some weights go negative (diagnosed)
+  CHECK(info.skin.max_negative_mass < 0.2);
+  CHECK(info.skin.rest_error < 1e-6);
+}
+
+TEST_CASE("localization study: error falls with K, and MVC follows rigid cross-sections closer than linear blend") {
+  const validation::SkinningStudy s = validation::run_skinning_study();
+  REQUIRE(s.rows.size() == 8);
+  CHECK(s.rows[0].max_error == 0.0);  // full MVC against itself
+  for (std::size_t i = 2; i < 6; ++i) CHECK(s.rows[i].max_error < s.rows[i - 1].max_error);
+  const auto& k4 = s.rows[3];
+  const auto& adaptive = s.rows[6];  // at least 4 rings, more until 2 % of the weight or less is left out
+  MESSAGE("K = 4: " << k4.max_error << " m from full MVC, " << k4.slots << " rings; per vertex: " << adaptive.max_error
+                    << " m, " << adaptive.slots << " rings on average");
+  CHECK(adaptive.max_error < 1e-3);  // the bound it is chosen for (measured 0.97 mm; K = 4: 1.44 mm)
+  CHECK(adaptive.max_error < k4.max_error);
+  CHECK(adaptive.slots > 4.0);
+  const auto& lbs = s.rows[7];
+  CHECK(lbs.transport_max > 2.0 * k4.transport_max);
+  CHECK(lbs.twist_volume_change < -0.01);                 // the candy wrapper
+  CHECK(std::abs(k4.twist_volume_change) < std::abs(lbs.twist_volume_change));
+  CHECK(std::abs(s.transport_bend_volume_change) < 1e-3);  // the reference keeps its volume
+}
+
+TEST_CASE("skinned meshes and their normals are bit-identical with 1 and 2 threads") {
+  // Under a sanitizer the procedural organ alone: building the CT colon's binding four times is
+  // most of this test's time there, and the same paths run with the procedural mesh.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  for (const char* name : {"demo"}) {
+#else
+  for (const char* name : {"demo", "anatomy-grasp"}) {
+#endif
+    auto world = [&](int threads) {
+      SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml");
+      scene.world.threads = threads;
+      return create_world(scene);
+    };
+    auto one = world(1), two = world(2);
+    REQUIRE(two->threads() == 2);
+    for (int f = 0; f < 45; ++f) {
+      one->step();
+      two->step();
+    }
+    INFO(name);
+    const std::size_t n = one->mesh_buffer_size();
+    REQUIRE(n == two->mesh_buffer_size());
+    for (auto view : {&World::mesh_positions, &World::mesh_normals}) {
+      const auto a = ((*one).*view)(), b = ((*two).*view)();
+      CHECK(std::memcmp(a.x.data(), b.x.data(), n * sizeof(float)) == 0);
+      CHECK(std::memcmp(a.y.data(), b.y.data(), n * sizeof(float)) == 0);
+      CHECK(std::memcmp(a.z.data(), b.z.data(), n * sizeof(float)) == 0);
+    }
+    // The mesh moved, and nothing in it is NaN.
+    const auto p = one->mesh_positions();
+    bool finite = true;
+    for (std::size_t v = 0; v < n; ++v) finite = finite && std::isfinite(p.x[v]) && std::isfinite(p.y[v]) && std::isfinite(p.z[v]);
+    CHECK(finite);
+  }
+}
+
+TEST_CASE("vertex normals: unit, area-weighted, equal to a double-precision sum over each vertex's triangles") {
+  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/demo.toml");
+  std::unique_ptr<World> w = create_world(scene);
+  for (int f = 0; f < 30; ++f) w->step();
+  const auto p = w->mesh_positions();
+  const auto n = w->mesh_normals();
+  const std::size_t count = w->mesh(0).vertices.count;
+  std::vector<Eigen::Vector3d> sum(count, Eigen::Vector3d::Zero());
+  for (const auto& t : w->mesh_triangles()) {
+    const Eigen::Vector3d a(p.x[t[0]], p.y[t[0]], p.z[t[0]]), b(p.x[t[1]], p.y[t[1]], p.z[t[1]]), c(p.x[t[2]], p.y[t[2]], p.z[t[2]]);
+    const Eigen::Vector3d face = (b - a).cross(c - a);
+    for (std::uint32_t v : t) sum[v] += face;
+  }
+  double worst = 0.0, unit = 0.0;
+  for (std::size_t v = 0; v < count; ++v) {
+    const Eigen::Vector3d mine(n.x[v], n.y[v], n.z[v]);
+    unit = std::max(unit, std::abs(mine.norm() - 1.0));
+    worst = std::max(worst, (mine - sum[v].normalized()).norm());
+  }
+  MESSAGE("normals: unit to " << unit << ", within " << worst << " of the double-precision reference");
+  CHECK(unit < 1.5e-6);   // measured: 1.5e-7 (float)
+  CHECK(worst < 1.5e-6);  // measured: 1.5e-7
+}
+
+TEST_CASE("one-pass vertex normals equal the two-pass reference, non-manifold and isolated vertices included") {
+  // A tube of 40 rings × 24 (a grid of quads), a fan of 5 triangles sharing one vertex with the
+  // tube (non-manifold there), and a vertex of no triangle.
+  const std::size_t rings = 40, around = 24, tube = rings * around;
+  std::vector<float> x, y, z;
+  for (std::size_t r = 0; r < rings; ++r)
+    for (std::size_t a = 0; a < around; ++a) {
+      const double t = 2.0 * M_PI * static_cast<double>(a) / static_cast<double>(around);
+      x.push_back(static_cast<float>((0.02 + 0.003 * std::sin(0.7 * static_cast<double>(r))) * std::cos(t)));
+      y.push_back(static_cast<float>(0.02 * std::sin(t)));
+      z.push_back(static_cast<float>(0.005 * static_cast<double>(r)));
+    }
+  std::vector<std::array<std::uint32_t, 3>> tri;
+  auto at = [&](std::size_t r, std::size_t a) { return static_cast<std::uint32_t>(r * around + a % around); };
+  for (std::size_t r = 0; r + 1 < rings; ++r)
+    for (std::size_t a = 0; a < around; ++a) {
+      tri.push_back({at(r, a), at(r, a + 1), at(r + 1, a)});
+      tri.push_back({at(r, a + 1), at(r + 1, a + 1), at(r + 1, a)});
+    }
+  const std::uint32_t hub = at(rings / 2, 0);
+  for (int f = 0; f < 5; ++f) {
+    x.push_back(0.03f + 0.01f * static_cast<float>(f));
+    y.push_back(0.01f * static_cast<float>(f * f % 3));
+    z.push_back(0.1f);
+  }
+  for (std::uint32_t f = 0; f < 4; ++f) tri.push_back({hub, static_cast<std::uint32_t>(tube + f), static_cast<std::uint32_t>(tube + f + 1)});
+  x.push_back(1.0f), y.push_back(1.0f), z.push_back(1.0f);  // isolated
+  const std::size_t n = x.size();
+  // The one-pass kernel.
+  std::vector<std::uint32_t> start(n + 1), pairs(6 * tri.size());
+  using namespace haustra::kernels;
+  vertex_corner_pairs(tri, n, start, pairs);
+  std::vector<float> nx(n), ny(n), nz(n);
+  vertex_normals(start, pairs, x, y, z, 0, n, {nx, ny, nz});
+  // The reference: face normals, then each vertex's sum over its triangles (its own CSR).
+  std::vector<float> fx(tri.size()), fy(tri.size()), fz(tri.size());
+  face_normals_reference(tri, x, y, z, 0, tri.size(), {fx, fy, fz});
+  std::vector<std::uint32_t> vt_start(n + 1, 0), vt;
+  for (const auto& t : tri)
+    for (std::uint32_t v : t) ++vt_start[v + 1];
+  for (std::size_t v = 0; v < n; ++v) vt_start[v + 1] += vt_start[v];
+  vt.resize(vt_start.back());
+  std::vector<std::uint32_t> fill(vt_start.begin(), vt_start.end() - 1);
+  for (std::size_t t = 0; t < tri.size(); ++t)
+    for (std::uint32_t v : tri[t]) vt[fill[v]++] = static_cast<std::uint32_t>(t);
+  std::vector<float> rx(n), ry(n), rz(n);
+  vertex_normals_reference(vt_start, vt, fx, fy, fz, 0, n, {rx, ry, rz});
+  double worst = 0.0;
+  for (std::size_t v = 0; v < n; ++v)
+    worst = std::max(worst, static_cast<double>(std::hypot(nx[v] - rx[v], ny[v] - ry[v], nz[v] - rz[v])));
+  MESSAGE("one-pass against two-pass normals: " << worst);
+  // The blocked (AVX2) form: whole blocks of 8 by loads where the pairs line up (the tube) or by
+  // gathers (the seam, the ends, the fan), the tail vertex by vertex.
+  std::vector<std::uint32_t> slot_start, gather_pairs;
+  std::vector<NormalSlot> slots;
+  const std::size_t blocks = append_normal_blocks(start, pairs, 0, n, slot_start, slots, gather_pairs);
+  CHECK(blocks == n / kNormalLanes);
+  std::size_t regular = 0;
+  for (const NormalSlot& slot : slots) regular += slot.gather == kRegularSlot ? 1 : 0;
+  CHECK(regular > slots.size() / 3);  // the tube's interior lines up (24 around: a third of the blocks cross the seam)
+  CHECK(regular < slots.size());      // and the seam does not
+  std::vector<float> bx(n), by(n), bz(n);
+  vertex_normals_blocked({slot_start, slots, gather_pairs}, 0, start, pairs, x, y, z, 0, n, {bx, by, bz});
+  double blocked = 0.0;
+  for (std::size_t v = 0; v < n; ++v)
+    blocked = std::max(blocked, static_cast<double>(std::hypot(bx[v] - rx[v], by[v] - ry[v], bz[v] - rz[v])));
+  MESSAGE("blocked against two-pass normals: " << blocked);
+  CHECK(blocked < 1.2e-6);
+  CHECK(worst < 1.2e-6);  // measured: 1.2e-7 (the same sum; a triangle's normal from another corner rounds apart)
+  CHECK(nx[n - 1] == 0.0f);  // the isolated vertex
+  CHECK(std::abs(std::hypot(nx[hub], ny[hub], nz[hub]) - 1.0) < 1e-6);
+}
+
+TEST_CASE("mesh accessors name a bad segment index") {
+  auto w = World::create(straight_organ(4, 1000));
+  CHECK_THROWS_WITH_AS((void)w->cage_vertices(3), doctest::Contains("segment index 3 out of range"), Error);
+  CHECK_THROWS_WITH_AS((void)w->ring_poses(1), doctest::Contains("segment index 1"), Error);
+  CHECK(w->cage_vertices(0).size() == w->mesh(0).cage.vertices);
+}
+
+TEST_CASE("the CT colon's rest pose is its input mesh, measured against the file") {
+  // Independent of the engine's own rest_error: the file read again here, scaled to metres, and
+  // compared with what the world shows before its first step.
+  const SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/anatomy-grasp.toml");
+  const OrganMeshDesc& desc = scene.world.segments[0].mesh;
+  const TriangleMesh input = load_mesh(desc.file);
+  auto w = create_world(scene);
+  const MeshInfo& info = w->mesh(0);
+  REQUIRE(info.vertices.count == input.vertices.size());
+  const auto p = w->mesh_positions();
+  double worst = 0.0;
+  for (std::size_t v = 0; v < input.vertices.size(); ++v) {
+    const std::size_t i = info.vertices.offset + v;
+    worst = std::max(worst, (Eigen::Vector3d(p.x[i], p.y[i], p.z[i]) - (desc.scale * input.vertices[v] + desc.translate)).norm());
+  }
+  MESSAGE("CT colon at rest: every vertex within " << worst << " m of the file's (the engine reports "
+                                                   << info.skin.rest_error << ")");
+  test::measured("CT colon at rest against its mesh file, largest vertex distance", worst, 2e-7, "m");
+}

@@ -1,0 +1,239 @@
+// The haustra command line, end to end: the binary as a user runs it.
+#include <doctest/doctest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include <assimp/Importer.hpp>
+#include <assimp/scene.h>
+
+#include "haustra/studies/references.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kCli = HAUSTRA_CLI;
+const std::string kCliScenes = std::string(HAUSTRA_SOURCE_DIR) + "/scenes/";
+
+struct Result {
+  int code;
+  std::string out, err;
+};
+
+Result run(const std::string& args) {
+  const fs::path dir = fs::temp_directory_path() / "haustra-cli-test";
+  fs::create_directories(dir);
+  const auto id = std::to_string(std::hash<std::string>{}(args));
+  const fs::path out = dir / (id + ".out"), err = dir / (id + ".err");
+  const int status = std::system((kCli + " " + args + " >" + out.string() + " 2>" + err.string()).c_str());
+  auto slurp = [](const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+}
+
+nlohmann::json summary(const fs::path& dir) {
+  std::ifstream in(dir / "summary.json");
+  REQUIRE(in.good());
+  return nlohmann::json::parse(in);
+}
+
+fs::path out_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / "haustra-cli-test" / name;
+  fs::remove_all(d);
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("haustra run writes a summary with counts, stage times and final positions") {
+  const fs::path dir = out_dir("cantilever");
+  const Result r = run("run " + kCliScenes + "cantilever.toml --quiet --out " + dir.string());
+  INFO(r.out << r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.out.find("outputs in") != std::string::npos);
+  const auto j = summary(dir);
+  CHECK(j["scene"] == "cantilever");
+  CHECK(j["status"] == "ok");
+  CHECK(j["counts"]["segments"] == 1);
+  CHECK(j["counts"]["nodes"] == 101);
+  CHECK(j["counts"]["sections"] == 100);
+  CHECK(j["frames"] == 30);
+  // A Newton scene: the condensed solve, and the line search that leaves the poses of its step.
+  CHECK(j["stages"]["condense"]["ran"] == true);
+  CHECK(j["stages"]["line_search"]["ran"] == true);
+  CHECK(j["stages"]["line_search"]["median_us"].get<double>() > 0.0);
+  CHECK(j["stages"]["forward_sweep"]["ran"] == false);
+  CHECK(j["stages"]["filter"]["ran"] == false);  // the scene switches the filter off
+  // The tip against the elastica: the scene is the PL²/B = 3 cantilever of length 1 m.
+  const auto tip = j["segments"][0]["final_node_positions_m"].back();
+  const auto ref = haustra::reference::elastica_cantilever_tip(3.0);
+  const double err = std::hypot(tip[0].get<double>() - ref.x, tip[2].get<double>() - ref.z);
+  CHECK(err < 0.005 * std::hypot(1.0 - ref.x, ref.z));
+  CHECK(fs::exists(dir / "frames.csv"));
+  CHECK(fs::exists(dir / "nodes.csv"));
+}
+
+TEST_CASE("haustra run drop: summary.json has the floor and self penetration of every frame") {
+  const fs::path dir = out_dir("drop");
+  const Result r = run("run " + kCliScenes + "drop.toml --frames 90 --out " + dir.string());
+  INFO(r.out << r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.out.find("contacts (55 beads): deepest into the environment") != std::string::npos);
+  const auto j = summary(dir);
+  const auto& c = j["contacts"];
+  CHECK(c["beads"] == 55);
+  const auto& floor = c["per_frame"]["max_environment_depth_over_radius"];
+  const auto& self = c["per_frame"]["max_bead_overlap_over_radius"];
+  REQUIRE(floor.size() == 90);
+  REQUIRE(self.size() == 90);
+  REQUIRE(c["per_frame"]["max_environment_depth_m"].size() == 90);
+  REQUIRE(c["per_frame"]["touching"].size() == 90);
+  double worst_floor = 0.0, worst_self = 0.0;
+  for (std::size_t f = 0; f < 90; ++f) {
+    worst_floor = std::max(worst_floor, floor[f].get<double>());
+    worst_self = std::max(worst_self, self[f].get<double>());
+    // Depth over radius is the depth in m over the 2 cm radius of every bead of this scene.
+    CHECK(floor[f].get<double>() == doctest::Approx(c["per_frame"]["max_environment_depth_m"][f].get<double>() / 0.02));
+  }
+  CHECK(c["max_environment_depth_over_radius"].get<double>() == worst_floor);
+  CHECK(c["max_bead_overlap_over_radius"].get<double>() == worst_self);
+  CHECK(floor[0].get<double>() == 0.0);  // hanging: nothing touches at first
+  CHECK(worst_floor > 0.0);               // it lands within 1.5 s
+  CHECK(worst_floor < 0.2);
+}
+
+TEST_CASE("haustra run grasp-pull: the instrument force of every frame, grasping from 0.6 s") {
+  const fs::path dir = out_dir("grasp-pull");
+  const Result r = run("run " + kCliScenes + "grasp-pull.toml --frames 60 --quiet --out " + dir.string());
+  INFO(r.out << r.err);
+  REQUIRE(r.code == 0);
+  const auto j = summary(dir);
+  const auto& g = j["instruments"][0];
+  REQUIRE(g["force_N_per_frame"].size() == 60);
+  REQUIRE(g["grasping_per_frame"].size() == 60);
+  CHECK(g["grasping_per_frame"][34] == false);
+  CHECK(g["grasping_per_frame"][35] == true);  // the 36th frame ends at 0.6 s
+  CHECK(g["force_N_per_frame"][59][2].get<double>() < 0.0);  // holding tissue: pulled down
+}
+
+TEST_CASE("haustra run: --threads 1 and --threads 2 give bit-identical final positions") {
+  for (const std::string scene : {"ropes", "rope"}) {
+    const fs::path one = out_dir(scene + "-1"), two = out_dir(scene + "-2");
+    REQUIRE(run("run " + kCliScenes + scene + ".toml --quiet --frames 60 --threads 1 --out " + one.string()).code == 0);
+    REQUIRE(run("run " + kCliScenes + scene + ".toml --quiet --frames 60 --threads 2 --out " + two.string()).code == 0);
+    const auto a = summary(one), b = summary(two);
+    CHECK(a["threads"] == 1);
+    CHECK(b["threads"] == 2);
+    INFO(scene);
+    CHECK(a["segments"] == b["segments"]);  // every coordinate, printed to round-trip precision
+  }
+}
+
+TEST_CASE("haustra run: --set and --dt override the scene") {
+  const fs::path dir = out_dir("set");
+  const Result r = run("run " + kCliScenes + "ropes.toml --quiet --frames 2 --dt 0.001 --set segment.nodes=11 --set "
+                       "segment[0].nodes=21 --out " + dir.string());
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  const auto j = summary(dir);
+  CHECK(j["counts"]["nodes"] == 21 + 5 * 11);
+  CHECK(j["dt"] == 0.001);
+}
+
+TEST_CASE("haustra run: bad input exits with code 2 and names the file and line") {
+  const Result r = run("run " + kCliScenes + "ropes.toml --set segment[2].radius=25");
+  CHECK(r.code == 2);
+  CHECK(r.err.find("ropes.toml") != std::string::npos);
+  CHECK(r.err.find("segment[2].radius") != std::string::npos);
+  CHECK(r.err.find("millimetres") != std::string::npos);
+  CHECK(run("run /nonexistent.toml").code != 0);
+  CHECK(run("fly").code != 0);
+}
+
+TEST_CASE("haustra run: an instability exits with code 3, says why, and still writes the summary") {
+  const fs::path dir = out_dir("unstable");
+  // PL²/B = 30: the lagged fixed-point iteration wanders instead of converging.
+  const Result r = run("run " + kCliScenes + "cantilever.toml --quiet --set solver.mode=lagged --set "
+                       "solver.on_instability=stop --set \"segment.load[0].force=[0,0,-1.884955592e-05]\" --out " +
+                       dir.string());
+  CHECK(r.code == 3);
+  CHECK(r.err.find("unstable at frame") != std::string::npos);
+  CHECK(r.err.find("segment 'rod'") != std::string::npos);
+  const auto j = summary(dir);
+  CHECK(j["status"] == "unstable");
+  REQUIRE_FALSE(j["events"].empty());
+  CHECK(j["events"].back()["kind"] == "unstable");
+  for (const auto& p : j["segments"][0]["final_node_positions_m"])
+    for (const auto& c : p) CHECK(std::isfinite(c.get<double>()));
+}
+
+TEST_CASE("haustra validate --json reports every case, all passing") {
+  const Result r = run("validate --json");
+  REQUIRE(r.code == 0);
+  const auto j = nlohmann::json::parse(r.out);
+  REQUIRE(j.is_array());
+  CHECK(j.size() >= 40);
+  for (const auto& c : j) {
+    INFO(c.dump());
+    CHECK(c["pass"] == true);
+    CHECK(c.contains("reference"));
+    CHECK(c.contains("tolerance"));
+  }
+}
+
+TEST_CASE("haustra run grasps and pulls the CT colon and writes its deformed mesh: files and an animated glTF") {
+  const fs::path dir = out_dir("anatomy");
+  const Result r = run("run " + kCliScenes + "anatomy-grasp.toml --frames 40 --mesh-every 20 --out " + dir.string());
+  INFO(r.out << r.err);
+  REQUIRE(r.code == 0);
+  // The builder's report: cage size, rings, inflation, embedding, MVC diagnostics.
+  CHECK(r.out.find("cage: 109 rings") != std::string::npos);
+  CHECK(r.out.find("0 mesh vertices outside, 0 mesh edges crossing, 0 cage self-intersections") != std::string::npos);
+  CHECK(r.out.find("mean value coordinates: ") != std::string::npos);
+  CHECK(r.out.find(" rings per vertex (up to ") != std::string::npos);
+  CHECK(r.out.find("grasping segment 0") != std::string::npos);
+  for (const char* f : {"frame_00000.ply", "frame_00020.ply", "frame_00040.ply"}) CHECK(fs::exists(dir / "mesh" / f));
+  // The centreline and the beads of the same frames as CSV: a header, then 3 frames × 167 nodes
+  // and 3 frames × 55 beads.
+  auto lines = [](const fs::path& p) {
+    std::ifstream in(p);
+    std::string line;
+    int n = 0;
+    while (std::getline(in, line)) ++n;
+    return n;
+  };
+  CHECK(lines(dir / "centreline.csv") == 1 + 3 * 167);
+  CHECK(lines(dir / "beads.csv") == 1 + 3 * 55);
+  // Each file and the animation load back through assimp with the mesh's vertex count; the
+  // animation has one morph target per recorded frame, and the last differs from the first.
+  Assimp::Importer importer;
+  const aiScene* last = importer.ReadFile((dir / "mesh" / "frame_00040.ply").string(), 0);
+  REQUIRE(last != nullptr);
+  CHECK(last->mMeshes[0]->mNumVertices == 9958);
+  CHECK(last->mMeshes[0]->mNumFaces == 19838);
+  Assimp::Importer gltf;
+  const aiScene* anim = gltf.ReadFile((dir / "mesh.glb").string(), 0);
+  INFO(gltf.GetErrorString());
+  REQUIRE(anim != nullptr);
+  REQUIRE(anim->mNumMeshes == 1);
+  const aiMesh* mesh = anim->mMeshes[0];
+  CHECK(mesh->mNumVertices == 9958);
+  CHECK(mesh->mNumAnimMeshes == 3);
+  REQUIRE(anim->mNumAnimations == 1);
+  REQUIRE(anim->mAnimations[0]->mNumMorphMeshChannels == 1);
+  CHECK(anim->mAnimations[0]->mMorphMeshChannels[0]->mNumKeys == 3);
+  double moved = 0.0;
+  const aiAnimMesh* final_frame = mesh->mAnimMeshes[2];
+  for (unsigned v = 0; v < mesh->mNumVertices; ++v)
+    moved = std::max(moved, static_cast<double>((final_frame->mVertices[v] - mesh->mVertices[v]).Length()));
+  MESSAGE("the grasped colon moved up to " << moved << " m over 40 frames");
+  CHECK(moved > 0.02);
+}

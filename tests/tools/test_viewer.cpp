@@ -1,0 +1,240 @@
+// `haustra view` as a person uses it: under Xvfb with Mesa's software OpenGL, scripted presses,
+// drags and toggles, judged from its screenshots and its record (--record), and its errors
+// against `haustra run`'s.
+#include <doctest/doctest.h>
+
+#include <Eigen/Geometry>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "haustra/render/image.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kViewer = HAUSTRA_VIEWER;
+const std::string kCli = HAUSTRA_CLI;
+const std::string kSource = HAUSTRA_SOURCE_DIR;
+const std::string kXvfb = "xvfb-run -a -s '-screen 0 1280x720x24' ";
+
+struct Result {
+  int code;
+  std::string err;
+};
+
+fs::path scratch(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / "haustra-viewer-test" / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+Result run(const std::string& command, const fs::path& dir) {
+  const fs::path err = dir / "stderr.txt";
+  const int status = std::system((command + " >" + (dir / "stdout.txt").string() + " 2>" + err.string()).c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err)};
+}
+
+fs::path write(const fs::path& file, const std::string& text) {
+  std::ofstream(file) << text;
+  return file;
+}
+
+Eigen::Vector3d vec(const nlohmann::json& j) {
+  return Eigen::Vector3d(j[0].get<double>(), j[1].get<double>(), j[2].get<double>());
+}
+
+// The test's own camera model (not the viewer's code): a pinhole at `eye` looking at `target`,
+// z up, vertical field of view, pixels with y down.
+struct TestCamera {
+  Eigen::Vector3d eye, forward, right, up;
+  double tan_half, aspect, width, height;
+  explicit TestCamera(const nlohmann::json& c) {
+    eye = vec(c["eye"]);
+    const Eigen::Vector3d target = vec(c["target"]);
+    forward = (target - eye).normalized();
+    right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+    up = right.cross(forward);
+    tan_half = std::tan(0.5 * c["fov_degrees"].get<double>() * std::numbers::pi / 180.0);
+    width = c["width"].get<double>();
+    height = c["height"].get<double>();
+    aspect = width / height;
+  }
+  [[nodiscard]] Eigen::Vector3d ray(double x, double y) const {
+    return (forward + (2.0 * x / width - 1.0) * tan_half * aspect * right + (1.0 - 2.0 * y / height) * tan_half * up)
+        .normalized();
+  }
+  [[nodiscard]] Eigen::Vector2d pixel(const Eigen::Vector3d& p) const {
+    const Eigen::Vector3d d = p - eye;
+    const double depth = d.dot(forward);
+    return {0.5 * width * (1.0 + d.dot(right) / (depth * tan_half * aspect)),
+            0.5 * height * (1.0 - d.dot(up) / (depth * tan_half))};
+  }
+};
+
+
+// Fractions of the 3D view (right of the panels' column) that look like tissue (red over green
+// and blue) and like beads (blue over red), in linear colour.
+struct Coverage {
+  double tissue = 0, bead = 0;
+};
+Coverage coverage(const fs::path& png) {
+  const haustra::render::Image im = haustra::render::Image::load_png(png);
+  Coverage c;
+  long n = 0;
+  for (int y = 0; y < im.height(); ++y)
+    for (int x = 390; x < im.width(); ++x, ++n) {
+      const auto p = im.at(x, y);
+      c.tissue += (p.r > p.g + 0.15f && p.r > p.b + 0.15f) ? 1 : 0;
+      c.bead += (p.b > p.r + 0.15f) ? 1 : 0;
+    }
+  c.tissue /= static_cast<double>(n);
+  c.bead /= static_cast<double>(n);
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("haustra view: a mouse grasp moves the grasped node by the dragged distance, the plot shows the pull, beads toggle on screen") {
+  const fs::path dir = scratch("grasp");
+  const fs::path script = write(dir / "grasp.txt", "wait 10\n"
+                                                   "screenshot " + (dir / "organ.png").string() + "\n"
+                                                   "toggle beads\nwait 2\n"
+                                                   "screenshot " + (dir / "beads.png").string() + "\n"
+                                                   "toggle beads\n"
+                                                   "press bead 5\nwait 15\n"
+                                                   "move by 0 -100 30\nwait 20\n"
+                                                   "screenshot " + (dir / "dragged.png").string() + "\n"
+                                                   "release\nwait 5\nquit\n");
+  const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string() + " --record " +
+                           (dir / "record.json").string(), dir);
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  const nlohmann::json rec = nlohmann::json::parse(slurp(dir / "record.json"));
+  CHECK(rec["unstable"] == false);
+
+  // The organ is on screen, and the beads appear when toggled.
+  const Coverage organ = coverage(dir / "organ.png"), beads = coverage(dir / "beads.png");
+  MESSAGE("tissue " << organ.tissue << ", beads off " << organ.bead << ", on " << beads.bead);
+  CHECK(organ.tissue > 0.008);  // measured 0.024 of the view
+  CHECK(organ.bead < 1e-4);     // measured 0
+  CHECK(beads.bead > 0.0015);   // measured 0.0048
+
+  // The press hit the organ at the pixel the test's own camera puts the hit point at.
+  nlohmann::json press, release;
+  int move_started = -1;
+  for (const auto& e : rec["events"]) {
+    if (e["kind"] == "press") press = e;
+    if (e["kind"] == "release") release = e;
+    if (e["kind"] == "script move") move_started = e["frame"].get<int>();
+  }
+  REQUIRE(press.is_object());
+  REQUIRE(release.is_object());
+  REQUIRE(press["on_organ"] == true);
+  const TestCamera cam(press["camera"]);
+  const Eigen::Vector3d hit = vec(press["hit"]);
+  CHECK((cam.pixel(hit) - Eigen::Vector2d(press["x"].get<double>(), press["y"].get<double>())).norm() < 0.01);
+
+  // Where the drag should take the grasped point: the ray through the release pixel, met in the
+  // plane through the hit point facing the eye.
+  CHECK(release["y"].get<double>() == doctest::Approx(press["y"].get<double>() - 100.0));
+  const Eigen::Vector3d d = cam.ray(release["x"].get<double>(), release["y"].get<double>());
+  const Eigen::Vector3d expected = cam.eye + ((hit - cam.eye).dot(cam.forward) / d.dot(cam.forward)) * d - hit;
+
+  std::vector<nlohmann::json> held;
+  for (const auto& s : rec["samples"])
+    if (s["grasping"] == true) held.push_back(s);
+  REQUIRE(held.size() >= 3);
+  REQUIRE(held.front()["frame"].get<int>() <= move_started);  // seen before the drag began
+  const Eigen::Vector3d moved = vec(held.back()["node_position"]) - vec(held.front()["node_position"]);
+  MESSAGE("drag " << expected.norm() << " m, node moved " << moved.norm() << " m, off by " << (moved - expected).norm());
+  CHECK(expected.norm() > 0.05);
+  CHECK((moved - expected).norm() < 1e-6);  // measured 3e-8 m: Newton holds a grasp to its 1e-6 m tolerance
+
+  // The force plot: nothing before the grasp, the organ's pull while held.
+  double before = 0.0, during = 0.0;
+  for (const auto& s : rec["samples"]) {
+    const double f = vec(s["force"]).norm();
+    if (s["frame"].get<int>() < press["frame"].get<int>()) before = std::max(before, f);
+    if (s["grasping"] == true) during = std::max(during, f);
+  }
+  double plotted = 0.0;
+  for (const auto& f : rec["plot"]["raw"]) plotted = std::max(plotted, f.get<double>());
+  MESSAGE("force before " << before << " N, while held " << during << " N, plot top " << plotted << " N");
+  CHECK(before == 0.0);
+  CHECK(during > 0.3);  // measured 1.3 N: lifting a 0.37 kg rectum by one end
+  CHECK(plotted == doctest::Approx(during).epsilon(1e-6));
+}
+
+TEST_CASE("haustra view: knobs at run time rebuild the model with the state kept, each logged, bad values refused") {
+  const fs::path dir = scratch("knobs");
+  const fs::path script = write(dir / "knobs.txt", "wait 30\nknob mode lagged\nknob iterations 3\nknob rings 0\n"
+                                                   "knob beads_per_node 0.5\nknob mode bogus\nwait 10\n"
+                                                   "save\nwait 10\nrestore\nwait 3\nquit\n");
+  const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string() + " --record " +
+                           (dir / "record.json").string(), dir);
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  const nlohmann::json rec = nlohmann::json::parse(slurp(dir / "record.json"));
+  std::string log;
+  for (const auto& line : rec["log"]) log += line.get<std::string>() + "\n";
+  INFO(log);
+  CHECK(log.find("mode newton -> lagged: model rebuilt") != std::string::npos);
+  CHECK(log.find("iterations 2 -> 3: model rebuilt") != std::string::npos);  // after lagged: both hold
+  CHECK(log.find("rings 4 -> 0: model rebuilt") != std::string::npos);
+  CHECK(log.find("beads_per_node 0.347 -> 0.5") != std::string::npos);
+  CHECK(log.find("knob mode: 'bogus' is not lagged, newton or fast") != std::string::npos);
+  CHECK(log.find("back to frame 0") == std::string::npos);  // every rebuild kept the state
+  CHECK(log.find("checkpoint restored") != std::string::npos);
+  // The clock ran on through the rebuilds: the frames seen only ever grow, past the 30 waited
+  // before the first knob, except where the checkpoint was restored.
+  int backwards = 0;
+  for (std::size_t i = 1; i < rec["samples"].size(); ++i)
+    backwards += rec["samples"][i]["frame"].get<int>() < rec["samples"][i - 1]["frame"].get<int>() ? 1 : 0;
+  CHECK(backwards <= 1);
+  CHECK(rec["frames"].get<int>() > 40);
+}
+
+TEST_CASE("haustra view: a scene that fails to load prints haustra run's error and exits 2") {
+  const fs::path dir = scratch("bad-scene");
+  const fs::path scene = write(dir / "bad.toml", "[scene]\nname = \"bad\"\n[[segment]]\nnodes = 1\n");
+  const Result viewer = run(kXvfb + kViewer + " " + scene.string(), dir);
+  const Result cli = run(kCli + " run " + scene.string(), dir);
+  const Result through = run(kXvfb + kCli + " view " + scene.string(), dir);
+  INFO(viewer.err);
+  CHECK(cli.code == 2);
+  CHECK(viewer.code == cli.code);
+  CHECK(viewer.err == cli.err);
+  CHECK(viewer.err.find("bad.toml") != std::string::npos);
+  CHECK(through.code == 2);  // `haustra view` is the viewer
+  CHECK(through.err == cli.err);
+}
+
+TEST_CASE("haustra view: no display gives a clear error and exit code 2") {
+  const fs::path dir = scratch("no-display");
+  const Result r = run("env -u DISPLAY -u WAYLAND_DISPLAY " + kViewer + " " + kSource + "/scenes/demo.toml", dir);
+  CHECK(r.code == 2);
+  CHECK(r.err.find("error: no display") != std::string::npos);
+  CHECK(r.err.find("xvfb-run") != std::string::npos);
+}
+
+TEST_CASE("haustra view: a bad script line is refused before the window opens, naming file and line") {
+  const fs::path dir = scratch("bad-script");
+  const fs::path script = write(dir / "s.txt", "wait 2\npress 10\n");
+  const Result r = run("env -u DISPLAY " + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string(), dir);
+  CHECK(r.code == 2);
+  CHECK(r.err.find("s.txt line 2: expected `press X Y | press bead K`") != std::string::npos);
+}
