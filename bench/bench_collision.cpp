@@ -72,9 +72,8 @@ std::vector<Beads> configurations(std::size_t count) {
 }
 
 void per_bead(benchmark::State& state, std::size_t beads, std::size_t pairs) {
-  state.counters["time/bead"] = benchmark::Counter(static_cast<double>(beads),
-                                                   benchmark::Counter::kIsIterationInvariantRate |
-                                                       benchmark::Counter::kInvert);
+  state.counters["time/bead"] = benchmark::Counter(
+      static_cast<double>(beads), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   state.counters["pairs/bead"] = static_cast<double>(pairs) / static_cast<double>(beads);
 }
 
@@ -103,7 +102,8 @@ void BM_BroadPhaseBrute(benchmark::State& state) {
 
 void BM_BroadPhaseSweep(benchmark::State& state) {
   std::vector<std::uint32_t> order(static_cast<std::size_t>(state.range(0)));
-  run(state, [&](const Beads& b, std::span<SpherePair> out) { return broad_phase_sweep(b.set(), kMargin, order, out); });
+  run(state,
+      [&](const Beads& b, std::span<SpherePair> out) { return broad_phase_sweep(b.set(), kMargin, order, out); });
 }
 
 void BM_BroadPhaseGrid(benchmark::State& state) {
@@ -145,7 +145,8 @@ void BM_NarrowPhase(benchmark::State& state) {
     std::fill(fy.begin(), fy.end(), 0.0);
     std::fill(fz.begin(), fz.end(), 0.0);
     for (const SpherePair& p : pairs) {
-      const SphereContact c = sphere_sphere({b.x[p.a], b.y[p.a], b.z[p.a]}, b.r[p.a], {b.x[p.b], b.y[p.b], b.z[p.b]}, b.r[p.b]);
+      const SphereContact c =
+          sphere_sphere({b.x[p.a], b.y[p.a], b.z[p.a]}, b.r[p.a], {b.x[p.b], b.y[p.b], b.z[p.b]}, b.r[p.b]);
       if (c.depth <= 0.0) continue;
       const Eigen::Vector3d f = contact_penalty(c.depth, coefficient_times_e, 2.0).force * c.normal;
       fx[p.a] += f.x();

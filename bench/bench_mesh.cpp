@@ -1,6 +1,7 @@
 // Google Benchmark: skinning the organ mesh (the rigid-group kernel and its scalar reference) from
 // 10,000 to 1,000,000 vertices beside a STREAM triad in the same run, so that bytes per second can
-// be set against what this machine streams; and whole frames of `drop` with one part of the model switched off at a time.
+// be set against what this machine streams; and whole frames of `drop` with one part of the model switched off at a
+// time.
 #include <benchmark/benchmark.h>
 
 #include <array>
@@ -51,7 +52,8 @@ struct Binding {
     for (auto& c : coef) c = 0.25f * u(rng);
     ring.resize(blocks * kSlots);
     for (std::size_t b = 0; b < blocks; ++b)
-      for (std::size_t s = 0; s < kSlots; ++s) ring[b * kSlots + s] = static_cast<std::uint32_t>((b * rings / blocks + s) % rings);
+      for (std::size_t s = 0; s < kSlots; ++s)
+        ring[b * kSlots + s] = static_cast<std::uint32_t>((b * rings / blocks + s) % rings);
     for (std::size_t b = 0; b <= blocks; ++b) slot_start.push_back(static_cast<std::uint32_t>(b * kSlots));
     delta.resize(kRingDeltaFloats * rings);
     for (auto& d : delta) d = 0.01f * u(rng);
@@ -60,9 +62,10 @@ struct Binding {
 };
 
 void counters(benchmark::State& state, double vertices) {
-  state.counters["vertices/s"] = benchmark::Counter(vertices * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
-  state.counters["bytes/s"] =
-      benchmark::Counter(kBytesPerVertex * vertices * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["vertices/s"] =
+      benchmark::Counter(vertices * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["bytes/s"] = benchmark::Counter(kBytesPerVertex * vertices * static_cast<double>(state.iterations()),
+                                                 benchmark::Counter::kIsRate);
 }
 
 void BM_SkinRigidGroups(benchmark::State& state) {
@@ -125,16 +128,20 @@ struct Tube {
 void BM_Normals(benchmark::State& state) {
   Tube t(static_cast<std::size_t>(state.range(0)));
   const double n = static_cast<double>(t.x.size());
-  const double bytes = 24.0 + (12.0 * static_cast<double>(t.slots.size()) + 4.0 * static_cast<double>(t.gather_pairs.size()) +
-                               4.0 * static_cast<double>(t.slot_start.size())) / n;
+  const double bytes =
+      24.0 + (12.0 * static_cast<double>(t.slots.size()) + 4.0 * static_cast<double>(t.gather_pairs.size()) +
+              4.0 * static_cast<double>(t.slot_start.size())) /
+                 n;
   for (auto _ : state) {
     vertex_normals_blocked(t.blocks(), 0, t.corner_start, t.corner_pairs, t.x, t.y, t.z, 0, t.x.size(),
                            {t.nx, t.ny, t.nz});
     benchmark::DoNotOptimize(t.nx.data());
     benchmark::ClobberMemory();
   }
-  state.counters["vertices/s"] = benchmark::Counter(n * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
-  state.counters["bytes/s"] = benchmark::Counter(bytes * n * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["vertices/s"] =
+      benchmark::Counter(n * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["bytes/s"] =
+      benchmark::Counter(bytes * n * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 
 // The same sums one vertex at a time (the blocked form's tail).
@@ -146,7 +153,8 @@ void BM_NormalsByVertex(benchmark::State& state) {
     benchmark::DoNotOptimize(t.nx.data());
     benchmark::ClobberMemory();
   }
-  state.counters["vertices/s"] = benchmark::Counter(n * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["vertices/s"] =
+      benchmark::Counter(n * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 
 // Its reference, the two passes the stage took before: every triangle's normal, then each
@@ -183,8 +191,8 @@ void BM_StreamTriad(benchmark::State& state) {
     benchmark::DoNotOptimize(a.data());
     benchmark::ClobberMemory();
   }
-  state.counters["bytes/s"] = benchmark::Counter(12.0 * static_cast<double>(n) * static_cast<double>(state.iterations()),
-                                                 benchmark::Counter::kIsRate);
+  state.counters["bytes/s"] = benchmark::Counter(
+      12.0 * static_cast<double>(n) * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 
 // What each optional stage costs (issue 6: a scene models only what it needs): `drop` with its
@@ -192,10 +200,10 @@ void BM_StreamTriad(benchmark::State& state) {
 // is what that part of the model costs per frame.
 void BM_StageCost(benchmark::State& state) {
   static const std::vector<std::vector<std::string>> variants = {
-      {"segment.mesh.source=procedural"},                                  // 0: all
-      {},                                                                  // 1: no mesh
-      {"segment.mesh.source=procedural", "contact.self=false"},            // 2: no self-contact
-      {"segment.mesh.source=procedural", "filter.enabled=false"},          // 3: no inertia filter
+      {"segment.mesh.source=procedural"},                          // 0: all
+      {},                                                          // 1: no mesh
+      {"segment.mesh.source=procedural", "contact.self=false"},    // 2: no self-contact
+      {"segment.mesh.source=procedural", "filter.enabled=false"},  // 3: no inertia filter
       {"segment.mesh.source=procedural", "segment.law.bending=elastic", "segment.law.torsion=elastic"},  // 4: elastic
   };
   const auto which = static_cast<std::size_t>(state.range(0));
@@ -211,12 +219,14 @@ void BM_StageCost(benchmark::State& state) {
 // Issue 5's many-segment target: `BM_Segments`' rows with a 10,000-vertex procedural organ on
 // each rod. Args: segments, threads.
 void BM_SegmentsWithMesh(benchmark::State& state) {
-  const WorldDesc d = bench::segment_rows(static_cast<std::size_t>(state.range(0)), static_cast<int>(state.range(1)), 10'000);
+  const WorldDesc d =
+      bench::segment_rows(static_cast<std::size_t>(state.range(0)), static_cast<int>(state.range(1)), 10'000);
   auto w = World::create(d);
   for (int f = 0; f < 3; ++f) w->step();
   for (auto _ : state) w->step();
   const double frames = static_cast<double>(state.iterations());
-  state.counters["nodes/s"] = benchmark::Counter(static_cast<double>(w->node_count()) * frames, benchmark::Counter::kIsRate);
+  state.counters["nodes/s"] =
+      benchmark::Counter(static_cast<double>(w->node_count()) * frames, benchmark::Counter::kIsRate);
   state.counters["vertices/s"] =
       benchmark::Counter(static_cast<double>(w->mesh_buffer_size()) * frames, benchmark::Counter::kIsRate);
 }

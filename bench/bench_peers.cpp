@@ -120,8 +120,8 @@ Result run_bullet() {
   world.addRigidBody(&ground);
 
   // res + 2 nodes; fixeds = 1 pins the first.
-  btSoftBody* rope = btSoftBodyHelpers::CreateRope(info, btVector3(0, 0, kHeight), btVector3(kLength, 0, kHeight),
-                                                   kNodes - 2, 1);
+  btSoftBody* rope =
+      btSoftBodyHelpers::CreateRope(info, btVector3(0, 0, kHeight), btVector3(kLength, 0, kHeight), kNodes - 2, 1);
   rope->m_cfg.piterations = 10;
   rope->m_materials[0]->m_kLST = 1.0;
   rope->generateBendingConstraints(2, rope->m_materials[0]);
@@ -151,7 +151,8 @@ std::string mujoco_rope_xml() {
   const double h = kLength / (kNodes - 1);
   const double bending = std::numbers::pi * 33.2e3 * kRadius * kRadius * kRadius * 0.003;  // B, N·m²
   return fmt::format(
-      "<mujoco><option timestep=\"{}\" gravity=\"0 0 -9.81\" solver=\"CG\" jacobian=\"sparse\"/><size nconmax=\"2000\" njmax=\"4000\"/>\n"
+      "<mujoco><option timestep=\"{}\" gravity=\"0 0 -9.81\" solver=\"CG\" jacobian=\"sparse\"/><size nconmax=\"2000\" "
+      "njmax=\"4000\"/>\n"
       "<worldbody><geom type=\"plane\" size=\"5 5 0.1\" contype=\"0\" conaffinity=\"1\"/>\n"
       "<body name=\"rB0\" pos=\"0 0 {}\">\n"
       "<composite type=\"rope\" count=\"{} 1 1\" spacing=\"{}\" offset=\"0 0 0\" prefix=\"r\">\n"
@@ -190,9 +191,10 @@ Result run_mujoco() {
 int main() {
   try {
     std::vector<Result> results{run_haustra(), run_bullet(), run_mujoco()};
-    fmt::print("rope: {} m, {} nodes, radius {} m, {:.3f} kg, held at one end {} m above the floor, starting "
-               "horizontal; {} frames of 1/60 s, one thread\n\n",
-               kLength, kNodes, kRadius, kMass, kHeight, kFrames);
+    fmt::print(
+        "rope: {} m, {} nodes, radius {} m, {:.3f} kg, held at one end {} m above the floor, starting "
+        "horizontal; {} frames of 1/60 s, one thread\n\n",
+        kLength, kNodes, kRadius, kMass, kHeight, kFrames);
     fmt::print("| engine | median µs per frame | × haustra | final stretch | floor penetration | finite |\n");
     fmt::print("|---|---|---|---|---|---|\n");
     for (const Result& r : results)

@@ -12,9 +12,9 @@
 #include "haustra/kernels/inertia_filter.hpp"
 #include "haustra/kernels/mass_matrix.hpp"
 #include "haustra/kernels/rod_backward_sweep.hpp"
+#include "haustra/kernels/rod_condensed.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/kernels/rod_loads.hpp"
-#include "haustra/kernels/rod_condensed.hpp"
 #include "haustra/kernels/rod_newton.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
@@ -29,10 +29,30 @@ struct Rod {
   std::size_t n;
   std::vector<double> h, q, px, py, pz, qw, qx, qy, qz, mx, my, mz, mw, mqx, mqy, mqz, fx, fy, fz, tx, ty, tz, r;
   explicit Rod(std::size_t nodes)
-      : n(nodes), h(nodes - 1, 1.0 / static_cast<double>(nodes - 1)), q(4 * nodes), px(nodes), py(nodes), pz(nodes),
-        qw(nodes), qx(nodes), qy(nodes), qz(nodes), mx(nodes - 1), my(nodes - 1), mz(nodes - 1), mw(nodes - 1),
-        mqx(nodes - 1), mqy(nodes - 1), mqz(nodes - 1), fx(nodes), fy(nodes), fz(nodes, -0.01), tx(nodes), ty(nodes),
-        tz(nodes), r(4 * nodes) {
+      : n(nodes),
+        h(nodes - 1, 1.0 / static_cast<double>(nodes - 1)),
+        q(4 * nodes),
+        px(nodes),
+        py(nodes),
+        pz(nodes),
+        qw(nodes),
+        qx(nodes),
+        qy(nodes),
+        qz(nodes),
+        mx(nodes - 1),
+        my(nodes - 1),
+        mz(nodes - 1),
+        mw(nodes - 1),
+        mqx(nodes - 1),
+        mqy(nodes - 1),
+        mqz(nodes - 1),
+        fx(nodes),
+        fy(nodes),
+        fz(nodes, -0.01),
+        tx(nodes),
+        ty(nodes),
+        tz(nodes),
+        r(4 * nodes) {
     std::mt19937 rng(1);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     for (auto& v : q) v = u(rng);
@@ -58,7 +78,8 @@ void BM_ForwardSweep(benchmark::State& state) {
 void BM_BackwardSweep(benchmark::State& state) {
   Rod rod(static_cast<std::size_t>(state.range(0)));
   for (auto _ : state) {
-    rod_backward_sweep(rod.poses(), rod.h, {rod.fx, rod.fy, rod.fz}, {rod.tx, rod.ty, rod.tz}, StrainView<double>{rod.r});
+    rod_backward_sweep(rod.poses(), rod.h, {rod.fx, rod.fy, rod.fz}, {rod.tx, rod.ty, rod.tz},
+                       StrainView<double>{rod.r});
     benchmark::DoNotOptimize(rod.r.data());
   }
   set_counters(state, rod.n);
@@ -141,12 +162,13 @@ void BM_NewtonCondensed(benchmark::State& state) {
   Rod rod(static_cast<std::size_t>(state.range(0)));
   const int cols = static_cast<int>(state.range(1));
   std::vector<double> gain(condensed_gain_size(rod.n, cols)), scratch(condensed_scratch_size(cols)),
-      base(10 * static_cast<std::size_t>(cols)), dq(4 * rod.n), px(rod.n), py(rod.n), pz(rod.n), rx(rod.n),
-      ry(rod.n), rz(rod.n), weights(static_cast<std::size_t>(cols), 0.0);
+      base(10 * static_cast<std::size_t>(cols)), dq(4 * rod.n), px(rod.n), py(rod.n), pz(rod.n), rx(rod.n), ry(rod.n),
+      rz(rod.n), weights(static_cast<std::size_t>(cols), 0.0);
   weights[0] = 1.0;
   std::vector<UnitLoad> loads;
   for (int c = 1; c < cols; ++c)
-    loads.push_back({static_cast<std::uint32_t>(rod.n - 1 - static_cast<std::size_t>(c) * rod.n / static_cast<std::size_t>(cols + 1)),
+    loads.push_back({static_cast<std::uint32_t>(
+                         rod.n - 1 - static_cast<std::size_t>(c) * rod.n / static_cast<std::size_t>(cols + 1)),
                      static_cast<std::uint32_t>(c), false, Eigen::Vector3d::UnitZ()});
   RodLinearization lin;
   lin.poses = rod.poses();
@@ -213,7 +235,8 @@ void BM_NewtonBanded(benchmark::State& state) {
                         false, {dfx, dfy, dfz}, {dmx, dmy, dmz}, {lo, di, up, fill, swaps});
     block_tridiagonal_factor<kNewtonBlock>({lo, di, up, fill, swaps});
     for (std::size_t k = 0; k < rod.n; ++k)
-      for (int c = 0; c < 4; ++c) rhs[k * kNewtonBlock + static_cast<std::size_t>(c)] = rod.r[4 * k + static_cast<std::size_t>(c)];
+      for (int c = 0; c < 4; ++c)
+        rhs[k * kNewtonBlock + static_cast<std::size_t>(c)] = rod.r[4 * k + static_cast<std::size_t>(c)];
     block_tridiagonal_solve<kNewtonBlock>({lo, di, up, fill, swaps}, rhs, 1);
     benchmark::DoNotOptimize(rhs.data());
   }
@@ -280,8 +303,10 @@ void BM_Segments(benchmark::State& state) {
   for (int f = 0; f < 3; ++f) w->step();
   for (auto _ : state) w->step();
   const double frames = static_cast<double>(state.iterations());
-  state.counters["nodes/s"] = benchmark::Counter(static_cast<double>(w->node_count()) * frames, benchmark::Counter::kIsRate);
-  state.counters["beads/s"] = benchmark::Counter(static_cast<double>(w->bead_count()) * frames, benchmark::Counter::kIsRate);
+  state.counters["nodes/s"] =
+      benchmark::Counter(static_cast<double>(w->node_count()) * frames, benchmark::Counter::kIsRate);
+  state.counters["beads/s"] =
+      benchmark::Counter(static_cast<double>(w->bead_count()) * frames, benchmark::Counter::kIsRate);
 }
 
 }  // namespace
@@ -304,9 +329,19 @@ BENCHMARK(BM_NewtonBanded)->Arg(167)->Arg(641);
 BENCHMARK(BM_NewtonCondensed)->ArgsProduct({{167, 641}, {1, 9, 41}});
 BENCHMARK(BM_NewtonCondensedFour)->ArgsProduct({{167}, {0, 1}})->ArgNames({"nodes", "lanes"});
 // One segment from 16 to 100,000 nodes: the per-node cost should stay flat.
-BENCHMARK_CAPTURE(BM_Frame, lagged, SolverMode::lagged)->Arg(16)->Arg(167)->Arg(1000)->Arg(10'000)->Arg(100'000)
+BENCHMARK_CAPTURE(BM_Frame, lagged, SolverMode::lagged)
+    ->Arg(16)
+    ->Arg(167)
+    ->Arg(1000)
+    ->Arg(10'000)
+    ->Arg(100'000)
     ->Unit(benchmark::kMicrosecond);
-BENCHMARK_CAPTURE(BM_Frame, newton, SolverMode::newton)->Arg(16)->Arg(167)->Arg(1000)->Arg(10'000)->Arg(100'000)
+BENCHMARK_CAPTURE(BM_Frame, newton, SolverMode::newton)
+    ->Arg(16)
+    ->Arg(167)
+    ->Arg(1000)
+    ->Arg(10'000)
+    ->Arg(100'000)
     ->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();

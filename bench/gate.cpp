@@ -24,7 +24,8 @@ int main(int argc, char** argv) {
     w->step();
     CALLGRIND_TOGGLE_COLLECT;
     CALLGRIND_STOP_INSTRUMENTATION;
-    std::printf("drop frame %llu, %zu contacts touching\n", static_cast<unsigned long long>(w->frame()), w->contacts().touching);
+    std::printf("drop frame %llu, %zu contacts touching\n", static_cast<unsigned long long>(w->frame()),
+                w->contacts().touching);
     return 0;
   }
   if (workload == "skin-10k") {

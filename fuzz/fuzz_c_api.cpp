@@ -6,6 +6,7 @@
 // must return a status; after every OK step every buffer a host reads must be finite.
 #include <haustra/haustra.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -14,7 +15,6 @@
 #include <cstring>
 #include <fstream>
 #include <string>
-#include <unistd.h>
 
 namespace {
 
@@ -101,12 +101,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         break;
       }
       case 5:
-        require(haustra_world_set_instrument_grasp(w, index, in.byte() & 1) == (index == 0 ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT),
+        require(haustra_world_set_instrument_grasp(w, index, in.byte() & 1) ==
+                    (index == 0 ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT),
                 "grasp status");
         break;
       case 6: {
         haustra_instrument_reading r{};
-        require(haustra_world_instrument(w, index, &r) == (index == 0 ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT), "reading");
+        require(haustra_world_instrument(w, index, &r) == (index == 0 ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT),
+                "reading");
         break;
       }
       case 7: {
@@ -169,7 +171,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           const haustra_status s = haustra_world_acquire_frame(w, &f);
           require(s == (def.double_buffered ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT), "acquire");
           acquired = s == HAUSTRA_OK;
-          for (std::size_t k = 0; acquired && k < f.nodes.count; ++k) require(std::isfinite(f.nodes.z[k]), "finite frame");
+          for (std::size_t k = 0; acquired && k < f.nodes.count; ++k)
+            require(std::isfinite(f.nodes.z[k]), "finite frame");
         } else {
           require(haustra_world_release_frame(w) == HAUSTRA_OK, "release");
           acquired = false;
@@ -211,9 +214,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         check_finite(w);
         break;
       }
-      default:
-        check_finite(w);
-        break;
+      default: check_finite(w); break;
     }
   }
   if (acquired) require(haustra_world_release_frame(w) == HAUSTRA_OK, "final release");

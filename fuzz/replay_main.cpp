@@ -3,12 +3,12 @@
 // committed corpus and every crash found so far run in `make test` (and under ASan+UBSan there).
 #include <algorithm>
 #include <cstdint>
-#include <cstdlib>
-#include <string>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <string>
 #include <vector>
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size);

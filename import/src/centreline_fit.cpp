@@ -140,7 +140,8 @@ Polyline straighten_ends(const Polyline& p, double spacing, double length) {
   const auto k = static_cast<std::size_t>(std::round(length / spacing));
   if (p.size() < 4 * k + 2 || k == 0) return p;
   Polyline out = p;
-  const Eigen::Vector3d t0 = (p[2 * k] - p[k]).normalized(), t1 = (p[p.size() - 1 - k] - p[p.size() - 1 - 2 * k]).normalized();
+  const Eigen::Vector3d t0 = (p[2 * k] - p[k]).normalized(),
+                        t1 = (p[p.size() - 1 - k] - p[p.size() - 1 - 2 * k]).normalized();
   for (std::size_t i = 0; i < k; ++i) {
     out[i] = p[k] - static_cast<double>(k - i) * spacing * t0;
     out[p.size() - 1 - i] = p[p.size() - 1 - k] + static_cast<double>(k - i) * spacing * t1;

@@ -5,11 +5,11 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <map>
-#include <set>
 #include <chrono>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "centreline_fit.hpp"
 #include "haustra/centreline.hpp"
@@ -54,7 +54,8 @@ std::size_t boundary_loops(const TriangleMesh& mesh) {
   return loops;
 }
 
-std::pair<double, std::string> decide_units(const TriangleMesh& mesh, const std::string& asked, const std::string& file) {
+std::pair<double, std::string> decide_units(const TriangleMesh& mesh, const std::string& asked,
+                                            const std::string& file) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   for (const auto& v : mesh.vertices) {
     lo = lo.cwiseMin(v);
@@ -93,7 +94,8 @@ std::string commented(const std::string& text) {
 
 std::string toml_path(const std::filesystem::path& target, const std::filesystem::path& scene_dir) {
   std::error_code ec;
-  const auto rel = std::filesystem::relative(std::filesystem::absolute(target), std::filesystem::absolute(scene_dir), ec);
+  const auto rel =
+      std::filesystem::relative(std::filesystem::absolute(target), std::filesystem::absolute(scene_dir), ec);
   return ec || rel.empty() ? std::filesystem::absolute(target).string() : rel.string();
 }
 
@@ -109,8 +111,8 @@ void write_scene(const ImportOptions& o, const ImportReport& r) {
       "[segment.beads]\ncount = {}\nradius = \"mesh\"             # each bead as wide as the wall around its node\n"
       "[segment.mesh]\nfile = \"{}\"\nscale = {}\n"
       "[segment.mesh.cage]\nring_vertices = 8\n",
-      o.mesh.filename().string(), commented(r.text()), name, name, r.length, r.vertices, name,
-      r.nodes, r.median_radius, std::min(0.003, 0.25 * r.median_radius), o.ends == "free" ? "free" : "clamped",
+      o.mesh.filename().string(), commented(r.text()), name, name, r.length, r.vertices, name, r.nodes, r.median_radius,
+      std::min(0.003, 0.25 * r.median_radius), o.ends == "free" ? "free" : "clamped",
       toml_path(r.centreline_file, r.scene.parent_path()), r.beads, toml_path(o.mesh, r.scene.parent_path()), r.scale);
   if (o.ends == "held") text += "[[segment.attachment]]\nnode = -1                   # the far end stays where it is\n";
   std::ofstream out(r.scene);
@@ -121,16 +123,19 @@ void write_scene(const ImportOptions& o, const ImportReport& r) {
 }  // namespace
 
 std::string ImportReport::text() const {
-  std::string t = fmt::format("surface: {} vertices, {} triangles, {} open end{}; units: {}\n", vertices, triangles, holes,
-                              holes == 1 ? "" : "s", units_reason);
+  std::string t = fmt::format("surface: {} vertices, {} triangles, {} open end{}; units: {}\n", vertices, triangles,
+                              holes, holes == 1 ? "" : "s", units_reason);
   t += fmt::format("centreline: {}\n", centreline_source);
-  t += fmt::format("length: {:.1f} mm (trimmed {:.1f} mm at the start and {:.1f} mm at the end, where it ran past the "
-                   "mesh)\n",
-                   1e3 * length, 1e3 * trimmed_start, 1e3 * trimmed_end);
-  t += fmt::format("radius: {:.1f} mm (median); tightest bend: radius {:.1f} mm (over 5 mm, the line smoothed over half a radius) at {:.0f} mm ({:.2f}x the organ's "
-                   "radius)\n",
-                   1e3 * median_radius, 1e3 * tightest_bend, 1e3 * tightest_bend_at,
-                   median_radius > 0 ? tightest_bend / median_radius : 0.0);
+  t += fmt::format(
+      "length: {:.1f} mm (trimmed {:.1f} mm at the start and {:.1f} mm at the end, where it ran past the "
+      "mesh)\n",
+      1e3 * length, 1e3 * trimmed_start, 1e3 * trimmed_end);
+  t += fmt::format(
+      "radius: {:.1f} mm (median); tightest bend: radius {:.1f} mm (over 5 mm, the line smoothed over half a radius) "
+      "at {:.0f} mm ({:.2f}x the organ's "
+      "radius)\n",
+      1e3 * median_radius, 1e3 * tightest_bend, 1e3 * tightest_bend_at,
+      median_radius > 0 ? tightest_bend / median_radius : 0.0);
   if (touching.empty()) t += "loops: no part of the organ touches another\n";
   for (const auto& [a, b] : touching)
     t += fmt::format("loops: the wall at {:.0f} mm touches the wall at {:.0f} mm\n", 1e3 * a, 1e3 * b);
@@ -138,10 +143,10 @@ std::string ImportReport::text() const {
   for (const std::string& why : retries)
     t += fmt::format("fewer beads: the cage did not embed the mesh with {}\n", why.substr(0, why.find(" (mesh ")));
   if (cage_rings > 0)
-    t += fmt::format("built in {:.2f} s: cage of {} rings ({} dropped), {} mesh vertices outside it at the curved rest "
-                     "pose, weight left out by localization up to {:.3f}, rest correction up to {:.2f} mm\n",
-                     build_seconds, cage_rings, dropped_rings, rest_pose_outside, max_dropped_mass,
-                     1e3 * max_rest_correction);
+    t += fmt::format(
+        "built in {:.2f} s: cage of {} rings ({} dropped), {} mesh vertices outside it at the curved rest "
+        "pose, weight left out by localization up to {:.3f}, rest correction up to {:.2f} mm\n",
+        build_seconds, cage_rings, dropped_rings, rest_pose_outside, max_dropped_mass, 1e3 * max_rest_correction);
   return t;
 }
 
@@ -167,9 +172,10 @@ ImportReport import_surface(const ImportOptions& o) {
   } else {
     const SkeletonResult sk = skeleton_path(mesh, file);
     for (const auto& p : sk.path) raw.push_back(r.scale * p);
-    r.centreline_source = fmt::format("computed by CGAL's mean curvature flow skeleton ({} skeleton vertices, {} at "
-                                      "branches, {} holes filled first, {:.1f} s)",
-                                      sk.skeleton_vertices, sk.branches, sk.holes_filled, sk.seconds);
+    r.centreline_source = fmt::format(
+        "computed by CGAL's mean curvature flow skeleton ({} skeleton vertices, {} at "
+        "branches, {} holes filled first, {:.1f} s)",
+        sk.skeleton_vertices, sk.branches, sk.holes_filled, sk.seconds);
   }
   if (o.reverse) std::reverse(raw.begin(), raw.end());
   Polyline line = resample(raw, kSpacing);
@@ -187,14 +193,18 @@ ImportReport import_surface(const ImportOptions& o) {
     std::vector<double> rs;
     for (std::size_t i = 0; i < line.size(); ++i)
       if (first_look.covered[i]) rs.push_back(first_look.radius[i]);
-    const double radius = rs.empty() ? 0.01 : (std::nth_element(rs.begin(), rs.begin() + static_cast<std::ptrdiff_t>(rs.size() / 2), rs.end()), rs[rs.size() / 2]);
-    line = recentre(wall,
-                    smooth(resample(remove_backtracks(line, 0.5 * radius, 2.0 * radius), kSpacing), kSpacing, 0.5 * radius),
-                    kSpacing, 0.5 * radius, 3);
+    const double radius =
+        rs.empty() ? 0.01
+                   : (std::nth_element(rs.begin(), rs.begin() + static_cast<std::ptrdiff_t>(rs.size() / 2), rs.end()),
+                      rs[rs.size() / 2]);
+    line = recentre(
+        wall, smooth(resample(remove_backtracks(line, 0.5 * radius, 2.0 * radius), kSpacing), kSpacing, 0.5 * radius),
+        kSpacing, 0.5 * radius, 3);
     line = straighten_ends(line, kSpacing, radius);
-    r.centreline_source += fmt::format(", moved to the middle of the lumen and smoothed over {:.1f} mm (half its radius), "
-                                       "its last {:.0f} mm at each end straight",
-                                       0.5e3 * radius, 1e3 * radius);
+    r.centreline_source += fmt::format(
+        ", moved to the middle of the lumen and smoothed over {:.1f} mm (half its radius), "
+        "its last {:.0f} mm at each end straight",
+        0.5e3 * radius, 1e3 * radius);
   }
   r.raw_length = polyline_length(line);
 
@@ -207,8 +217,9 @@ ImportReport import_surface(const ImportOptions& o) {
                             "surround it (16 rays in the normal plane, within 0.1 m)",
                             file, r.centreline_source, line.size()));
   const auto begin = static_cast<std::size_t>(first - cov.covered.begin());
-  const std::size_t end = cov.covered.size() - static_cast<std::size_t>(
-                                                   std::find(cov.covered.rbegin(), cov.covered.rend(), true) - cov.covered.rbegin());
+  const std::size_t end =
+      cov.covered.size() -
+      static_cast<std::size_t>(std::find(cov.covered.rbegin(), cov.covered.rend(), true) - cov.covered.rbegin());
   std::size_t inside = 0;
   std::vector<double> radii;
   for (std::size_t i = begin; i < end; ++i)
@@ -221,10 +232,11 @@ ImportReport import_surface(const ImportOptions& o) {
                 fmt::format("{}: no tube in this mesh: the surface surrounds only {} mm of its centreline ({})", file,
                             inside, r.centreline_source));
   if (static_cast<double>(inside) < 0.8 * static_cast<double>(end - begin))
-    throw Error(ErrorCode::invalid_geometry,
-                fmt::format("{}: the centreline ({}) leaves the mesh: between its ends inside the surface only {} of {} "
-                            "points have the wall around them — is it this mesh's midline, in its units?",
-                            file, r.centreline_source, inside, end - begin));
+    throw Error(
+        ErrorCode::invalid_geometry,
+        fmt::format("{}: the centreline ({}) leaves the mesh: between its ends inside the surface only {} of {} "
+                    "points have the wall around them — is it this mesh's midline, in its units?",
+                    file, r.centreline_source, inside, end - begin));
   r.trimmed_start = static_cast<double>(begin) * kSpacing;
   r.trimmed_end = static_cast<double>(line.size() - end) * kSpacing;
   line = Polyline(line.begin() + static_cast<std::ptrdiff_t>(begin), line.begin() + static_cast<std::ptrdiff_t>(end));
@@ -232,10 +244,11 @@ ImportReport import_surface(const ImportOptions& o) {
   std::nth_element(radii.begin(), radii.begin() + static_cast<std::ptrdiff_t>(radii.size() / 2), radii.end());
   r.median_radius = radii[radii.size() / 2];
   if (r.length < 4.0 * r.median_radius)
-    throw Error(ErrorCode::invalid_geometry,
-                fmt::format("{}: no tube in this mesh: the centreline inside it is {:.1f} mm long for a radius of {:.1f} "
-                            "mm (a tube is at least four radii long)",
-                            file, 1e3 * r.length, 1e3 * r.median_radius));
+    throw Error(
+        ErrorCode::invalid_geometry,
+        fmt::format("{}: no tube in this mesh: the centreline inside it is {:.1f} mm long for a radius of {:.1f} "
+                    "mm (a tube is at least four radii long)",
+                    file, 1e3 * r.length, 1e3 * r.median_radius));
 
   // Bends of the centreline smoothed over half a radius: a midline's voxel steps are not bends.
   const std::vector<double> bends = bend_radii(smooth(line, kSpacing, 0.5 * r.median_radius), kSpacing, 0.005);
@@ -275,12 +288,14 @@ ImportReport import_surface(const ImportOptions& o) {
         write_scene(o, r);
         continue;
       }
-      throw Error(e.code(), fmt::format("{}\nthe imported scene {} does not build{}. Flags that change what failed: --nodes N "
-                                        "and --beads N (rings sit on beads: fewer beads, fewer rings to cross), "
-                                        "--centreline FILE (a midline of your own), --units",
-                                        e.what(), r.scene.string(),
-                                        r.retries.empty() ? "" : fmt::format(" (with {} beads, after {} tries with more)",
-                                                                             r.beads, r.retries.size())));
+      throw Error(e.code(),
+                  fmt::format("{}\nthe imported scene {} does not build{}. Flags that change what failed: --nodes N "
+                              "and --beads N (rings sit on beads: fewer beads, fewer rings to cross), "
+                              "--centreline FILE (a midline of your own), --units",
+                              e.what(), r.scene.string(),
+                              r.retries.empty() ? ""
+                                                : fmt::format(" (with {} beads, after {} tries with more)", r.beads,
+                                                              r.retries.size())));
     }
   }
   r.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -95,8 +95,9 @@ SkeletonResult skeleton_path(const TriangleMesh& in, const std::string& where) {
   CGAL::extract_mean_curvature_flow_skeleton(mesh, skeleton);
   r.skeleton_vertices = boost::num_vertices(skeleton);
   if (r.skeleton_vertices < 2)
-    throw Error(ErrorCode::invalid_geometry, fmt::format("{}: the surface's skeleton has {} vertices: no tube to follow",
-                                                         where, r.skeleton_vertices));
+    throw Error(
+        ErrorCode::invalid_geometry,
+        fmt::format("{}: the surface's skeleton has {} vertices: no tube to follow", where, r.skeleton_vertices));
   for (std::size_t v = 0; v < r.skeleton_vertices; ++v) r.branches += boost::out_degree(v, skeleton) >= 3 ? 1 : 0;
   const std::size_t a = farthest(skeleton, 0).first;
   const auto [b, prev] = farthest(skeleton, a);

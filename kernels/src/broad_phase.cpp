@@ -85,8 +85,8 @@ std::size_t SphereGrid::bucket(std::int64_t ix, std::int64_t iy, std::int64_t iz
 }
 
 std::int64_t SphereGrid::cell_of(double coordinate, int axis) const {
-  return std::clamp(static_cast<std::int64_t>(std::floor((coordinate - origin_[axis]) * inverse_cell_)), std::int64_t{0},
-                    kMaxCell);
+  return std::clamp(static_cast<std::int64_t>(std::floor((coordinate - origin_[axis]) * inverse_cell_)),
+                    std::int64_t{0}, kMaxCell);
 }
 
 void SphereGrid::build(const SphereSet& s, double margin, double cell) {
@@ -168,7 +168,8 @@ void SphereGrid::build(const SphereSet& s, double margin, double cell) {
   bucket_start_[0] = 0;
 }
 
-std::size_t SphereGrid::query(const SphereSet& s, std::size_t first, std::size_t last, std::span<SpherePair> out) const {
+std::size_t SphereGrid::query(const SphereSet& s, std::size_t first, std::size_t last,
+                              std::span<SpherePair> out) const {
   std::size_t count = 0;
   auto emit = [&](std::size_t a, std::uint32_t b) {
     if (!spheres_near(s, a, b, margin_)) return;
@@ -184,7 +185,8 @@ std::size_t SphereGrid::query(const SphereSet& s, std::size_t first, std::size_t
     }
     // Large spheres after a, then the spheres centred in a's cell and the 26 around it: within
     // reach of a, a sphere no wider than a cell is centred no more than a cell away.
-    for (auto it = std::upper_bound(large_.begin(), large_.end(), static_cast<std::uint32_t>(a)); it != large_.end(); ++it)
+    for (auto it = std::upper_bound(large_.begin(), large_.end(), static_cast<std::uint32_t>(a)); it != large_.end();
+         ++it)
       emit(a, *it);
     const std::int64_t cx = cell_of(s.x[a], 0), cy = cell_of(s.y[a], 1), cz = cell_of(s.z[a], 2);
     for (std::int64_t ix = std::max<std::int64_t>(cx - 1, 0); ix <= cx + 1; ++ix)

@@ -114,7 +114,8 @@ inline const v4* chunks(const double* p) { return reinterpret_cast<const v4*>(p)
 template <class T>
 inline T fmadd(T a, T b, T c) {
 #if defined(__FMA__)
-  return std::bit_cast<T>(_mm256_fmadd_pd(std::bit_cast<__m256d>(a), std::bit_cast<__m256d>(b), std::bit_cast<__m256d>(c)));
+  return std::bit_cast<T>(
+      _mm256_fmadd_pd(std::bit_cast<__m256d>(a), std::bit_cast<__m256d>(b), std::bit_cast<__m256d>(c)));
 #else
   return a * b + c;
 #endif
@@ -328,11 +329,11 @@ inline void fused_rhs_pass(const SectionFrame& g, const double (&a)[10][4], cons
       const v4 in = r < 6 ? p[r] : 0.5 * s[r - 6];
       chunks(pi + r * stride)[j] =
           fmadd(broadcast<v4>(a[r][3]), u[3],
-                fmadd(broadcast<v4>(a[r][2]), u[2], fmadd(broadcast<v4>(a[r][1]), u[1], fmadd(broadcast<v4>(a[r][0]), u[0], in))));
+                fmadd(broadcast<v4>(a[r][2]), u[2],
+                      fmadd(broadcast<v4>(a[r][1]), u[1], fmadd(broadcast<v4>(a[r][0]), u[0], in))));
     }
   }
 }
-
 
 template <int W>
 CondenseReport sweep(const RodLinearization& rod, StrainView<const double> residual, std::span<const UnitLoad> loads,

@@ -42,7 +42,8 @@ SphereContact sphere_sphere(const Eigen::Vector3d& c, double r, const Eigen::Vec
   return k;
 }
 
-SphereContact sphere_plane(const Eigen::Vector3d& c, double r, const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+SphereContact sphere_plane(const Eigen::Vector3d& c, double r, const Eigen::Vector3d& point,
+                           const Eigen::Vector3d& normal) {
   return {r - (c - point).dot(normal), normal};
 }
 

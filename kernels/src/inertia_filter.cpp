@@ -5,12 +5,11 @@
 namespace haustra::kernels {
 
 double inertia_filter(Vec3View<const double> previous, std::span<const double> node_mass,
-                      std::span<const std::uint8_t> exempt, double zeta, double dt,
-                      Vec3View<double> node_position, Vec3View<double> mid_position) {
+                      std::span<const std::uint8_t> exempt, double zeta, double dt, Vec3View<double> node_position,
+                      Vec3View<double> mid_position) {
   const std::size_t n = node_position.size();
   double max_sq = 0.0;
-  for (std::size_t k = 0; k < n; ++k)
-    max_sq = std::max(max_sq, (node_position.get(k) - previous.get(k)).squaredNorm());
+  for (std::size_t k = 0; k < n; ++k) max_sq = std::max(max_sq, (node_position.get(k) - previous.get(k)).squaredNorm());
   const double delta_r = std::sqrt(max_sq);
   const double scale = zeta * delta_r / (dt * dt);
   Eigen::Vector3d prev_correction = Eigen::Vector3d::Zero();

@@ -4,8 +4,7 @@
 
 namespace haustra::kernels {
 
-void mass_matrix_factor(std::span<const double> section_length, std::span<double> inv_pivot,
-                        std::span<double> lower) {
+void mass_matrix_factor(std::span<const double> section_length, std::span<double> inv_pivot, std::span<double> lower) {
   const std::size_t n = section_length.size() + 1;
   assert(inv_pivot.size() == n && lower.size() == n);
   auto h = [&](std::size_t k) { return k < section_length.size() ? section_length[k] : 0.0; };
@@ -38,13 +37,11 @@ void mass_matrix_solve(MassMatrixFactorView factor, StrainView<double> x) {
   for (std::size_t k = n - 1; k-- > 0;) {
     const double l = factor.lower[k + 1];
     const double inv = factor.inv_pivot[k];
-    for (std::size_t c = 0; c < kStrainComponents; ++c)
-      d[4 * k + c] = d[4 * k + c] * inv - l * d[4 * (k + 1) + c];
+    for (std::size_t c = 0; c < kStrainComponents; ++c) d[4 * k + c] = d[4 * k + c] * inv - l * d[4 * (k + 1) + c];
   }
 }
 
-void mass_matrix_multiply(std::span<const double> section_length, StrainView<const double> x,
-                          StrainView<double> y) {
+void mass_matrix_multiply(std::span<const double> section_length, StrainView<const double> x, StrainView<double> y) {
   const std::size_t n = x.size();
   for (std::size_t k = 0; k < n; ++k) {
     const double h_prev = k > 0 ? section_length[k - 1] : 0.0;

@@ -27,9 +27,9 @@ void vertex_corner_pairs(std::span<const std::array<std::uint32_t, 3>> triangles
   start[0] = 0;
 }
 
-void vertex_normals(std::span<const std::uint32_t> start, std::span<const std::uint32_t> pairs, std::span<const float> x,
-                    std::span<const float> y, std::span<const float> z, std::size_t first, std::size_t count,
-                    const FloatVec3Out& normal) {
+void vertex_normals(std::span<const std::uint32_t> start, std::span<const std::uint32_t> pairs,
+                    std::span<const float> x, std::span<const float> y, std::span<const float> z, std::size_t first,
+                    std::size_t count, const FloatVec3Out& normal) {
   for (std::size_t v = first; v < first + count; ++v) {
     const float px = x[v], py = y[v], pz = z[v];
     float nx = 0.0f, ny = 0.0f, nz = 0.0f;
@@ -86,9 +86,10 @@ std::size_t append_normal_blocks(std::span<const std::uint32_t> start, std::span
   return blocks;
 }
 
-void vertex_normals_blocked(const NormalBlocksView& blocks, std::size_t first_block, std::span<const std::uint32_t> start,
-                            std::span<const std::uint32_t> pairs, std::span<const float> x, std::span<const float> y,
-                            std::span<const float> z, std::size_t first, std::size_t count, const FloatVec3Out& normal) {
+void vertex_normals_blocked(const NormalBlocksView& blocks, std::size_t first_block,
+                            std::span<const std::uint32_t> start, std::span<const std::uint32_t> pairs,
+                            std::span<const float> x, std::span<const float> y, std::span<const float> z,
+                            std::size_t first, std::size_t count, const FloatVec3Out& normal) {
   constexpr std::size_t L = kNormalLanes;
   const std::size_t whole = count / L;
 #if defined(__AVX2__)
@@ -103,7 +104,8 @@ void vertex_normals_blocked(const NormalBlocksView& blocks, std::size_t first_bl
       const NormalSlot& slot = blocks.slots[s];
       __m256 ax, ay, az, bx, by, bz;
       if (slot.gather == kRegularSlot) {
-        const std::ptrdiff_t a = static_cast<std::ptrdiff_t>(v0) + slot.da, c = static_cast<std::ptrdiff_t>(v0) + slot.db;
+        const std::ptrdiff_t a = static_cast<std::ptrdiff_t>(v0) + slot.da,
+                             c = static_cast<std::ptrdiff_t>(v0) + slot.db;
         ax = _mm256_loadu_ps(px + a);
         ay = _mm256_loadu_ps(py + a);
         az = _mm256_loadu_ps(pz + a);

@@ -22,12 +22,9 @@ ExpCoefficients exp_coefficients(double theta_sq) {
   c.cos_half = std::cos(0.5 * theta);
   if (theta < kSeriesAngle) {
     const double t2 = theta_sq;
-    c.one_minus_cos_over_sq =
-        1.0 / 2 - t2 * (1.0 / 24 - t2 * (1.0 / 720 - t2 * (1.0 / 40320 - t2 / 3628800)));
-    c.theta_minus_sin_over_cu =
-        1.0 / 6 - t2 * (1.0 / 120 - t2 * (1.0 / 5040 - t2 * (1.0 / 362880 - t2 / 39916800)));
-    c.half_sin_over_theta =
-        1.0 / 2 - t2 * (1.0 / 48 - t2 * (1.0 / 3840 - t2 * (1.0 / 645120 - t2 / 185794560)));
+    c.one_minus_cos_over_sq = 1.0 / 2 - t2 * (1.0 / 24 - t2 * (1.0 / 720 - t2 * (1.0 / 40320 - t2 / 3628800)));
+    c.theta_minus_sin_over_cu = 1.0 / 6 - t2 * (1.0 / 120 - t2 * (1.0 / 5040 - t2 * (1.0 / 362880 - t2 / 39916800)));
+    c.half_sin_over_theta = 1.0 / 2 - t2 * (1.0 / 48 - t2 * (1.0 / 3840 - t2 * (1.0 / 645120 - t2 / 185794560)));
   } else {
     const double s_half = std::sin(0.5 * theta);
     c.one_minus_cos_over_sq = 2.0 * s_half * s_half / theta_sq;
@@ -45,8 +42,8 @@ Pose section_exp(const Eigen::Vector3d& u, double axial_strain, double length) {
   const Eigen::Vector3d nu(0.0, 0.0, (1.0 + axial_strain) * length);
   const Eigen::Vector3d w_x_nu = w.cross(nu);
   Pose p;
-  p.rotation = Eigen::Quaterniond(c.cos_half, c.half_sin_over_theta * w.x(),
-                                  c.half_sin_over_theta * w.y(), c.half_sin_over_theta * w.z());
+  p.rotation = Eigen::Quaterniond(c.cos_half, c.half_sin_over_theta * w.x(), c.half_sin_over_theta * w.y(),
+                                  c.half_sin_over_theta * w.z());
   p.position = nu + c.one_minus_cos_over_sq * w_x_nu + c.theta_minus_sin_over_cu * w.cross(w_x_nu);
   return p;
 }
@@ -74,12 +71,11 @@ double rotation_angle_squared(const Eigen::Quaterniond& q) {
 
 Eigen::Quaterniond rotation_exp(const Eigen::Vector3d& rotation_vector) {
   const ExpCoefficients c = exp_coefficients(rotation_vector.squaredNorm());
-  return {c.cos_half, c.half_sin_over_theta * rotation_vector.x(),
-          c.half_sin_over_theta * rotation_vector.y(), c.half_sin_over_theta * rotation_vector.z()};
+  return {c.cos_half, c.half_sin_over_theta * rotation_vector.x(), c.half_sin_over_theta * rotation_vector.y(),
+          c.half_sin_over_theta * rotation_vector.z()};
 }
 
-Eigen::Quaterniond frame_from_tangent(const Eigen::Vector3d& tangent,
-                                      const Eigen::Vector3d& normal_hint) {
+Eigen::Quaterniond frame_from_tangent(const Eigen::Vector3d& tangent, const Eigen::Vector3d& normal_hint) {
   const Eigen::Vector3d t = tangent.normalized();
   Eigen::Vector3d d1 = normal_hint - normal_hint.dot(t) * t;
   if (d1.norm() < 1e-9 * std::max(1.0, normal_hint.norm())) {

@@ -34,8 +34,8 @@ Wrench rod_backward_sweep(RodPoses<const double> poses, std::span<const double> 
     Eigen::Vector4d proximal_section = Eigen::Vector4d::Zero();  // section k−1
     if (k > 0) {
       const Eigen::Vector3d mid = poses.mid_position.get(k - 1);
-      proximal_section = section_force(poses.mid_rotation.get(k - 1),
-                                       moment + (r - mid).cross(force), force, section_length[k - 1]);
+      proximal_section =
+          section_force(poses.mid_rotation.get(k - 1), moment + (r - mid).cross(force), force, section_length[k - 1]);
     }
     generalized_force.set(k, 0.5 * (proximal_section + distal_section));
     distal_section = proximal_section;
@@ -43,10 +43,8 @@ Wrench rod_backward_sweep(RodPoses<const double> poses, std::span<const double> 
   return {force, moment};
 }
 
-Wrench rod_backward_sweep_reference(RodPoses<const double> poses,
-                                    std::span<const double> section_length,
-                                    Vec3View<const double> node_force,
-                                    Vec3View<const double> node_moment,
+Wrench rod_backward_sweep_reference(RodPoses<const double> poses, std::span<const double> section_length,
+                                    Vec3View<const double> node_force, Vec3View<const double> node_moment,
                                     StrainView<double> generalized_force) {
   const std::size_t nodes = poses.node_count();
   std::fill(generalized_force.data.begin(), generalized_force.data.end(), 0.0);
@@ -71,9 +69,8 @@ Wrench rod_backward_sweep_reference(RodPoses<const double> poses,
   return total;
 }
 
-void rod_unit_load_generalized_force(RodPoses<const double> poses,
-                                     std::span<const double> section_length, std::size_t node,
-                                     const Eigen::Vector3d& direction, bool is_moment,
+void rod_unit_load_generalized_force(RodPoses<const double> poses, std::span<const double> section_length,
+                                     std::size_t node, const Eigen::Vector3d& direction, bool is_moment,
                                      StrainView<double> generalized_force) {
   std::fill(generalized_force.data.begin(), generalized_force.data.end(), 0.0);
   if (node == 0) return;

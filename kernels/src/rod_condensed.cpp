@@ -12,7 +12,8 @@ namespace haustra::kernels {
 
 CondenseReport rod_condense_range(const RodLinearization& rod, StrainView<const double> residual,
                                   std::span<const UnitLoad> loads, CondensedSystem sys, const CondensedRange& range) {
-  assert(std::is_sorted(loads.begin(), loads.end(), [](const UnitLoad& a, const UnitLoad& b) { return a.node > b.node; }));
+  assert(
+      std::is_sorted(loads.begin(), loads.end(), [](const UnitLoad& a, const UnitLoad& b) { return a.node > b.node; }));
   assert(!range.joint || sys.columns > kJointColumns);
   const int w = condensed_width(sys.columns);
   if (w == 16) return condensed::sweep<16>(rod, residual, loads, sys, range);
@@ -40,8 +41,8 @@ void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double>
     condensed::read_step(sys.record.data() + k * kCondensedRecordPerStep, g, a, el);
     force = force + condensed::load(rod.node_force, k + 1);
     moment = moment + condensed::load(rod.node_moment, k + 1) +
-             condensed::cross(condensed::load(rod.poses.node_position, k + 1) - condensed::load(rod.poses.node_position, k),
-                              force);
+             condensed::cross(
+                 condensed::load(rod.poses.node_position, k + 1) - condensed::load(rod.poses.node_position, k), force);
     // The fused pass of the sweep, on one lane (condensed_rows.hpp: fused_rhs_pass), its fused
     // multiply-adds where the sweep's are (the sweep's residual lane rounds the same way).
     const double h = g.h;
@@ -53,10 +54,9 @@ void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double>
     const double x1 = std::fma(b.z, p[3], std::fma(-b.x, p[5], p[1]));
     const double x2 = std::fma(b.x, p[4], std::fma(-b.y, p[3], p[2]));
     const V3 d0 = h * g.d[0], d1 = h * g.d[1], d2 = h * g.d[2];
-    const double sec[4] = {std::fma(d0.z, x2, std::fma(d0.y, x1, d0.x * x0)),
-                           std::fma(d1.z, x2, std::fma(d1.y, x1, d1.x * x0)),
-                           std::fma(d2.z, x2, std::fma(d2.y, x1, d2.x * x0)),
-                           std::fma(d2.z, p[5], std::fma(d2.y, p[4], d2.x * p[3]))};
+    const double sec[4] = {
+        std::fma(d0.z, x2, std::fma(d0.y, x1, d0.x * x0)), std::fma(d1.z, x2, std::fma(d1.y, x1, d1.x * x0)),
+        std::fma(d2.z, x2, std::fma(d2.y, x1, d2.x * x0)), std::fma(d2.z, p[5], std::fma(d2.y, p[4], d2.x * p[3]))};
     double e[4];
     for (int r = 0; r < 4; ++r) e[r] = std::fma(0.5, sec[r], p[6 + r]);
     for (int step = 0; step < 4; ++step) {
@@ -103,8 +103,8 @@ void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double>
 void rod_condensed_step_range(const RodLinearization& rod, CondensedSystem sys, std::size_t first, std::size_t last,
                               const double* start, std::span<const double> weights, StrainView<double> dq,
                               Vec3View<double> dphi, Vec3View<double> dr) {
-  using condensed::v4;
   using condensed::chunks;
+  using condensed::v4;
   const auto w = static_cast<std::size_t>(condensed_width(sys.columns));
   const auto cols = static_cast<std::size_t>(sys.columns);
   double y[10];
@@ -152,8 +152,8 @@ void rod_condensed_responses_range(const RodLinearization& rod, CondensedSystem 
                                    std::size_t last, std::span<const double> start,
                                    std::span<const std::uint32_t> nodes, std::span<double> out,
                                    std::span<double> at_last, int column_first, int column_end) {
-  using condensed::v4;
   using condensed::chunks;
+  using condensed::v4;
   const auto w = static_cast<std::size_t>(condensed_width(sys.columns));
   const auto cols = static_cast<std::size_t>(sys.columns);
   const auto c0 = static_cast<std::size_t>(column_first);
@@ -258,7 +258,8 @@ bool rod_condensed_join(const RodLinearization& rod, std::size_t m, const Conden
     Vector10 tip_rhs = Vector10::Zero();
     if (join.tip_column[g] >= 0)
       for (int r = 0; r < 10; ++r)
-        tip_rhs[r] = join.tip[static_cast<std::size_t>(r) * tw + kCondensedRhs + static_cast<std::size_t>(join.tip_column[g])];
+        tip_rhs[r] =
+            join.tip[static_cast<std::size_t>(r) * tw + kCondensedRhs + static_cast<std::size_t>(join.tip_column[g])];
     const Vector10 l = lu.solve(pi * y + tip_rhs);
     const Vector10 ym = y + ylambda * l;
     for (int i = 0; i < 10; ++i) {

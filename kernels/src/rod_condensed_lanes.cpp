@@ -96,7 +96,8 @@ void rod_condense_lanes(const std::array<const RodLinearization*, kCondensedLane
     const L m = gather([&](int l) { return rods[static_cast<std::size_t>(l)]->section_length[last - 1]; }) / 3.0;
     for (int c = 0; c < 4; ++c) {
       for (int j = 0; j < 4; ++j) pi[6 + c][QK + j] = -m * t.at(c, j);
-      pi[6 + c][RHS] = gather([&](int l) { return residuals[static_cast<std::size_t>(l)].at(last, static_cast<std::size_t>(c)); });
+      pi[6 + c][RHS] =
+          gather([&](int l) { return residuals[static_cast<std::size_t>(l)].at(last, static_cast<std::size_t>(c)); });
     }
   }
   V3L force{}, moment{};
@@ -117,7 +118,8 @@ void rod_condense_lanes(const std::array<const RodLinearization*, kCondensedLane
       lever.x[l] = g.lever.x, lever.y[l] = g.lever.y, lever.z[l] = g.lever.z;
       mid.x[l] = g.mid.x, mid.y[l] = g.mid.y, mid.z[l] = g.mid.z;
     }
-    const L h_prev = k > 0 ? gather([&](int l) { return rods[static_cast<std::size_t>(l)]->section_length[k - 1]; }) : L{};
+    const L h_prev =
+        k > 0 ? gather([&](int l) { return rods[static_cast<std::size_t>(l)]->section_length[k - 1]; }) : L{};
     const TangentL t_k = tangent_of(rods, k);
     force = force + load(rods, &RodLinearization::node_force, k + 1);
     moment = moment + load(rods, &RodLinearization::node_moment, k + 1) + cross(chord, force);
@@ -150,7 +152,9 @@ void rod_condense_lanes(const std::array<const RodLinearization*, kCondensedLane
       Row& out = r < 6 ? wr[r] : cr[r - 6];
       Row acc;
       for (int j = 0; j < kZ; ++j)
-        acc[j] = fmadd(p[5], xr[5][j], fmadd(p[4], xr[4][j], fmadd(p[3], xr[3][j], fmadd(p[2], xr[2][j], fmadd(p[1], xr[1][j], p[0] * xr[0][j])))));
+        acc[j] = fmadd(p[5], xr[5][j],
+                       fmadd(p[4], xr[4][j],
+                             fmadd(p[3], xr[3][j], fmadd(p[2], xr[2][j], fmadd(p[1], xr[1][j], p[0] * xr[0][j])))));
       const L rhs0 = p[RHS], rhs1 = p[RHS + 1];
       const L q0 = p[QK], q1 = p[QK + 1], q2 = p[QK + 2], q3 = p[QK + 3];
       for (int j = 0; j < kZ; ++j) out[j] = acc[j];
@@ -303,13 +307,15 @@ void rod_condense_lanes(const std::array<const RodLinearization*, kCondensedLane
         row[QK + j] -= m_self * t_k.at(c, j);
         row[QN + j] -= m_side * t_next.at(c, j);
       }
-      row[RHS] += gather([&](int l) { return residuals[static_cast<std::size_t>(l)].at(k, static_cast<std::size_t>(c)); });
+      row[RHS] +=
+          gather([&](int l) { return residuals[static_cast<std::size_t>(l)].at(k, static_cast<std::size_t>(c)); });
     }
     for (int r = 0; r < 10; ++r) {
       const Row& in = r < 6 ? wr[r] : pi[r];
       const L a0 = in[QN], a1 = in[QN + 1], a2 = in[QN + 2], a3 = in[QN + 3];
       Row out;
-      for (int e = 0; e < kZ; ++e) out[e] = fmadd(a3, u[3][e], fmadd(a2, u[2][e], fmadd(a1, u[1][e], fmadd(a0, u[0][e], in[e]))));
+      for (int e = 0; e < kZ; ++e)
+        out[e] = fmadd(a3, u[3][e], fmadd(a2, u[2][e], fmadd(a1, u[1][e], fmadd(a0, u[0][e], in[e]))));
       for (int j = 0; j < 4; ++j) out[QN + j] = L{};
       for (int e = 0; e < kZ; ++e) pi[r][e] = out[e];
     }
@@ -330,8 +336,8 @@ void rod_condense_lanes(const std::array<const RodLinearization*, kCondensedLane
       continue;
     }
     const condensed::V3 f{force.x[l], force.y[l], force.z[l]}, m{moment.x[l], moment.y[l], moment.z[l]};
-    reports[static_cast<std::size_t>(l)] = condensed::solve_base(*rods[static_cast<std::size_t>(l)], {}, base, kZ, kZ, f, m,
-                                                                 systems[static_cast<std::size_t>(l)], report);
+    reports[static_cast<std::size_t>(l)] = condensed::solve_base(*rods[static_cast<std::size_t>(l)], {}, base, kZ, kZ,
+                                                                 f, m, systems[static_cast<std::size_t>(l)], report);
   }
 }
 

@@ -4,8 +4,8 @@
 
 namespace haustra::kernels {
 
-void rod_forward_sweep(const Pose& base, std::span<const double> section_length,
-                       StrainView<const double> strain, RodPoses<double> out) {
+void rod_forward_sweep(const Pose& base, std::span<const double> section_length, StrainView<const double> strain,
+                       RodPoses<double> out) {
   const std::size_t sections = section_length.size();
   assert(strain.size() == sections + 1 && out.node_count() == sections + 1);
   Eigen::Quaterniond rot = base.rotation;

@@ -1,11 +1,10 @@
-#include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/rod_loads.hpp"
+#include "haustra/kernels/pose.hpp"
 
 namespace haustra::kernels {
 void assemble_node_loads(std::span<const double> node_mass, const Eigen::Vector3d& gravity,
-                         Vec3View<const double> external_force,
-                         Vec3View<const double> external_moment, Vec3View<double> force,
-                         Vec3View<double> moment) {
+                         Vec3View<const double> external_force, Vec3View<const double> external_moment,
+                         Vec3View<double> force, Vec3View<double> moment) {
   const std::size_t n = node_mass.size();
   for (std::size_t k = 0; k < n; ++k) {
     force.x[k] = node_mass[k] * gravity.x() + external_force.x[k];
@@ -17,8 +16,8 @@ void assemble_node_loads(std::span<const double> node_mass, const Eigen::Vector3
   }
 }
 
-Vector6d total_wrench(Vec3View<const double> position, Vec3View<const double> force,
-                      Vec3View<const double> moment, const Eigen::Vector3d& origin) {
+Vector6d total_wrench(Vec3View<const double> position, Vec3View<const double> force, Vec3View<const double> moment,
+                      const Eigen::Vector3d& origin) {
   Eigen::Vector3d m = Eigen::Vector3d::Zero();
   Eigen::Vector3d f = Eigen::Vector3d::Zero();
   for (std::size_t k = 0; k < position.size(); ++k) {
@@ -47,8 +46,8 @@ Matrix6d rigid_drag_resistance(Vec3View<const double> position, std::span<const 
 }
 
 void add_rigid_drag_loads(Vec3View<const double> position, std::span<const double> drag,
-                          std::span<const double> spin_drag, const Eigen::Vector3d& origin,
-                          const Vector6d& twist, Vec3View<double> force, Vec3View<double> moment) {
+                          std::span<const double> spin_drag, const Eigen::Vector3d& origin, const Vector6d& twist,
+                          Vec3View<double> force, Vec3View<double> moment) {
   const Eigen::Vector3d omega = twist.head<3>();
   const Eigen::Vector3d v = twist.tail<3>();
   for (std::size_t k = 0; k < position.size(); ++k) {

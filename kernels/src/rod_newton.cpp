@@ -1,8 +1,8 @@
-#include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/rod_newton.hpp"
+#include "haustra/kernels/pose.hpp"
 
-#include "haustra/kernels/mass_matrix.hpp"
 #include <Eigen/Geometry>
+#include "haustra/kernels/mass_matrix.hpp"
 
 namespace haustra::kernels {
 namespace {
@@ -16,9 +16,8 @@ struct SectionLinearization {
   Eigen::Matrix4d x = Eigen::Matrix4d::Zero();                          // per δq_k + δq_{k+1}
 };
 
-SectionLinearization linearize_section(const Eigen::Matrix3d& rm, const Eigen::Vector3d& pm,
-                                       const Eigen::Vector3d& rk, const Eigen::Vector3d& force,
-                                       const Eigen::Vector3d& moment_at_rk, double h) {
+SectionLinearization linearize_section(const Eigen::Matrix3d& rm, const Eigen::Vector3d& pm, const Eigen::Vector3d& rk,
+                                       const Eigen::Vector3d& force, const Eigen::Vector3d& moment_at_rk, double h) {
   const Eigen::Vector3d d3 = rm.col(2);
   const Eigen::Vector3d m_mid = moment_at_rk + (rk - pm).cross(force);
   const Eigen::Vector3d d3xf = d3.cross(force);
@@ -152,9 +151,9 @@ Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, st
       const Eigen::Vector3d d3 = rm.col(2);
       const Eigen::Vector3d dr = rk - poses.node_position.get(k - 1);
       const Eigen::Vector3d lever = rk - poses.mid_position.get(k - 1);
-      const Eigen::Matrix3d rot_q = 0.5 * h_prev * rm;                  // δφ per δq_u of either node
-      const Eigen::Matrix3d pos_q = skew(lever) * rot_q;                 // δr per δq_u
-      const Eigen::Vector3d pos_e = -0.5 * h_prev * d3;                  // δr per δq_ε (row sign)
+      const Eigen::Matrix3d rot_q = 0.5 * h_prev * rm;    // δφ per δq_u of either node
+      const Eigen::Matrix3d pos_q = skew(lever) * rot_q;  // δr per δq_u
+      const Eigen::Vector3d pos_e = -0.5 * h_prev * d3;   // δr per δq_ε (row sign)
       lo.block<3, 3>(PHI, PHI) = -Eigen::Matrix3d::Identity();
       lo.block<3, 3>(PHI, Q) = -rot_q;
       di.block<3, 3>(PHI, Q) = -rot_q;

@@ -79,7 +79,8 @@ void skin_csr_reference(std::span<const std::uint32_t> row_start, std::span<cons
                         std::span<Eigen::Vector3d> out) {
   for (std::size_t v = 0; v < rest_mesh.size(); ++v) {
     Eigen::Vector3d x = rest_mesh[v];
-    for (std::uint32_t k = row_start[v]; k < row_start[v + 1]; ++k) x += weight[k] * (cage[column[k]] - rest_cage[column[k]]);
+    for (std::uint32_t k = row_start[v]; k < row_start[v + 1]; ++k)
+      x += weight[k] * (cage[column[k]] - rest_cage[column[k]]);
     out[v] = x;
   }
 }

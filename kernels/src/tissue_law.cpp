@@ -128,8 +128,9 @@ double nodal_law_exp2_energy(StrainView<const double> strain, StrainView<const d
     if (law.stiffness[3] != 0.0)
       energy += share * exp2_tube_axial_energy(law.tissue, law.tube, strain.at(k, 3) - rest.at(k, 3));
     if (law.stiffness[0] != 0.0)
-      energy += share * exp2_tube_bending_energy(law.tissue, law.tube,
-                                                 std::hypot(strain.at(k, 0) - rest.at(k, 0), strain.at(k, 1) - rest.at(k, 1)));
+      energy += share *
+                exp2_tube_bending_energy(law.tissue, law.tube,
+                                         std::hypot(strain.at(k, 0) - rest.at(k, 0), strain.at(k, 1) - rest.at(k, 1)));
   }
   return energy;
 }

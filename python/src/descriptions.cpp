@@ -3,8 +3,8 @@
 
 #include <fmt/format.h>
 
-#include <sstream>
 #include <toml++/toml.h>
+#include <sstream>
 
 #include "haustra/error.hpp"
 
@@ -68,7 +68,8 @@ toml::table table_of(const py::dict& d, const std::string& path) {
   toml::table table;
   for (const auto& [key, value] : d) {
     if (!py::isinstance<py::str>(key))
-      throw Error(ErrorCode::invalid_argument, fmt::format("{}: keys must be strings", path.empty() ? "description" : path));
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("{}: keys must be strings", path.empty() ? "description" : path));
     const std::string name = key.cast<std::string>();
     const std::string at = path.empty() ? name : path + "." + name;
     insert_value(value, at, IntoTable{table, name});

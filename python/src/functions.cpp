@@ -83,8 +83,9 @@ void save_mesh_file(const std::string& path, const py::object& vertices, const p
 
 py::dict memory_of(const py::object& scene, const py::dict& overrides) {
   const std::vector<std::string> o = override_strings(overrides);
-  const SceneDesc desc = py::isinstance<py::dict>(scene) ? parse_scene(toml_text(scene.cast<py::dict>()), "World(desc)", o)
-                                                         : load_scene(py::str(scene).cast<std::string>(), o);
+  const SceneDesc desc = py::isinstance<py::dict>(scene)
+                             ? parse_scene(toml_text(scene.cast<py::dict>()), "World(desc)", o)
+                             : load_scene(py::str(scene).cast<std::string>(), o);
   const MemoryEstimate e = estimate_memory(desc.world);
   py::dict d;
   d["total"] = e.total;

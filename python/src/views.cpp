@@ -13,7 +13,8 @@ py::capsule base_of(const Keeper& keeper) {
 }
 
 template <class T>
-py::array read_only(std::vector<py::ssize_t> shape, std::vector<py::ssize_t> strides, const T* data, const Keeper& keeper) {
+py::array read_only(std::vector<py::ssize_t> shape, std::vector<py::ssize_t> strides, const T* data,
+                    const Keeper& keeper) {
   py::array a(py::dtype::of<T>(), std::move(shape), std::move(strides), data, base_of(keeper));
   a.attr("setflags")(py::arg("write") = false);
   return a;
@@ -48,7 +49,9 @@ py::array rows_array(std::span<const std::uint32_t> data, std::size_t columns, c
 }
 py::array triangles_array(std::span<const std::array<std::uint32_t, 3>> triangles, const Keeper& keeper) {
   static_assert(sizeof(std::array<std::uint32_t, 3>) == 3 * sizeof(std::uint32_t));
-  return rows_of(std::span<const std::uint32_t>(reinterpret_cast<const std::uint32_t*>(triangles.data()), 3 * triangles.size()), 3, keeper);
+  return rows_of(
+      std::span<const std::uint32_t>(reinterpret_cast<const std::uint32_t*>(triangles.data()), 3 * triangles.size()), 3,
+      keeper);
 }
 
 }  // namespace haustra::python

@@ -14,7 +14,9 @@
 namespace haustra::render {
 
 Image::Image(int width, int height, Rgb fill)
-    : width_(width), height_(height), pixels_(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), fill) {}
+    : width_(width),
+      height_(height),
+      pixels_(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), fill) {}
 
 void Image::paste(const Image& tile, int x, int y) {
   for (int j = 0; j < tile.height(); ++j)
@@ -65,7 +67,8 @@ Image Image::from_srgb8(int width, int height, std::span<const std::uint8_t> rgb
     return s <= 0.04045f ? s / 12.92f : std::pow((s + 0.055f) / 1.055f, 2.4f);
   };
   if (rgb.size() != static_cast<std::size_t>(3 * width * height))
-    throw Error(ErrorCode::invalid_argument, fmt::format("from_srgb8: {} bytes for {} x {} pixels", rgb.size(), width, height));
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("from_srgb8: {} bytes for {} x {} pixels", rgb.size(), width, height));
   Image image(width, height);
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) {

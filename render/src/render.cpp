@@ -150,7 +150,8 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
     if (!value.empty()) {
       pic.colour_min = *std::min_element(value.begin(), value.end());
       pic.colour_max = *std::max_element(value.begin(), value.end());
-      for (double v : value) g.colours.push_back(colormap((v - pic.colour_min) / std::max(pic.colour_max - pic.colour_min, 1e-12)));
+      for (double v : value)
+        g.colours.push_back(colormap((v - pic.colour_min) / std::max(pic.colour_max - pic.colour_min, 1e-12)));
     }
     bool any_normal = false;
     for (const auto& nn : g.normals) any_normal = any_normal || nn.squaredNorm() > 0.5;
@@ -188,7 +189,8 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
     for (const Contact& c : world.contact_list())
       if (c.depth > 0.0) {
         depth[c.bead] = std::max(depth[c.bead], c.depth / world.bead_radii()[c.bead]);
-        if (c.kind == ContactKind::bead) depth[c.other] = std::max(depth[c.other], c.depth / world.bead_radii()[c.other]);
+        if (c.kind == ContactKind::bead)
+          depth[c.other] = std::max(depth[c.other], c.depth / world.bead_radii()[c.other]);
       }
     for (std::size_t i = 0; i < world.bead_count(); ++i) {
       add_sphere(g, nodes.get(world.bead_nodes()[i]), world.bead_radii()[i], 10);
@@ -325,7 +327,8 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
       t0 = h.distance + eps;
     }
     // Sky: a soft vertical gradient.
-    const Rgb sky = mix(Rgb{0.93f, 0.94f, 0.96f}, Rgb{0.70f, 0.76f, 0.86f}, static_cast<float>(0.5 + 0.5 * dir.dot(cam.up)));
+    const Rgb sky =
+        mix(Rgb{0.93f, 0.94f, 0.96f}, Rgb{0.70f, 0.76f, 0.86f}, static_cast<float>(0.5 + 0.5 * dir.dot(cam.up)));
     return add(accumulated, scale(sky, remaining));
   };
 

@@ -11,7 +11,10 @@ namespace haustra::render {
 Rgb mix(Rgb a, Rgb b, float t) { return {a.r + (b.r - a.r) * t, a.g + (b.g - a.g) * t, a.b + (b.b - a.b) * t}; }
 
 Rgb colormap(double t) {
-  static const Rgb stops[5] = {{0.07f, 0.02f, 0.25f}, {0.05f, 0.22f, 0.45f}, {0.04f, 0.45f, 0.40f}, {0.35f, 0.70f, 0.15f},
+  static const Rgb stops[5] = {{0.07f, 0.02f, 0.25f},
+                               {0.05f, 0.22f, 0.45f},
+                               {0.04f, 0.45f, 0.40f},
+                               {0.35f, 0.70f, 0.15f},
                                {0.98f, 0.85f, 0.05f}};
   t = std::clamp(t, 0.0, 1.0) * 4.0;
   const int i = std::min(3, static_cast<int>(t));

@@ -121,8 +121,8 @@ void deform(World& w, std::size_t which) {
 
 }  // namespace
 
-void write_procedural_organ(const std::filesystem::path& file, const std::vector<std::pair<double, Eigen::Vector3d>>& pieces,
-                            double scale) {
+void write_procedural_organ(const std::filesystem::path& file,
+                            const std::vector<std::pair<double, Eigen::Vector3d>>& pieces, double scale) {
   constexpr double h = 0.002;
   std::vector<double> sections, strains;
   for (const auto& [length, k] : pieces) {
@@ -142,10 +142,11 @@ void write_procedural_organ(const std::filesystem::path& file, const std::vector
 }
 
 std::vector<std::pair<std::string, std::filesystem::path>> import_study_organs(const std::filesystem::path& assets,
-                                                                             const std::filesystem::path& work) {
+                                                                               const std::filesystem::path& work) {
   namespace fs = std::filesystem;
   fs::create_directories(work);
-  const fs::path colon = assets / "large-intestine-A-DSJ.obj", midline = assets / "large-intestine-A-DSJ-centreline.json";
+  const fs::path colon = assets / "large-intestine-A-DSJ.obj",
+                 midline = assets / "large-intestine-A-DSJ-centreline.json";
   const double bend = 1.0 / (1.2 * 0.02), R = 0.05, c = 0.042 / (2.0 * std::numbers::pi);
   write_procedural_organ(work / "straight.obj", {{0.3, Eigen::Vector3d::Zero()}}, 1000.0);
   write_procedural_organ(work / "tight-bend.obj",
@@ -206,7 +207,8 @@ AnatomyStudy run_anatomy_study(const std::vector<std::pair<std::string, std::fil
       for (std::size_t v = 0; v < worlds.size(); ++v) {
         const double before = worlds[v]->last_profile().seconds[static_cast<std::size_t>(Stage::skin)];
         deform(*worlds[v], d);
-        if (d != 2) times[v].push_back(worlds[v]->last_profile().seconds[static_cast<std::size_t>(Stage::skin)] - before);
+        if (d != 2)
+          times[v].push_back(worlds[v]->last_profile().seconds[static_cast<std::size_t>(Stage::skin)] - before);
         posed[v].push_back(validation::organ_points(*worlds[v]));
         if (v + 1 == worlds.size()) rigid.push_back(carried(*worlds[v], mat));
       }
@@ -234,8 +236,8 @@ AnatomyStudy run_anatomy_study(const std::vector<std::pair<std::string, std::fil
         row.p99_error.push_back(p99);
       }
       std::tie(row.rigid_max, row.rigid_p99) = max_p99(to_rigid);
-      row.volume_change = closed ? volume_of(*worlds[v], posed[v][1]) / rest_volume - 1.0
-                                 : std::numeric_limits<double>::quiet_NaN();
+      row.volume_change =
+          closed ? volume_of(*worlds[v], posed[v][1]) / rest_volume - 1.0 : std::numeric_limits<double>::quiet_NaN();
       row.rest_correction = info.skin.max_rest_correction;
       row.left_out = info.skin.max_dropped_mass;
       study.rows.push_back(row);
@@ -246,8 +248,10 @@ AnatomyStudy run_anatomy_study(const std::vector<std::pair<std::string, std::fil
 
 std::string anatomy_markdown(const AnatomyStudy& s) {
   std::string out =
-      "| organ | vertices | cage rings | localization | rings per vertex: mean (max) | skinning µs | vs full MVC, max mm: "
-      "rest / 90° bend / grasp and lift / rigid motion | 99th pct mm (same) | vs rigid cross-sections: max mm | 99th pct mm "
+      "| organ | vertices | cage rings | localization | rings per vertex: mean (max) | skinning µs | vs full MVC, max "
+      "mm: "
+      "rest / 90° bend / grasp and lift / rigid motion | 99th pct mm (same) | vs rigid cross-sections: max mm | 99th "
+      "pct mm "
       "| volume, 90° bend | rest correction max mm | weight left out max |\n"
       "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const AnatomyRow& r : s.rows) {
@@ -256,11 +260,12 @@ std::string anatomy_markdown(const AnatomyStudy& s) {
       maxes += fmt::format("{}{:.2f}", d ? " / " : "", 1e3 * r.max_error[d]);
       p99s += fmt::format("{}{:.2f}", d ? " / " : "", 1e3 * r.p99_error[d]);
     }
-    out += fmt::format("| {} | {} | {} | {} | {:.2f} ({:.0f}) | {:.0f} | {} | {} | {:.1f} | {:.1f} | {} | {:.1f} | {:.3f} |\n",
-                       r.organ, r.vertices, r.rings, r.localization, r.mean_rings, r.max_rings, r.skin_us, maxes, p99s,
-                       1e3 * r.rigid_max, 1e3 * r.rigid_p99,
-                       std::isnan(r.volume_change) ? std::string("(open)") : fmt::format("{:+.2f} %", 100.0 * r.volume_change),
-                       1e3 * r.rest_correction, r.left_out);
+    out += fmt::format(
+        "| {} | {} | {} | {} | {:.2f} ({:.0f}) | {:.0f} | {} | {} | {:.1f} | {:.1f} | {} | {:.1f} | {:.3f} |\n",
+        r.organ, r.vertices, r.rings, r.localization, r.mean_rings, r.max_rings, r.skin_us, maxes, p99s,
+        1e3 * r.rigid_max, 1e3 * r.rigid_p99,
+        std::isnan(r.volume_change) ? std::string("(open)") : fmt::format("{:+.2f} %", 100.0 * r.volume_change),
+        1e3 * r.rest_correction, r.left_out);
   }
   return out;
 }

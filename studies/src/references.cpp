@@ -26,7 +26,10 @@ State integrate(double slope0, double alpha, int steps) {
     const State k2 = derivative(add(y, k1, 0.5 * h), alpha);
     const State k3 = derivative(add(y, k2, 0.5 * h), alpha);
     const State k4 = derivative(add(y, k3, h), alpha);
-    for (int j = 0; j < 4; ++j) y[static_cast<std::size_t>(j)] += h / 6.0 * (k1[static_cast<std::size_t>(j)] + 2 * k2[static_cast<std::size_t>(j)] + 2 * k3[static_cast<std::size_t>(j)] + k4[static_cast<std::size_t>(j)]);
+    for (int j = 0; j < 4; ++j)
+      y[static_cast<std::size_t>(j)] += h / 6.0 *
+                                        (k1[static_cast<std::size_t>(j)] + 2 * k2[static_cast<std::size_t>(j)] +
+                                         2 * k3[static_cast<std::size_t>(j)] + k4[static_cast<std::size_t>(j)]);
   }
   return y;
 }

@@ -152,15 +152,15 @@ SkinningStudy run_skinning_study() {
     int k;
     double left_out = 0.0;
   };
-  const std::vector<Variant> variants = {{"MVC, all rings", SkinningMethod::mean_value, 0},
-                                         {"MVC, K = 2", SkinningMethod::mean_value, 2},
-                                         {"MVC, K = 3", SkinningMethod::mean_value, 3},
-                                         {"MVC, K = 4", SkinningMethod::mean_value, 4},
-                                         {"MVC, K = 6", SkinningMethod::mean_value, 6},
-                                         {"MVC, K = 8", SkinningMethod::mean_value, 8},
-                                         {"MVC, K ≥ 4 per vertex, ≤ 2 % weight left out (default)",
-                                          SkinningMethod::mean_value, 4, 0.02},
-                                         {"linear blend (2 beads)", SkinningMethod::linear_blend, 2}};
+  const std::vector<Variant> variants = {
+      {"MVC, all rings", SkinningMethod::mean_value, 0},
+      {"MVC, K = 2", SkinningMethod::mean_value, 2},
+      {"MVC, K = 3", SkinningMethod::mean_value, 3},
+      {"MVC, K = 4", SkinningMethod::mean_value, 4},
+      {"MVC, K = 6", SkinningMethod::mean_value, 6},
+      {"MVC, K = 8", SkinningMethod::mean_value, 8},
+      {"MVC, K ≥ 4 per vertex, ≤ 2 % weight left out (default)", SkinningMethod::mean_value, 4, 0.02},
+      {"linear blend (2 beads)", SkinningMethod::linear_blend, 2}};
   std::vector<std::vector<Eigen::Vector3d>> reference;  // full MVC per pose
   for (const Variant& v : variants) {
     std::unique_ptr<World> w = World::create(study_organ(v.method, v.k, v.left_out));
@@ -210,7 +210,8 @@ SkinningStudy run_skinning_study() {
     row.p99_error = errors[static_cast<std::size_t>(0.99 * static_cast<double>(errors.size() - 1))];
     std::sort(transport_errors.begin(), transport_errors.end());
     row.transport_max = transport_errors.back();
-    row.transport_p99 = transport_errors[static_cast<std::size_t>(0.99 * static_cast<double>(transport_errors.size() - 1))];
+    row.transport_p99 =
+        transport_errors[static_cast<std::size_t>(0.99 * static_cast<double>(transport_errors.size() - 1))];
     study.rows.push_back(row);
   }
   return study;
@@ -221,17 +222,23 @@ std::string skinning_markdown(const SkinningStudy& s) {
   out += fmt::format("Organ: {} ({} vertices, {} cage rings, mesh size {:.3f} m). Poses, set directly on the rod:\n",
                      s.organ, s.vertices, s.rings, s.mesh_size);
   for (const auto& p : s.poses) out += fmt::format("- {}\n", p);
-  out += "\nErrors are distances from full mean value coordinates (all rings) over every vertex of every pose; "
-         "volumes are of the closed mesh, relative to its rest volume. Skinning time: the `skin` stage on one "
-         "thread, median over the poses.\n\n";
-  out += "| skinning | rings per vertex | bytes per vertex | skinning µs | rest error m | vs full MVC: max mm | 99th pct mm "
-         "| vs rigid cross-sections: max mm | 99th pct mm | weight left out (mean) | volume, 90° bend | volume, 90° twist |\n";
+  out +=
+      "\nErrors are distances from full mean value coordinates (all rings) over every vertex of every pose; "
+      "volumes are of the closed mesh, relative to its rest volume. Skinning time: the `skin` stage on one "
+      "thread, median over the poses.\n\n";
+  out +=
+      "| skinning | rings per vertex | bytes per vertex | skinning µs | rest error m | vs full MVC: max mm | 99th pct "
+      "mm "
+      "| vs rigid cross-sections: max mm | 99th pct mm | weight left out (mean) | volume, 90° bend | volume, 90° twist "
+      "|\n";
   out += "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : s.rows)
-    out += fmt::format("| {} | {:.2g} | {:.0f} | {:.1f} | {:.1e} | {:.3f} | {:.3f} | {:.2f} | {:.2f} | {:.3f} | {:+.2f} % | {:+.2f} % |\n",
-                       r.method, r.slots, r.bytes_per_vertex, r.skin_us, r.rest_error, 1e3 * r.max_error, 1e3 * r.p99_error,
-                       1e3 * r.transport_max, 1e3 * r.transport_p99, r.mean_dropped_mass, 100.0 * r.bend_volume_change,
-                       100.0 * r.twist_volume_change);
+    out += fmt::format(
+        "| {} | {:.2g} | {:.0f} | {:.1f} | {:.1e} | {:.3f} | {:.3f} | {:.2f} | {:.2f} | {:.3f} | {:+.2f} % | {:+.2f} % "
+        "|\n",
+        r.method, r.slots, r.bytes_per_vertex, r.skin_us, r.rest_error, 1e3 * r.max_error, 1e3 * r.p99_error,
+        1e3 * r.transport_max, 1e3 * r.transport_p99, r.mean_dropped_mass, 100.0 * r.bend_volume_change,
+        100.0 * r.twist_volume_change);
   out += fmt::format("| rigid cross-sections (reference) | | | | | | | 0 | 0 | | {:+.2f} % | {:+.2f} % |\n",
                      100.0 * s.transport_bend_volume_change, 100.0 * s.transport_twist_volume_change);
   return out;

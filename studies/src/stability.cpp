@@ -26,10 +26,10 @@ WorldDesc cell_world(const StabilityCell& c, SolverMode mode, InstabilityPolicy 
   s.nodes = c.nodes;
   s.rest.length = 1.0;
   s.material.youngs_modulus = c.youngs_modulus;
-  if (c.law == "elastic")
-    s.law = {StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic};
+  if (c.law == "elastic") s.law = {StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic};
   if (c.load == "pull") {
-    const double ea = c.youngs_modulus * 2.0 * std::numbers::pi * s.cross_section.radius * s.cross_section.wall_thickness;
+    const double ea =
+        c.youngs_modulus * 2.0 * std::numbers::pi * s.cross_section.radius * s.cross_section.wall_thickness;
     s.loads.push_back({-1, Eigen::Vector3d(ea, 0.0, 0.0), Eigen::Vector3d::Zero()});  // ε → 1
   }
   if (c.load == "contact") {
@@ -60,8 +60,8 @@ bool state_finite(const World& w) {
 }
 
 // Runs the cell's frames; returns "" when all passed, else the error message.
-std::string run_cell(const StabilityCell& c, SolverMode mode, InstabilityPolicy policy, int max_substeps,
-                     bool& finite, std::string& event) {
+std::string run_cell(const StabilityCell& c, SolverMode mode, InstabilityPolicy policy, int max_substeps, bool& finite,
+                     std::string& event) {
   auto w = World::create(cell_world(c, mode, policy, max_substeps));
   std::string error;
   try {
@@ -120,15 +120,15 @@ std::vector<StabilityCell> stability_sweep(const StabilityOptions& o) {
             c.frames = n > 200 ? o.frames_large : o.frames_small;
             std::string event;
             bool finite = true;
-            const std::string lagged_error = run_cell(c, SolverMode::lagged, InstabilityPolicy::stop, o.max_substeps,
-                                                      finite, event);
+            const std::string lagged_error =
+                run_cell(c, SolverMode::lagged, InstabilityPolicy::stop, o.max_substeps, finite, event);
             c.finite = finite;
             if (lagged_error.empty()) {
               c.outcome = "lagged";
             } else {
               std::string robust_event;
-              const std::string robust_error = run_cell(c, SolverMode::lagged, InstabilityPolicy::recover,
-                                                        o.max_substeps, finite, robust_event);
+              const std::string robust_error =
+                  run_cell(c, SolverMode::lagged, InstabilityPolicy::recover, o.max_substeps, finite, robust_event);
               c.finite = c.finite && finite;
               if (robust_error.empty()) {
                 c.outcome = "robust";
@@ -247,11 +247,13 @@ std::string stability_markdown(const std::vector<StabilityCell>& cells) {
     if (c.outcome != "error") continue;
     const std::size_t colon = c.detail.find(": ", c.detail.find("node "));
     const std::size_t after = c.detail.find(" after stage");
-    std::string reason = colon != std::string::npos && after != std::string::npos ? c.detail.substr(colon + 2, after - colon - 2)
-                                                                                  : c.detail;
+    std::string reason = colon != std::string::npos && after != std::string::npos
+                             ? c.detail.substr(colon + 2, after - colon - 2)
+                             : c.detail;
     // Drop the numbers so that equal reasons group.
     std::string key;
-    for (char ch : reason) key += (std::isdigit(static_cast<unsigned char>(ch)) != 0 || ch == '.' || ch == '-') ? '#' : ch;
+    for (char ch : reason)
+      key += (std::isdigit(static_cast<unsigned char>(ch)) != 0 || ch == '.' || ch == '-') ? '#' : ch;
     std::string collapsed;
     for (char ch : key)
       if (!(ch == '#' && !collapsed.empty() && collapsed.back() == '#')) collapsed += ch;

@@ -90,7 +90,10 @@ TradeoffKnob knob_nodes() {
                  "a 0.2 m rod of the paper's tube and tissue (all strains elastic), clamped level, hanging under "
                  "gravity to its static shape",
                  "the same rod with 2,001 nodes, Newton to convergence (10⁻¹³) every frame",
-                 "tip error (mm)", "frame (µs), default solver, at rest", {}, 1};
+                 "tip error (mm)",
+                 "frame (µs), default solver, at rest",
+                 {},
+                 1};
   auto tip_of = [](int n) {
     WorldDesc d = cantilever(n);
     converge_each_frame(d);
@@ -116,8 +119,8 @@ TradeoffKnob knob_nodes() {
 // --- beads per node --------------------------------------------------------------------------
 
 struct MeshPenetration {
-  double floor_depth = 0.0;       // m, deepest mesh vertex below the floor
-  std::size_t self_inside = 0;    // mesh vertices inside another part of the organ
+  double floor_depth = 0.0;     // m, deepest mesh vertex below the floor
+  std::size_t self_inside = 0;  // mesh vertices inside another part of the organ
 };
 
 // The deformed organ mesh against the floor (z = 0, exact) and against itself, with Embree: a
@@ -151,14 +154,18 @@ TradeoffKnob knob_beads() {
                  "procedural mesh, 6 s",
                  "no penetration: the skinned mesh measured against the floor plane (exact, the deepest vertex) "
                  "and against itself (Embree inside tests: vertices inside the organ) at 4, 5 and 6 s",
-                 "mesh below the floor (mm)", "frame (µs), with the mesh", {}, 2};
+                 "mesh below the floor (mm)",
+                 "frame (µs), with the mesh",
+                 {},
+                 2};
   struct Setting {
     const char* name;
     int count;
   };
   for (const Setting& s : {Setting{"every node (167 beads)", 167}, Setting{"every 2nd (84)", 84},
                            Setting{"every 3rd (56; the paper's 55)", 56}, Setting{"every 5th (34)", 34}}) {
-    const std::vector<std::string> sets = {"segment.mesh.source=procedural", fmt::format("segment.beads.count={}", s.count)};
+    const std::vector<std::string> sets = {"segment.mesh.source=procedural",
+                                           fmt::format("segment.beads.count={}", s.count)};
     SceneDesc scene = load_scene(scene_file("drop"), sets);
     scene.world.threads = 1;
     auto w = create_world(scene);
@@ -183,9 +190,10 @@ TradeoffKnob knob_beads() {
     r.setting = s.name;
     r.error = 1e3 * worst.floor_depth;
     r.cost_us = median(t);
-    r.details = fmt::format("mesh vertices inside the organ: {} of {} ({} at rest, before the fall); beads: "
-                            "floor ≤ {:.1f} %, each other ≤ {:.1f} % of r",
-                            worst.self_inside, w->mesh_buffer_size(), at_rest, 100 * bead_floor, 100 * bead_overlap);
+    r.details = fmt::format(
+        "mesh vertices inside the organ: {} of {} ({} at rest, before the fall); beads: "
+        "floor ≤ {:.1f} %, each other ≤ {:.1f} % of r",
+        worst.self_inside, w->mesh_buffer_size(), at_rest, 100 * bead_floor, 100 * bead_overlap);
     r.is_default = s.count == 56;
     k.rows.push_back(r);
   }
@@ -199,7 +207,11 @@ TradeoffKnob knob_iterations() {
                  "`drop` without its mesh: the error at 1 s (falling and bending, before the coils pile up "
                  "chaotically); events over 4.5 s; the static error on the 0.2 m rod after one frame",
                  "Newton to convergence (10⁻¹² per section) every frame, same scene",
-                 "node error at 1 s (mm)", "frame (µs)", {}, 1, true,
+                 "node error at 1 s (mm)",
+                 "frame (µs)",
+                 {},
+                 1,
+                 true,
                  "before convergence the fall's trajectories differ by tens of mm whatever the count; one Newton "
                  "iteration a frame costs least; which settings needed the robust mode is in the details"};
   auto drop = [](SolverMode mode, int iterations, bool converged) {
@@ -275,9 +287,10 @@ TradeoffKnob knob_iterations() {
     r.setting = s.name;
     r.error = 1e3 * error;
     r.cost_us = median(t);
-    r.details = fmt::format("{} robust-mode recoveries in 270 frames; 0.2 m rod released: static error after one "
-                            "frame {}, {} flips of the tip (reversals > 1 mm) in 1 s",
-                            recovered, static_error, flips);
+    r.details = fmt::format(
+        "{} robust-mode recoveries in 270 frames; 0.2 m rod released: static error after one "
+        "frame {}, {} flips of the tip (reversals > 1 mm) in 1 s",
+        recovered, static_error, flips);
     if (s.mode == SolverMode::fast)
       r.details += fmt::format("; {} of {} iterations reused a factorization", chords, iterations);
     r.is_default = s.mode == SolverMode::newton && s.iterations == 1 && !s.converged;
@@ -294,7 +307,11 @@ TradeoffKnob knob_filter() {
                  "the 0.2 m rod (N = 167) released level from rest at haptic rate (Δt = 1 ms), default solver "
                  "(one Newton iteration a frame), 1.5 s",
                  "no filter, same solver: the tip's path without the filter's lag",
-                 "lag to within 1 mm of rest (ms)", "frame (µs)", {}, 100, true,
+                 "lag to within 1 mm of rest (ms)",
+                 "frame (µs)",
+                 {},
+                 100,
+                 true,
                  "the rule sees only the lag; the filter's gain is smoothness — it shrinks the largest jump of a "
                  "node in one frame (details), which is what to size ζ by for a haptic device"};
   struct Setting {
@@ -304,9 +321,10 @@ TradeoffKnob knob_filter() {
   };
   constexpr int kFrames = 1500;
   Eigen::Vector3d final_tip = Eigen::Vector3d::Zero();
-  for (const Setting& s : {Setting{"off", false, 1.0}, Setting{"ζ × 0.25", true, 0.25}, Setting{"ζ × 1 (the paper's)", true, 1.0},
-                           Setting{"ζ × 4", true, 4.0}, Setting{"ζ × 16", true, 16.0}, Setting{"ζ × 64", true, 64.0},
-                           Setting{"ζ × 256", true, 256.0}}) {
+  for (const Setting& s :
+       {Setting{"off", false, 1.0}, Setting{"ζ × 0.25", true, 0.25}, Setting{"ζ × 1 (the paper's)", true, 1.0},
+        Setting{"ζ × 4", true, 4.0}, Setting{"ζ × 16", true, 16.0}, Setting{"ζ × 64", true, 64.0},
+        Setting{"ζ × 256", true, 256.0}}) {
     WorldDesc d = cantilever(167);
     d.dt = 1e-3;
     d.filter.enabled = s.on;
@@ -350,7 +368,11 @@ TradeoffKnob knob_exp2() {
                  "a clamped 0.2 m rod of the paper's tube (N = 41, no gravity) pulled at its tip, or bent by an end "
                  "moment, to a strain of the EXP2 law (γ = 20 kPa, α = 8, β = 6.7 kPa; Hooke: E = 33.2 kPa)",
                  "the analytic equilibrium under EXP2: A σ(ε) = F (tip at L(1 + ε)); an arc of M(κ) = M₀",
-                 "tip error (mm)", "frame (µs), N = 167, at rest", {}, 0, false};
+                 "tip error (mm)",
+                 "frame (µs), N = 167, at rest",
+                 {},
+                 0,
+                 false};
   const kernels::Exp2Tissue tissue{8.0, 6.7e3, 20.0e3};
   const kernels::TubeSection tube{0.02, 0.003};
   const double length = 0.2;
@@ -433,14 +455,18 @@ TradeoffKnob knob_rings() {
                  "a straight procedural rectum (30 cm, 11 beads, 10,000 vertices) posed into a 90° bend, a 90° "
                  "twist and others (docs/skinning.md)",
                  "full mean value coordinates (every ring) in the same poses",
-                 "max vertex error (mm)", "frame (µs), with the mesh", {}, 1};
+                 "max vertex error (mm)",
+                 "frame (µs), with the mesh",
+                 {},
+                 1};
   const SkinningStudy s = run_skinning_study();
   // A whole frame of the same organ hanging from its clamp under gravity with each skinning: the
   // worlds step in turn, so that the machine's load falls on all alike.
   std::vector<std::unique_ptr<World>> worlds;
   for (const SkinningStudyRow& row : s.rows) {
-    WorldDesc d = study_organ(row.method.rfind("MVC", 0) == 0 ? SkinningMethod::mean_value : SkinningMethod::linear_blend,
-                              row.rings_per_vertex);
+    WorldDesc d =
+        study_organ(row.method.rfind("MVC", 0) == 0 ? SkinningMethod::mean_value : SkinningMethod::linear_blend,
+                    row.rings_per_vertex);
     d.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
     worlds.push_back(World::create(d));
   }
@@ -456,10 +482,11 @@ TradeoffKnob knob_rings() {
     r.setting = row.method;
     r.error = 1e3 * row.max_error;
     r.cost_us = median(frame_times[i]);
-    r.details = fmt::format("skin stage {:.1f} µs; p99 {:.2f} mm; volume change: bend {:+.1f} %, twist {:+.1f} %; "
-                            "{:.0f} B per vertex",
-                            row.skin_us, 1e3 * row.p99_error, 100 * row.bend_volume_change,
-                            100 * row.twist_volume_change, row.bytes_per_vertex);
+    r.details = fmt::format(
+        "skin stage {:.1f} µs; p99 {:.2f} mm; volume change: bend {:+.1f} %, twist {:+.1f} %; "
+        "{:.0f} B per vertex",
+        row.skin_us, 1e3 * row.p99_error, 100 * row.bend_volume_change, 100 * row.twist_volume_change,
+        row.bytes_per_vertex);
     r.is_default = row.method.find("K = 4") != std::string::npos;
     r.is_reference = row.rings_per_vertex == 0 && row.method.rfind("MVC", 0) == 0;
     k.rows.push_back(r);
@@ -532,8 +559,10 @@ std::vector<Eigen::Vector3d> engine_sweep(std::span<const double> h, std::span<c
   const std::size_t n = h.size() + 1;
   std::vector<double> b(n * 14);
   auto col = [&](std::size_t i) { return std::span<double>(b.data() + i * n, n); };
-  kernels::RodPoses<double> poses{{col(0), col(1), col(2)}, {col(3), col(4), col(5), col(6)},
-                                  {col(7), col(8), col(9)}, {col(10), col(11), col(12), col(13)}};
+  kernels::RodPoses<double> poses{{col(0), col(1), col(2)},
+                                  {col(3), col(4), col(5), col(6)},
+                                  {col(7), col(8), col(9)},
+                                  {col(10), col(11), col(12), col(13)}};
   const kernels::StrainView<const double> strain{q};
   if (reference)
     kernels::rod_forward_sweep_reference({}, h, strain, poses);
@@ -558,7 +587,10 @@ TradeoffKnob knob_precision() {
                  "study code instantiated in float and double; the Newton solve stays in double (not built in float). "
                  "Frame: the 0.2 m rod's measured frame at this N with the sweep's time exchanged (one sweep a frame)",
                  "the engine's double sweep (`kernels/rod_forward_sweep`)",
-                 "max node error (µm)", "frame (µs), estimated", {}, 100};
+                 "max node error (µm)",
+                 "frame (µs), estimated",
+                 {},
+                 100};
   for (int n : {167, 10'000}) {
     std::vector<double> h, q;
     helix(n, h, q);
@@ -598,7 +630,10 @@ TradeoffKnob knob_integrator() {
                  "the forward sweep of the 1.66 m helix (κ = 8 /m, τ = −1.12 /m, ε = 5 %), N nodes. Frame: the 0.2 m "
                  "rod's measured frame at this N with the sweep's time exchanged (one sweep a frame)",
                  "the matrix exponential of each section's twist (`rod_forward_sweep_reference`): the exact helix",
-                 "tip error (mm)", "frame (µs), estimated", {}, 1};
+                 "tip error (mm)",
+                 "frame (µs), estimated",
+                 {},
+                 1};
   for (int n : {21, 41, 83, 167, 333, 667}) {
     std::vector<double> h, q;
     helix(n, h, q);
@@ -648,10 +683,10 @@ TradeoffStudy run_tradeoff_study(const std::function<void(const std::string&)>& 
   const auto start = Clock::now();
   TradeoffStudy s;
   const std::vector<std::pair<std::string, TradeoffKnob (*)()>> knobs = {
-      {"nodes per segment", knob_nodes},       {"beads per node", knob_beads},
+      {"nodes per segment", knob_nodes},         {"beads per node", knob_beads},
       {"iterations per frame", knob_iterations}, {"inertia filter", knob_filter},
-      {"Hooke against EXP2", knob_exp2},        {"MVC rings and linear blend", knob_rings},
-      {"float against double", knob_precision}, {"exponential against midpoint", knob_integrator}};
+      {"Hooke against EXP2", knob_exp2},         {"MVC rings and linear blend", knob_rings},
+      {"float against double", knob_precision},  {"exponential against midpoint", knob_integrator}};
   for (const auto& [name, run] : knobs) {
     if (progress) progress(name);
     s.knobs.push_back(run());
@@ -725,14 +760,14 @@ std::string tradeoff_markdown(const TradeoffStudy& study) {
       if (cheapest == nullptr || r.cost_us < cheapest->cost_us) cheapest = &r;
       if (r.error <= k.haptic_error && (haptic == nullptr || r.cost_us < haptic->cost_us)) haptic = &r;
     }
-    md += fmt::format("- **{}**: haptic loop — {}; offline — {} ({} {:.3g}, {:.4g} µs).\n", k.name,
-                      haptic == nullptr ? fmt::format("none within {:g} ({}); the cheapest, {}, misses by {:.3g}",
-                                                      k.haptic_error, k.error_name,
-                                                      cheapest != nullptr ? cheapest->setting : "—",
-                                                      cheapest != nullptr ? cheapest->error : 0.0)
-                                        : fmt::format("{} ({} {:.3g} ≤ {:g}, {:.4g} µs)", haptic->setting,
-                                                      k.error_name, haptic->error, k.haptic_error, haptic->cost_us),
-                      best->setting, k.error_name, best->error, best->cost_us);
+    md += fmt::format(
+        "- **{}**: haptic loop — {}; offline — {} ({} {:.3g}, {:.4g} µs).\n", k.name,
+        haptic == nullptr
+            ? fmt::format("none within {:g} ({}); the cheapest, {}, misses by {:.3g}", k.haptic_error, k.error_name,
+                          cheapest != nullptr ? cheapest->setting : "—", cheapest != nullptr ? cheapest->error : 0.0)
+            : fmt::format("{} ({} {:.3g} ≤ {:g}, {:.4g} µs)", haptic->setting, k.error_name, haptic->error,
+                          k.haptic_error, haptic->cost_us),
+        best->setting, k.error_name, best->error, best->cost_us);
     if (!k.guide_note.empty()) md += fmt::format("  *Note:* {}.\n", k.guide_note);
   }
   md += "\n## Knobs\n\n";
@@ -740,14 +775,14 @@ std::string tradeoff_markdown(const TradeoffStudy& study) {
     const std::vector<bool> front = pareto(k);
     md += fmt::format("### {}\n\n", k.name);
     md += fmt::format("*Run:* {}.  \n*Reference:* {}.\n\n", k.scene, k.reference);
-    if (k.haptic_error > 0.0) md += fmt::format("Guide's haptic threshold: {} ≤ {:g}.\n\n", k.error_name, k.haptic_error);
+    if (k.haptic_error > 0.0)
+      md += fmt::format("Guide's haptic threshold: {} ≤ {:g}.\n\n", k.error_name, k.haptic_error);
     md += fmt::format("| setting | {} | {} | Pareto | further |\n|---|---:|---:|:-:|---|\n", k.error_name, k.cost_name);
     for (std::size_t i = 0; i < k.rows.size(); ++i) {
       const TradeoffRow& r = k.rows[i];
       const std::string error = r.is_reference ? "0 (reference)" : fmt::format("{:.3g}", r.error);
-      md += fmt::format("| {}{} | {} | {:.4g} | {} | {} |\n", r.setting, r.is_default ? " **(default)**" : "",
-                        error, r.cost_us,
-                        front[i] ? "●" : "", r.details);
+      md += fmt::format("| {}{} | {} | {:.4g} | {} | {} |\n", r.setting, r.is_default ? " **(default)**" : "", error,
+                        r.cost_us, front[i] ? "●" : "", r.details);
     }
     md += "\n";
   }

@@ -85,14 +85,13 @@ CaseResult compare(std::string name, std::string quantity, double reference, dou
   return r;
 }
 
-CaseResult compare_absolute(std::string name, std::string quantity, double reference, double value,
-                            double tolerance, std::string note) {
+CaseResult compare_absolute(std::string name, std::string quantity, double reference, double value, double tolerance,
+                            std::string note) {
   CaseResult r{std::move(name), std::move(quantity), reference, value, 0.0, tolerance, true, false, std::move(note)};
   r.error = std::abs(value - reference);
   r.pass = r.error <= tolerance;
   return r;
 }
-
 
 std::vector<CaseResult> axial_end_force(SolverMode mode) {
   WorldDesc d = test_rod(mode, 51);
@@ -128,7 +127,8 @@ std::vector<CaseResult> pure_end_moment(SolverMode mode) {
         const Eigen::Vector3d exact(std::sin(kappa * s) / kappa, (1.0 - std::cos(kappa * s)) / kappa, 0.0);
         worst = std::max(worst, (w->node_positions().get(k) - exact).norm());
       }
-      const std::string name = fmt::format("pure end moment, {} turn{}, N = {}", turns, turns == 1.0 ? "" : "s", sections);
+      const std::string name =
+          fmt::format("pure end moment, {} turn{}, N = {}", turns, turns == 1.0 ? "" : "s", sections);
       out.push_back(compare(name, "curvature κ1 at the tip node (1/m)  (= M/B)", kappa,
                             w->strains().at(w->node_count() - 1, kappa1), kRoundOff));
       out.push_back(compare_absolute(name, "largest node distance from the exact circle (m)", 0.0, worst, kRoundOff));
@@ -160,7 +160,8 @@ std::vector<CaseResult> cantilever_small_load(SolverMode mode) {
     const double alpha = 1e-4;
     const CantileverRun run = cantilever(mode, sections + 1, alpha);
     out.push_back(compare(fmt::format("cantilever, small tip load PL²/B = 1e-4, N = {}", sections),
-                          "tip deflection / L  (= PL²/3B)", alpha / 3.0, -run.tip.z(), 2e-3 /* measured 2e-4 at N = 50: O(h²) */,
+                          "tip deflection / L  (= PL²/3B)", alpha / 3.0, -run.tip.z(),
+                          2e-3 /* measured 2e-4 at N = 50: O(h²) */,
                           fmt::format("{} frames to equilibrium", run.frames)));
   }
   return out;
@@ -284,8 +285,8 @@ std::vector<CaseResult> held_both_ends_viscous(SolverMode mode) {
   const reference::PlanarPoint mid = reference::catenary_point(0.5 * length, length, span);
   const Eigen::Vector3d r_mid = w->node_positions().get(static_cast<std::size_t>(sections / 2));
   return {compare("held at both ends (pinned), viscous bending, gravity, span 0.94 L, N = 100",
-                  "midspan sag (m)  (catenary of the same length and span)", -mid.z, -r_mid.z(), 1e-3 /* measured 8.7e-5 */,
-                  fmt::format("{} frames to rest", frames)),
+                  "midspan sag (m)  (catenary of the same length and span)", -mid.z, -r_mid.z(),
+                  1e-3 /* measured 8.7e-5 */, fmt::format("{} frames to rest", frames)),
           compare_absolute("held at both ends (pinned), viscous bending, gravity, span 0.94 L, N = 100",
                            "largest node distance from the catenary / sag", 0.0, worst / sag, 1e-3)};
 }
@@ -311,7 +312,8 @@ std::vector<CaseResult> centreline_rest_shape(const Options& options, SolverMode
   for (std::size_t k = 0; k < initial.size(); ++k) initial[k] = w->node_positions().get(k);
   for (int f = 0; f < 60; ++f) w->step();
   double drift = 0.0;
-  for (std::size_t k = 0; k < initial.size(); ++k) drift = std::max(drift, (w->node_positions().get(k) - initial[k]).norm());
+  for (std::size_t k = 0; k < initial.size(); ++k)
+    drift = std::max(drift, (w->node_positions().get(k) - initial[k]).norm());
   // Measured here, not taken from the engine's own report: the unloaded rod's curve integrated
   // from its base pose and strains by RK4 (references.hpp), against the source points.
   const kernels::Pose base = w->base_pose(0);
@@ -322,15 +324,15 @@ std::vector<CaseResult> centreline_rest_shape(const Options& options, SolverMode
   for (std::size_t k = 0; k < initial.size(); ++k)
     node_gap = std::max(node_gap, (curve[k * static_cast<std::size_t>(kSteps)] - initial[k]).norm());
   const double source_gap = reference::farthest_from_polyline(c.points, curve);
-  return {compare_absolute("A-DSJ centreline (754 mm, 1368 points) at 167 nodes",
-                           "largest distance of the nodes from the rod's curve integrated by RK4 (m)", 0.0, node_gap,
-                           1e-9, "the engine's closed-form sections against an independent integration"),
-          compare_absolute("A-DSJ centreline (754 mm, 1368 points) at 167 nodes",
-                           "largest distance of source points from the rod's curve integrated by RK4 (m)", 0.0,
-                           source_gap, 2e-3,
-                           "includes the resampling of 1368 points to 84 biarcs; tight bend at 365 mm"),
-          compare_absolute("A-DSJ centreline, unloaded, 60 frames", "largest node drift from the rest shape (m)", 0.0,
-                           drift, 2e-15)};  // measured 1.7e-16
+  return {
+      compare_absolute("A-DSJ centreline (754 mm, 1368 points) at 167 nodes",
+                       "largest distance of the nodes from the rod's curve integrated by RK4 (m)", 0.0, node_gap, 1e-9,
+                       "the engine's closed-form sections against an independent integration"),
+      compare_absolute("A-DSJ centreline (754 mm, 1368 points) at 167 nodes",
+                       "largest distance of source points from the rod's curve integrated by RK4 (m)", 0.0, source_gap,
+                       2e-3, "includes the resampling of 1368 points to 84 biarcs; tight bend at 365 mm"),
+      compare_absolute("A-DSJ centreline, unloaded, 60 frames", "largest node drift from the rest shape (m)", 0.0,
+                       drift, 2e-15)};  // measured 1.7e-16
 }
 
 std::vector<CaseResult> run_all(const Options& options) {

@@ -4,16 +4,16 @@
 // line or field and what was expected. Nothing here may crash or be accepted.
 #include <doctest/doctest.h>
 
+#include <unistd.h>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <limits>
-#include <unistd.h>
 
 #include "haustra/error.hpp"
-#include "minimal_scene.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
+#include "minimal_scene.hpp"
 
 using namespace haustra;
 
@@ -53,7 +53,8 @@ constexpr double inf = std::numeric_limits<double>::infinity();
 const char* const kMinimal = test::kMinimalScene;
 
 BadInput scene(const std::string& text, std::vector<std::string> words, ErrorCode code = ErrorCode::parse) {
-  return {"scene:\n" + text, [text] { create_world(parse_scene(text, kScenes / "test.toml")); }, code, std::move(words)};
+  return {"scene:\n" + text, [text] { create_world(parse_scene(text, kScenes / "test.toml")); }, code,
+          std::move(words)};
 }
 
 // A scene in the scratch folder (so the files it names are found there).
@@ -67,9 +68,8 @@ BadInput centreline(const Scratch& s, const std::string& name, const std::string
                     std::vector<std::string> words) {
   s.write(name, json);
   words.push_back(name);
-  return scene_in(s,
-                  "[[segment]]\nnodes = 21\n[segment.rest]\nshape = \"centreline\"\nfile = \"" + name + "\"\n",
-                  code, std::move(words));
+  return scene_in(s, "[[segment]]\nnodes = 21\n[segment.rest]\nshape = \"centreline\"\nfile = \"" + name + "\"\n", code,
+                  std::move(words));
 }
 
 // An open tube of radius r around the z axis from z = 0 to `length`, as OBJ text.
@@ -98,7 +98,8 @@ BadInput organ_mesh(const Scratch& s, const std::string& name, const std::string
   words.push_back(name);
   return scene_in(s,
                   "[[segment]]\nnodes = 21\nradius = 0.02\n[segment.rest]\nlength = 0.2\n[segment.beads]\ncount = 11\n"
-                  "[segment.mesh]\nfile = \"" + name + "\"\n" + extra,
+                  "[segment.mesh]\nfile = \"" +
+                      name + "\"\n" + extra,
                   code, std::move(words));
 }
 
@@ -114,7 +115,8 @@ std::unique_ptr<World> small_world() {
 
 BadInput call(const std::string& label, std::function<void(World&)> f, std::vector<std::string> words,
               ErrorCode code = ErrorCode::invalid_argument) {
-  return {"call: " + label, [f] {
+  return {"call: " + label,
+          [f] {
             auto w = small_world();
             f(*w);
           },
@@ -329,7 +331,8 @@ TEST_CASE("bad-input catalogue: every case fails with its error code and a messa
       threw = true;
       message = e.what();
       INFO("message: " << message);
-      CHECK_MESSAGE(e.code() == c.code, "code " << std::string(error_code_name(e.code())) << ", expected " << std::string(error_code_name(c.code)));
+      CHECK_MESSAGE(e.code() == c.code, "code " << std::string(error_code_name(e.code())) << ", expected "
+                                                << std::string(error_code_name(c.code)));
       for (const std::string& w : c.words) CHECK_MESSAGE(message.find(w) != std::string::npos, "missing: " << w);
     } catch (const std::exception& e) {
       threw = true;

@@ -6,22 +6,21 @@
 
 #include "host_job_pool.hpp"
 
+#include <unistd.h>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <atomic>
-#include <map>
-#include <thread>
-#include <vector>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <string>
-#include <unistd.h>
+#include <thread>
+#include <vector>
 
 namespace {
-
 
 // A scene file of this process's own, removed at the end.
 // A scene of tests/scenes/, by name.
@@ -392,14 +391,14 @@ TEST_CASE("C API: a world from definitions alone, no scene file") {
   CHECK(c.mesh_vertices > 1000);
   haustra_vec3_view n{};
   REQUIRE(haustra_world_node_positions(w, &n) == HAUSTRA_OK);
-  CHECK(n.x[20] == doctest::Approx(0.4));          // the cantilever's tip at rest
+  CHECK(n.x[20] == doctest::Approx(0.4));                // the cantilever's tip at rest
   CHECK(n.y[45] == doctest::Approx(0.5).epsilon(1e-6));  // the polyline's end
   for (int f = 0; f < 120; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
-  CHECK(n.z[20] < -0.05);                          // the cantilever sags
+  CHECK(n.z[20] < -0.05);  // the cantilever sags
   double lowest = 1.0;
   for (size_t k = 21; k < 46; ++k) lowest = std::min(lowest, n.z[k]);
-  CHECK(lowest < -0.2);                            // the free rod fell towards the floor...
-  CHECK(lowest > -0.3 - 0.02);                     // ...and the floor holds it (bead radius 0.02)
+  CHECK(lowest < -0.2);         // the free rod fell towards the floor...
+  CHECK(lowest > -0.3 - 0.02);  // ...and the floor holds it (bead radius 0.02)
   CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
 
   // Bad definitions: each refused with the field named, nothing created.
@@ -589,7 +588,7 @@ TEST_CASE("C API: chained segments, each one's info, segments added and removed 
   chain.nodes = 11;
   chain.chain_pieces = 4;  // 4 × 10 sections: 41 nodes
   chain.length = 0.4;
-  chain.beads = 6;         // per piece: every second node, 21 in all
+  chain.beads = 6;  // per piece: every second node, 21 in all
   chain.mesh = 1;
   chain.mesh_vertices = 1000;
 
@@ -639,7 +638,7 @@ TEST_CASE("C API: chained segments, each one's info, segments added and removed 
   CHECK(c.nodes == 62);
   uint64_t now = 0;
   REQUIRE(haustra_world_time(w, nullptr, &now) == HAUSTRA_OK);
-  CHECK(now == 30);  // the clock goes on
+  CHECK(now == 30);                                               // the clock goes on
   REQUIRE(haustra_world_acquire_frame(w, &frame) == HAUSTRA_OK);  // frames take the new sizes
   CHECK(frame.nodes.count == 62);
   CHECK(frame.mesh_positions.count == c.mesh_vertices);
@@ -695,7 +694,7 @@ TEST_CASE("C API: segments added and removed while a render thread reads frames"
       std::this_thread::sleep_for(std::chrono::microseconds(500));
     }
   });
-  auto change = [&](auto&& call) {  // refused while the reader holds a frame: try again
+  auto change = [&](auto&& call) {                       // refused while the reader holds a frame: try again
     for (int attempt = 0; attempt < 20000; ++attempt) {  // up to ~10 s on a loaded machine
       const haustra_status s = call();
       if (s == HAUSTRA_OK) return true;
@@ -737,7 +736,8 @@ TEST_CASE("C API: an EXP2 segment pulled at its tip stretches to A sigma(eps) = 
   // σ(ε) straight from eq. 1 with the defaults, over the default tube (R = 2 cm, 3 mm wall).
   const double strain = 0.3;
   const double area = 2.0 * 3.141592653589793 * seg.radius * seg.wall_thickness;
-  const double force = area * (seg.exp2_beta * (std::exp(seg.exp2_alpha * strain * strain) - 1.0) + seg.exp2_gamma * strain);
+  const double force =
+      area * (seg.exp2_beta * (std::exp(seg.exp2_alpha * strain * strain) - 1.0) + seg.exp2_gamma * strain);
   haustra_world* w = nullptr;
   REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
   const double f[3] = {force, 0.0, 0.0};

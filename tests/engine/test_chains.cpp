@@ -350,7 +350,8 @@ TEST_CASE("reconfigure: new beads let a grasp go, new nodes or instruments are r
 
   WorldDesc more_nodes = w->desc();
   more_nodes.segments[0].nodes += 10;
-  CHECK_THROWS_WITH_AS(w->reconfigure(more_nodes), doctest::Contains("keeps every segment's nodes: segments[0]"), Error);
+  CHECK_THROWS_WITH_AS(w->reconfigure(more_nodes), doctest::Contains("keeps every segment's nodes: segments[0]"),
+                       Error);
   WorldDesc no_instruments = w->desc();
   no_instruments.instruments.clear();
   CHECK_THROWS_WITH_AS(w->reconfigure(no_instruments), doctest::Contains("keeps the instruments"), Error);

@@ -8,8 +8,8 @@
 
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
-#include "scene_fixtures.hpp"
 #include "haustra/world.hpp"
+#include "scene_fixtures.hpp"
 
 using namespace haustra;
 
@@ -73,7 +73,9 @@ TEST_CASE("checkpoint, restore and step on: the same bits as never having stoppe
   // closed at 36) and while lifting.
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
   // The same paths with a coarser mesh: skinning 10,000 vertices is most of the time under ASan.
-  SUBCASE("demo: grasp, contacts, mesh") { check_round_trip("demo", 45, 30, {"segment.mesh.procedural.vertices=2000"}); }
+  SUBCASE("demo: grasp, contacts, mesh") {
+    check_round_trip("demo", 45, 30, {"segment.mesh.procedural.vertices=2000"});
+  }
 #else
   SUBCASE("demo: grasp, contacts, mesh") { check_round_trip("demo", 45, 30); }
 #endif

@@ -7,10 +7,10 @@
 #include <cmath>
 #include <cstring>
 
-#include "measured.hpp"
 #include "haustra/scene.hpp"
-#include "scene_fixtures.hpp"
 #include "haustra/world.hpp"
+#include "measured.hpp"
+#include "scene_fixtures.hpp"
 
 using namespace haustra;
 
@@ -209,8 +209,8 @@ void check_threads_agree(const char* scene, int frames) {
     const auto a = one->contact_list(), b = two->contact_list();
     same_contacts &= a.size() == b.size();
     for (std::size_t i = 0; same_contacts && i < a.size(); ++i)
-      same_contacts &= a[i].bead == b[i].bead && a[i].other == b[i].other && a[i].kind == b[i].kind &&
-                       a[i].force == b[i].force;
+      same_contacts &=
+          a[i].bead == b[i].bead && a[i].other == b[i].other && a[i].kind == b[i].kind && a[i].force == b[i].force;
   }
   INFO(std::string(scene));
   CHECK(same_contacts);

@@ -6,15 +6,14 @@
 #include <cmath>
 #include <string>
 
-#include "scene_fixtures.hpp"
-#include "haustra/studies/references.hpp"
 #include "haustra/scene.hpp"
+#include "haustra/studies/references.hpp"
 #include "haustra/world.hpp"
+#include "scene_fixtures.hpp"
 
 using namespace haustra;
 
 namespace {
-
 
 double largest_distance(const World& a, const World& b) {
   const auto pa = a.node_positions(), pb = b.node_positions();
@@ -73,10 +72,11 @@ TEST_CASE("fast mode on drop: the fall as converged Newton's, factorizations reu
     chords += a->last_profile().chords;
     most_touching = std::max(most_touching, a->contacts().touching);
   }
-  MESSAGE("drop in fast mode, frames 10–150: " << chords << " of " << iterations << " iterations reused a factorization");
-  CHECK(most_touching > 10);          // it landed and piled up
-  CHECK(chords > iterations / 2);     // mostly reused
-  CHECK(chords < iterations);         // and factored afresh where contacts began
+  MESSAGE("drop in fast mode, frames 10–150: " << chords << " of " << iterations
+                                               << " iterations reused a factorization");
+  CHECK(most_touching > 10);       // it landed and piled up
+  CHECK(chords > iterations / 2);  // mostly reused
+  CHECK(chords < iterations);      // and factored afresh where contacts began
   CHECK(a->contacts().max_environment_depth_ratio < 0.2);
   CHECK(a->contacts().max_bead_overlap_ratio < 0.3);
 }

@@ -4,10 +4,10 @@
 
 #include <cmath>
 
-#include "measured.hpp"
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
+#include "measured.hpp"
 
 using namespace haustra;
 
@@ -41,7 +41,8 @@ Eigen::Vector3d floor_force(const World& w) {
 
 // The force's real check is the equilibrium test below; this one holds the grasp to the jaws and
 // keeps the bookkeeping honest (the reading is the negative of what the engine applied to the rod).
-TEST_CASE("grasp-pull: the grasped node follows the grasper, and the reading is the applied force's reaction (bookkeeping)") {
+TEST_CASE(
+    "grasp-pull: the grasped node follows the grasper, and the reading is the applied force's reaction (bookkeeping)") {
   auto w = grasp_pull();
   REQUIRE(w->instrument_count() == 1);
   // Stated tolerance: the grasped node stays within a micrometre of where the grasp holds it

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <string>
 
-#include "haustra/studies/references.hpp"
 #include "haustra/scene.hpp"
+#include "haustra/studies/references.hpp"
 #include "haustra/world.hpp"
 
 using namespace haustra;

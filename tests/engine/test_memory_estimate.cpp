@@ -6,10 +6,10 @@
 
 #include <string>
 
-#include "scene_fixtures.hpp"
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
+#include "scene_fixtures.hpp"
 
 using namespace haustra;
 
@@ -26,7 +26,6 @@ std::size_t heap_in_use() {
   return m.uordblks + m.hblkhd;
 }
 
-
 }  // namespace
 
 TEST_CASE("the memory estimate is what building and stepping a world allocates, within 15 %") {
@@ -36,9 +35,10 @@ TEST_CASE("the memory estimate is what building and stepping a world allocates, 
     const char* name;
     std::vector<std::string> sets;
   };
-  for (const Case& c : {Case{"drop", {}}, Case{"drop", {"segment.nodes=100000"}}, Case{"drop", {"segment.mesh.source=procedural"}},
-                        Case{"drop", {"solver.mode=fast", "segment.nodes=2000"}}, Case{"demo", {}}, Case{"bowel", {}},
-                        Case{"sag", {}}, Case{"grasp-pull", {}}}) {
+  for (const Case& c :
+       {Case{"drop", {}}, Case{"drop", {"segment.nodes=100000"}}, Case{"drop", {"segment.mesh.source=procedural"}},
+        Case{"drop", {"solver.mode=fast", "segment.nodes=2000"}}, Case{"demo", {}}, Case{"bowel", {}}, Case{"sag", {}},
+        Case{"grasp-pull", {}}}) {
     const SceneDesc s = test::scene_desc(c.name, c.sets);
     const MemoryEstimate e = estimate_memory(s.world);
     const std::size_t before = heap_in_use();

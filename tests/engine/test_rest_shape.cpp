@@ -59,7 +59,8 @@ TEST_CASE("node strains reproduce the section strains exactly and stay smooth") 
   }
   const std::vector<double> q = node_strains_from_sections(sec, h);
   for (std::size_t k = 0; k < h.size(); ++k)
-    for (std::size_t c = 0; c < 4; ++c) CHECK(0.5 * (q[4 * k + c] + q[4 * k + 4 + c]) == doctest::Approx(sec[4 * k + c]).epsilon(1e-14));
+    for (std::size_t c = 0; c < 4; ++c)
+      CHECK(0.5 * (q[4 * k + c] + q[4 * k + 4 + c]) == doctest::Approx(sec[4 * k + c]).epsilon(1e-14));
   // Constant section strains give constant node strains (no alternating component).
   std::vector<double> flat(4 * h.size(), 2.0);
   for (double v : node_strains_from_sections(flat, h)) CHECK(v == doctest::Approx(2.0).epsilon(1e-14));
@@ -73,7 +74,8 @@ TEST_CASE("biarc rest shape passes through its samples and converges to a smooth
   double previous = 1e9;
   for (int nodes : {21, 41, 81, 161}) {
     const RestShape rest = rest_shape_from_centreline(poly, nodes, Eigen::Vector3d::UnitZ(), "helix");
-    INFO("nodes " << nodes << " node deviation " << rest.node_deviation << " polyline deviation " << rest.polyline_deviation);
+    INFO("nodes " << nodes << " node deviation " << rest.node_deviation << " polyline deviation "
+                  << rest.polyline_deviation);
     CHECK(rest.node_deviation < 1e-12);
     CHECK(rest.polyline_deviation < previous);  // more nodes, closer to the source
     CHECK(rest.length == doctest::Approx(len).epsilon(0.01));

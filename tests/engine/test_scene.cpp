@@ -5,8 +5,8 @@
 #include <filesystem>
 
 #include "haustra/error.hpp"
-#include "minimal_scene.hpp"
 #include "haustra/scene.hpp"
+#include "minimal_scene.hpp"
 
 using namespace haustra;
 
@@ -233,9 +233,9 @@ TEST_CASE("--set overrides any value, everywhere or in one segment, and is check
   SceneDesc s = parse_scene(two, "t.toml", std::vector<std::string>{"segment.nodes=33"});
   CHECK(s.world.segments.at(0).nodes == 33);
   CHECK(s.world.segments.at(1).nodes == 33);
-  s = parse_scene(two, "t.toml", std::vector<std::string>{"segment[1].nodes=7", "solver.mode=lagged",
-                                                          "world.gravity=[0,0,-1]", "scene.name=renamed",
-                                                          "segment[0].rest.length=0.25"});
+  s = parse_scene(two, "t.toml",
+                  std::vector<std::string>{"segment[1].nodes=7", "solver.mode=lagged", "world.gravity=[0,0,-1]",
+                                           "scene.name=renamed", "segment[0].rest.length=0.25"});
   CHECK(s.world.segments.at(0).nodes == 11);
   CHECK(s.world.segments.at(1).nodes == 7);
   CHECK(s.world.solver.mode == SolverMode::lagged);

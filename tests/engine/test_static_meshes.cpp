@@ -18,12 +18,14 @@ namespace {
 double brute_force_distance(const TriangleMesh& m, const Eigen::Vector3d& p) {
   double best = 1e300;
   for (const auto& t : m.triangles)
-    best = std::min(best, (p - kernels::closest_point_on_triangle(p, m.vertices[t[0]], m.vertices[t[1]],
-                                                                   m.vertices[t[2]])).norm());
+    best = std::min(
+        best, (p - kernels::closest_point_on_triangle(p, m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]])).norm());
   return best;
 }
 
-double winding_number(const TriangleMesh& m, const Eigen::Vector3d& p) { return test::winding_number(m.vertices, m.triangles, p); }
+double winding_number(const TriangleMesh& m, const Eigen::Vector3d& p) {
+  return test::winding_number(m.vertices, m.triangles, p);
+}
 
 detail::StaticMeshes build(const TriangleMesh& m) {
   return detail::StaticMeshes(std::vector<MeshObstacleDesc>{{"mesh", "test", m.vertices, m.triangles}});

@@ -4,12 +4,12 @@
 
 #include <cstring>
 
-#include "scene_fixtures.hpp"
 #include "allocation_counter.hpp"
-#include "host_job_pool.hpp"
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
+#include "host_job_pool.hpp"
+#include "scene_fixtures.hpp"
 
 using namespace haustra;
 
@@ -281,7 +281,8 @@ TEST_CASE("energy: a uniform bend stores B kappa^2 L / 2, a raised rod's weight 
     q[static_cast<std::size_t>(4 * k + 2)] = tau;
   }
   w->pose_rod(0, w->base_pose(0), q);
-  const double expected = 0.5 * (info.bending_stiffness * kappa * kappa + info.torsion_stiffness * tau * tau) * info.length;
+  const double expected =
+      0.5 * (info.bending_stiffness * kappa * kappa + info.torsion_stiffness * tau * tau) * info.length;
   CHECK(w->energy().elastic == doctest::Approx(expected).epsilon(1e-12));
 }
 
@@ -360,9 +361,9 @@ TEST_CASE("a soft rope released horizontal falls in one Newton frame: no step ra
     CHECK(w->last_profile().substeps == 1);
   }
   CHECK(w->events().empty());
-  CHECK(stiffened > 0);                       // the plain step went uphill and was replaced
-  CHECK(w->energy().total() < 0.2 * start);   // it fell
-  CHECK(w->node_positions().z[166] < 0.0);    // the tip hangs below the clamp, not curled above it
+  CHECK(stiffened > 0);                      // the plain step went uphill and was replaced
+  CHECK(w->energy().total() < 0.2 * start);  // it fell
+  CHECK(w->node_positions().z[166] < 0.0);   // the tip hangs below the clamp, not curled above it
 
   // Held by the host (a load on the tip), the same rod is not passive: no energy check, no event.
   auto held = World::create(d);

@@ -8,10 +8,10 @@
 
 #include "haustra/centreline.hpp"
 #include "haustra/error.hpp"
-#include "haustra/studies/anatomy_study.hpp"
 #include "haustra/import/import.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/scene.hpp"
+#include "haustra/studies/anatomy_study.hpp"
 
 namespace fs = std::filesystem;
 using namespace haustra;
@@ -186,14 +186,16 @@ TEST_CASE("haustra import: bad input fails with a clear message") {
                        doctest::Contains("missing.obj"), Error);
   // A cube: no tube in it.
   TriangleMesh cube;
-  for (int i = 0; i < 8; ++i) cube.vertices.emplace_back(100.0 * (i & 1), 100.0 * ((i >> 1) & 1), 100.0 * ((i >> 2) & 1));
+  for (int i = 0; i < 8; ++i)
+    cube.vertices.emplace_back(100.0 * (i & 1), 100.0 * ((i >> 1) & 1), 100.0 * ((i >> 2) & 1));
   cube.triangles = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
                     {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
   save_mesh(dir / "cube.obj", cube);
   CHECK_THROWS_WITH_AS(import::import_surface({dir / "cube.obj", {}, dir / "cube.toml"}),
                        doctest::Contains("cube.obj: no tube in this mesh"), Error);
   // The CT midline moved half a metre away: outside the mesh.
-  std::ofstream(dir / "away.json") << R"({"units": "m", "points": [[0.5, 0.5, 0.5], [0.6, 0.5, 0.5], [0.7, 0.5, 0.5]]})";
+  std::ofstream(dir / "away.json")
+      << R"({"units": "m", "points": [[0.5, 0.5, 0.5], [0.6, 0.5, 0.5], [0.7, 0.5, 0.5]]})";
   CHECK_THROWS_WITH_AS(import::import_surface({kColon, dir / "away.json", dir / "away.toml"}),
                        doctest::Contains("is outside the mesh"), Error);
 }

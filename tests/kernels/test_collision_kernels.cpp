@@ -180,7 +180,9 @@ TEST_CASE("penalty: the paper's 50 E d^2 and its derivative") {
   CHECK(p.force == doctest::Approx(50.0 * e * 0.002 * 0.002));
   const double h = 1e-8;
   CHECK(p.stiffness == doctest::Approx((contact_penalty(0.002 + h, 50.0 * e, 2.0).force -
-                                        contact_penalty(0.002 - h, 50.0 * e, 2.0).force) / (2 * h)).epsilon(1e-6));
+                                        contact_penalty(0.002 - h, 50.0 * e, 2.0).force) /
+                                       (2 * h))
+                           .epsilon(1e-6));
   CHECK(contact_penalty(-0.001, 50.0 * e, 2.0).force == 0.0);
   CHECK(contact_penalty(0.0, 50.0 * e, 1.5).stiffness == 0.0);
 }

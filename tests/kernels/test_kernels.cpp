@@ -4,13 +4,13 @@
 #include <random>
 #include <unsupported/Eigen/MatrixFunctions>
 
-#include "measured.hpp"
 #include "haustra/kernels/block_tridiagonal.hpp"
 #include "haustra/kernels/inertia_filter.hpp"
 #include "haustra/kernels/mass_matrix.hpp"
 #include "haustra/kernels/rod_backward_sweep.hpp"
 #include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/strain_update.hpp"
+#include "measured.hpp"
 #include "rod_fixture.hpp"
 
 using namespace haustra;
@@ -89,7 +89,8 @@ TEST_CASE("backward sweep equals the direct O(N^2) sum") {
     rod.sweep();
     std::vector<double> fast(4 * rod.n), ref(4 * rod.n);
     const Wrench wf = rod_backward_sweep(rod.poses(), rod.h, rod.force(), rod.moment(), StrainView<double>{fast});
-    const Wrench wr = rod_backward_sweep_reference(rod.poses(), rod.h, rod.force(), rod.moment(), StrainView<double>{ref});
+    const Wrench wr =
+        rod_backward_sweep_reference(rod.poses(), rod.h, rod.force(), rod.moment(), StrainView<double>{ref});
     double scale = 0.0, err = 0.0;
     for (std::size_t i = 0; i < fast.size(); ++i) {
       scale = std::max(scale, std::abs(ref[i]));
@@ -146,9 +147,9 @@ TEST_CASE("strain law: elastic fixed point, viscous rate, Kelvin-Voigt blend") {
   StrainLawCoefficients law;
   law.stiffness = {4.0, 0.0, 4.0, 4.0};
   law.rate = {0.0, 8.0, 8.0, 0.0};
-  const Eigen::Vector4d change = strain_update(StrainView<const double>{y}, StrainView<const double>{rest},
-                                               StrainView<const double>{start}, law, {1.0, 1.0, 1.0, 0.5},
-                                               StrainView<double>{q});
+  const Eigen::Vector4d change =
+      strain_update(StrainView<const double>{y}, StrainView<const double>{rest}, StrainView<const double>{start}, law,
+                    {1.0, 1.0, 1.0, 0.5}, StrainView<double>{q});
   CHECK(q[0] == doctest::Approx(1.0 + 2.0 / 4.0));
   CHECK(q[1] == doctest::Approx(5.0 + 2.0 / 8.0));
   CHECK(q[2] == doctest::Approx((2.0 + 4.0 * 1.0 + 8.0 * 5.0) / 12.0));
@@ -157,8 +158,8 @@ TEST_CASE("strain law: elastic fixed point, viscous rate, Kelvin-Voigt blend") {
 }
 
 TEST_CASE("inertia filter: the paper's blend per node, exempt nodes and midpoints") {
-  std::vector<double> px = {0, 1, 2}, py = {0, 0, 0}, pz = {0, 0, 0};        // previous
-  std::vector<double> ex = {0, 1, 2}, ey = {0, 0.5, 1.0}, ez = {0, 0, 0};    // estimated
+  std::vector<double> px = {0, 1, 2}, py = {0, 0, 0}, pz = {0, 0, 0};      // previous
+  std::vector<double> ex = {0, 1, 2}, ey = {0, 0.5, 1.0}, ez = {0, 0, 0};  // estimated
   std::vector<double> mx = {0.5, 1.5}, my = {0.25, 0.75}, mz = {0, 0};
   const std::vector<double> mass = {1.0, 2.0, 3.0};
   const std::vector<std::uint8_t> exempt = {1, 0, 0};
@@ -236,7 +237,8 @@ BandRun band_against_dense(bool dominant, unsigned seed) {
   Eigen::MatrixXd b(B * n, cols);
   for (std::size_t k = 0; k < n; ++k)
     for (int c = 0; c < cols; ++c)
-      for (int i = 0; i < B; ++i) b(static_cast<Eigen::Index>(k * B + i), c) = rhs[k * B * cols + static_cast<std::size_t>(c * B + i)];
+      for (int i = 0; i < B; ++i)
+        b(static_cast<Eigen::Index>(k * B + i), c) = rhs[k * B * cols + static_cast<std::size_t>(c * B + i)];
   const Eigen::MatrixXd x = dense.fullPivLu().solve(b);
   BlockTridiagonalView<B> view{lo, di, up, fill, swaps};
   block_tridiagonal_factor(view);
@@ -252,7 +254,8 @@ BandRun band_against_dense(bool dominant, unsigned seed) {
     for (int c = 0; c < cols; ++c)
       for (int i = 0; i < B; ++i)
         run.worst = std::max(run.worst, std::abs(rhs[k * B * cols + static_cast<std::size_t>(c * B + i)] -
-                                                 x(static_cast<Eigen::Index>(k * B + i), c)) / scale);
+                                                 x(static_cast<Eigen::Index>(k * B + i), c)) /
+                                            scale);
   return run;
 }
 
@@ -265,13 +268,17 @@ TEST_CASE("block-tridiagonal solve equals a dense LU") {
   CHECK(run.worst < 1e-14);
 }
 
-TEST_CASE("block-tridiagonal solve pivots: rows swap within a block and across into the next, and it still equals a dense LU") {
+TEST_CASE(
+    "block-tridiagonal solve pivots: rows swap within a block and across into the next, and it still equals a dense "
+    "LU") {
   for (unsigned seed : {13u, 14u, 15u}) {
     const BandRun run = band_against_dense(false, seed);
-    MESSAGE("seed " << seed << ": worst " << run.worst << ", " << run.swaps << " swaps, " << run.crossing << " across blocks");
+    MESSAGE("seed " << seed << ": worst " << run.worst << ", " << run.swaps << " swaps, " << run.crossing
+                    << " across blocks");
     CHECK(run.swaps > 10);
     CHECK(run.crossing > 5);
-    test::measured("banded LU with pivoting across blocks vs a dense LU, seed " + std::to_string(seed), run.worst, 1e-12);
+    test::measured("banded LU with pivoting across blocks vs a dense LU, seed " + std::to_string(seed), run.worst,
+                   1e-12);
   }
 }
 

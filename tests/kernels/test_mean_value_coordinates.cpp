@@ -6,9 +6,9 @@
 #include <functional>
 #include <random>
 
-#include "measured.hpp"
 #include "cage_fixtures.hpp"
 #include "haustra/kernels/mean_value_coordinates.hpp"
+#include "measured.hpp"
 
 using namespace haustra;
 using namespace haustra::kernels;
@@ -64,8 +64,13 @@ std::vector<double> mvc_by_quadrature(const Cage& c, const Eigen::Vector3d& x) {
   std::vector<double> w(c.vertices.size(), 0.0);
   constexpr double a1 = 0.059715871789770, b1 = 0.470142064105115, w1 = 0.132394152788506;
   constexpr double a2 = 0.797426985353087, b2 = 0.101286507323456, w2 = 0.125939180544827;
-  const double rule[7][4] = {{1.0 / 3, 1.0 / 3, 1.0 / 3, 0.225}, {a1, b1, b1, w1}, {b1, a1, b1, w1}, {b1, b1, a1, w1},
-                             {a2, b2, b2, w2}, {b2, a2, b2, w2}, {b2, b2, a2, w2}};
+  const double rule[7][4] = {{1.0 / 3, 1.0 / 3, 1.0 / 3, 0.225},
+                             {a1, b1, b1, w1},
+                             {b1, a1, b1, w1},
+                             {b1, b1, a1, w1},
+                             {a2, b2, b2, w2},
+                             {b2, a2, b2, w2},
+                             {b2, b2, a2, w2}};
   for (const auto& t : c.triangles) {
     const Eigen::Vector3d P[3] = {c.vertices[t[0]], c.vertices[t[1]], c.vertices[t[2]]};
     const Eigen::Vector3d n = (P[1] - P[0]).cross(P[2] - P[0]).normalized();
@@ -75,7 +80,8 @@ std::vector<double> mvc_by_quadrature(const Cage& c, const Eigen::Vector3d& x) {
       const Eigen::Vector3d q1 = P[0] * B(0, 1) + P[1] * B(1, 1) + P[2] * B(2, 1);
       const Eigen::Vector3d q2 = P[0] * B(0, 2) + P[1] * B(1, 2) + P[2] * B(2, 2);
       const double diam = std::max({(q1 - q0).norm(), (q2 - q1).norm(), (q0 - q2).norm()});
-      const double dist = std::min({(q0 - x).norm(), (q1 - x).norm(), (q2 - x).norm(), ((q0 + q1 + q2) / 3 - x).norm()});
+      const double dist =
+          std::min({(q0 - x).norm(), (q1 - x).norm(), (q2 - x).norm(), ((q0 + q1 + q2) / 3 - x).norm()});
       if (diam > 0.03 * dist && depth < 14) {
         const Eigen::Vector3d m01 = 0.5 * (B.col(0) + B.col(1)), m12 = 0.5 * (B.col(1) + B.col(2)),
                               m20 = 0.5 * (B.col(2) + B.col(0));
@@ -110,7 +116,8 @@ std::vector<double> mvc_by_quadrature(const Cage& c, const Eigen::Vector3d& x) {
 }  // namespace
 
 TEST_CASE("the test cages are closed, consistently oriented and face outward") {
-  for (const Cage& c : {haustra::test::tetrahedron(), haustra::test::box({0, 0, 0}, {1, 2, 3}), haustra::test::u_tube()}) {
+  for (const Cage& c :
+       {haustra::test::tetrahedron(), haustra::test::box({0, 0, 0}, {1, 2, 3}), haustra::test::u_tube()}) {
     CHECK(haustra::test::closed_and_oriented(c));
     CHECK(haustra::test::signed_volume(c) > 0.0);
   }
@@ -190,7 +197,8 @@ TEST_CASE("MVC are invariant under similarity maps, and an affine map is reprodu
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const auto points = inside_points(c, 50, 9);
   for (int trial = 0; trial < 5; ++trial) {
-    const Eigen::Matrix3d rot = Eigen::Quaterniond(Eigen::Vector4d(u(rng), u(rng), u(rng), u(rng)).normalized()).toRotationMatrix();
+    const Eigen::Matrix3d rot =
+        Eigen::Quaterniond(Eigen::Vector4d(u(rng), u(rng), u(rng), u(rng)).normalized()).toRotationMatrix();
     const double scale = std::exp(2.0 * u(rng));
     const Eigen::Vector3d shift(10 * u(rng), 10 * u(rng), 10 * u(rng));
     Eigen::Matrix3d affine;
@@ -229,7 +237,8 @@ TEST_CASE("MVC agree with quadrature of the defining integral on a non-convex ca
     // The oracle converges slowly near the surface; keep points a little inside.
     double clearance = 1e9;
     for (const auto& t : c.triangles) {
-      const Eigen::Vector3d n = (c.vertices[t[1]] - c.vertices[t[0]]).cross(c.vertices[t[2]] - c.vertices[t[0]]).normalized();
+      const Eigen::Vector3d n =
+          (c.vertices[t[1]] - c.vertices[t[0]]).cross(c.vertices[t[2]] - c.vertices[t[0]]).normalized();
       clearance = std::min(clearance, std::abs((p - c.vertices[t[0]]).dot(n)));
     }
     if (clearance < 0.05) continue;
@@ -241,6 +250,7 @@ TEST_CASE("MVC agree with quadrature of the defining integral on a non-convex ca
   }
   MESSAGE("largest difference from quadrature " << worst << "; largest negative mass " << negative);
   CHECK(far > 10);
-  test::measured("MVC vs quadrature of the defining integral, non-convex U cage (largest weight difference)", worst, 1e-13);
+  test::measured("MVC vs quadrature of the defining integral, non-convex U cage (largest weight difference)", worst,
+                 1e-13);
   CHECK(negative > 1e-4);  // the U is non-convex enough that some weights go negative
 }

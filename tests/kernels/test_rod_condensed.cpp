@@ -41,7 +41,8 @@ struct Problem {
   std::vector<double> s;
   std::vector<UnitLoad> loads;  // one per column ≥ 1, sorted by node descending
 
-  explicit Problem(const Case& c) : cs(c), rod(c.n), residual(4 * c.n), tangent(4 * c.n), coupling(c.n), k(c.n), s(c.n) {
+  explicit Problem(const Case& c)
+      : cs(c), rod(c.n), residual(4 * c.n), tangent(4 * c.n), coupling(c.n), k(c.n), s(c.n) {
     rod.randomize(c.seed, 1.0, 3.0, c.load);
     rod.sweep(Pose{rotation_exp(Eigen::Vector3d(0.3, -0.2, 0.1)), Eigen::Vector3d(0.1, 0.2, 0.3)});
     std::mt19937 rng(c.seed + 100);
@@ -160,7 +161,8 @@ struct Problem {
       rod_condensed_step(lin, sys, weights, StrainView<double>{dq}, {px, py, pz}, {rx, ry, rz});
       std::vector<double> v(10 * n);
       for (std::size_t i = 0; i < n; ++i) {
-        const double y[10] = {px[i], py[i], pz[i], rx[i], ry[i], rz[i], dq[4 * i], dq[4 * i + 1], dq[4 * i + 2], dq[4 * i + 3]};
+        const double y[10] = {px[i], py[i],     pz[i],         rx[i],         ry[i],
+                              rz[i], dq[4 * i], dq[4 * i + 1], dq[4 * i + 2], dq[4 * i + 3]};
         std::copy(y, y + 10, v.begin() + static_cast<std::ptrdiff_t>(10 * i));
       }
       out.solved.columns.push_back(std::move(v));
@@ -181,8 +183,7 @@ Problem::Condensed split_solve(Problem& p, std::size_t m, const std::vector<std:
   // The parts' loads and columns.
   std::vector<UnitLoad> base_loads(p.loads.size());
   std::vector<int> tip_column(C), base_column(C);
-  const auto [tip_count, base_cols] =
-      rod_condensed_split_loads(p.loads, cols, m, base_loads, tip_column, base_column);
+  const auto [tip_count, base_cols] = rod_condensed_split_loads(p.loads, cols, m, base_loads, tip_column, base_column);
   base_loads.resize(p.loads.size() - tip_count);
   const auto BC = static_cast<std::size_t>(base_cols);
   std::vector<double> tip_gain(condensed_gain_size(n - m, cols)), tip_scratch(condensed_scratch_size(cols)),
@@ -193,7 +194,8 @@ Problem::Condensed split_solve(Problem& p, std::size_t m, const std::vector<std:
   const CondensedSystem base{base_gain, base_scratch, base_base, base_cols, {}};
   const std::span<const UnitLoad> tip_loads(p.loads.data(), tip_count);
   Problem::Condensed out;
-  out.report = rod_condense_range(lin, StrainView<const double>{p.residual}, tip_loads, tip, {m, n - 1, false, interface});
+  out.report =
+      rod_condense_range(lin, StrainView<const double>{p.residual}, tip_loads, tip, {m, n - 1, false, interface});
   REQUIRE(out.report.ok);
   out.report = rod_condense_range(lin, StrainView<const double>{p.residual}, base_loads, base, {0, m, true, {}});
   REQUIRE(out.report.ok);
@@ -218,10 +220,12 @@ Problem::Condensed split_solve(Problem& p, std::size_t m, const std::vector<std:
                              tip_start);
     rod_condensed_step_range(lin, base, 0, m, base_start, base_weights, StrainView<double>{dq}, {px, py, pz},
                              {rx, ry, rz});
-    rod_condensed_step_range(lin, tip, m, n - 1, tip_start, weights, StrainView<double>{dq}, {px, py, pz}, {rx, ry, rz});
+    rod_condensed_step_range(lin, tip, m, n - 1, tip_start, weights, StrainView<double>{dq}, {px, py, pz},
+                             {rx, ry, rz});
     std::vector<double> v(10 * n);
     for (std::size_t i = 0; i < n; ++i) {
-      const double y[10] = {px[i], py[i], pz[i], rx[i], ry[i], rz[i], dq[4 * i], dq[4 * i + 1], dq[4 * i + 2], dq[4 * i + 3]};
+      const double y[10] = {px[i], py[i],     pz[i],         rx[i],         ry[i],
+                            rz[i], dq[4 * i], dq[4 * i + 1], dq[4 * i + 2], dq[4 * i + 3]};
       std::copy(y, y + 10, v.begin() + static_cast<std::ptrdiff_t>(10 * i));
     }
     out.solved.columns.push_back(std::move(v));
@@ -363,12 +367,14 @@ TEST_CASE("a chord iteration's replay solves the recorded Jacobian with a new re
         const RodLinearization lin = p.linearization();
         REQUIRE(rod_condense(lin, StrainView<const double>{p.residual}, p.loads, sys).ok);
         auto column = [&](CondensedSystem& s, int col) {
-          std::vector<double> dq(4 * n), px(n), py(n), pz(n), rx(n), ry(n), rz(n), w(static_cast<std::size_t>(cols), 0.0);
+          std::vector<double> dq(4 * n), px(n), py(n), pz(n), rx(n), ry(n), rz(n),
+              w(static_cast<std::size_t>(cols), 0.0);
           w[static_cast<std::size_t>(col)] = 1.0;
           rod_condensed_step(lin, s, w, StrainView<double>{dq}, {px, py, pz}, {rx, ry, rz});
           std::vector<double> v(10 * n);
           for (std::size_t i = 0; i < n; ++i) {
-            const double y[10] = {px[i], py[i], pz[i], rx[i], ry[i], rz[i], dq[4 * i], dq[4 * i + 1], dq[4 * i + 2], dq[4 * i + 3]};
+            const double y[10] = {px[i], py[i],     pz[i],         rx[i],         ry[i],
+                                  rz[i], dq[4 * i], dq[4 * i + 1], dq[4 * i + 2], dq[4 * i + 3]};
             std::copy(y, y + 10, v.begin() + static_cast<std::ptrdiff_t>(10 * i));
           }
           return v;
@@ -401,7 +407,7 @@ TEST_CASE("a chord iteration's replay solves the recorded Jacobian with a new re
         for (int col = 1; col < cols; ++col) CHECK(column(sys, col) == units[static_cast<std::size_t>(col - 1)]);
       }
   MESSAGE("replay against the sweep: " << worst_same << "; against the band LU with a new residual: " << worst_new);
-  CHECK(worst_same == 0.0);  // the replay rounds as the sweep did: the same bits
+  CHECK(worst_same == 0.0);    // the replay rounds as the sweep did: the same bits
   CHECK(worst_new < 2.5e-13);  // measured: 2.3e-14
 }
 

@@ -1,11 +1,11 @@
 // The Newton system's Jacobian against finite differences of the residual it linearizes.
 #include <doctest/doctest.h>
 
-#include "measured.hpp"
 #include "haustra/kernels/block_tridiagonal.hpp"
 #include "haustra/kernels/rod_backward_sweep.hpp"
 #include "haustra/kernels/rod_newton.hpp"
 #include "haustra/kernels/tissue_law.hpp"
+#include "measured.hpp"
 
 #include <cmath>
 #include "rod_fixture.hpp"
@@ -46,7 +46,8 @@ Eigen::MatrixXd reduce(const Eigen::MatrixXd& big, const std::vector<int>& keep,
   auto sub = [&](const std::vector<int>& r, const std::vector<int>& c) {
     Eigen::MatrixXd m(r.size(), c.size());
     for (std::size_t i = 0; i < r.size(); ++i)
-      for (std::size_t j = 0; j < c.size(); ++j) m(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = big(r[i], c[j]);
+      for (std::size_t j = 0; j < c.size(); ++j)
+        m(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = big(r[i], c[j]);
     return m;
   };
   return sub(keep, keep) - sub(keep, other) * sub(other, other).fullPivLu().solve(sub(other, keep));
@@ -100,8 +101,8 @@ TEST_CASE("Newton Jacobian matches finite differences of the residual") {
     std::vector<std::array<std::uint8_t, kNewtonBlock>> swaps(n);
     std::vector<double> dfx(n), dfy(n), dfz(n), dmx(n), dmy(n), dmz(n);
     rod.sweep();
-    rod_newton_assemble(rod.poses(), rod.h, rod.force(), rod.moment(), a, {}, false, {dfx, dfy, dfz},
-                        {dmx, dmy, dmz}, {lo, di, up, fill, swaps});
+    rod_newton_assemble(rod.poses(), rod.h, rod.force(), rod.moment(), a, {}, false, {dfx, dfy, dfz}, {dmx, dmy, dmz},
+                        {lo, di, up, fill, swaps});
 
     // The reduced Jacobian ∂ρ/∂q that finite differences measure: eliminate all but the strains.
     const Eigen::MatrixXd big = dense_system(lo, di, up);
@@ -112,8 +113,9 @@ TEST_CASE("Newton Jacobian matches finite differences of the residual") {
     const Eigen::MatrixXd fd = central_differences(rod.strain, [&] { return residual_of(rod, a); });
     const double err = worst_block_error(reduced, fd);
     // The mixed form drops only the O(h²) terms of each half-section's own rotation.
-    test::measured("Newton Jacobian vs finite differences, worst 4×4 block over its own scale, seed " + std::to_string(seed),
-                   err, 0.02);
+    test::measured(
+        "Newton Jacobian vs finite differences, worst 4×4 block over its own scale, seed " + std::to_string(seed), err,
+        0.02);
   }
 }
 
@@ -126,7 +128,7 @@ struct FreeRod {
   std::vector<double> f0x, f0y, f0z, m0x, m0y, m0z;  // dead loads
   std::vector<double> rx, ry, rz;                    // positions at the substep start
   std::vector<Eigen::Quaterniond> r0;
-  std::vector<double> c, s;                          // drag rates c/Δt, s/Δt
+  std::vector<double> c, s;  // drag rates c/Δt, s/Δt
   Pose base;
 
   explicit FreeRod(std::size_t n) : rod(n) {}
@@ -170,14 +172,15 @@ TEST_CASE("Newton Jacobian with the medium's drag and a free base matches finite
 
   std::vector<NewtonBlock> lo(n), di(n), up(n);
   std::vector<NewtonBlock> fill(n);
-    std::vector<std::array<std::uint8_t, kNewtonBlock>> swaps(n);
+  std::vector<std::array<std::uint8_t, kNewtonBlock>> swaps(n);
   std::vector<double> dfx(n), dfy(n), dfz(n), dmx(n), dmy(n), dmz(n);
   std::vector<Eigen::Matrix3d> k(n);
   for (std::size_t i = 0; i < n; ++i) k[i] = fr.c[i] * Eigen::Matrix3d::Identity();
   const Eigen::Matrix<double, 6, 1> total =
       rod_newton_assemble(fr.rod.poses(), fr.rod.h, fr.rod.force(), fr.rod.moment(), a, {k, fr.s}, true,
                           {dfx, dfy, dfz}, {dmx, dmy, dmz}, {lo, di, up, fill, swaps});
-  for (int i = 0; i < 6; ++i) CHECK(total[i] == doctest::Approx(rho0[4 * n + static_cast<std::size_t>(i)]).epsilon(1e-12));
+  for (int i = 0; i < 6; ++i)
+    CHECK(total[i] == doctest::Approx(rho0[4 * n + static_cast<std::size_t>(i)]).epsilon(1e-12));
 
   // Reduce onto (strains, base rotation, base position): every node residual and the base rows.
   const int b = kNewtonBlock;
@@ -224,8 +227,8 @@ TEST_CASE("Newton Jacobian with the medium's drag and a free base matches finite
     fd.col(col++) = (rp - rm) / (2 * eps);
   }
   const double err = worst_block_error(reduced, fd);
-  test::measured("Newton Jacobian with drag and a free base vs finite differences, worst block over its own scale",
-                 err, 0.02);
+  test::measured("Newton Jacobian with drag and a free base vs finite differences, worst block over its own scale", err,
+                 0.02);
 }
 
 namespace {

@@ -7,11 +7,10 @@
 #include <cstring>
 #include <random>
 
-#include "measured.hpp"
 #include "cage_fixtures.hpp"
 #include "haustra/kernels/cage_rings.hpp"
-#include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/kernels/mesh_normals.hpp"
+#include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/kernels/skinning.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/procedural_organ.hpp"
@@ -21,6 +20,7 @@
 #include "haustra/scene.hpp"
 #include "haustra/studies/skinning_study.hpp"
 #include "haustra/world.hpp"
+#include "measured.hpp"
 #include "model/skin_binding.hpp"
 #include "model/world_model.hpp"
 
@@ -157,11 +157,12 @@ TEST_CASE("procedural organ: closed, outward, the vertex count asked for, the vo
     // A polygonal tube along the arc (Pappus: area × centreline length, as the bend is gentle)
     // with two half-ellipsoid ends of length c = 0.25 R.
     const double r = 0.02, cap = 0.25 * r;
-    const std::size_t around = (m.vertices.size() - 2) / static_cast<std::size_t>(std::lround(
-                                                               static_cast<double>(m.vertices.size() - 2) /
-                                                               std::round(std::sqrt(target * 2.0 * std::numbers::pi * r / (0.5 + 2 * cap)))));
-    const double polygon = 0.5 * static_cast<double>(around) * std::sin(2.0 * std::numbers::pi / static_cast<double>(around)) /
-                           std::numbers::pi;
+    const std::size_t around =
+        (m.vertices.size() - 2) / static_cast<std::size_t>(std::lround(
+                                      static_cast<double>(m.vertices.size() - 2) /
+                                      std::round(std::sqrt(target * 2.0 * std::numbers::pi * r / (0.5 + 2 * cap)))));
+    const double polygon = 0.5 * static_cast<double>(around) *
+                           std::sin(2.0 * std::numbers::pi / static_cast<double>(around)) / std::numbers::pi;
     const double expected = polygon * std::numbers::pi * r * r * (0.5 + 4.0 / 3.0 * cap);
     const double v = mesh_volume(m.vertices, m.triangles);
     INFO("target " << target << ": volume " << v << ", expected " << expected);
@@ -221,7 +222,8 @@ TEST_CASE("rigid-group skinning equals the plain sparse product over cage vertic
     kernels::skin_rigid_groups(mesh.binding.view(), delta, 0, mesh.binding.blocks(), fast.out());
     std::vector<Eigen::Vector3d> cage_now(mesh.cage.offset.size()), reference(input.vertices.size());
     kernels::cage_vertices(now, mesh.cage.vertex_ring, mesh.cage.offset, cage_now);
-    kernels::skin_csr_reference(csr.start, csr.column, csr.weight, input.vertices, mesh.cage.rest_vertices, cage_now, reference);
+    kernels::skin_csr_reference(csr.start, csr.column, csr.weight, input.vertices, mesh.cage.rest_vertices, cage_now,
+                                reference);
     for (std::size_t v = 0; v < input.vertices.size(); ++v) {
       worst = std::max(worst, (fast.at(v) - reference[v]).norm());
       moved = std::max(moved, (reference[v] - input.vertices[v]).norm());
@@ -258,8 +260,8 @@ TEST_CASE("a rigid motion of the rod moves the skinned mesh rigidly (curved CT c
   double worst = 0.0;
   for (std::size_t v = 0; v < rest.size(); ++v) worst = std::max(worst, (moved.at(v) - (q * rest[v] + t)).norm());
   // float rounding of coordinates below 1 m, summed over the rings (measured 8.8e-8 m)
-  test::measured("CT colon moved rigidly with its rod: the skinned mesh's largest deviation from the rigid motion", worst,
-                 8e-7, "m");
+  test::measured("CT colon moved rigidly with its rod: the skinned mesh's largest deviation from the rigid motion",
+                 worst, 8e-7, "m");
 }
 
 TEST_CASE("the CT colon: cage built around its own mesh, embedded, bound with diagnostics") {
@@ -295,7 +297,7 @@ TEST_CASE("localization study: error falls with K, and MVC follows rigid cross-s
   CHECK(adaptive.slots > 4.0);
   const auto& lbs = s.rows[7];
   CHECK(lbs.transport_max > 2.0 * k4.transport_max);
-  CHECK(lbs.twist_volume_change < -0.01);                 // the candy wrapper
+  CHECK(lbs.twist_volume_change < -0.01);  // the candy wrapper
   CHECK(std::abs(k4.twist_volume_change) < std::abs(lbs.twist_volume_change));
   CHECK(std::abs(s.transport_bend_volume_change) < 1e-3);  // the reference keeps its volume
 }
@@ -331,7 +333,8 @@ TEST_CASE("skinned meshes and their normals are bit-identical with 1 and 2 threa
     // The mesh moved, and nothing in it is NaN.
     const auto p = one->mesh_positions();
     bool finite = true;
-    for (std::size_t v = 0; v < n; ++v) finite = finite && std::isfinite(p.x[v]) && std::isfinite(p.y[v]) && std::isfinite(p.z[v]);
+    for (std::size_t v = 0; v < n; ++v)
+      finite = finite && std::isfinite(p.x[v]) && std::isfinite(p.y[v]) && std::isfinite(p.z[v]);
     CHECK(finite);
   }
 }
@@ -345,7 +348,8 @@ TEST_CASE("vertex normals: unit, area-weighted, equal to a double-precision sum 
   const std::size_t count = w->mesh(0).vertices.count;
   std::vector<Eigen::Vector3d> sum(count, Eigen::Vector3d::Zero());
   for (const auto& t : w->mesh_triangles()) {
-    const Eigen::Vector3d a(p.x[t[0]], p.y[t[0]], p.z[t[0]]), b(p.x[t[1]], p.y[t[1]], p.z[t[1]]), c(p.x[t[2]], p.y[t[2]], p.z[t[2]]);
+    const Eigen::Vector3d a(p.x[t[0]], p.y[t[0]], p.z[t[0]]), b(p.x[t[1]], p.y[t[1]], p.z[t[1]]),
+        c(p.x[t[2]], p.y[t[2]], p.z[t[2]]);
     const Eigen::Vector3d face = (b - a).cross(c - a);
     for (std::uint32_t v : t) sum[v] += face;
   }
@@ -385,7 +389,8 @@ TEST_CASE("one-pass vertex normals equal the two-pass reference, non-manifold an
     y.push_back(0.01f * static_cast<float>(f * f % 3));
     z.push_back(0.1f);
   }
-  for (std::uint32_t f = 0; f < 4; ++f) tri.push_back({hub, static_cast<std::uint32_t>(tube + f), static_cast<std::uint32_t>(tube + f + 1)});
+  for (std::uint32_t f = 0; f < 4; ++f)
+    tri.push_back({hub, static_cast<std::uint32_t>(tube + f), static_cast<std::uint32_t>(tube + f + 1)});
   x.push_back(1.0f), y.push_back(1.0f), z.push_back(1.0f);  // isolated
   const std::size_t n = x.size();
   // The one-pass kernel.
@@ -428,7 +433,7 @@ TEST_CASE("one-pass vertex normals equal the two-pass reference, non-manifold an
     blocked = std::max(blocked, static_cast<double>(std::hypot(bx[v] - rx[v], by[v] - ry[v], bz[v] - rz[v])));
   MESSAGE("blocked against two-pass normals: " << blocked);
   CHECK(blocked < 1.2e-6);
-  CHECK(worst < 1.2e-6);  // measured: 1.2e-7 (the same sum; a triangle's normal from another corner rounds apart)
+  CHECK(worst < 1.2e-6);     // measured: 1.2e-7 (the same sum; a triangle's normal from another corner rounds apart)
   CHECK(nx[n - 1] == 0.0f);  // the isolated vertex
   CHECK(std::abs(std::hypot(nx[hub], ny[hub], nz[hub]) - 1.0) < 1e-6);
 }
@@ -453,7 +458,8 @@ TEST_CASE("the CT colon's rest pose is its input mesh, measured against the file
   double worst = 0.0;
   for (std::size_t v = 0; v < input.vertices.size(); ++v) {
     const std::size_t i = info.vertices.offset + v;
-    worst = std::max(worst, (Eigen::Vector3d(p.x[i], p.y[i], p.z[i]) - (desc.scale * input.vertices[v] + desc.translate)).norm());
+    worst = std::max(
+        worst, (Eigen::Vector3d(p.x[i], p.y[i], p.z[i]) - (desc.scale * input.vertices[v] + desc.translate)).norm());
   }
   MESSAGE("CT colon at rest: every vertex within " << worst << " m of the file's (the engine reports "
                                                    << info.skin.rest_error << ")");

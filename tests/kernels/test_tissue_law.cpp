@@ -103,7 +103,8 @@ TEST_CASE("EXP2 nodal law: the tangent and the kappa1-kappa2 coupling match fini
   const std::vector<double> q = {12.0, -7.0, 3.0, 0.3, -20.0, 4.0, 1.0, -0.2, 0.0, 0.0, 0.0, 0.0};
   const std::vector<double> rest = {1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
   const std::vector<double> start = {10.0, -6.0, 2.0, 0.2, -19.0, 3.0, 0.0, -0.1, 0.1, 0.0, 0.0, 0.0};
-  auto eval = [&](const std::vector<double>& x, std::vector<double>& s, std::vector<double>& t, std::vector<double>& c) {
+  auto eval = [&](const std::vector<double>& x, std::vector<double>& s, std::vector<double>& t,
+                  std::vector<double>& c) {
     s.assign(12, 0.0);
     t.assign(12, 0.0);
     c.assign(3, 0.0);
@@ -137,7 +138,8 @@ TEST_CASE("EXP2 nodal law: the tangent and the kappa1-kappa2 coupling match fini
 namespace {
 
 // A straight elastic rod along x, clamped at the origin, no gravity, one load at the tip.
-WorldDesc loaded_rod(TissueResponse response, double length, const Eigen::Vector3d& force, const Eigen::Vector3d& moment) {
+WorldDesc loaded_rod(TissueResponse response, double length, const Eigen::Vector3d& force,
+                     const Eigen::Vector3d& moment) {
   WorldDesc d;
   d.threads = 1;
   d.gravity = Eigen::Vector3d::Zero();

@@ -46,8 +46,8 @@ TEST_CASE("a rendered scene: the organ in frame, the floor below it, the strain 
   const render::Picture p = render::render(*w, scene.world, o);
   const Census organ = census(p, render::Shows::organ), floor = census(p, render::Shows::floor);
   MESSAGE("organ: " << organ.count << " pixels, x " << organ.min_x << "…" << organ.max_x << ", y " << organ.min_y << "…"
-                    << organ.max_y << "; floor " << floor.count << " pixels; strain " << p.colour_min << "…" << p.colour_max
-                    << " 1/m");
+                    << organ.max_y << "; floor " << floor.count << " pixels; strain " << p.colour_min << "…"
+                    << p.colour_max << " 1/m");
   // In frame: a fair share of the picture, touching no border.
   CHECK(organ.count > 240 * 160 / 50);
   CHECK(organ.min_x > 0);

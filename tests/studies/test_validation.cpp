@@ -12,8 +12,8 @@ namespace {
 void require_all(const std::vector<CaseResult>& results) {
   REQUIRE_FALSE(results.empty());
   for (const CaseResult& r : results) {
-    INFO(r.name << " | " << r.quantity << " | reference " << r.reference << " value " << r.value << " error "
-                << r.error << " tolerance " << r.tolerance << " | " << r.note);
+    INFO(r.name << " | " << r.quantity << " | reference " << r.reference << " value " << r.value << " error " << r.error
+                << " tolerance " << r.tolerance << " | " << r.note);
     CHECK(r.pass);
     CHECK(r.error <= r.tolerance);
   }

@@ -47,7 +47,9 @@ void* operator new(std::size_t size, std::align_val_t a, const std::nothrow_t&) 
     return nullptr;
   }
 }
-void* operator new[](std::size_t size, std::align_val_t a, const std::nothrow_t& t) noexcept { return operator new(size, a, t); }
+void* operator new[](std::size_t size, std::align_val_t a, const std::nothrow_t& t) noexcept {
+  return operator new(size, a, t);
+}
 void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
 void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
 void operator delete(void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }

@@ -31,8 +31,10 @@ inline Cage box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
     c.vertices.emplace_back((i & 1) ? hi.x() : lo.x(), (i & 2) ? hi.y() : lo.y(), (i & 4) ? hi.z() : lo.z());
   const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
   for (const auto& q : quads) {
-    c.triangles.push_back({static_cast<std::uint32_t>(q[0]), static_cast<std::uint32_t>(q[1]), static_cast<std::uint32_t>(q[2])});
-    c.triangles.push_back({static_cast<std::uint32_t>(q[0]), static_cast<std::uint32_t>(q[2]), static_cast<std::uint32_t>(q[3])});
+    c.triangles.push_back(
+        {static_cast<std::uint32_t>(q[0]), static_cast<std::uint32_t>(q[1]), static_cast<std::uint32_t>(q[2])});
+    c.triangles.push_back(
+        {static_cast<std::uint32_t>(q[0]), static_cast<std::uint32_t>(q[2]), static_cast<std::uint32_t>(q[3])});
   }
   return c;
 }
@@ -71,7 +73,8 @@ inline Cage u_tube(int rings = 9, int m = 6, double bend = 1.0, double r = 0.35)
 inline bool closed_and_oriented(const Cage& c) {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
   for (const auto& t : c.triangles)
-    for (int i = 0; i < 3; ++i) edges.emplace_back(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)]);
+    for (int i = 0; i < 3; ++i)
+      edges.emplace_back(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)]);
   std::sort(edges.begin(), edges.end());
   if (std::adjacent_find(edges.begin(), edges.end()) != edges.end()) return false;
   for (const auto& [a, b] : edges)
@@ -88,8 +91,8 @@ inline double signed_volume(const Cage& c) {
 
 // Σ of the solid angles the triangles subtend at p, over 4π (van Oosterom and Strackee): 1 inside a
 // closed, outward-oriented surface, 0 outside. Independent of any closest-point or normal logic.
-inline double winding_number(std::span<const Eigen::Vector3d> vertices, std::span<const std::array<std::uint32_t, 3>> triangles,
-                             const Eigen::Vector3d& p) {
+inline double winding_number(std::span<const Eigen::Vector3d> vertices,
+                             std::span<const std::array<std::uint32_t, 3>> triangles, const Eigen::Vector3d& p) {
   double total = 0.0;
   for (const auto& t : triangles) {
     const Eigen::Vector3d a = vertices[t[0]] - p, b = vertices[t[1]] - p, d = vertices[t[2]] - p;
@@ -101,6 +104,8 @@ inline double winding_number(std::span<const Eigen::Vector3d> vertices, std::spa
   return total / (4.0 * std::numbers::pi);
 }
 
-inline double winding_number(const Cage& c, const Eigen::Vector3d& p) { return winding_number(c.vertices, c.triangles, p); }
+inline double winding_number(const Cage& c, const Eigen::Vector3d& p) {
+  return winding_number(c.vertices, c.triangles, p);
+}
 
 }  // namespace haustra::test

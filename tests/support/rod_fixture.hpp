@@ -17,13 +17,31 @@ struct RodBuffers {
   std::vector<double> fx, fy, fz, tx, ty, tz;
 
   explicit RodBuffers(std::size_t nodes)
-      : n(nodes), h(nodes - 1), strain(4 * nodes), px(nodes), py(nodes), pz(nodes), qw(nodes), qx(nodes), qy(nodes),
-        qz(nodes), mx(nodes - 1), my(nodes - 1), mz(nodes - 1), mw(nodes - 1), mqx(nodes - 1), mqy(nodes - 1),
-        mqz(nodes - 1), fx(nodes), fy(nodes), fz(nodes), tx(nodes), ty(nodes), tz(nodes) {}
+      : n(nodes),
+        h(nodes - 1),
+        strain(4 * nodes),
+        px(nodes),
+        py(nodes),
+        pz(nodes),
+        qw(nodes),
+        qx(nodes),
+        qy(nodes),
+        qz(nodes),
+        mx(nodes - 1),
+        my(nodes - 1),
+        mz(nodes - 1),
+        mw(nodes - 1),
+        mqx(nodes - 1),
+        mqy(nodes - 1),
+        mqz(nodes - 1),
+        fx(nodes),
+        fy(nodes),
+        fz(nodes),
+        tx(nodes),
+        ty(nodes),
+        tz(nodes) {}
 
-  kernels::RodPoses<double> poses() {
-    return {{px, py, pz}, {qw, qx, qy, qz}, {mx, my, mz}, {mw, mqx, mqy, mqz}};
-  }
+  kernels::RodPoses<double> poses() { return {{px, py, pz}, {qw, qx, qy, qz}, {mx, my, mz}, {mw, mqx, mqy, mqz}}; }
   kernels::StrainView<double> strains() { return {strain}; }
   kernels::Vec3View<double> force() { return {fx, fy, fz}; }
   kernels::Vec3View<double> moment() { return {tx, ty, tz}; }

@@ -17,7 +17,8 @@ inline SceneDesc scene_desc(const std::string& name, std::vector<std::string> se
   return scene;
 }
 
-inline std::unique_ptr<World> scene_world(const std::string& name, int threads = 1, std::vector<std::string> sets = {}) {
+inline std::unique_ptr<World> scene_world(const std::string& name, int threads = 1,
+                                          std::vector<std::string> sets = {}) {
   SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
   scene.world.threads = threads;
   return create_world(scene);

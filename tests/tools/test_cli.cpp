@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include <assimp/Importer.hpp>
 #include <assimp/scene.h>
+#include <assimp/Importer.hpp>
 
 #include "haustra/studies/references.hpp"
 
@@ -106,7 +106,7 @@ TEST_CASE("haustra run drop: summary.json has the floor and self penetration of 
   CHECK(c["max_environment_depth_over_radius"].get<double>() == worst_floor);
   CHECK(c["max_bead_overlap_over_radius"].get<double>() == worst_self);
   CHECK(floor[0].get<double>() == 0.0);  // hanging: nothing touches at first
-  CHECK(worst_floor > 0.0);               // it lands within 1.5 s
+  CHECK(worst_floor > 0.0);              // it lands within 1.5 s
   CHECK(worst_floor < 0.2);
 }
 
@@ -120,7 +120,7 @@ TEST_CASE("haustra run grasp-pull: the instrument force of every frame, grasping
   REQUIRE(g["force_N_per_frame"].size() == 60);
   REQUIRE(g["grasping_per_frame"].size() == 60);
   CHECK(g["grasping_per_frame"][34] == false);
-  CHECK(g["grasping_per_frame"][35] == true);  // the 36th frame ends at 0.6 s
+  CHECK(g["grasping_per_frame"][35] == true);                // the 36th frame ends at 0.6 s
   CHECK(g["force_N_per_frame"][59][2].get<double>() < 0.0);  // holding tissue: pulled down
 }
 
@@ -139,8 +139,10 @@ TEST_CASE("haustra run: --threads 1 and --threads 2 give bit-identical final pos
 
 TEST_CASE("haustra run: --set and --dt override the scene") {
   const fs::path dir = out_dir("set");
-  const Result r = run("run " + kCliScenes + "ropes.toml --quiet --frames 2 --dt 0.001 --set segment.nodes=11 --set "
-                       "segment[0].nodes=21 --out " + dir.string());
+  const Result r = run("run " + kCliScenes +
+                       "ropes.toml --quiet --frames 2 --dt 0.001 --set segment.nodes=11 --set "
+                       "segment[0].nodes=21 --out " +
+                       dir.string());
   INFO(r.err);
   REQUIRE(r.code == 0);
   const auto j = summary(dir);
@@ -161,7 +163,8 @@ TEST_CASE("haustra run: bad input exits with code 2 and names the file and line"
 TEST_CASE("haustra run: an instability exits with code 3, says why, and still writes the summary") {
   const fs::path dir = out_dir("unstable");
   // PL²/B = 30: the lagged fixed-point iteration wanders instead of converging.
-  const Result r = run("run " + kCliScenes + "cantilever.toml --quiet --set solver.mode=lagged --set "
+  const Result r = run("run " + kCliScenes +
+                       "cantilever.toml --quiet --set solver.mode=lagged --set "
                        "solver.on_instability=stop --set \"segment.load[0].force=[0,0,-1.884955592e-05]\" --out " +
                        dir.string());
   CHECK(r.code == 3);

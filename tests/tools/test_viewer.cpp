@@ -7,8 +7,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <numbers>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <sstream>
 #include <string>
 
@@ -85,7 +85,6 @@ struct TestCamera {
   }
 };
 
-
 // Fractions of the 3D view (right of the panels' column) that look like tissue (red over green
 // and blue) and like beads (blue over red), in linear colour.
 struct Coverage {
@@ -108,19 +107,29 @@ Coverage coverage(const fs::path& png) {
 
 }  // namespace
 
-TEST_CASE("haustra view: a mouse grasp moves the grasped node by the dragged distance, the plot shows the pull, beads toggle on screen") {
+TEST_CASE(
+    "haustra view: a mouse grasp moves the grasped node by the dragged distance, the plot shows the pull, beads toggle "
+    "on screen") {
   const fs::path dir = scratch("grasp");
-  const fs::path script = write(dir / "grasp.txt", "wait 10\n"
-                                                   "screenshot " + (dir / "organ.png").string() + "\n"
-                                                   "toggle beads\nwait 2\n"
-                                                   "screenshot " + (dir / "beads.png").string() + "\n"
-                                                   "toggle beads\n"
-                                                   "press bead 5\nwait 15\n"
-                                                   "move by 0 -100 30\nwait 20\n"
-                                                   "screenshot " + (dir / "dragged.png").string() + "\n"
-                                                   "release\nwait 5\nquit\n");
-  const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string() + " --record " +
-                           (dir / "record.json").string(), dir);
+  const fs::path script = write(dir / "grasp.txt",
+                                "wait 10\n"
+                                "screenshot " +
+                                    (dir / "organ.png").string() +
+                                    "\n"
+                                    "toggle beads\nwait 2\n"
+                                    "screenshot " +
+                                    (dir / "beads.png").string() +
+                                    "\n"
+                                    "toggle beads\n"
+                                    "press bead 5\nwait 15\n"
+                                    "move by 0 -100 30\nwait 20\n"
+                                    "screenshot " +
+                                    (dir / "dragged.png").string() +
+                                    "\n"
+                                    "release\nwait 5\nquit\n");
+  const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string() +
+                           " --record " + (dir / "record.json").string(),
+                       dir);
   INFO(r.err);
   REQUIRE(r.code == 0);
   const nlohmann::json rec = nlohmann::json::parse(slurp(dir / "record.json"));
@@ -160,7 +169,8 @@ TEST_CASE("haustra view: a mouse grasp moves the grasped node by the dragged dis
   REQUIRE(held.size() >= 3);
   REQUIRE(held.front()["frame"].get<int>() <= move_started);  // seen before the drag began
   const Eigen::Vector3d moved = vec(held.back()["node_position"]) - vec(held.front()["node_position"]);
-  MESSAGE("drag " << expected.norm() << " m, node moved " << moved.norm() << " m, off by " << (moved - expected).norm());
+  MESSAGE("drag " << expected.norm() << " m, node moved " << moved.norm() << " m, off by "
+                  << (moved - expected).norm());
   CHECK(expected.norm() > 0.05);
   CHECK((moved - expected).norm() < 1e-6);  // measured 3e-8 m: Newton holds a grasp to its 1e-6 m tolerance
 
@@ -181,11 +191,13 @@ TEST_CASE("haustra view: a mouse grasp moves the grasped node by the dragged dis
 
 TEST_CASE("haustra view: knobs at run time rebuild the model with the state kept, each logged, bad values refused") {
   const fs::path dir = scratch("knobs");
-  const fs::path script = write(dir / "knobs.txt", "wait 30\nknob mode lagged\nknob iterations 3\nknob rings 0\n"
-                                                   "knob beads_per_node 0.5\nknob mode bogus\nwait 10\n"
-                                                   "save\nwait 10\nrestore\nwait 3\nquit\n");
-  const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string() + " --record " +
-                           (dir / "record.json").string(), dir);
+  const fs::path script = write(dir / "knobs.txt",
+                                "wait 30\nknob mode lagged\nknob iterations 3\nknob rings 0\n"
+                                "knob beads_per_node 0.5\nknob mode bogus\nwait 10\n"
+                                "save\nwait 10\nrestore\nwait 3\nquit\n");
+  const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string() +
+                           " --record " + (dir / "record.json").string(),
+                       dir);
   INFO(r.err);
   REQUIRE(r.code == 0);
   const nlohmann::json rec = nlohmann::json::parse(slurp(dir / "record.json"));
@@ -234,7 +246,8 @@ TEST_CASE("haustra view: no display gives a clear error and exit code 2") {
 TEST_CASE("haustra view: a bad script line is refused before the window opens, naming file and line") {
   const fs::path dir = scratch("bad-script");
   const fs::path script = write(dir / "s.txt", "wait 2\npress 10\n");
-  const Result r = run("env -u DISPLAY " + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string(), dir);
+  const Result r =
+      run("env -u DISPLAY " + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string(), dir);
   CHECK(r.code == 2);
   CHECK(r.err.find("s.txt line 2: expected `press X Y | press bead K`") != std::string::npos);
 }

@@ -65,9 +65,10 @@ int main() {
     const auto p = world->mesh_positions();
     float top = -1e9f;
     for (std::size_t v = 0; v < world->mesh_buffer_size(); ++v) top = std::max(top, p.z[v]);
-    fmt::print("after {:.1f} s: grasping node {}, force on the grasper ({:.3f}, {:.3f}, {:.3f}) N, mesh top at "
-               "{:.3f} m\n",
-               world->time(), r.grasped_node, r.force.x(), r.force.y(), r.force.z(), top);
+    fmt::print(
+        "after {:.1f} s: grasping node {}, force on the grasper ({:.3f}, {:.3f}, {:.3f}) N, mesh top at "
+        "{:.3f} m\n",
+        world->time(), r.grasped_node, r.force.x(), r.force.y(), r.force.z(), top);
     fmt::print("last frame: {:.0f} us\n", 1e6 * world->last_profile().frame_seconds);
     return r.grasping ? 0 : 1;
   } catch (const Error& e) {

@@ -70,8 +70,8 @@ int main(int argc, char** argv) {
   Shared sh = {PTHREAD_MUTEX_INITIALIZER, NULL, 0, 0, 0.0f, 0};
   haustra_world_def def;
   haustra_world_def_default(&def);
-  def.threads = 1;          /* the haptic thread steps alone */
-  def.double_buffered = 1;  /* the render thread reads completed frames */
+  def.threads = 1;         /* the haptic thread steps alone */
+  def.double_buffered = 1; /* the render thread reads completed frames */
   s = haustra_world_create_from_scene_def(scene, &def, &sh.world);
   if (s != HAUSTRA_OK) return fail("haustra_world_create_from_scene_def", s);
   haustra_counts counts;
@@ -96,9 +96,12 @@ int main(int argc, char** argv) {
   while (time < seconds - 1e-9) {
     /* 0–1 s down to the organ, close at 1 s, lift 6 cm by 3 s, hold, open at 7 s, back up. */
     double tip[3] = {gx, gy, gz};
-    if (time < 1.0) tip[2] = smooth(park[2], gz, time);
-    else if (time < 7.0) tip[2] = smooth(gz, gz + 0.06, (time - 1.0) / 2.0);
-    else tip[2] = smooth(gz + 0.06, park[2], (time - 7.0) / 1.0);
+    if (time < 1.0)
+      tip[2] = smooth(park[2], gz, time);
+    else if (time < 7.0)
+      tip[2] = smooth(gz, gz + 0.06, (time - 1.0) / 2.0);
+    else
+      tip[2] = smooth(gz + 0.06, park[2], (time - 7.0) / 1.0);
     haustra_world_set_instrument_pose(sh.world, 0, tip, up);
     haustra_world_set_instrument_grasp(sh.world, 0, time >= 1.0 && time < 7.0);
     s = haustra_world_step(sh.world);

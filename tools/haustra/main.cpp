@@ -5,24 +5,24 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
-#include <chrono>
-#include <fstream>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "haustra/error.hpp"
-#include "haustra/studies/anatomy_study.hpp"
 #include "haustra/import/import.hpp"
 #include "haustra/render/render.hpp"
 #include "haustra/scene.hpp"
+#include "haustra/studies/anatomy_study.hpp"
+#include "haustra/studies/skinning_study.hpp"
 #include "haustra/studies/stability.hpp"
+#include "haustra/studies/tradeoff_study.hpp"
 #include "haustra/studies/validation.hpp"
 #include "run_report.hpp"
-#include "haustra/studies/skinning_study.hpp"
-#include "haustra/studies/tradeoff_study.hpp"
 
 namespace {
 
@@ -83,14 +83,14 @@ int run(const RunOptions& o) {
   if (!scene.description.empty()) fmt::print("  {}\n", scene.description);
   fmt::print("  {} segment{}, {} nodes; dt = {:.6g} s; {} frames; solver {}; {} thread{}\n", world->segment_count(),
              world->segment_count() == 1 ? "" : "s", world->node_count(), world->dt(), scene.frames,
-             solver_mode_name(scene.world.solver.mode), world->threads(),
-             world->threads() == 1 ? "" : "s");
+             solver_mode_name(scene.world.solver.mode), world->threads(), world->threads() == 1 ? "" : "s");
   for (std::size_t s = 0; s < world->segment_count(); ++s) {
     const SegmentInfo& info = world->segment(s);
     if (info.rest_polyline_deviation > 0.0)
-      fmt::print("  segment '{}': rest shape from a centreline, {:.4g} m long; interpolation nodes within {:.2g} m, "
-                 "source polyline within {:.3g} mm of the rod\n",
-                 info.name, info.length, info.rest_node_deviation, info.rest_polyline_deviation * 1e3);
+      fmt::print(
+          "  segment '{}': rest shape from a centreline, {:.4g} m long; interpolation nodes within {:.2g} m, "
+          "source polyline within {:.3g} mm of the rod\n",
+          info.name, info.length, info.rest_node_deviation, info.rest_polyline_deviation * 1e3);
   }
 
   for (std::size_t s = 0; s < world->segment_count(); ++s) cli::print_mesh_info(stdout, *world, s);
@@ -140,10 +140,11 @@ int run(const RunOptions& o) {
     record.write_summary(dir / "summary.json", scene, *world, scene.frames, status, error);
     record.write_frames_csv(dir / "frames.csv");
     cli::write_nodes_csv(dir / "nodes.csv", *world);
-    fmt::print("\noutputs in {}/: summary.json (counts, per-stage times, final node positions, per-frame "
-               "penetrations and instrument forces), frames.csv (per-frame times, contacts, forces), nodes.csv "
-               "(final nodes and strains)\n",
-               std::filesystem::absolute(dir).lexically_normal().string());
+    fmt::print(
+        "\noutputs in {}/: summary.json (counts, per-stage times, final node positions, per-frame "
+        "penetrations and instrument forces), frames.csv (per-frame times, contacts, forces), nodes.csv "
+        "(final nodes and strains)\n",
+        std::filesystem::absolute(dir).lexically_normal().string());
     if (tracks)
       fmt::print("centreline and beads every {} frames: {}, {}\n", o.mesh_every, (dir / "centreline.csv").string(),
                  (dir / "beads.csv").string());
@@ -191,8 +192,8 @@ int validate(bool json, bool markdown, const std::string& assets) {
   } else {
     for (const auto& r : results) {
       fmt::print("{} {}\n     {}\n     reference {:<14.8g} value {:<14.8g} {} error {:<10.3g} tolerance {:<8.3g}{}\n",
-                 r.pass ? "PASS" : "FAIL", r.name, r.quantity, r.reference, r.value, r.absolute ? "absolute" : "relative",
-                 r.error, r.tolerance, r.note.empty() ? "" : "\n     " + r.note);
+                 r.pass ? "PASS" : "FAIL", r.name, r.quantity, r.reference, r.value,
+                 r.absolute ? "absolute" : "relative", r.error, r.tolerance, r.note.empty() ? "" : "\n     " + r.note);
     }
     fmt::print("\n{} of {} checks passed in {:.1f} s\n", results.size() - static_cast<std::size_t>(failed),
                results.size(), seconds);
@@ -218,18 +219,25 @@ int render_frames(const RenderCommand& c) {
   std::vector<int> frames = c.frames;
   std::sort(frames.begin(), frames.end());
   frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
-  if (frames.empty() || frames.front() < 0) throw Error(ErrorCode::invalid_argument, "--frames: expected frame numbers >= 0");
+  if (frames.empty() || frames.front() < 0)
+    throw Error(ErrorCode::invalid_argument, "--frames: expected frame numbers >= 0");
   render::RenderOptions o;
   o.width = c.width;
   o.height = c.height;
   for (const auto& name : c.overlays) {
-    if (name == "beads") o.overlays.beads = true;
-    else if (name == "cage") o.overlays.cage = true;
-    else if (name == "centreline") o.overlays.centreline = true;
-    else if (name == "contacts") o.overlays.contacts = true;
-    else throw Error(ErrorCode::invalid_argument, fmt::format("--overlay {}: expected beads, cage, centreline or contacts", name));
+    if (name == "beads")
+      o.overlays.beads = true;
+    else if (name == "cage")
+      o.overlays.cage = true;
+    else if (name == "centreline")
+      o.overlays.centreline = true;
+    else if (name == "contacts")
+      o.overlays.contacts = true;
+    else
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("--overlay {}: expected beads, cage, centreline or contacts", name));
   }
-  o.overlays.colour = c.colour == "strain" ? render::Colouring::strain
+  o.overlays.colour = c.colour == "strain"        ? render::Colouring::strain
                       : c.colour == "penetration" ? render::Colouring::penetration
                                                   : render::Colouring::tissue;
   if (c.view.size() == 3) o.view_from = Eigen::Vector3d(c.view[0], c.view[1], c.view[2]);
@@ -308,7 +316,8 @@ int figure_cage(const std::string& out, int width, int height) {
   tiles.push_back(render::render(*mvc, desc, o).image);
   std::vector<std::vector<Eigen::Vector3d>> edges;
   for (const auto& t : mvc->cage_triangles(0))
-    for (int i = 0; i < 3; ++i) edges.push_back({tight[t[static_cast<std::size_t>(i)]], tight[t[static_cast<std::size_t>((i + 1) % 3)]]});
+    for (int i = 0; i < 3; ++i)
+      edges.push_back({tight[t[static_cast<std::size_t>(i)]], tight[t[static_cast<std::size_t>((i + 1) % 3)]]});
   o.wires = edges;
   tiles.push_back(render::render(*mvc, desc, o).image);
   o.wires.clear();
@@ -330,19 +339,22 @@ int skinning(bool markdown) {
     return 0;
   }
   for (const auto& r : study.rows)
-    fmt::print("{:<26} slots {:>3.0f}  skin {:>8.1f} us  vs MVC max {:>6.3f} mm p99 {:>6.3f} mm  vs rigid sections max {:>6.2f} mm "
-               "p99 {:>6.2f} mm  volume bend {:+6.2f} %  twist {:+6.2f} %\n",
-               r.method, r.slots, r.skin_us, 1e3 * r.max_error, 1e3 * r.p99_error, 1e3 * r.transport_max, 1e3 * r.transport_p99,
-               100.0 * r.bend_volume_change, 100.0 * r.twist_volume_change);
-  fmt::print("{:<26} volume bend {:+6.2f} %  twist {:+6.2f} %\n", "rigid cross-sections", 100.0 * study.transport_bend_volume_change,
-             100.0 * study.transport_twist_volume_change);
+    fmt::print(
+        "{:<26} slots {:>3.0f}  skin {:>8.1f} us  vs MVC max {:>6.3f} mm p99 {:>6.3f} mm  vs rigid sections max "
+        "{:>6.2f} mm "
+        "p99 {:>6.2f} mm  volume bend {:+6.2f} %  twist {:+6.2f} %\n",
+        r.method, r.slots, r.skin_us, 1e3 * r.max_error, 1e3 * r.p99_error, 1e3 * r.transport_max,
+        1e3 * r.transport_p99, 100.0 * r.bend_volume_change, 100.0 * r.twist_volume_change);
+  fmt::print("{:<26} volume bend {:+6.2f} %  twist {:+6.2f} %\n", "rigid cross-sections",
+             100.0 * study.transport_bend_volume_change, 100.0 * study.transport_twist_volume_change);
   return 0;
 }
 
 int stability(bool markdown, const std::string& csv) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<validation::StabilityCell> cells = validation::stability_sweep({});
-  const std::vector<validation::StabilityCell> large = validation::stability_sweep(validation::stability_large_n_options());
+  const std::vector<validation::StabilityCell> large =
+      validation::stability_sweep(validation::stability_large_n_options());
   cells.insert(cells.end(), large.begin(), large.end());
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   int bad = 0;
@@ -359,8 +371,8 @@ int stability(bool markdown, const std::string& csv) {
     fmt::print("{}", validation::stability_markdown(cells));
   } else {
     for (const auto& c : cells)
-      fmt::print("E {:<8g} dt {:<9.4g} N {:<6} {:<8} {:<8} {:<7} {}\n", c.youngs_modulus, c.dt, c.nodes, c.load,
-                 c.law, c.outcome, c.detail);
+      fmt::print("E {:<8g} dt {:<9.4g} N {:<6} {:<8} {:<8} {:<7} {}\n", c.youngs_modulus, c.dt, c.nodes, c.load, c.law,
+                 c.outcome, c.detail);
     fmt::print("\n{} cells in {:.1f} s; {} not finite or without a named cause\n", cells.size(), seconds, bad);
   }
   return bad == 0 ? 0 : kExitFailedCase;
@@ -413,8 +425,9 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--set", ro.sets, "override a scene value, e.g. --set segment.nodes=333")->take_all();
   run_cmd->add_option("--out", ro.out, "directory for summary.json, frames.csv and nodes.csv");
   run_cmd->add_flag("--quiet", ro.quiet, "no progress bar or timing table");
-  run_cmd->add_option("--mesh-every", ro.mesh_every,
-                      "with --out: write the deformed organ mesh, the centreline and the beads every N frames (0: never)")
+  run_cmd
+      ->add_option("--mesh-every", ro.mesh_every,
+                   "with --out: write the deformed organ mesh, the centreline and the beads every N frames (0: never)")
       ->check(CLI::NonNegativeNumber);
   run_cmd->add_option("--mesh-format", ro.mesh_format, "ply, obj or stl")->check(CLI::IsMember({"ply", "obj", "stl"}));
 
@@ -441,7 +454,8 @@ int main(int argc, char** argv) {
                          "the real-anatomy table instead: the CT colon and procedural organs imported, deformed, K = 4 "
                          "against the per-vertex localization");
   std::string skinning_assets = HAUSTRA_DEFAULT_ASSETS;
-  skinning_cmd->add_option("--assets", skinning_assets, "directory holding large-intestine-A-DSJ.obj and its centreline");
+  skinning_cmd->add_option("--assets", skinning_assets,
+                           "directory holding large-intestine-A-DSJ.obj and its centreline");
 
   bool study_markdown = false;
   std::string study_csv;
@@ -451,7 +465,8 @@ int main(int argc, char** argv) {
   study_cmd->add_option("--csv", study_csv, "also write every row to this CSV file (for the plots)");
 
   RenderCommand rc;
-  CLI::App* render_cmd = app.add_subcommand("render", "run a scene and ray-cast chosen frames to a PNG (a contact sheet for several)");
+  CLI::App* render_cmd =
+      app.add_subcommand("render", "run a scene and ray-cast chosen frames to a PNG (a contact sheet for several)");
   render_cmd->add_option("scene", rc.scene, "scene file (TOML)")->required()->check(CLI::ExistingFile);
   render_cmd->add_option("--frames", rc.frames, "frames to render, e.g. --frames 0 60 270")->expected(1, -1);
   render_cmd->add_option("--set", rc.sets, "override a scene value")->take_all();
@@ -465,21 +480,26 @@ int main(int argc, char** argv) {
   render_cmd->add_option("--out", rc.out, "PNG file");
 
   std::string figure_out = "fig6-cage.png";
-  CLI::App* figure_cmd = app.add_subcommand("figure-cage", "the paper's Fig. 6: beads, cage, linear blend and MVC under a sharp bend");
+  CLI::App* figure_cmd =
+      app.add_subcommand("figure-cage", "the paper's Fig. 6: beads, cage, linear blend and MVC under a sharp bend");
   figure_cmd->add_option("--out", figure_out, "PNG file");
 
   import::ImportOptions io;
   CLI::App* import_cmd = app.add_subcommand(
-      "import", "a segmented organ surface to a scene that runs: centreline read or computed, trimmed, rod, beads, cage");
+      "import",
+      "a segmented organ surface to a scene that runs: centreline read or computed, trimmed, rod, beads, cage");
   import_cmd->add_option("mesh", io.mesh, "surface (OBJ, STL, OFF, glTF), open or closed ends, mm or m")
-      ->required()->check(CLI::ExistingFile);
+      ->required()
+      ->check(CLI::ExistingFile);
   import_cmd->add_option("--centreline", io.centreline, "its midline (JSON with units and points); default: computed")
       ->check(CLI::ExistingFile);
   import_cmd->add_option("--out", io.out, "the scene file to write (default: MESH's name .toml here)");
-  import_cmd->add_option("--units", io.units, "auto (default: from the size), mm or m")->check(CLI::IsMember({"auto", "mm", "m"}));
+  import_cmd->add_option("--units", io.units, "auto (default: from the size), mm or m")
+      ->check(CLI::IsMember({"auto", "mm", "m"}));
   import_cmd->add_option("--ends", io.ends, "held (default: both ends), base (the first) or free")
       ->check(CLI::IsMember({"held", "base", "free"}));
-  import_cmd->add_option("--nodes", io.nodes, "rod nodes (default: one per 5 mm, 41 to 401)")->check(CLI::Range(3, 20000));
+  import_cmd->add_option("--nodes", io.nodes, "rod nodes (default: one per 5 mm, 41 to 401)")
+      ->check(CLI::Range(3, 20000));
   import_cmd->add_option("--beads", io.beads, "beads (default: a third of the nodes)")->check(CLI::Range(2, 20000));
   import_cmd->add_flag("--reverse", io.reverse, "run the rod from the other end");
 
@@ -500,7 +520,8 @@ int main(int argc, char** argv) {
     if (*validate_cmd) return validate(json, validate_markdown, assets);
     if (*stability_cmd) return stability(markdown, stability_csv);
     if (*skinning_cmd && skinning_anatomy) {
-      const auto organs = import::import_study_organs(skinning_assets, fs::temp_directory_path() / "haustra-anatomy-study");
+      const auto organs =
+          import::import_study_organs(skinning_assets, fs::temp_directory_path() / "haustra-anatomy-study");
       fmt::print("{}", import::anatomy_markdown(import::run_anatomy_study(organs)));
       return 0;
     }

@@ -60,9 +60,10 @@ void RunRecord::print_contacts(std::FILE* out, const World& world) const {
   if (!instruments_.empty())
     for (std::size_t i = 0; i < instruments_.back().size(); ++i) {
       const InstrumentReading& r = instruments_.back()[i];
-      fmt::print(out, "instrument {}: {}force on it [{:.3f}, {:.3f}, {:.3f}] N, filtered [{:.3f}, {:.3f}, {:.3f}] N\n", i,
-                 r.grasping ? fmt::format("grasping segment {} node {}; ", r.grasped_segment, r.grasped_node) : "",
-                 r.force.x(), r.force.y(), r.force.z(), r.filtered_force.x(), r.filtered_force.y(), r.filtered_force.z());
+      fmt::print(out, "instrument {}: {}force on it [{:.3f}, {:.3f}, {:.3f}] N, filtered [{:.3f}, {:.3f}, {:.3f}] N\n",
+                 i, r.grasping ? fmt::format("grasping segment {} node {}; ", r.grasped_segment, r.grasped_node) : "",
+                 r.force.x(), r.force.y(), r.force.z(), r.filtered_force.x(), r.filtered_force.y(),
+                 r.filtered_force.z());
     }
 }
 
@@ -84,8 +85,8 @@ RunRecord::StageStats RunRecord::stats(std::size_t s) const {
 void RunRecord::print_stage_table(std::FILE* out) const {
   double frame_total = 0;
   for (float x : frame_seconds_) frame_total += x;
-  fmt::print(out, "\n{:<16} {:>10} {:>12} {:>12} {:>12} {:>7}\n", "stage", "calls/fr", "median µs", "mean µs",
-             "p99 µs", "share");
+  fmt::print(out, "\n{:<16} {:>10} {:>12} {:>12} {:>12} {:>7}\n", "stage", "calls/fr", "median µs", "mean µs", "p99 µs",
+             "share");
   for (std::size_t s = 0; s < kStageCount; ++s) {
     const StageStats st = stats(s);
     const auto name = stage_name(static_cast<Stage>(s));
@@ -93,8 +94,8 @@ void RunRecord::print_stage_table(std::FILE* out) const {
       fmt::print(out, "{:<16} {:>10}\n", name, "not run");
       continue;
     }
-    fmt::print(out, "{:<16} {:>10.2f} {:>12.2f} {:>12.2f} {:>12.2f} {:>6.1f}%\n", name, st.calls_per_frame, st.median_us,
-               st.mean_us, st.p99_us, frame_total > 0 ? 100.0 * st.total_ms * 1e-3 / frame_total : 0.0);
+    fmt::print(out, "{:<16} {:>10.2f} {:>12.2f} {:>12.2f} {:>12.2f} {:>6.1f}%\n", name, st.calls_per_frame,
+               st.median_us, st.mean_us, st.p99_us, frame_total > 0 ? 100.0 * st.total_ms * 1e-3 / frame_total : 0.0);
   }
   fmt::print(out, "{:<16} {:>10} {:>12.2f} {:>12.2f} {:>12.2f}\n", "frame", "", quantile(frame_seconds_, 0.5) * 1e6,
              frames() ? frame_total / static_cast<double>(frames()) * 1e6 : 0.0, quantile(frame_seconds_, 0.99) * 1e6);
@@ -116,26 +117,24 @@ void RunRecord::write_summary(const std::filesystem::path& file, const SceneDesc
   j["dt"] = world.dt();
   j["simulated_time"] = world.time();
   j["threads"] = world.threads();
-  j["solver"] = {{"mode", solver_name(scene.world.solver.mode)},
-                 {"iterations", scene.world.solver.iterations},
-                 {"substeps", scene.world.solver.substeps},
-                 {"on_instability", scene.world.solver.on_instability == InstabilityPolicy::recover ? "recover" : "stop"}};
+  j["solver"] = {
+      {"mode", solver_name(scene.world.solver.mode)},
+      {"iterations", scene.world.solver.iterations},
+      {"substeps", scene.world.solver.substeps},
+      {"on_instability", scene.world.solver.on_instability == InstabilityPolicy::recover ? "recover" : "stop"}};
   json stages = json::object();
   for (std::size_t s = 0; s < kStageCount; ++s) {
     const StageStats st = stats(s);
     stages[std::string(stage_name(static_cast<Stage>(s)))] =
-        st.ran ? json{{"ran", true},
-                      {"median_us", st.median_us},
-                      {"mean_us", st.mean_us},
-                      {"p99_us", st.p99_us},
-                      {"total_ms", st.total_ms},
-                      {"calls_per_frame", st.calls_per_frame}}
+        st.ran ? json{{"ran", true},         {"median_us", st.median_us}, {"mean_us", st.mean_us},
+                      {"p99_us", st.p99_us}, {"total_ms", st.total_ms},   {"calls_per_frame", st.calls_per_frame}}
                : json{{"ran", false}};
   }
   j["stages"] = stages;
-  j["frame_time_us"] = {{"median", quantile(frame_seconds_, 0.5) * 1e6},
-                        {"p99", quantile(frame_seconds_, 0.99) * 1e6},
-                        {"max", frame_seconds_.empty() ? 0.0 : *std::max_element(frame_seconds_.begin(), frame_seconds_.end()) * 1e6}};
+  j["frame_time_us"] = {
+      {"median", quantile(frame_seconds_, 0.5) * 1e6},
+      {"p99", quantile(frame_seconds_, 0.99) * 1e6},
+      {"max", frame_seconds_.empty() ? 0.0 : *std::max_element(frame_seconds_.begin(), frame_seconds_.end()) * 1e6}};
   int retried = 0;
   for (int r : retries_) retried += r > 0 ? 1 : 0;
   j["robust_mode"] = {{"frames_redone", retried},
@@ -270,23 +269,28 @@ void print_mesh_info(std::FILE* out, const World& world, std::size_t segment) {
   const SkinReport& k = m.skin;
   fmt::print(out, "  segment '{}': mesh {} ({} vertices, {} triangles)\n", world.segment(segment).name,
              std::filesystem::path(m.source).filename().string(), m.vertices.count, m.triangles.count);
-  fmt::print(out,
-             "    cage: {} rings ({} bead, {} middle, {} taken out) x {} vertices = {} vertices, {} triangles; clearance "
-             "{:.2f} mm; rings grown {:+.1f} to {:+.1f} mm beyond the beads (mean {:+.1f}); {} passes, {:.2f} s\n",
-             c.rings, c.bead_rings, c.middle_rings, c.dropped_rings, c.ring_vertices, c.vertices, c.triangles,
-             1e3 * c.clearance, 1e3 * c.inflation_min, 1e3 * c.inflation_max, 1e3 * c.inflation_mean, c.iterations, c.seconds);
+  fmt::print(
+      out,
+      "    cage: {} rings ({} bead, {} middle, {} taken out) x {} vertices = {} vertices, {} triangles; clearance "
+      "{:.2f} mm; rings grown {:+.1f} to {:+.1f} mm beyond the beads (mean {:+.1f}); {} passes, {:.2f} s\n",
+      c.rings, c.bead_rings, c.middle_rings, c.dropped_rings, c.ring_vertices, c.vertices, c.triangles,
+      1e3 * c.clearance, 1e3 * c.inflation_min, 1e3 * c.inflation_max, 1e3 * c.inflation_mean, c.iterations, c.seconds);
   fmt::print(out,
              "    embedding (Embree, binding pose): {} mesh vertices outside, {} mesh edges crossing, {} cage "
              "self-intersections; at the curved rest pose {} outside; tightest bend {}\n",
              c.mesh_vertices_outside, c.crossing_edges, c.self_intersections, c.rest_pose_outside,
-             std::isfinite(c.tightest_bend) && c.tightest_bend < 1e3 ? fmt::format("{:.1f} mm", 1e3 * c.tightest_bend) : "none (straight)");
+             std::isfinite(c.tightest_bend) && c.tightest_bend < 1e3 ? fmt::format("{:.1f} mm", 1e3 * c.tightest_bend)
+                                                                     : "none (straight)");
   if (k.method == SkinningMethod::mean_value)
-    fmt::print(out,
-               "    mean value coordinates: {:.2f} rings per vertex (up to {}); min weight {:.3g}; negative mass max {:.3g}, mean {:.3g} "
-               "({} vertices); weight left out max {:.3g}, mean {:.3g}; rest correction max {:.2f} mm; rest error {:.2g} m; "
-               "{:.2f} s\n",
-               k.mean_rings_per_vertex, k.rings_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass, k.negative_vertices,
-               k.max_dropped_mass, k.mean_dropped_mass, 1e3 * k.max_rest_correction, k.rest_error, k.seconds);
+    fmt::print(
+        out,
+        "    mean value coordinates: {:.2f} rings per vertex (up to {}); min weight {:.3g}; negative mass max {:.3g}, "
+        "mean {:.3g} "
+        "({} vertices); weight left out max {:.3g}, mean {:.3g}; rest correction max {:.2f} mm; rest error {:.2g} m; "
+        "{:.2f} s\n",
+        k.mean_rings_per_vertex, k.rings_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass,
+        k.negative_vertices, k.max_dropped_mass, k.mean_dropped_mass, 1e3 * k.max_rest_correction, k.rest_error,
+        k.seconds);
   else
     fmt::print(out, "    linear-blend skinning on the bead frames (2 per vertex); rest error {:.2g} m\n", k.rest_error);
 }
@@ -311,7 +315,10 @@ TriangleMesh compact_triangles(const World& world, std::vector<std::uint32_t>& u
 }  // namespace
 
 MeshRecorder::MeshRecorder(const World& world, std::filesystem::path dir, std::string format)
-    : dir_(std::move(dir)), format_(std::move(format)), mesh_(compact_triangles(world, used_)), animation_(mesh_.triangles) {
+    : dir_(std::move(dir)),
+      format_(std::move(format)),
+      mesh_(compact_triangles(world, used_)),
+      animation_(mesh_.triangles) {
   std::filesystem::create_directories(dir_);
 }
 
@@ -336,7 +343,8 @@ TrackRecorder::TrackRecorder(const std::filesystem::path& dir) {
   std::filesystem::create_directories(dir);
   centreline_.open(dir / "centreline.csv");
   beads_.open(dir / "beads.csv");
-  if (!centreline_ || !beads_) throw Error(ErrorCode::io, fmt::format("{}: cannot write centreline.csv and beads.csv", dir.string()));
+  if (!centreline_ || !beads_)
+    throw Error(ErrorCode::io, fmt::format("{}: cannot write centreline.csv and beads.csv", dir.string()));
   centreline_ << "frame,time_s,segment,node,x_m,y_m,z_m\n";
   beads_ << "frame,time_s,bead,segment,node,x_m,y_m,z_m,radius_m\n";
 }
@@ -347,8 +355,8 @@ void TrackRecorder::record(const World& world) {
     const Range r = world.segment(s).nodes;
     for (std::size_t k = 0; k < r.count; ++k) {
       const Eigen::Vector3d x = p.get(r.offset + k);
-      centreline_ << fmt::format("{},{:.6f},{},{},{:.9g},{:.9g},{:.9g}\n", world.frame(), world.time(), world.segment(s).name, k,
-                                 x.x(), x.y(), x.z());
+      centreline_ << fmt::format("{},{:.6f},{},{},{:.9g},{:.9g},{:.9g}\n", world.frame(), world.time(),
+                                 world.segment(s).name, k, x.x(), x.y(), x.z());
     }
   }
   for (std::size_t b = 0; b < world.bead_count(); ++b) {
@@ -356,8 +364,9 @@ void TrackRecorder::record(const World& world) {
     std::size_t s = 0;
     while (s + 1 < world.segment_count() && node >= world.segment(s).nodes.offset + world.segment(s).nodes.count) ++s;
     const Eigen::Vector3d x = p.get(node);
-    beads_ << fmt::format("{},{:.6f},{},{},{},{:.9g},{:.9g},{:.9g},{:.9g}\n", world.frame(), world.time(), b, world.segment(s).name,
-                          node - world.segment(s).nodes.offset, x.x(), x.y(), x.z(), world.bead_radii()[b]);
+    beads_ << fmt::format("{},{:.6f},{},{},{},{:.9g},{:.9g},{:.9g},{:.9g}\n", world.frame(), world.time(), b,
+                          world.segment(s).name, node - world.segment(s).nodes.offset, x.x(), x.y(), x.z(),
+                          world.bead_radii()[b]);
   }
 }
 

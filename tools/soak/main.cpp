@@ -119,9 +119,9 @@ struct Options {
   std::string checkpoint_dir;          // where: soak-<frame>.ckpt and its .host sidecar, the last two kept
   std::string resume;                  // a checkpoint to start from (its .host sidecar beside it)
   std::size_t trace = 600;             // frames of per-frame detail kept, written out when a check breaks
-  double energy_factor = 4.0;        // every frame within [low / factor, high * factor]
-  double energy_drift = 0.25;        // end mean against start mean
-  std::size_t heap_slack = 64 << 10; // bytes the heap may grow after warm-up (stdio buffers and the like)
+  double energy_factor = 4.0;          // every frame within [low / factor, high * factor]
+  double energy_drift = 0.25;          // end mean against start mean
+  std::size_t heap_slack = 64 << 10;   // bytes the heap may grow after warm-up (stdio buffers and the like)
 };
 
 // One frame's detail, kept for the last `trace` frames and written out when a check breaks: which
@@ -175,10 +175,10 @@ void write_trace(const std::string& path, const std::vector<TraceRow>& ring, std
   for (std::uint64_t f = last_frame + 1 >= n ? last_frame + 1 - n : 0; f <= last_frame; ++f) {
     const TraceRow& r = ring[f % n];
     if (r.frame != f) continue;
-    out << fmt::format("{},{:.9g},{:.9g},{:.9g},{},{:.6g},{:.6g},{},{},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{}\n",
-                       r.frame, r.elastic, r.gravity, r.elastic + r.gravity, r.touching, r.bead_overlap, r.floor_depth,
-                       r.substeps, r.retries, r.grasping ? 1 : 0, r.tip.x(), r.tip.y(), r.tip.z(), r.lowest, r.highest,
-                       r.max_axial, r.max_axial_node);
+    out << fmt::format(
+        "{},{:.9g},{:.9g},{:.9g},{},{:.6g},{:.6g},{},{},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{}\n", r.frame,
+        r.elastic, r.gravity, r.elastic + r.gravity, r.touching, r.bead_overlap, r.floor_depth, r.substeps, r.retries,
+        r.grasping ? 1 : 0, r.tip.x(), r.tip.y(), r.tip.z(), r.lowest, r.highest, r.max_axial, r.max_axial_node);
   }
 }
 
@@ -291,8 +291,10 @@ int soak(const Options& o) {
     }
     const double floor_energy = low / o.energy_factor, ceiling_energy = high * o.energy_factor;
     if (f >= warmup && (e < floor_energy || e > ceiling_energy)) {
-      fmt::print(stderr, "soak: frame {}: energy {:.6g} J left [{:.6g}, {:.6g}] J ({} times the warm-up's [{:.6g}, "
-                         "{:.6g}] J)\n", f, e, floor_energy, ceiling_energy, o.energy_factor, low, high);
+      fmt::print(stderr,
+                 "soak: frame {}: energy {:.6g} J left [{:.6g}, {:.6g}] J ({} times the warm-up's [{:.6g}, "
+                 "{:.6g}] J)\n",
+                 f, e, floor_energy, ceiling_energy, o.energy_factor, low, high);
       if (o.trace > 0) {
         write_trace(trace_path, ring, f);
         fmt::print(stderr, "soak: the last {} frames in {}\n", o.trace, trace_path);
@@ -309,12 +311,13 @@ int soak(const Options& o) {
       const Energy en = w->energy();
       const ContactReport& c = w->contacts();
       if (csv.is_open())
-        csv << fmt::format("{},{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.6g},{:.6g},{},{:.2f}\n", f + 1, resident, heap,
-                           en.elastic, en.gravity, en.total(), floor_energy, ceiling_energy, c.max_bead_overlap_ratio,
-                           c.max_environment_depth_ratio, grasps, mean_us);
+        csv << fmt::format("{},{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.6g},{:.6g},{},{:.2f}\n", f + 1, resident,
+                           heap, en.elastic, en.gravity, en.total(), floor_energy, ceiling_energy,
+                           c.max_bead_overlap_ratio, c.max_environment_depth_ratio, grasps, mean_us);
       if (f >= warmup) sampled.push_back(en.total());
       if (f >= warmup && heap > heap_at_warmup + o.heap_slack) {
-        fmt::print(stderr, "soak: frame {}: the heap grew from {} to {} bytes after warm-up\n", f + 1, heap_at_warmup, heap);
+        fmt::print(stderr, "soak: frame {}: the heap grew from {} to {} bytes after warm-up\n", f + 1, heap_at_warmup,
+                   heap);
         return kExitBroken;
       }
       fmt::print("frame {:>8}  resident {:>7} KiB  heap {:>10} B  energy {:+.5f} J  grasps {:>5}  {:7.1f} µs/frame\n",
@@ -348,10 +351,11 @@ int soak(const Options& o) {
       return kExitBroken;
     }
   }
-  fmt::print("soak passed: {} frames, {} grasp-and-release cycles, {} grasps taken; energy within [{:.5f}, {:.5f}] J; "
-             "heap {:+} bytes and resident memory {:+} KiB since warm-up\n",
-             o.frames, o.frames / kCycle, grasps, low, high, static_cast<long long>(heap_in_use()) - static_cast<long long>(heap_at_warmup),
-             resident_growth);
+  fmt::print(
+      "soak passed: {} frames, {} grasp-and-release cycles, {} grasps taken; energy within [{:.5f}, {:.5f}] J; "
+      "heap {:+} bytes and resident memory {:+} KiB since warm-up\n",
+      o.frames, o.frames / kCycle, grasps, low, high,
+      static_cast<long long>(heap_in_use()) - static_cast<long long>(heap_at_warmup), resident_growth);
   // Every cycle should take its grasp: a soak that never lifts the rod tests less than it says.
   if (o.frames >= 2 * kCycle && grasps < o.frames / kCycle * 9 / 10) {
     fmt::print(stderr, "soak: only {} grasps in {} cycles: the grasper missed the rod\n", grasps, o.frames / kCycle);

@@ -11,7 +11,7 @@ namespace haustra {
 
 struct Centreline {
   std::vector<Eigen::Vector3d> points;  // metres
-  std::string units;                   // as written in the file
+  std::string units;                    // as written in the file
   std::string source;
 };
 

@@ -40,7 +40,7 @@ class EmbreeScene {
   struct Hit {
     bool found = false;
     unsigned geometry = 0, triangle = 0;
-    double distance = 0.0;  // along the ray, or to the closest point
+    double distance = 0.0;    // along the ray, or to the closest point
     double u = 0.0, v = 0.0;  // ray hits: barycentric coordinates of vertices 1 and 2 of the triangle
   };
   // The first triangle a ray meets in (t_near, t_far); direction need not be unit (t scales with it).
@@ -55,7 +55,9 @@ class EmbreeScene {
   [[nodiscard]] bool inside(const Eigen::Vector3d& p) const;
   // The closest point on any triangle within `radius` (in double, from the stored geometry).
   [[nodiscard]] Hit closest(const Eigen::Vector3d& p, double radius) const;
-  [[nodiscard]] const std::vector<Eigen::Vector3d>& vertices(unsigned geometry) const { return meshes_[geometry].vertices; }
+  [[nodiscard]] const std::vector<Eigen::Vector3d>& vertices(unsigned geometry) const {
+    return meshes_[geometry].vertices;
+  }
   [[nodiscard]] const std::vector<std::array<std::uint32_t, 3>>& triangles(unsigned geometry) const {
     return meshes_[geometry].triangles;
   }

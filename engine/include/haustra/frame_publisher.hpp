@@ -18,10 +18,10 @@ namespace haustra {
 // What a frame holds beyond positions, for readers that draw overlays and plots (opt-in: the
 // copies cost the stepping thread a few microseconds per frame).
 struct FrameDetails {
-  std::vector<double> strain, rest_strain;           // 4 per node (κ1 κ2 τ ε)
+  std::vector<double> strain, rest_strain;  // 4 per node (κ1 κ2 τ ε)
   std::vector<Contact> contacts;
   std::vector<InstrumentReading> instruments;
-  std::vector<std::vector<Eigen::Vector3d>> cages;   // per segment: cage vertices (when wanted)
+  std::vector<std::vector<Eigen::Vector3d>> cages;  // per segment: cage vertices (when wanted)
   FrameProfile profile;
 };
 
@@ -30,9 +30,9 @@ class FramePublisher {
   struct Slot {
     std::uint64_t frame = 0;
     double time = 0.0;
-    std::vector<double> x, y, z;                          // nodes
-    std::vector<float> px, py, pz, nx, ny, nz;            // mesh positions and normals
-    FrameDetails details;                                 // filled when the publisher wants details
+    std::vector<double> x, y, z;                // nodes
+    std::vector<float> px, py, pz, nx, ny, nz;  // mesh positions and normals
+    FrameDetails details;                       // filled when the publisher wants details
   };
 
   // details: also copy FrameDetails every frame; cages: and the cage vertices.

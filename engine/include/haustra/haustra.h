@@ -48,7 +48,7 @@ typedef enum haustra_status {
   HAUSTRA_INVALID_GEOMETRY = 4, /* a centreline or mesh the model cannot be built from */
   HAUSTRA_UNSTABLE = 5,         /* the frame diverged; the world kept its last good frame */
   HAUSTRA_INTERNAL = 6,
-  HAUSTRA_INVALID_HANDLE = 7,   /* not a live world */
+  HAUSTRA_INVALID_HANDLE = 7, /* not a live world */
   HAUSTRA_ABI_MISMATCH = 8
 } haustra_status;
 
@@ -56,10 +56,10 @@ typedef struct haustra_world haustra_world;
 
 typedef struct haustra_counts {
   size_t segments;
-  size_t nodes;          /* all segments */
+  size_t nodes; /* all segments */
   size_t beads;
   size_t instruments;
-  size_t mesh_vertices;  /* all segments' organ meshes */
+  size_t mesh_vertices; /* all segments' organ meshes */
   size_t mesh_triangles;
 } haustra_counts;
 
@@ -90,7 +90,7 @@ typedef struct haustra_instrument_reading {
   int closed;
   int grasping;
   size_t grasped_segment;
-  size_t grasped_node;      /* local to the segment */
+  size_t grasped_node; /* local to the segment */
 } haustra_instrument_reading;
 
 #define HAUSTRA_STAGE_COUNT 19
@@ -101,8 +101,8 @@ typedef struct haustra_profile {
   int substeps;
   int retries;
   int newton;
-  int fallbacks;  /* Newton iterations the banded LU solved (the condensed sweep's pivots were unsafe) */
-  int backtracks; /* line-search halvings of Newton steps */
+  int fallbacks;   /* Newton iterations the banded LU solved (the condensed sweep's pivots were unsafe) */
+  int backtracks;  /* line-search halvings of Newton steps */
   int stiffenings; /* Newton steps solved again with the law stiffened (the plain step went uphill) */
   int chords;      /* fast mode: Newton iterations that reused the last factorization */
 } haustra_profile;
@@ -120,66 +120,66 @@ typedef struct haustra_job_system {
 
 /* A world built without a scene file; also the run-time settings of one built from a scene. */
 typedef struct haustra_world_def {
-  size_t struct_size;       /* sizeof(haustra_world_def), set by haustra_world_def_default */
-  double dt;                /* s per frame; default 1/60 */
-  double gravity[3];        /* m/s²; default (0, 0, -9.81) */
-  int threads;              /* 0: all cores (default), 1: the stepping thread only, n: n */
-  haustra_job_system jobs;  /* enqueue == NULL (default): oneTBB with `threads` */
-  int newton;               /* 1 (default): Newton; 0: the paper's lagged scheme; 2: fast (Newton
-                             * reusing its factorization while contacts and grasps stay; decision 0037) */
-  int iterations;           /* per substep; default 1 */
-  int substeps;             /* per frame; default 1 */
-  int recover;              /* 1 (default): redo an unstable frame with Newton and more substeps; 0: stop */
-  int floor;                /* 1: a floor plane z = floor_height; default 0 */
-  double floor_height;      /* m */
-  int self_contact;         /* 1 (default): beads of one segment collide */
-  double memory_limit;      /* bytes the world may take (its estimate); 0 (default): what the machine has */
-  int double_buffered;      /* 1: publish every frame for haustra_world_acquire_frame; default 0 */
+  size_t struct_size;      /* sizeof(haustra_world_def), set by haustra_world_def_default */
+  double dt;               /* s per frame; default 1/60 */
+  double gravity[3];       /* m/s²; default (0, 0, -9.81) */
+  int threads;             /* 0: all cores (default), 1: the stepping thread only, n: n */
+  haustra_job_system jobs; /* enqueue == NULL (default): oneTBB with `threads` */
+  int newton;              /* 1 (default): Newton; 0: the paper's lagged scheme; 2: fast (Newton
+                            * reusing its factorization while contacts and grasps stay; decision 0037) */
+  int iterations;          /* per substep; default 1 */
+  int substeps;            /* per frame; default 1 */
+  int recover;             /* 1 (default): redo an unstable frame with Newton and more substeps; 0: stop */
+  int floor;               /* 1: a floor plane z = floor_height; default 0 */
+  double floor_height;     /* m */
+  int self_contact;        /* 1 (default): beads of one segment collide */
+  double memory_limit;     /* bytes the world may take (its estimate); 0 (default): what the machine has */
+  int double_buffered;     /* 1: publish every frame for haustra_world_acquire_frame; default 0 */
 } haustra_world_def;
 
 /* One segment: a rod along a centreline (or straight), its beads, and its organ mesh. */
 typedef struct haustra_segment_def {
-  size_t struct_size;         /* sizeof(haustra_segment_def), set by haustra_segment_def_default */
-  const char* name;           /* NULL: "segment<i>" */
-  int nodes;                  /* default 167 (the paper's) */
-  const double* centreline;   /* x, y, z per point (m), from the base; NULL: straight, see below */
+  size_t struct_size;       /* sizeof(haustra_segment_def), set by haustra_segment_def_default */
+  const char* name;         /* NULL: "segment<i>" */
+  int nodes;                /* default 167 (the paper's) */
+  const double* centreline; /* x, y, z per point (m), from the base; NULL: straight, see below */
   size_t centreline_points;
-  double length;              /* m, when straight; default 1.66 */
-  double base_position[3];    /* m, when straight; default the origin */
-  double base_tangent[3];     /* when straight; default +x */
-  int free_base;              /* 0 (default): node 0 is clamped; 1: the rod moves freely in a viscous medium */
-  double drag;                /* N·s/m² per metre; < 0 (default): 4 for a free base, 0 for a clamped one */
-  double radius;              /* m; default 0.02 */
-  double wall_thickness;      /* m; default 0.003 */
-  double youngs_modulus;      /* Pa; default 33.2e3 (the paper's) */
-  double density;             /* kg/m³; default 1050 */
-  int beads;                  /* beads spread over the nodes; 0 (default): none */
-  double bead_radius;         /* m; 0 (default): the radius */
-  int mesh;                   /* 0 (default): none; 1: procedural organ; 2: mesh_file */
-  int mesh_vertices;          /* procedural: about this many; default 10,000 */
-  const char* mesh_file;      /* .obj .stl .off .gltf .glb, at the rod's rest pose */
-  double mesh_scale;          /* file units to metres; default 1 */
-  int rings_per_vertex;       /* mean value coordinates kept per vertex; default 4; 0: all */
-  int chain_pieces;           /* 1 (default); K > 1: the rod runs as K chained segments "<name>-1".."<name>-K"
-                                 of `nodes` nodes, `beads` beads and a procedural mesh each, sharing their
-                                 joint nodes (position and frame) and solved as one rod; centreline or
-                                 length cover the whole chain */
-  int tissue;                 /* 0 (default): Hooke's law with youngs_modulus; 1: the EXP2 law
-                                 sigma = beta (exp(alpha eps^2) - 1) + gamma eps in bending and stretch
-                                 (needs the Newton solver; torsion stays Hooke's) */
-  double exp2_alpha;          /* default 8 */
-  double exp2_beta;           /* Pa; default 6700 */
-  double exp2_gamma;          /* Pa; default 20000 */
+  double length;           /* m, when straight; default 1.66 */
+  double base_position[3]; /* m, when straight; default the origin */
+  double base_tangent[3];  /* when straight; default +x */
+  int free_base;           /* 0 (default): node 0 is clamped; 1: the rod moves freely in a viscous medium */
+  double drag;             /* N·s/m² per metre; < 0 (default): 4 for a free base, 0 for a clamped one */
+  double radius;           /* m; default 0.02 */
+  double wall_thickness;   /* m; default 0.003 */
+  double youngs_modulus;   /* Pa; default 33.2e3 (the paper's) */
+  double density;          /* kg/m³; default 1050 */
+  int beads;               /* beads spread over the nodes; 0 (default): none */
+  double bead_radius;      /* m; 0 (default): the radius */
+  int mesh;                /* 0 (default): none; 1: procedural organ; 2: mesh_file */
+  int mesh_vertices;       /* procedural: about this many; default 10,000 */
+  const char* mesh_file;   /* .obj .stl .off .gltf .glb, at the rod's rest pose */
+  double mesh_scale;       /* file units to metres; default 1 */
+  int rings_per_vertex;    /* mean value coordinates kept per vertex; default 4; 0: all */
+  int chain_pieces;        /* 1 (default); K > 1: the rod runs as K chained segments "<name>-1".."<name>-K"
+                              of `nodes` nodes, `beads` beads and a procedural mesh each, sharing their
+                              joint nodes (position and frame) and solved as one rod; centreline or
+                              length cover the whole chain */
+  int tissue;              /* 0 (default): Hooke's law with youngs_modulus; 1: the EXP2 law
+                              sigma = beta (exp(alpha eps^2) - 1) + gamma eps in bending and stretch
+                              (needs the Newton solver; torsion stays Hooke's) */
+  double exp2_alpha;       /* default 8 */
+  double exp2_beta;        /* Pa; default 6700 */
+  double exp2_gamma;       /* Pa; default 20000 */
 } haustra_segment_def;
 
 /* One segment as the world holds it (haustra_world_segment). */
 typedef struct haustra_segment_info {
-  const char* name;            /* valid until segments are added or removed, or the world is destroyed */
-  size_t node_offset, node_count;   /* its nodes in the node buffers; a chain's pieces share their joint node */
-  size_t bead_offset, bead_count;   /* its beads (a joint node's bead belongs to the later piece) */
-  size_t mesh_vertex_offset, mesh_vertex_count;  /* its organ mesh's vertices; 0, 0 without one */
-  size_t chain;                /* the first segment of its chain; itself when not chained */
-  double length;               /* m, at rest */
+  const char* name;               /* valid until segments are added or removed, or the world is destroyed */
+  size_t node_offset, node_count; /* its nodes in the node buffers; a chain's pieces share their joint node */
+  size_t bead_offset, bead_count; /* its beads (a joint node's bead belongs to the later piece) */
+  size_t mesh_vertex_offset, mesh_vertex_count; /* its organ mesh's vertices; 0, 0 without one */
+  size_t chain;                                 /* the first segment of its chain; itself when not chained */
+  double length;                                /* m, at rest */
 } haustra_segment_info;
 
 /* The last completed frame, for a render thread (double_buffered worlds). */

@@ -38,13 +38,13 @@ struct FrameProfile {
   std::array<std::uint32_t, kStageCount> calls{};
   double frame_seconds = 0.0;
   int substeps = 1;
-  int iterations = 0;  // fixed-point iterations run, summed over substeps
-  int retries = 0;     // frames redone by the robust mode
-  int fallbacks = 0;   // Newton iterations solved by the banded LU (the condensed sweep's pivots unsafe)
-  int backtracks = 0;  // line-search halvings
-  int stiffenings = 0; // Newton steps solved again with stiffened law rows (the plain step was not a descent)
-  int chords = 0;      // fast mode: Newton iterations that reused the last factorization
-  bool newton = false; // the frame that was kept ran Newton iterations
+  int iterations = 0;   // fixed-point iterations run, summed over substeps
+  int retries = 0;      // frames redone by the robust mode
+  int fallbacks = 0;    // Newton iterations solved by the banded LU (the condensed sweep's pivots unsafe)
+  int backtracks = 0;   // line-search halvings
+  int stiffenings = 0;  // Newton steps solved again with stiffened law rows (the plain step was not a descent)
+  int chords = 0;       // fast mode: Newton iterations that reused the last factorization
+  bool newton = false;  // the frame that was kept ran Newton iterations
 };
 
 }  // namespace haustra

@@ -5,10 +5,10 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <string_view>
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "haustra/error.hpp"
@@ -59,14 +59,11 @@ class World {
   void pose_rod(std::size_t segment, const kernels::Pose& base, std::span<const double> strains);
 
   // External load on one node (global node index), world frame, held until changed.
-  void set_external_load(std::size_t node, const Eigen::Vector3d& force,
-                         const Eigen::Vector3d& moment);
+  void set_external_load(std::size_t node, const Eigen::Vector3d& force, const Eigen::Vector3d& moment);
   // Attachments are numbered per segment in the order of SegmentDesc::attachments (then one grasp
   // slot per instrument); every piece of a chain addresses the chain's attachments.
-  void set_attachment_target(std::size_t segment, std::size_t attachment,
-                             const Eigen::Vector3d& position);
-  void set_attachment_target_rotation(std::size_t segment, std::size_t attachment,
-                                      const Eigen::Quaterniond& rotation);
+  void set_attachment_target(std::size_t segment, std::size_t attachment, const Eigen::Vector3d& position);
+  void set_attachment_target_rotation(std::size_t segment, std::size_t attachment, const Eigen::Quaterniond& rotation);
   void set_attachment_active(std::size_t segment, std::size_t attachment, bool active);
   // Force (and moment) the attachment exerted on the rod in the last frame, world frame.
   [[nodiscard]] Eigen::Vector3d attachment_force(std::size_t segment, std::size_t attachment) const;
@@ -123,7 +120,7 @@ class World {
   // description the builder refuses leaves the world as it was. Indices of the segments after a
   // removed one move down; views into the world's buffers are invalidated.
   std::size_t add_segment(const SegmentDesc& segment);  // returns the new segment's index
-  void remove_segment(std::size_t segment);  // a chain goes whole, named by its first segment
+  void remove_segment(std::size_t segment);             // a chain goes whole, named by its first segment
   // The same world under a changed description (solver, filter, gravity, tissue law, beads, cage,
   // skinning; the viewer's knobs): the model is rebuilt and the state carried over. `next` keeps
   // the segments and their node counts (else Error{invalid_argument} names the first that differs,
@@ -153,12 +150,12 @@ class World {
 // 0038). World::create refuses one whose total exceeds the memory available (world.memory_limit
 // when set, else what the machine has free), naming what it would need.
 struct MemoryEstimate {
-  std::size_t total = 0;         // bytes
+  std::size_t total = 0;  // bytes
   std::size_t nodes = 0;
   std::size_t rod_bytes = 0;     // the rods' model and state (and what building them takes)
   std::size_t solver_bytes = 0;  // the Newton solves' workspace
   std::size_t bead_bytes = 0;
-  std::size_t mesh_bytes = 0;    // procedural organ meshes (a mesh file's size is checked as it loads)
+  std::size_t mesh_bytes = 0;  // procedural organ meshes (a mesh file's size is checked as it loads)
 };
 [[nodiscard]] MemoryEstimate estimate_memory(const WorldDesc& desc);
 // Bytes the machine can give without swapping (Linux: MemAvailable).

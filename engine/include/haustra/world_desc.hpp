@@ -83,21 +83,21 @@ enum class RestShapeKind : std::uint8_t {
 
 struct RestShapeDesc {
   RestShapeKind kind = RestShapeKind::straight;
-  double length = 1.66;                                     // m (straight, constant_strain)
+  double length = 1.66;                                         // m (straight, constant_strain)
   Eigen::Vector3d curvature_torsion = Eigen::Vector3d::Zero();  // (κ1, κ2, τ), 1/m
-  std::vector<Eigen::Vector3d> centreline;                  // m (centreline)
-  std::string centreline_source;                            // where it came from, for messages
+  std::vector<Eigen::Vector3d> centreline;                      // m (centreline)
+  std::string centreline_source;                                // where it came from, for messages
 };
 
 struct AttachmentDesc {
-  int node = -1;           // negative counts from the tip: −1 is the tip
-  bool hold_frame = false; // also hold the node's orientation (a clamp rather than a pin)
+  int node = -1;                          // negative counts from the tip: −1 is the tip
+  bool hold_frame = false;                // also hold the node's orientation (a clamp rather than a pin)
   std::optional<Eigen::Vector3d> target;  // m; default: the node's initial position
   bool active = true;
 };
 
 struct PointLoadDesc {
-  int node = -1;  // negative counts from the tip
+  int node = -1;                                     // negative counts from the tip
   Eigen::Vector3d force = Eigen::Vector3d::Zero();   // N, world frame, constant direction
   Eigen::Vector3d moment = Eigen::Vector3d::Zero();  // N·m, world frame
 };
@@ -107,10 +107,10 @@ struct PointLoadDesc {
 // the rest length, or by an explicit list; give the radius as a constant or a profile along the rod.
 struct BeadsDesc {
   bool enabled = false;
-  int count = 0;               // beads spread evenly over the nodes
-  double spacing = 0.0;        // m of rest arc length between beads (first and last node included)
-  std::vector<int> nodes;      // explicit node indices (negative counts from the tip)
-  double radius = 0.0;         // m; 0: the segment's cross-section radius
+  int count = 0;           // beads spread evenly over the nodes
+  double spacing = 0.0;    // m of rest arc length between beads (first and last node included)
+  std::vector<int> nodes;  // explicit node indices (negative counts from the tip)
+  double radius = 0.0;     // m; 0: the segment's cross-section radius
   std::vector<std::pair<double, double>> radius_profile;  // (fraction of the length, radius in m)
   // Each bead as wide as the organ mesh's cross-section at its node (the median distance from the
   // node to the mesh wall over a ring of rays in the node's normal plane). Needs a mesh.
@@ -120,12 +120,12 @@ struct BeadsDesc {
 // A procedural organ: a closed tube around the rod's rest centreline, with regular haustral bulges
 // between semilunar folds and the three taeniae coli (longitudinal bands) pulling the wall in.
 struct ProceduralOrganDesc {
-  int vertices = 10'000;           // about this many (1,000 to 1,000,000)
-  double radius = 0.0;             // m, mean wall radius; 0: the segment's radius
-  double haustra_spacing = 0.03;   // m between folds; 0: no haustra
-  double haustra_depth = 0.15;     // fraction of the radius a fold pulls in
-  double taenia_depth = 0.08;      // fraction of the radius a taenia pulls in; 0: none
-  double end_taper = 0.25;         // the caps: fraction of the radius the tube rounds off over
+  int vertices = 10'000;          // about this many (1,000 to 1,000,000)
+  double radius = 0.0;            // m, mean wall radius; 0: the segment's radius
+  double haustra_spacing = 0.03;  // m between folds; 0: no haustra
+  double haustra_depth = 0.15;    // fraction of the radius a fold pulls in
+  double taenia_depth = 0.08;     // fraction of the radius a taenia pulls in; 0: none
+  double end_taper = 0.25;        // the caps: fraction of the radius the tube rounds off over
 };
 
 enum class MeshSource : std::uint8_t { procedural, file };
@@ -140,8 +140,8 @@ enum class SkinningMethod : std::uint8_t {
 struct CageDesc {
   int ring_vertices = 8;
   bool middle_rings = true;
-  double clearance = 0.0;     // m between the mesh and the cage; 0: 5 % of the segment radius
-  int max_iterations = 40;    // inflation passes
+  double clearance = 0.0;   // m between the mesh and the cage; 0: 5 % of the segment radius
+  int max_iterations = 40;  // inflation passes
 };
 
 // The detailed organ mesh a segment drives, at the rod's rest pose.
@@ -149,16 +149,16 @@ struct OrganMeshDesc {
   bool enabled = false;
   MeshSource source = MeshSource::procedural;
   ProceduralOrganDesc procedural;
-  std::string file;            // any format assimp reads
-  double scale = 1.0;          // file units to metres (0.001 for millimetres)
+  std::string file;                                     // any format assimp reads
+  double scale = 1.0;                                   // file units to metres (0.001 for millimetres)
   Eigen::Vector3d translate = Eigen::Vector3d::Zero();  // m, after scaling
   CageDesc cage;
   SkinningMethod skinning = SkinningMethod::mean_value;
-  int rings_per_vertex = 4;    // localization: the rings of largest weight kept per vertex, at least; 0: all
+  int rings_per_vertex = 4;  // localization: the rings of largest weight kept per vertex, at least; 0: all
   // ... and more, per vertex, while the weight mass left out exceeds this fraction of its total
   // (decision 0048: under 1 mm from full MVC on real anatomy); 0: exactly rings_per_vertex.
   double weight_left_out = 0.02;
-  bool normals = true;         // per-vertex normals every frame
+  bool normals = true;  // per-vertex normals every frame
 };
 
 struct SegmentDesc {
@@ -172,8 +172,7 @@ struct SegmentDesc {
   CrossSectionDesc cross_section;
   std::optional<double> linear_density;  // kg/m; default: density × wall cross-section
   // Law per component (κ1, κ2, τ, ε); the paper: viscous bending and torsion, elastic axial.
-  std::array<StrainLaw, 4> law = {StrainLaw::viscous, StrainLaw::viscous, StrainLaw::viscous,
-                                  StrainLaw::elastic};
+  std::array<StrainLaw, 4> law = {StrainLaw::viscous, StrainLaw::viscous, StrainLaw::viscous, StrainLaw::elastic};
   double relaxation_time = 1.0;  // s; η_c = k_c × relaxation_time (the paper uses 1 s)
   BaseMode base = BaseMode::clamped;
   // N·s/m²: viscous drag of the surrounding medium per metre of rod (f = −c v on every node).
@@ -201,7 +200,7 @@ struct ContactDesc {
   double exponent = 2.0;
   double margin = -1.0;  // m: candidates within r_a + r_b + margin; < 0: half the smallest bead radius
   BroadPhase broad_phase = BroadPhase::automatic;  // brute below 256 beads, else the grid
-  bool self = true;      // beads of one segment collide (except pairs touching at rest)
+  bool self = true;                                // beads of one segment collide (except pairs touching at rest)
 };
 
 struct PlaneDesc {
@@ -225,8 +224,8 @@ struct CapsuleObstacleDesc {
 // A static triangle mesh (another organ, the pelvis), queried through Embree.
 struct MeshObstacleDesc {
   std::string name;
-  std::string source;                             // file it came from, for messages
-  std::vector<Eigen::Vector3d> vertices;          // m
+  std::string source;                     // file it came from, for messages
+  std::vector<Eigen::Vector3d> vertices;  // m
   std::vector<std::array<std::uint32_t, 3>> triangles;
 };
 
@@ -238,10 +237,10 @@ struct EnvironmentDesc {
 };
 
 struct InstrumentKeyframe {
-  double time = 0.0;                              // s
-  Eigen::Vector3d tip = Eigen::Vector3d::Zero();  // m
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ(); // from the tip towards the handle
-  bool grasp = false;                             // jaws closed from this keyframe on
+  double time = 0.0;                                // s
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero();    // m
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // from the tip towards the handle
+  bool grasp = false;                               // jaws closed from this keyframe on
 };
 
 // A kinematic capsule (grasper, retractor) from its tip back along its axis. It pushes tissue by
@@ -250,11 +249,11 @@ struct InstrumentKeyframe {
 // it through the API.
 struct InstrumentDesc {
   std::string name = "instrument";
-  double radius = 0.004;       // m
-  double length = 0.3;         // m
-  double grasp_reach = 0.01;   // m beyond a bead's surface within which closing grasps it
-  bool hold_frame = false;     // a grasp holds the node's orientation too
-  double force_filter = 0.0;   // s: time constant of the low-pass filter on the reported force; 0 = none
+  double radius = 0.004;      // m
+  double length = 0.3;        // m
+  double grasp_reach = 0.01;  // m beyond a bead's surface within which closing grasps it
+  bool hold_frame = false;    // a grasp holds the node's orientation too
+  double force_filter = 0.0;  // s: time constant of the low-pass filter on the reported force; 0 = none
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   std::vector<InstrumentKeyframe> keyframes;
@@ -262,10 +261,10 @@ struct InstrumentDesc {
 
 struct SolverDesc {
   SolverMode mode = SolverMode::newton;
-  int iterations = 1;        // per substep: fixed-point (lagged) or Newton iterations
-  int substeps = 1;          // per frame
-  double relaxation = 1.0;   // ω in (0, 1]: q ← q + ω (q* − q)
-  double tolerance = 0.0;    // stop iterating when the largest strain change × h is below this
+  int iterations = 1;       // per substep: fixed-point (lagged) or Newton iterations
+  int substeps = 1;         // per frame
+  double relaxation = 1.0;  // ω in (0, 1]: q ← q + ω (q* − q)
+  double tolerance = 0.0;   // stop iterating when the largest strain change × h is below this
   // Newton only: past `iterations`, a segment keeps iterating, up to this many in all, while the
   // contact line search cut its last step short or an active attachment misses its target by more
   // than `attachment_tolerance` (m). A grasp that starts to pull or a contact that opens then
@@ -275,12 +274,12 @@ struct SolverDesc {
   // Fast mode only: a factorization serves at most this many frames.
   int refactor_frames = 8;
   InstabilityPolicy on_instability = InstabilityPolicy::recover;
-  int max_substeps = 64;     // the robust mode gives up beyond this
+  int max_substeps = 64;  // the robust mode gives up beyond this
   // Guard limits, checked at the end of every frame. The guard also watches the lagged scheme for
   // a strain change that reverses every frame without decaying: a fixed-point iteration that does
   // not converge, even when every value stays within bounds.
-  double max_axial_strain = 4.0;               // |ε|
-  double max_section_angle = std::numbers::pi; // |u| h, rad per section
+  double max_axial_strain = 4.0;                // |ε|
+  double max_section_angle = std::numbers::pi;  // |u| h, rad per section
   // No node may move more than this many segment lengths in one frame. A model without inertia may
   // jump to a new equilibrium within a frame, so this only catches runaways, not fast motion.
   double max_displacement = 4.0;

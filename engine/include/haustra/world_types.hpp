@@ -23,13 +23,13 @@ struct Range {
 struct SegmentInfo {
   std::string name;
   Range nodes;
-  double length = 0.0;                  // m, rest
-  double bending_stiffness = 0.0;       // B = π E R³ h_w, N·m²
-  double torsion_stiffness = 0.0;       // T = 2π G R³ h_w, N·m²
-  double axial_stiffness = 0.0;         // EA, A = 2π R h_w, N
-  std::array<double, 4> viscosity{};    // η per component, zero for elastic ones
-  double linear_density = 0.0;          // kg/m
-  double zeta = 0.0;                    // inertia filter regulator, 1/N
+  double length = 0.0;                // m, rest
+  double bending_stiffness = 0.0;     // B = π E R³ h_w, N·m²
+  double torsion_stiffness = 0.0;     // T = 2π G R³ h_w, N·m²
+  double axial_stiffness = 0.0;       // EA, A = 2π R h_w, N
+  std::array<double, 4> viscosity{};  // η per component, zero for elastic ones
+  double linear_density = 0.0;        // kg/m
+  double zeta = 0.0;                  // inertia filter regulator, 1/N
   // Rest shape from a centreline: largest distance of the rod's interpolation nodes from the
   // resampled polyline (reproduction error of the construction itself), and of the source
   // polyline's vertices from the rod's curve (includes the resampling to N+1 nodes). Metres.
@@ -40,14 +40,14 @@ struct SegmentInfo {
 // How the cage around a segment's organ mesh came out (docs/decisions/0017-cage-builder.md).
 struct CageReport {
   std::size_t rings = 0, bead_rings = 0, middle_rings = 0;
-  std::size_t dropped_rings = 0;          // middle rings taken out where longer quads were needed
-  std::size_t ring_vertices = 0;          // m per ring
+  std::size_t dropped_rings = 0;  // middle rings taken out where longer quads were needed
+  std::size_t ring_vertices = 0;  // m per ring
   std::size_t vertices = 0, triangles = 0;
-  double clearance = 0.0;                 // m asked between mesh and cage
+  double clearance = 0.0;  // m asked between mesh and cage
   // How far ring vertices went beyond their template (the bead's radius), m; negative: inside it.
   double inflation_min = 0.0, inflation_mean = 0.0, inflation_max = 0.0;
-  int iterations = 0;                     // inflation passes
-  double tightest_bend = 0.0;             // m: the smallest bend radius of the rest rod at a ring
+  int iterations = 0;          // inflation passes
+  double tightest_bend = 0.0;  // m: the smallest bend radius of the rest rod at a ring
   // Embree's final verification in the binding pose, where the weights are computed: all zero for
   // a cage that embeds the mesh.
   std::size_t mesh_vertices_outside = 0, crossing_edges = 0, self_intersections = 0;
@@ -61,28 +61,28 @@ struct CageReport {
 // vertex, grouped by ring, localized to the rings of largest weight.
 struct SkinReport {
   SkinningMethod method = SkinningMethod::mean_value;
-  std::size_t rings_per_vertex = 0;       // rings kept, the vertex that keeps most (all rings when not localized)
-  double mean_rings_per_vertex = 0.0;     // over the vertices: what skinning costs
-  double min_weight = 0.0;                // most negative MVC weight of any vertex
-  double max_negative_mass = 0.0;         // Σ|w| of negative weights, worst vertex
+  std::size_t rings_per_vertex = 0;    // rings kept, the vertex that keeps most (all rings when not localized)
+  double mean_rings_per_vertex = 0.0;  // over the vertices: what skinning costs
+  double min_weight = 0.0;             // most negative MVC weight of any vertex
+  double max_negative_mass = 0.0;      // Σ|w| of negative weights, worst vertex
   double mean_negative_mass = 0.0;
-  std::size_t negative_vertices = 0;      // vertices with any negative weight
-  std::size_t on_face = 0, on_vertex = 0; // vertices found on the cage (exact branches)
-  double max_dropped_mass = 0.0;          // Σ|w| of the rings left out by localization, worst vertex
+  std::size_t negative_vertices = 0;       // vertices with any negative weight
+  std::size_t on_face = 0, on_vertex = 0;  // vertices found on the cage (exact branches)
+  double max_dropped_mass = 0.0;           // Σ|w| of the rings left out by localization, worst vertex
   double mean_dropped_mass = 0.0;
-  double rest_error = 0.0;                // m: skinned rest pose vs the input mesh (float rounding)
+  double rest_error = 0.0;  // m: skinned rest pose vs the input mesh (float rounding)
   // m: how far the binding-pose weights, carried to the rings' curved rest poses, would put a
   // vertex from where it is; taken up by the binding so the rest pose is exact (worst vertex).
   double max_rest_correction = 0.0;
-  double seconds = 0.0;                   // to compute the weights
+  double seconds = 0.0;  // to compute the weights
 };
 
 // A segment's organ mesh: where its vertices are in the world's mesh buffers, and how it was bound.
 struct MeshInfo {
   bool enabled = false;
-  std::string source;                     // file, or "procedural"
-  Range vertices;                         // into mesh_positions()
-  Range triangles;                        // into mesh_triangles()
+  std::string source;  // file, or "procedural"
+  Range vertices;      // into mesh_positions()
+  Range triangles;     // into mesh_triangles()
   CageReport cage;
   SkinReport skin;
 };
@@ -97,19 +97,19 @@ struct Contact {
   std::uint32_t bead = 0;
   std::uint32_t other = 0;
   ContactKind kind = ContactKind::bead;
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();   // mesh: on the plane
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ(); // mesh: the plane's free side
-  Eigen::Vector3d force = Eigen::Vector3d::Zero();   // N, on `bead`; a second bead gets the opposite
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();       // mesh: on the plane
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();     // mesh: the plane's free side
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();       // N, on `bead`; a second bead gets the opposite
   Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();  // separating direction
-  double stiffness = 0.0;   // of the linearization, N/m
-  double depth = 0.0;       // m; > 0 overlapping
-  bool coupled = false;     // two beads of one segment, solved as a pair by Newton (not node by node)
+  double stiffness = 0.0;                                // of the linearization, N/m
+  double depth = 0.0;                                    // m; > 0 overlapping
+  bool coupled = false;  // two beads of one segment, solved as a pair by Newton (not node by node)
 };
 
 // Contacts of the last frame, measured at its final positions.
 struct ContactReport {
-  std::size_t candidates = 0;   // pairs and bead–shape pairs within the margin at the frame's start
-  std::size_t touching = 0;     // of those, overlapping at its end
+  std::size_t candidates = 0;                // pairs and bead–shape pairs within the margin at the frame's start
+  std::size_t touching = 0;                  // of those, overlapping at its end
   double max_environment_depth = 0.0;        // m: deepest bead into a plane, obstacle, mesh or instrument
   double max_environment_depth_ratio = 0.0;  // the same over that bead's radius
   double max_bead_overlap = 0.0;             // m: deepest overlap of two beads that may collide
@@ -131,7 +131,7 @@ struct InstrumentReading {
   Eigen::Vector3d grasp_target = Eigen::Vector3d::Zero();
   Eigen::Vector3d force = Eigen::Vector3d::Zero();
   Eigen::Vector3d torque = Eigen::Vector3d::Zero();
-  Eigen::Vector3d filtered_force = Eigen::Vector3d::Zero();   // low-passed (InstrumentDesc::force_filter)
+  Eigen::Vector3d filtered_force = Eigen::Vector3d::Zero();  // low-passed (InstrumentDesc::force_filter)
   Eigen::Vector3d filtered_torque = Eigen::Vector3d::Zero();
 };
 

@@ -67,7 +67,8 @@ Eigen::Vector3d finite_vec3(const double* v, const char* name) {
   if (v == nullptr) throw Error(ErrorCode::invalid_argument, fmt::format("{} is NULL", name));
   const Eigen::Vector3d out(v[0], v[1], v[2]);
   if (!out.allFinite())
-    throw Error(ErrorCode::invalid_argument, fmt::format("{} = ({}, {}, {}): expected finite numbers", name, v[0], v[1], v[2]));
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("{} = ({}, {}, {}): expected finite numbers", name, v[0], v[1], v[2]));
   return out;
 }
 
@@ -119,14 +120,16 @@ const haustra_world_def& checked_def(const haustra_world_def& d) {
 // The run-time settings: threads, or the host's job system; the memory the world may take.
 void apply_runtime(const haustra_world_def& d, haustra::WorldDesc& w) {
   if (d.threads < 0 || d.threads > 1024)
-    throw Error(ErrorCode::invalid_argument, fmt::format("def.threads = {}: expected 0 (all cores) to 1024", d.threads));
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("def.threads = {}: expected 0 (all cores) to 1024", d.threads));
   w.threads = d.threads;
   if (d.memory_limit != 0.0) w.memory_limit = d.memory_limit;
   if ((d.jobs.enqueue == nullptr) != (d.jobs.wait == nullptr))
     throw Error(ErrorCode::invalid_argument, "def.jobs: enqueue and wait are both needed (or neither, for oneTBB)");
   if (d.jobs.enqueue != nullptr) {
     if (d.jobs.workers < 1 || d.jobs.workers > 1024)
-      throw Error(ErrorCode::invalid_argument, fmt::format("def.jobs.workers = {}: expected 1 to 1024", d.jobs.workers));
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("def.jobs.workers = {}: expected 1 to 1024", d.jobs.workers));
     w.jobs = {d.jobs.enqueue, d.jobs.wait, d.jobs.host, d.jobs.workers};
   }
 }
@@ -143,7 +146,8 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& d, std::size_t i) {
   if (d.centreline != nullptr || d.centreline_points > 0) {
     if (d.centreline == nullptr) throw Error(ErrorCode::invalid_argument, where + ".centreline is NULL");
     if (d.centreline_points > 10'000'000)
-      throw Error(ErrorCode::invalid_argument, fmt::format("{}.centreline_points = {}: too many", where, d.centreline_points));
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("{}.centreline_points = {}: too many", where, d.centreline_points));
     s.rest.kind = haustra::RestShapeKind::centreline;
     for (size_t k = 0; k < d.centreline_points; ++k)
       s.rest.centreline.emplace_back(d.centreline[3 * k], d.centreline[3 * k + 1], d.centreline[3 * k + 2]);
@@ -160,7 +164,8 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& d, std::size_t i) {
   s.cross_section.wall_thickness = d.wall_thickness;
   s.material.youngs_modulus = d.youngs_modulus;
   s.material.density = d.density;
-  if (d.beads < 0) throw Error(ErrorCode::invalid_argument, fmt::format("{}.beads = {}: expected 0 or more", where, d.beads));
+  if (d.beads < 0)
+    throw Error(ErrorCode::invalid_argument, fmt::format("{}.beads = {}: expected 0 or more", where, d.beads));
   if (d.beads > 0) {
     s.beads.enabled = true;
     s.beads.count = d.beads;
@@ -187,12 +192,8 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& d, std::size_t i) {
   s.mesh.rings_per_vertex = d.rings_per_vertex;
   s.chain_pieces = d.chain_pieces;
   switch (d.tissue) {
-    case 0:
-      s.material.response = haustra::TissueResponse::hooke;
-      break;
-    case 1:
-      s.material.response = haustra::TissueResponse::exp2;
-      break;
+    case 0: s.material.response = haustra::TissueResponse::hooke; break;
+    case 1: s.material.response = haustra::TissueResponse::exp2; break;
     default:
       throw Error(ErrorCode::invalid_argument,
                   fmt::format("{}.tissue = {}: expected 0 (Hooke) or 1 (EXP2)", where, d.tissue));
@@ -214,12 +215,13 @@ extern "C" {
 const char* haustra_version(void) { return HAUSTRA_VERSION; }
 
 haustra_status haustra_check_abi(int abi_version) {
-  return guarded("haustra_check_abi", [&] {
-    if (abi_version != HAUSTRA_ABI_VERSION)
-      throw Error(ErrorCode::invalid_argument,
-                  fmt::format("the host was built against ABI {}, this library is ABI {} (haustra {})", abi_version,
-                              HAUSTRA_ABI_VERSION, HAUSTRA_VERSION));
-  }) == HAUSTRA_OK
+  return guarded("haustra_check_abi",
+                 [&] {
+                   if (abi_version != HAUSTRA_ABI_VERSION)
+                     throw Error(ErrorCode::invalid_argument,
+                                 fmt::format("the host was built against ABI {}, this library is ABI {} (haustra {})",
+                                             abi_version, HAUSTRA_ABI_VERSION, HAUSTRA_VERSION));
+                 }) == HAUSTRA_OK
              ? HAUSTRA_OK
              : HAUSTRA_ABI_MISMATCH;
 }
@@ -309,11 +311,12 @@ haustra_status haustra_world_create(const haustra_world_def* def, const haustra_
     const haustra_world_def& d = checked_def(required(def, "def"));
     if (segments == nullptr && segment_count > 0) throw Error(ErrorCode::invalid_argument, "segments is NULL");
     if (segment_count > 100'000)
-      throw Error(ErrorCode::invalid_argument, fmt::format("segment_count = {}: expected at most 100,000", segment_count));
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("segment_count = {}: expected at most 100,000", segment_count));
     haustra::WorldDesc w;
     w.dt = d.dt;
     w.gravity = Eigen::Vector3d(d.gravity[0], d.gravity[1], d.gravity[2]);
-    w.solver.mode = d.newton == 0 ? haustra::SolverMode::lagged
+    w.solver.mode = d.newton == 0   ? haustra::SolverMode::lagged
                     : d.newton == 2 ? haustra::SolverMode::fast
                                     : haustra::SolverMode::newton;
     w.solver.iterations = d.iterations;
@@ -356,15 +359,16 @@ haustra_status haustra_world_counts(const haustra_world* world, haustra_counts* 
   return guarded("haustra_world_counts", [&] {
     const haustra::World& w = live(world);
     haustra_counts& o = required(out, "out");
-    o = haustra_counts{w.segment_count(), w.node_count(), w.bead_count(), w.instrument_count(),
-                       w.mesh_buffer_size(), w.mesh_triangles().size()};
+    o = haustra_counts{w.segment_count(),    w.node_count(),       w.bead_count(),
+                       w.instrument_count(), w.mesh_buffer_size(), w.mesh_triangles().size()};
   });
 }
 
 haustra_status haustra_world_time(const haustra_world* world, double* seconds, uint64_t* frame) {
   return guarded("haustra_world_time", [&] {
     const haustra::World& w = live(world);
-    if (seconds == nullptr && frame == nullptr) throw Error(ErrorCode::invalid_argument, "seconds and frame are both NULL");
+    if (seconds == nullptr && frame == nullptr)
+      throw Error(ErrorCode::invalid_argument, "seconds and frame are both NULL");
     if (seconds != nullptr) *seconds = w.time();
     if (frame != nullptr) *frame = w.frame();
   });
@@ -377,9 +381,15 @@ haustra_status haustra_world_segment(const haustra_world* world, size_t segment,
     const haustra::SegmentInfo& info = w.segment(segment);
     const haustra::Range beads = w.beads(segment);
     const haustra::MeshInfo& mesh = w.mesh(segment);
-    o = haustra_segment_info{info.name.c_str(), info.nodes.offset, info.nodes.count, beads.offset, beads.count,
-                             mesh.enabled ? mesh.vertices.offset : 0, mesh.enabled ? mesh.vertices.count : 0,
-                             w.chain_of(segment), info.length};
+    o = haustra_segment_info{info.name.c_str(),
+                             info.nodes.offset,
+                             info.nodes.count,
+                             beads.offset,
+                             beads.count,
+                             mesh.enabled ? mesh.vertices.offset : 0,
+                             mesh.enabled ? mesh.vertices.count : 0,
+                             w.chain_of(segment),
+                             info.length};
   });
 }
 
@@ -456,13 +466,15 @@ haustra_status haustra_world_mesh_triangles(const haustra_world* world, haustra_
   });
 }
 
-haustra_status haustra_world_set_node_load(haustra_world* world, size_t node, const double force[3], const double moment[3]) {
+haustra_status haustra_world_set_node_load(haustra_world* world, size_t node, const double force[3],
+                                           const double moment[3]) {
   return guarded("haustra_world_set_node_load", [&] {
     haustra::World& w = live(world);
     const Eigen::Vector3d f = finite_vec3(force, "force");
     const Eigen::Vector3d m = finite_vec3(moment, "moment");
     if (node >= w.node_count())
-      throw Error(ErrorCode::invalid_argument, fmt::format("node {} out of range (the world has {})", node, w.node_count()));
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("node {} out of range (the world has {})", node, w.node_count()));
     w.set_external_load(node, f, m);
   });
 }
@@ -476,10 +488,12 @@ haustra_status haustra_world_set_instrument_pose(haustra_world* world, size_t in
 }
 
 haustra_status haustra_world_set_instrument_grasp(haustra_world* world, size_t instrument, int closed) {
-  return guarded("haustra_world_set_instrument_grasp", [&] { live(world).set_instrument_grasp(instrument, closed != 0); });
+  return guarded("haustra_world_set_instrument_grasp",
+                 [&] { live(world).set_instrument_grasp(instrument, closed != 0); });
 }
 
-haustra_status haustra_world_instrument(const haustra_world* world, size_t instrument, haustra_instrument_reading* out) {
+haustra_status haustra_world_instrument(const haustra_world* world, size_t instrument,
+                                        haustra_instrument_reading* out) {
   return guarded("haustra_world_instrument", [&] {
     const haustra::InstrumentReading r = live(world).instrument(instrument);
     haustra_instrument_reading o{};
@@ -517,7 +531,8 @@ haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* 
     haustra_world& h = live_handle(world);
     haustra_frame& o = required(out, "out");
     if (!h.frames)
-      throw Error(ErrorCode::invalid_argument, "this world was not created with double_buffered = 1 (haustra_world_def)");
+      throw Error(ErrorCode::invalid_argument,
+                  "this world was not created with double_buffered = 1 (haustra_world_def)");
     const haustra::FramePublisher::Slot& s = h.frames->acquire();
     o = haustra_frame{s.frame,
                       s.time,
@@ -531,7 +546,8 @@ haustra_status haustra_world_release_frame(haustra_world* world) {
   return guarded("haustra_world_release_frame", [&] {
     haustra_world& h = live_handle(world);
     if (!h.frames)
-      throw Error(ErrorCode::invalid_argument, "this world was not created with double_buffered = 1 (haustra_world_def)");
+      throw Error(ErrorCode::invalid_argument,
+                  "this world was not created with double_buffered = 1 (haustra_world_def)");
     h.frames->release();
   });
 }

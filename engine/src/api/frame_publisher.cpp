@@ -48,7 +48,8 @@ const FramePublisher::Slot& FramePublisher::acquire() {
 void FramePublisher::release() {
   {
     std::lock_guard lock(mutex_);
-    if (!held_) throw Error(ErrorCode::invalid_argument, "no frame is acquired: call haustra_world_acquire_frame first");
+    if (!held_)
+      throw Error(ErrorCode::invalid_argument, "no frame is acquired: call haustra_world_acquire_frame first");
     held_ = false;
   }
   released_.notify_all();
@@ -80,8 +81,10 @@ void FramePublisher::fill(Slot& s, const World& w) const {
   d.contacts.assign(contacts.begin(), contacts.end());  // grows once to the largest pile
   for (std::size_t i = 0; i < w.instrument_count(); ++i) d.instruments[i] = w.instrument(i);
   for (std::size_t g = 0; g < w.segment_count(); ++g) {
-    if (cages_ && w.mesh(g).enabled) d.cages[g] = w.cage_vertices(g);
-    else d.cages[g].clear();
+    if (cages_ && w.mesh(g).enabled)
+      d.cages[g] = w.cage_vertices(g);
+    else
+      d.cages[g].clear();
   }
   d.profile = w.last_profile();
 }

@@ -3,8 +3,8 @@
 // adding and removing segments state_carry_over.cpp.
 #include <fmt/format.h>
 
-#include "step/collision.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
+#include "step/collision.hpp"
 #include "step/instruments.hpp"
 #include "step/world_impl.hpp"
 
@@ -49,8 +49,8 @@ void World::pose_rod(std::size_t segment, const kernels::Pose& base, std::span<c
   segment = piece.rod;
   const detail::SegmentModel& seg = m.segments[segment];
   if (strains.size() != 4 * seg.node_count)
-    throw Error(ErrorCode::invalid_argument, fmt::format("segment '{}' needs {} strains (4 per node), got {}", seg.info.name,
-                                                         4 * seg.node_count, strains.size()));
+    throw Error(ErrorCode::invalid_argument, fmt::format("segment '{}' needs {} strains (4 per node), got {}",
+                                                         seg.info.name, 4 * seg.node_count, strains.size()));
   if (!base.position.allFinite() || !base.rotation.coeffs().allFinite() || !(base.rotation.norm() > 0.0))
     throw Error(ErrorCode::invalid_argument, "pose_rod: the base pose must be finite");
   for (double q : strains)
@@ -110,8 +110,8 @@ std::shared_ptr<const void> World::buffers_keeper() const { return impl_; }
 bool World::beads_may_collide(std::size_t a, std::size_t b) const {
   const auto& beads = impl_->model.beads;
   if (a >= beads.size() || b >= beads.size() || a == b)
-    throw Error(ErrorCode::invalid_argument, fmt::format("bead indices {} and {}: need two different beads below {}", a, b,
-                                                         beads.size()));
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("bead indices {} and {}: need two different beads below {}", a, b, beads.size()));
   if (beads.segment[a] != beads.segment[b]) return true;
   if (!impl_->model.contact.self) return false;
   return !beads.excluded(static_cast<std::uint32_t>(std::min(a, b)), static_cast<std::uint32_t>(std::max(a, b)));
@@ -124,7 +124,8 @@ std::size_t World::instrument_count() const { return impl_->model.instruments.si
 void World::set_instrument_pose(std::size_t instrument, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis) {
   impl_->check_instrument(instrument);
   if (!tip.allFinite() || !axis.allFinite() || !(axis.norm() > 0.0))
-    throw Error(ErrorCode::invalid_argument, "instrument pose: the tip must be finite and the axis a finite, non-zero direction");
+    throw Error(ErrorCode::invalid_argument,
+                "instrument pose: the tip must be finite and the axis a finite, non-zero direction");
   detail::InstrumentState& s = impl_->state.instruments[instrument];
   s.scripted = false;
   detail::set_instrument_pose(s, tip, axis);
@@ -181,7 +182,8 @@ std::vector<Eigen::Vector3d> World::cage_vertices(std::size_t segment) const {
 }
 std::span<const kernels::RingPose> World::ring_poses(std::size_t segment) const {
   const detail::SegmentMesh& m = impl_->mesh_of(segment);
-  return std::span<const kernels::RingPose>(impl_->state.mesh.ring_pose).subspan(m.ring_offset, m.cage.ring_station.size());
+  return std::span<const kernels::RingPose>(impl_->state.mesh.ring_pose)
+      .subspan(m.ring_offset, m.cage.ring_station.size());
 }
 
 Energy World::energy() const {

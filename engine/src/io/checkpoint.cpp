@@ -9,8 +9,8 @@
 #include <fmt/format.h>
 
 #include <array>
-#include <concepts>
 #include <cmath>
+#include <concepts>
 #include <cstdint>
 #include <cstring>
 
@@ -40,7 +40,7 @@ struct ModelHeader {
 };
 
 ModelHeader header_of(const WorldModel& m) {
-  ModelHeader h{m.segments.size(), m.node_total,         m.beads.size(),
+  ModelHeader h{m.segments.size(),  m.node_total,         m.beads.size(),
                 m.attachment_total, m.instruments.size(), m.mesh_vertex_total};
   auto hash_doubles = [](std::uint64_t seed, const std::vector<double>& v) {
     return fnv1a(std::as_bytes(std::span(v)), seed);
@@ -96,7 +96,7 @@ class Writer {
   std::vector<std::byte> bytes;
 
   template <class T>
-    requires std::is_arithmetic_v<T>
+  requires std::is_arithmetic_v<T>
   void operator()(const T& v) {
     const auto* p = reinterpret_cast<const std::byte*>(&v);
     bytes.insert(bytes.end(), p, p + sizeof(T));
@@ -107,10 +107,8 @@ class Writer {
   }
   void operator()(const Eigen::Quaterniond& q) { (*this)(q.coeffs()); }
   template <class T>
-    requires requires(Writer& w, const T& t) { visit_members(w, t); }
-  void operator()(const T& record) {
-    visit_members(*this, record);
-  }
+  requires requires(Writer& w, const T& t) { visit_members(w, t); }
+  void operator()(const T& record) { visit_members(*this, record); }
   template <class T>
   void operator()(const std::vector<T>& v) {
     array(std::span<const T>(v));
@@ -137,7 +135,7 @@ class Reader {
       : bytes_(bytes), apply_(apply), source_(source) {}
 
   template <class T>
-    requires std::is_arithmetic_v<T>
+  requires std::is_arithmetic_v<T>
   void operator()(T& v) {
     if (bytes_.size() - at_ < sizeof(T)) fail("ends early");
     T read;
@@ -162,10 +160,8 @@ class Reader {
   }
   void operator()(Eigen::Quaterniond& q) { (*this)(q.coeffs()); }
   template <class T>
-    requires requires(Reader& r, T& t) { visit_members(r, t); }
-  void operator()(T& record) {
-    visit_members(*this, record);
-  }
+  requires requires(Reader& r, T& t) { visit_members(r, t); }
+  void operator()(T& record) { visit_members(*this, record); }
   template <class T>
   void operator()(std::vector<T>& v) {
     (*this)(std::span<T>(v));
@@ -272,8 +268,9 @@ void restore_checkpoint(const WorldModel& model, WorldState& state, std::span<co
   const ModelHeader mine = header_of(model);
   if (h != mine) {
     if (h.fingerprint != mine.fingerprint && describe(h) == describe(mine))
-      refuse("saved from a world of the same sizes but another rod (rest shape, sections, masses, stiffness, bead radii "
-             "or time step differ); restore it into a world built from the same scene");
+      refuse(
+          "saved from a world of the same sizes but another rod (rest shape, sections, masses, stiffness, bead radii "
+          "or time step differ); restore it into a world built from the same scene");
     refuse(fmt::format("saved from a world of {}; this world has {}", describe(h), describe(mine)));
   }
   std::uint64_t size = 0;
@@ -317,18 +314,22 @@ void World::save_checkpoint_file(const std::string& path) const {
   temp += ".partial";
   {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot open '{}' for writing", path, temp.string()));
+    if (!out)
+      throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot open '{}' for writing", path, temp.string()));
     out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
     out.close();
     if (!out) {
       std::error_code ignored;
       std::filesystem::remove(temp, ignored);
-      throw Error(ErrorCode::io, fmt::format("checkpoint '{}': writing {} bytes failed (disk full?)", path, bytes.size()));
+      throw Error(ErrorCode::io,
+                  fmt::format("checkpoint '{}': writing {} bytes failed (disk full?)", path, bytes.size()));
     }
   }
   std::error_code ec;
   std::filesystem::rename(temp, target, ec);
-  if (ec) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot rename '{}' over it: {}", path, temp.string(), ec.message()));
+  if (ec)
+    throw Error(ErrorCode::io,
+                fmt::format("checkpoint '{}': cannot rename '{}' over it: {}", path, temp.string(), ec.message()));
 }
 
 void World::restore_checkpoint_file(const std::string& path) {
@@ -337,7 +338,9 @@ void World::restore_checkpoint_file(const std::string& path) {
   if (ec) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot read it: {}", path, ec.message()));
   // A checkpoint holds a few hundred bytes per node and bead: 1 GiB is far beyond any world.
   constexpr std::uintmax_t kMaxBytes = std::uintmax_t{1} << 30;
-  if (size > kMaxBytes) throw Error(ErrorCode::parse, fmt::format("checkpoint '{}': {} bytes is not a checkpoint of this engine", path, size));
+  if (size > kMaxBytes)
+    throw Error(ErrorCode::parse,
+                fmt::format("checkpoint '{}': {} bytes is not a checkpoint of this engine", path, size));
   std::vector<std::byte> bytes(size);
   std::ifstream in(path, std::ios::binary);
   in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size));

@@ -18,7 +18,8 @@ MeshAnimation::MeshAnimation(std::span<const std::array<std::uint32_t, 3>> trian
   for (const auto& t : triangles) indices_.insert(indices_.end(), t.begin(), t.end());
 }
 
-void MeshAnimation::add_frame(double time, std::span<const float> x, std::span<const float> y, std::span<const float> z) {
+void MeshAnimation::add_frame(double time, std::span<const float> x, std::span<const float> y,
+                              std::span<const float> z) {
   if (!positions_.empty() && x.size() * 3 != positions_.front().size())
     throw Error(ErrorCode::invalid_argument, "MeshAnimation: every frame needs the same vertex count");
   if (!times_.empty() && !(time > times_.back()))
@@ -35,7 +36,8 @@ void MeshAnimation::add_frame(double time, std::span<const float> x, std::span<c
 
 void MeshAnimation::write_glb(const std::filesystem::path& file) const {
   using nlohmann::json;
-  if (positions_.empty()) throw Error(ErrorCode::invalid_argument, fmt::format("{}: no frames to write", file.string()));
+  if (positions_.empty())
+    throw Error(ErrorCode::invalid_argument, fmt::format("{}: no frames to write", file.string()));
   const std::size_t vertices = positions_.front().size() / 3;
   const std::size_t frames = positions_.size();
   std::vector<std::uint8_t> bin;
@@ -66,37 +68,40 @@ void MeshAnimation::write_glb(const std::filesystem::path& file) const {
   constexpr int kFloat = 5126, kUint = 5125;
   const std::vector<float>& base = positions_.front();
   const std::size_t position = add(base.data(), base.size() * sizeof(float), kFloat, vertices, "VEC3", bounds(base));
-  const std::size_t index = add(indices_.data(), indices_.size() * sizeof(std::uint32_t), kUint, indices_.size(), "SCALAR", json::object());
+  const std::size_t index =
+      add(indices_.data(), indices_.size() * sizeof(std::uint32_t), kUint, indices_.size(), "SCALAR", json::object());
   json targets = json::array();
   std::vector<float> delta(base.size());
   for (const auto& p : positions_) {
     for (std::size_t i = 0; i < p.size(); ++i) delta[i] = p[i] - base[i];
-    targets.push_back({{"POSITION", add(delta.data(), delta.size() * sizeof(float), kFloat, vertices, "VEC3", bounds(delta))}});
+    targets.push_back(
+        {{"POSITION", add(delta.data(), delta.size() * sizeof(float), kFloat, vertices, "VEC3", bounds(delta))}});
   }
   std::vector<float> weights(frames * frames, 0.0f);
   for (std::size_t f = 0; f < frames; ++f) weights[f * frames + f] = 1.0f;
   const float t0 = times_.front();
   std::vector<float> times(frames);
   for (std::size_t f = 0; f < frames; ++f) times[f] = times_[f] - t0;
-  const std::size_t input =
-      add(times.data(), times.size() * sizeof(float), kFloat, frames, "SCALAR", {{"min", {times.front()}}, {"max", {times.back()}}});
-  const std::size_t output = add(weights.data(), weights.size() * sizeof(float), kFloat, weights.size(), "SCALAR", json::object());
+  const std::size_t input = add(times.data(), times.size() * sizeof(float), kFloat, frames, "SCALAR",
+                                {{"min", {times.front()}}, {"max", {times.back()}}});
+  const std::size_t output =
+      add(weights.data(), weights.size() * sizeof(float), kFloat, weights.size(), "SCALAR", json::object());
 
-  json gltf = {
-      {"asset", {{"version", "2.0"}, {"generator", "haustra"}}},
-      {"scene", 0},
-      {"scenes", {{{"nodes", {0}}}}},
-      {"nodes", {{{"mesh", 0}, {"name", "organ"}}}},
-      {"meshes",
-       {{{"primitives", {{{"attributes", {{"POSITION", position}}}, {"indices", index}, {"mode", 4}, {"targets", targets}}}},
-         {"weights", std::vector<float>(frames, 0.0f)}}}},
-      {"animations",
-       {{{"name", "run"},
-         {"samplers", {{{"input", input}, {"output", output}, {"interpolation", "STEP"}}}},
-         {"channels", {{{"sampler", 0}, {"target", {{"node", 0}, {"path", "weights"}}}}}}}}},
-      {"buffers", {{{"byteLength", bin.size()}}}},
-      {"bufferViews", views},
-      {"accessors", accessors}};
+  json gltf = {{"asset", {{"version", "2.0"}, {"generator", "haustra"}}},
+               {"scene", 0},
+               {"scenes", {{{"nodes", {0}}}}},
+               {"nodes", {{{"mesh", 0}, {"name", "organ"}}}},
+               {"meshes",
+                {{{"primitives",
+                   {{{"attributes", {{"POSITION", position}}}, {"indices", index}, {"mode", 4}, {"targets", targets}}}},
+                  {"weights", std::vector<float>(frames, 0.0f)}}}},
+               {"animations",
+                {{{"name", "run"},
+                  {"samplers", {{{"input", input}, {"output", output}, {"interpolation", "STEP"}}}},
+                  {"channels", {{{"sampler", 0}, {"target", {{"node", 0}, {"path", "weights"}}}}}}}}},
+               {"buffers", {{{"byteLength", bin.size()}}}},
+               {"bufferViews", views},
+               {"accessors", accessors}};
   std::string text = gltf.dump();
   while (text.size() % 4 != 0) text.push_back(' ');
   std::ofstream out(file, std::ios::binary);

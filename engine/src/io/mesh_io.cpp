@@ -11,11 +11,11 @@
 #include <sstream>
 #include <vector>
 
-#include <assimp/Exporter.hpp>
 #include <assimp/importerdesc.h>
-#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <assimp/Exporter.hpp>
+#include <assimp/Importer.hpp>
 #include <map>
 
 #include "haustra/error.hpp"
@@ -96,13 +96,15 @@ TriangleMesh load_mesh(const std::filesystem::path& file) {
     scene = importer.ReadFile(file.string(), aiProcess_ValidateDataStructure | aiProcess_Triangulate |
                                                  aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices);
   } catch (const std::bad_alloc&) {
-    throw Error(ErrorCode::parse,
-                fmt::format("{}: reading it needs more memory than there is: is the file what it says it is?", file.string()));
+    throw Error(
+        ErrorCode::parse,
+        fmt::format("{}: reading it needs more memory than there is: is the file what it says it is?", file.string()));
   } catch (const std::exception& e) {
     throw Error(ErrorCode::parse, fmt::format("{}: cannot read the mesh: {}", file.string(), e.what()));
   }
   if (scene == nullptr)
-    throw Error(ErrorCode::parse, fmt::format("{}: cannot read the mesh: {}", file.string(), importer.GetErrorString()));
+    throw Error(ErrorCode::parse,
+                fmt::format("{}: cannot read the mesh: {}", file.string(), importer.GetErrorString()));
   TriangleMesh mesh;
   for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
     const aiMesh* am = scene->mMeshes[m];
@@ -136,7 +138,11 @@ bool is_closed(const TriangleMesh& mesh) {
 void save_mesh(const std::filesystem::path& file, const TriangleMesh& mesh, std::span<const Eigen::Vector3d> normals) {
   std::string ext = file.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  const char* format = ext == ".obj" ? "obj" : ext == ".ply" ? "plyb" : ext == ".stl" ? "stlb" : ext == ".glb" ? "glb2" : nullptr;
+  const char* format = ext == ".obj"   ? "obj"
+                       : ext == ".ply" ? "plyb"
+                       : ext == ".stl" ? "stlb"
+                       : ext == ".glb" ? "glb2"
+                                       : nullptr;
   if (format == nullptr)
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("{}: unknown mesh format '{}' (expected .obj, .ply, .stl or .glb)", file.string(), ext));
@@ -146,9 +152,9 @@ void save_mesh(const std::filesystem::path& file, const TriangleMesh& mesh, std:
   scene.mRootNode->mNumMeshes = 1;
   scene.mRootNode->mMeshes = new unsigned[1]{0};
   scene.mNumMaterials = 1;
-  scene.mMaterials = new aiMaterial*[1]{new aiMaterial()};
+  scene.mMaterials = new aiMaterial* [1] { new aiMaterial() };
   scene.mNumMeshes = 1;
-  scene.mMeshes = new aiMesh*[1]{new aiMesh()};
+  scene.mMeshes = new aiMesh* [1] { new aiMesh() };
   aiMesh& m = *scene.mMeshes[0];
   m.mMaterialIndex = 0;
   m.mPrimitiveTypes = aiPrimitiveType_TRIANGLE;

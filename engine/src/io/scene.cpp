@@ -3,9 +3,9 @@
 
 #include <fmt/format.h>
 
+#include <toml++/toml.h>
 #include <fstream>
 #include <sstream>
-#include <toml++/toml.h>
 
 #include "haustra/centreline.hpp"
 #include "haustra/error.hpp"
@@ -52,7 +52,8 @@ class Reader {
     throw FieldError(code, path, detail, fmt::format("{}: {}: {}", where(file_, node), path, detail));
   }
 
-  [[noreturn]] void fail_at(const toml::source_region& source, const std::string& path, const std::string& detail) const {
+  [[noreturn]] void fail_at(const toml::source_region& source, const std::string& path,
+                            const std::string& detail) const {
     throw FieldError(ErrorCode::parse, path, detail, fmt::format("{}: {}: {}", where(file_, source), path, detail));
   }
 
@@ -167,14 +168,16 @@ class Reader {
     if (a == nullptr) fail(n, path, fmt::format("expected an array of integers, got {}", describe_value(*n)));
     for (std::size_t i = 0; i < a->size(); ++i) {
       const toml::node& e = *a->get(i);
-      if (!e.is_integer()) fail(n, fmt::format("{}[{}]", path, i), fmt::format("expected an integer, got {}", describe_value(e)));
+      if (!e.is_integer())
+        fail(n, fmt::format("{}[{}]", path, i), fmt::format("expected an integer, got {}", describe_value(e)));
       out.push_back(static_cast<int>(*e.value<std::int64_t>()));
     }
     return out;
   }
 
   // [[a, b], ...]: pairs of numbers.
-  std::vector<std::pair<double, double>> pairs(const toml::table& t, std::string_view key, const std::string& path) const {
+  std::vector<std::pair<double, double>> pairs(const toml::table& t, std::string_view key,
+                                               const std::string& path) const {
     std::vector<std::pair<double, double>> out;
     const toml::node* n = t.get(key);
     if (n == nullptr) return out;
@@ -212,31 +215,35 @@ class Reader {
 
 StrainLaw read_law(const Reader& r, const toml::table& t, std::string_view key, const std::string& path,
                    StrainLaw fallback) {
-  return r.choice<StrainLaw>(t, key, path, fallback,
-                             {{"elastic", StrainLaw::elastic},
-                              {"viscous", StrainLaw::viscous},
-                              {"kelvin-voigt", StrainLaw::kelvin_voigt}});
+  return r.choice<StrainLaw>(
+      t, key, path, fallback,
+      {{"elastic", StrainLaw::elastic}, {"viscous", StrainLaw::viscous}, {"kelvin-voigt", StrainLaw::kelvin_voigt}});
 }
 
 OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::string& path,
                               const std::filesystem::path& scene_dir) {
-  r.check_keys(t, path, {"source", "file", "scale", "translate", "procedural", "cage", "skinning", "rings_per_vertex", "weight_left_out", "normals"});
+  r.check_keys(t, path,
+               {"source", "file", "scale", "translate", "procedural", "cage", "skinning", "rings_per_vertex",
+                "weight_left_out", "normals"});
   OrganMeshDesc d;
   d.enabled = true;
   const toml::node* file_node = t.get("file");
-  d.source = r.choice<MeshSource>(t, "source", path + ".source", file_node != nullptr ? MeshSource::file : MeshSource::procedural,
+  d.source = r.choice<MeshSource>(t, "source", path + ".source",
+                                  file_node != nullptr ? MeshSource::file : MeshSource::procedural,
                                   {{"procedural", MeshSource::procedural}, {"file", MeshSource::file}});
   if (d.source == MeshSource::file) {
     if (file_node == nullptr) r.fail(&t, path + ".file", "a mesh with source = \"file\" needs file = \"path\"");
     d.file = (scene_dir / r.string(t, "file", path + ".file", "")).string();
-    if (!std::filesystem::exists(d.file)) r.fail(file_node, path + ".file", fmt::format("{}: no such mesh file", d.file), ErrorCode::io);
+    if (!std::filesystem::exists(d.file))
+      r.fail(file_node, path + ".file", fmt::format("{}: no such mesh file", d.file), ErrorCode::io);
   } else if (file_node != nullptr) {
     r.fail(file_node, path + ".file", "only a mesh with source = \"file\" reads a file");
   }
   d.scale = r.number(t, "scale", path + ".scale", d.scale);
   d.translate = r.vec3(t, "translate", path + ".translate", d.translate);
-  d.skinning = r.choice<SkinningMethod>(t, "skinning", path + ".skinning", d.skinning,
-                                        {{"mvc", SkinningMethod::mean_value}, {"linear-blend", SkinningMethod::linear_blend}});
+  d.skinning =
+      r.choice<SkinningMethod>(t, "skinning", path + ".skinning", d.skinning,
+                               {{"mvc", SkinningMethod::mean_value}, {"linear-blend", SkinningMethod::linear_blend}});
   d.rings_per_vertex = r.integer(t, "rings_per_vertex", path + ".rings_per_vertex", d.rings_per_vertex);
   d.weight_left_out = r.number(t, "weight_left_out", path + ".weight_left_out", d.weight_left_out);
   d.normals = r.boolean(t, "normals", path + ".normals", d.normals);
@@ -264,20 +271,24 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
 
 SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::string& path,
                          const std::filesystem::path& scene_dir) {
-  r.check_keys(t, path,
-               {"name", "nodes", "rest", "law", "base", "base_position", "base_tangent", "base_normal", "drag", "radius",
-                "wall_thickness", "youngs_modulus", "poisson_ratio", "density", "linear_density", "relaxation_time",
-                "attachment", "load", "beads", "mesh", "chain", "tissue"});
+  r.check_keys(t, path, {"name",          "nodes",         "rest",           "law",
+                         "base",          "base_position", "base_tangent",   "base_normal",
+                         "drag",          "radius",        "wall_thickness", "youngs_modulus",
+                         "poisson_ratio", "density",       "linear_density", "relaxation_time",
+                         "attachment",    "load",          "beads",          "mesh",
+                         "chain",         "tissue"});
   SegmentDesc s;
   s.name = r.string(t, "name", path + ".name", path);
   s.nodes = r.integer(t, "nodes", path + ".nodes", s.nodes);
-  s.base = r.choice<BaseMode>(t, "base", path + ".base", s.base, {{"clamped", BaseMode::clamped}, {"free", BaseMode::free}});
+  s.base =
+      r.choice<BaseMode>(t, "base", path + ".base", s.base, {{"clamped", BaseMode::clamped}, {"free", BaseMode::free}});
   s.base_position = r.vec3(t, "base_position", path + ".base_position", s.base_position);
   s.base_tangent = r.vec3(t, "base_tangent", path + ".base_tangent", s.base_tangent);
   s.base_normal = r.vec3(t, "base_normal", path + ".base_normal", s.base_normal);
   s.drag = r.optional_number(t, "drag", path + ".drag");
   s.cross_section.radius = r.number(t, "radius", path + ".radius", s.cross_section.radius);
-  s.cross_section.wall_thickness = r.number(t, "wall_thickness", path + ".wall_thickness", s.cross_section.wall_thickness);
+  s.cross_section.wall_thickness =
+      r.number(t, "wall_thickness", path + ".wall_thickness", s.cross_section.wall_thickness);
   s.material.youngs_modulus = r.number(t, "youngs_modulus", path + ".youngs_modulus", s.material.youngs_modulus);
   s.material.poisson_ratio = r.number(t, "poisson_ratio", path + ".poisson_ratio", s.material.poisson_ratio);
   s.material.density = r.number(t, "density", path + ".density", s.material.density);
@@ -345,7 +356,8 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
     }
     s.beads.radius_profile = r.pairs(*beads, "radius_profile", bp + ".radius_profile");
   }
-  if (const toml::table* mesh = r.table(t, "mesh", path + ".mesh")) s.mesh = read_organ_mesh(r, *mesh, path + ".mesh", scene_dir);
+  if (const toml::table* mesh = r.table(t, "mesh", path + ".mesh"))
+    s.mesh = read_organ_mesh(r, *mesh, path + ".mesh", scene_dir);
   if (const toml::table* chain = r.table(t, "chain", path + ".chain")) {
     r.check_keys(*chain, path + ".chain", {"pieces"});
     s.chain_pieces = r.integer(*chain, "pieces", path + ".chain.pieces", s.chain_pieces);
@@ -382,10 +394,12 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
 template <class Desc, class Read>
 void read_obstacles(const Reader& r, const toml::table& t, const char* key, std::vector<Desc>& out, Read read) {
   const auto tables = r.tables(t, key, fmt::format("environment.{}", key));
-  for (std::size_t i = 0; i < tables.size(); ++i) out.push_back(read(*tables[i], fmt::format("environment.{}[{}]", key, i)));
+  for (std::size_t i = 0; i < tables.size(); ++i)
+    out.push_back(read(*tables[i], fmt::format("environment.{}[{}]", key, i)));
 }
 
-void read_environment(const Reader& r, const toml::table& t, const std::filesystem::path& scene_dir, EnvironmentDesc& env) {
+void read_environment(const Reader& r, const toml::table& t, const std::filesystem::path& scene_dir,
+                      EnvironmentDesc& env) {
   r.check_keys(t, "environment", {"plane", "sphere", "capsule", "mesh"});
   read_obstacles(r, t, "plane", env.planes, [&](const toml::table& o, const std::string& p) {
     r.check_keys(o, p, {"name", "point", "normal"});
@@ -485,11 +499,12 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
   if (const toml::table* t = r.table(root, "solver", "solver")) {
     r.check_keys(*t, "solver",
                  {"mode", "iterations", "substeps", "relaxation", "tolerance", "max_iterations", "attachment_tolerance",
-                  "refactor_frames", "on_instability", "max_substeps",
-                  "max_axial_strain", "max_section_angle", "max_displacement", "max_attachment_error"});
+                  "refactor_frames", "on_instability", "max_substeps", "max_axial_strain", "max_section_angle",
+                  "max_displacement", "max_attachment_error"});
     SolverDesc& s = w.solver;
-    s.mode = r.choice<SolverMode>(*t, "mode", "solver.mode", s.mode,
-                                  {{"newton", SolverMode::newton}, {"lagged", SolverMode::lagged}, {"fast", SolverMode::fast}});
+    s.mode = r.choice<SolverMode>(
+        *t, "mode", "solver.mode", s.mode,
+        {{"newton", SolverMode::newton}, {"lagged", SolverMode::lagged}, {"fast", SolverMode::fast}});
     s.iterations = r.integer(*t, "iterations", "solver.iterations", s.iterations);
     s.substeps = r.integer(*t, "substeps", "solver.substeps", s.substeps);
     s.relaxation = r.number(*t, "relaxation", "solver.relaxation", s.relaxation);
@@ -498,9 +513,9 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
     s.refactor_frames = r.integer(*t, "refactor_frames", "solver.refactor_frames", s.refactor_frames);
     s.attachment_tolerance =
         r.number(*t, "attachment_tolerance", "solver.attachment_tolerance", s.attachment_tolerance);
-    s.on_instability = r.choice<InstabilityPolicy>(*t, "on_instability", "solver.on_instability", s.on_instability,
-                                                   {{"recover", InstabilityPolicy::recover},
-                                                    {"stop", InstabilityPolicy::stop}});
+    s.on_instability =
+        r.choice<InstabilityPolicy>(*t, "on_instability", "solver.on_instability", s.on_instability,
+                                    {{"recover", InstabilityPolicy::recover}, {"stop", InstabilityPolicy::stop}});
     s.max_substeps = r.integer(*t, "max_substeps", "solver.max_substeps", s.max_substeps);
     s.max_axial_strain = r.number(*t, "max_axial_strain", "solver.max_axial_strain", s.max_axial_strain);
     s.max_section_angle = r.number(*t, "max_section_angle", "solver.max_section_angle", s.max_section_angle);
@@ -597,7 +612,8 @@ void set_path(toml::table& table, std::span<const PathPart> parts, const toml::n
     }
     return;
   }
-  if (!n->is_table() || p.index) throw Error(ErrorCode::invalid_argument, fmt::format("{}: {} is not a table", what, p.key));
+  if (!n->is_table() || p.index)
+    throw Error(ErrorCode::invalid_argument, fmt::format("{}: {} is not a table", what, p.key));
   set_path(*n->as_table(), parts.subspan(1), value, what);
 }
 

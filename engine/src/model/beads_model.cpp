@@ -2,19 +2,18 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <optional>
 #include <cmath>
+#include <optional>
 
-#include "model/field_checks.hpp"
+#include "haustra/embree_scene.hpp"
 #include "haustra/error.hpp"
 #include "haustra/kernels/broad_phase.hpp"
-#include "haustra/embree_scene.hpp"
+#include "model/field_checks.hpp"
 #include "model/static_meshes.hpp"
 #include "model/world_model.hpp"
 
 namespace haustra::detail {
 namespace {
-
 
 void check_finite(const std::string& field, const Eigen::Vector3d& v) {
   if (!v.allFinite()) fail(field, "expected three finite numbers");
@@ -61,8 +60,10 @@ std::vector<std::size_t> bead_nodes(const BeadsDesc& b, const SegmentModel& seg,
     const std::size_t count = b.count > 0 ? static_cast<std::size_t>(b.count) : (n + 2) / 3;  // every third node
     if (count > n) fail(where + ".count", fmt::format("{} beads on {} nodes: at most one bead per node", count, n));
     for (std::size_t j = 0; j < count; ++j)
-      nodes.push_back(count == 1 ? 0 : static_cast<std::size_t>(std::llround(static_cast<double>(j) * static_cast<double>(n - 1) /
-                                                                              static_cast<double>(count - 1))));
+      nodes.push_back(count == 1
+                          ? 0
+                          : static_cast<std::size_t>(std::llround(static_cast<double>(j) * static_cast<double>(n - 1) /
+                                                                  static_cast<double>(count - 1))));
   }
   std::sort(nodes.begin(), nodes.end());
   nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
@@ -95,7 +96,8 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
   if (!std::isfinite(c.exponent) || c.exponent < 1.0 || c.exponent > 4.0)
     fail("contact.exponent", fmt::format("expected an exponent in [1, 4], got {}", c.exponent));
   if (!std::isfinite(c.margin) || c.margin > 0.5)
-    fail("contact.margin", fmt::format("expected a margin in m of at most 0.5 (negative: automatic), got {}", c.margin));
+    fail("contact.margin",
+         fmt::format("expected a margin in m of at most 0.5 (negative: automatic), got {}", c.margin));
   m.contact = c;
   m.environment = desc.environment;
   for (std::size_t i = 0; i < m.environment.planes.size(); ++i) {
@@ -108,14 +110,16 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
     const SphereObstacleDesc& s = m.environment.spheres[i];
     check_finite(fmt::format("environment.sphere[{}].center", i), s.center);
     if (!std::isfinite(s.radius) || !(s.radius > 0.0))
-      fail(fmt::format("environment.sphere[{}].radius", i), fmt::format("expected a positive radius in m, got {}", s.radius));
+      fail(fmt::format("environment.sphere[{}].radius", i),
+           fmt::format("expected a positive radius in m, got {}", s.radius));
   }
   for (std::size_t i = 0; i < m.environment.capsules.size(); ++i) {
     const CapsuleObstacleDesc& s = m.environment.capsules[i];
     check_finite(fmt::format("environment.capsule[{}].a", i), s.a);
     check_finite(fmt::format("environment.capsule[{}].b", i), s.b);
     if (!std::isfinite(s.radius) || !(s.radius > 0.0))
-      fail(fmt::format("environment.capsule[{}].radius", i), fmt::format("expected a positive radius in m, got {}", s.radius));
+      fail(fmt::format("environment.capsule[{}].radius", i),
+           fmt::format("expected a positive radius in m, got {}", s.radius));
   }
   for (std::size_t i = 0; i < m.environment.meshes.size(); ++i) {
     const MeshObstacleDesc& mesh = m.environment.meshes[i];
@@ -148,7 +152,8 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
       const std::string kw = fmt::format("{}.keyframe[{}]", where, k);
       if (!std::isfinite(kf.time)) fail(kw + ".time", "expected a finite time in s");
       if (k > 0 && !(kf.time > ins.keyframes[k - 1].time))
-        fail(kw + ".time", fmt::format("keyframes must come in increasing time: {} after {}", kf.time, ins.keyframes[k - 1].time));
+        fail(kw + ".time",
+             fmt::format("keyframes must come in increasing time: {} after {}", kf.time, ins.keyframes[k - 1].time));
       check_finite(kw + ".tip", kf.tip);
       check_unit(kw + ".axis", kf.axis);
       kf.axis.normalize();
@@ -192,7 +197,8 @@ void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& init
       m.pieces[p].bead_offset = beads.size();
     if (!b.enabled) continue;
     const std::string where = fmt::format("segment[{}].beads", si);
-    const std::span<const double> h = std::span<const double>(m.section_length).subspan(seg.node_offset, seg.node_count - 1);
+    const std::span<const double> h =
+        std::span<const double>(m.section_length).subspan(seg.node_offset, seg.node_count - 1);
     if (b.radius != 0.0) check_radius(where + ".radius", b.radius);
     for (std::size_t i = 0; i < b.radius_profile.size(); ++i) {
       const auto& [f, r] = b.radius_profile[i];

@@ -29,16 +29,16 @@ constexpr double kSamplesPerMetre = 2000.0;
 
 struct Ring {
   std::uint32_t station = 0;
-  int bead = -1;                 // local bead index, −1 for a middle ring
+  int bead = -1;  // local bead index, −1 for a middle ring
   double template_radius = 0.0;
-  double arc = 0.0;              // rest arc length of its station: its axial place in the binding pose
-  kernels::RingPose rest;        // the station's rest pose
+  double arc = 0.0;        // rest arc length of its station: its axial place in the binding pose
+  kernels::RingPose rest;  // the station's rest pose
 };
 
 struct Shape {
   std::vector<Ring> rings;
   std::size_t m = 0;
-  std::vector<double> radius;  // rings × m
+  std::vector<double> radius;             // rings × m
   double cap_start = 0.0, cap_end = 0.0;  // axial reach of the cap vertices beyond the end rings
 };
 
@@ -53,7 +53,8 @@ double station_arc(std::span<const double> arc, std::span<const double> h, std::
   return (station & 1U) != 0 ? arc[station / 2] + 0.5 * h[station / 2] : arc[station / 2];
 }
 
-std::vector<Ring> place_rings(const CageBuildInput& in, std::span<const double> arc, const std::set<std::uint32_t>& dropped) {
+std::vector<Ring> place_rings(const CageBuildInput& in, std::span<const double> arc,
+                              const std::set<std::uint32_t>& dropped) {
   std::vector<Ring> rings;
   for (std::size_t b = 0; b < in.bead_node.size(); ++b) {
     Ring r;
@@ -67,7 +68,8 @@ std::vector<Ring> place_rings(const CageBuildInput& in, std::span<const double> 
     const double target = 0.5 * (arc[ka] + arc[kb]);
     auto best = static_cast<std::uint32_t>(2 * ka + 1);
     for (auto st = static_cast<std::uint32_t>(2 * ka + 1); st < 2 * kb; ++st)
-      if (std::abs(station_arc(arc, in.section_length, st) - target) < std::abs(station_arc(arc, in.section_length, best) - target))
+      if (std::abs(station_arc(arc, in.section_length, st) - target) <
+          std::abs(station_arc(arc, in.section_length, best) - target))
         best = st;
     Ring mid;
     mid.station = best;
@@ -224,23 +226,24 @@ bool segment_hits(const EmbreeScene& scene, const Eigen::Vector3d& a, const Eige
 
 // Mesh vertices outside the cage, mesh edges through it, and (check_self) cage edges through
 // cage triangles they do not touch.
-Problems find_problems(std::span<const Eigen::Vector3d> cage_vertices, std::span<const std::array<std::uint32_t, 3>> cage_triangles,
-                       std::span<const Eigen::Vector3d> mesh_vertices, const std::vector<std::array<std::uint32_t, 2>>& mesh_edges,
-                       bool check_self) {
+Problems find_problems(std::span<const Eigen::Vector3d> cage_vertices,
+                       std::span<const std::array<std::uint32_t, 3>> cage_triangles,
+                       std::span<const Eigen::Vector3d> mesh_vertices,
+                       const std::vector<std::array<std::uint32_t, 2>>& mesh_edges, bool check_self) {
   EmbreeScene scene;
   scene.add_triangles(cage_vertices, cage_triangles);
   scene.commit();
   Problems p;
   std::vector<std::uint8_t> outside(mesh_vertices.size(), 0);
-  parallel_each(mesh_vertices.size(), [&](std::size_t v) {
-    outside[v] = scene.inside(mesh_vertices[v]) ? 0 : 1;
-  });
+  parallel_each(mesh_vertices.size(), [&](std::size_t v) { outside[v] = scene.inside(mesh_vertices[v]) ? 0 : 1; });
   for (std::size_t v = 0; v < outside.size(); ++v)
     if (outside[v] != 0) p.outside.push_back(static_cast<std::uint32_t>(v));
   std::vector<std::int64_t> hit(mesh_edges.size(), -1);
   parallel_each(mesh_edges.size(), [&](std::size_t e) {
     unsigned tri = 0;
-    if (segment_hits(scene, mesh_vertices[mesh_edges[e][0]], mesh_vertices[mesh_edges[e][1]], [](unsigned) { return false; }, tri))
+    if (segment_hits(
+            scene, mesh_vertices[mesh_edges[e][0]], mesh_vertices[mesh_edges[e][1]], [](unsigned) { return false; },
+            tri))
       hit[e] = tri;
   });
   for (std::size_t e = 0; e < hit.size(); ++e)
@@ -284,7 +287,8 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
   const std::vector<std::array<std::uint32_t, 2>> mesh_edges = unique_edges(mesh.triangles);
   double largest_radius = 0.0;
   for (double r : in.bead_radius) largest_radius = std::max(largest_radius, r);
-  const RodCurve curve(in.section_length, in.rest_strain, kernels::Pose{in.rest.node_rotation.get(0), in.rest.node_position.get(0)});
+  const RodCurve curve(in.section_length, in.rest_strain,
+                       kernels::Pose{in.rest.node_rotation.get(0), in.rest.node_position.get(0)});
   std::vector<double> arc(in.section_length.size() + 1, 0.0);
   for (std::size_t k = 0; k < in.section_length.size(); ++k) arc[k + 1] = arc[k] + in.section_length[k];
 
@@ -297,11 +301,12 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
     const double beyond = std::max({0.0, -b.z(), b.z() - curve.length()});
     const double away = std::hypot(b.head<2>().norm(), beyond);
     if (away > 6.0 * largest_radius + 0.01)
-      throw FieldError(ErrorCode::invalid_geometry, in.where,
-                       fmt::format("mesh vertex {} lies {:.4g} m from the rod, more than six bead radii ({:.4g} m): is the "
-                                   "mesh around the segment's rest centreline, in metres (scale), in the same place "
-                                   "(translate)?",
-                                   v, away, largest_radius));
+      throw FieldError(
+          ErrorCode::invalid_geometry, in.where,
+          fmt::format("mesh vertex {} lies {:.4g} m from the rod, more than six bead radii ({:.4g} m): is the "
+                      "mesh around the segment's rest centreline, in metres (scale), in the same place "
+                      "(translate)?",
+                      v, away, largest_radius));
   }
 
   EmbreeScene wall;
@@ -320,8 +325,8 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
     for (std::size_t g = 0; g < rings; ++g) {
       const Ring& r = shape.rings[g];
       for (std::size_t i = 0; i < m; ++i) {
-        const EmbreeScene::Hit h = wall.first_hit(Eigen::Vector3d(0.0, 0.0, r.arc), ring_direction(i, m), 0.0,
-                                                  kMaxGrowth * r.template_radius);
+        const EmbreeScene::Hit h =
+            wall.first_hit(Eigen::Vector3d(0.0, 0.0, r.arc), ring_direction(i, m), 0.0, kMaxGrowth * r.template_radius);
         shape.radius[g * m + i] = h.found ? h.distance + in.clearance : r.template_radius;
       }
     }
@@ -356,7 +361,7 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
         if (!(away.norm() > 1e-12)) away = (cv[tri[1]] - cv[tri[0]]).cross(cv[tri[2]] - cv[tri[0]]);
         away.normalize();
         for (std::uint32_t j : tri) {
-          const Eigen::Vector3d dir = j < rings * m   ? ring_direction(j % m, m)
+          const Eigen::Vector3d dir = j < rings * m    ? ring_direction(j % m, m)
                                       : j == rings * m ? Eigen::Vector3d(-Eigen::Vector3d::UnitZ())
                                                        : Eigen::Vector3d(Eigen::Vector3d::UnitZ());
           const double c = dir.dot(away);
@@ -397,10 +402,9 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
                                                            : cage.mesh_binding[problems.outside.front()];
       const EmbreeScene::Hit h = cage_scene.closest(p, kInf);
       blamed = h.found ? cage.vertex_ring[cage.triangles[h.triangle][0]] : 0;
-      what = !problems.crossing.empty()
-                 ? fmt::format("{} mesh edges cross the cage", problems.crossing.size())
-                 : fmt::format("{} mesh vertices stay outside the cage (vertex {} among them)", problems.outside.size(),
-                               problems.outside.front());
+      what = !problems.crossing.empty() ? fmt::format("{} mesh edges cross the cage", problems.crossing.size())
+                                        : fmt::format("{} mesh vertices stay outside the cage (vertex {} among them)",
+                                                      problems.outside.size(), problems.outside.front());
     }
     if (blamed == rings) {
       final_check = std::move(problems);
@@ -420,17 +424,19 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
     const Ring& r = shape.rings[blamed];
     double reach = 0.0;
     for (std::size_t i = 0; i < m; ++i) reach = std::max(reach, shape.radius[blamed * m + i]);
-    throw FieldError(ErrorCode::invalid_geometry, in.where,
-                     fmt::format("the cage cannot embed the mesh at {}: {}, with the cage reaching {:.1f} mm from the "
-                                 "rod (after {} inflation passes, {} middle rings taken out). Beads that fit the mesh "
-                                 "there (radius = \"mesh\"), more ring vertices or a larger cage.max_iterations may help.",
-                                 ring_name(r, blamed), what, 1e3 * reach, report.iterations, dropped.size()));
+    throw FieldError(
+        ErrorCode::invalid_geometry, in.where,
+        fmt::format("the cage cannot embed the mesh at {}: {}, with the cage reaching {:.1f} mm from the "
+                    "rod (after {} inflation passes, {} middle rings taken out). Beads that fit the mesh "
+                    "there (radius = \"mesh\"), more ring vertices or a larger cage.max_iterations may help.",
+                    ring_name(r, blamed), what, 1e3 * reach, report.iterations, dropped.size()));
   }
 
   // The report.
   const std::size_t rings = cage.ring_station.size();
   report.rings = rings;
-  report.bead_rings = static_cast<std::size_t>(std::count_if(cage.ring_bead.begin(), cage.ring_bead.end(), [](int b) { return b >= 0; }));
+  report.bead_rings = static_cast<std::size_t>(
+      std::count_if(cage.ring_bead.begin(), cage.ring_bead.end(), [](int b) { return b >= 0; }));
   report.middle_rings = rings - report.bead_rings;
   report.dropped_rings = dropped.size();
   report.ring_vertices = m;

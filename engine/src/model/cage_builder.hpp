@@ -29,28 +29,28 @@
 namespace haustra::detail {
 
 struct CageModel {
-  std::vector<std::uint32_t> ring_station;    // per ring: 2k node k, 2k + 1 midpoint of section k
-  std::vector<kernels::RingPose> ring_rest;   // per ring, the station's rest pose (curved)
-  std::vector<kernels::RingPose> ring_binding;// per ring, in the binding pose (straight)
-  std::vector<std::int32_t> ring_bead;        // per ring: the bead (local index) or −1 for a middle ring
-  std::vector<std::uint32_t> vertex_ring;     // per cage vertex
-  std::vector<Eigen::Vector3d> offset;        // per cage vertex, in its ring's frame
-  std::vector<Eigen::Vector3d> binding_vertices;  // per cage vertex, binding pose
-  std::vector<Eigen::Vector3d> rest_vertices;     // per cage vertex, curved rest pose
+  std::vector<std::uint32_t> ring_station;              // per ring: 2k node k, 2k + 1 midpoint of section k
+  std::vector<kernels::RingPose> ring_rest;             // per ring, the station's rest pose (curved)
+  std::vector<kernels::RingPose> ring_binding;          // per ring, in the binding pose (straight)
+  std::vector<std::int32_t> ring_bead;                  // per ring: the bead (local index) or −1 for a middle ring
+  std::vector<std::uint32_t> vertex_ring;               // per cage vertex
+  std::vector<Eigen::Vector3d> offset;                  // per cage vertex, in its ring's frame
+  std::vector<Eigen::Vector3d> binding_vertices;        // per cage vertex, binding pose
+  std::vector<Eigen::Vector3d> rest_vertices;           // per cage vertex, curved rest pose
   std::vector<std::array<std::uint32_t, 3>> triangles;  // outward
-  std::vector<Eigen::Vector3d> mesh_binding;  // the mesh's vertices in the binding pose
+  std::vector<Eigen::Vector3d> mesh_binding;            // the mesh's vertices in the binding pose
 };
 
 struct CageBuildInput {
   kernels::RodPoses<const double> rest;  // the segment's rest poses (nodes and section midpoints)
   std::span<const double> section_length;
-  std::span<const double> rest_strain;   // 4 per node
-  std::vector<std::size_t> bead_node;    // local, ascending
+  std::span<const double> rest_strain;  // 4 per node
+  std::vector<std::size_t> bead_node;   // local, ascending
   std::vector<double> bead_radius;
-  const TriangleMesh* mesh = nullptr;    // at rest, metres
+  const TriangleMesh* mesh = nullptr;  // at rest, metres
   CageDesc desc;
-  double clearance = 0.0;                // m, resolved
-  std::string where;                     // e.g. "segment[0].mesh", for messages
+  double clearance = 0.0;  // m, resolved
+  std::string where;       // e.g. "segment[0].mesh", for messages
 };
 
 // Throws FieldError{invalid_geometry} naming the ring when no embedding cage exists.

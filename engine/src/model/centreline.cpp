@@ -1,12 +1,12 @@
 // Centreline files (JSON polylines with units) read and checked.
 #include "haustra/centreline.hpp"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
-#include <numbers>
-#include <fmt/format.h>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <sstream>
 
 #include "haustra/error.hpp"
@@ -84,8 +84,8 @@ void check_centreline_points(const std::vector<Eigen::Vector3d>& points, const s
       const double d = segment_distance(points[i], points[i + 1], points[j], points[j + 1]);
       if (d < touch)
         throw Error(ErrorCode::invalid_geometry,
-                    fmt::format("{}: the path crosses itself: segment {}–{} comes within {:.3g} m of segment {}–{}", where,
-                                i, i + 1, d, j, j + 1));
+                    fmt::format("{}: the path crosses itself: segment {}–{} comes within {:.3g} m of segment {}–{}",
+                                where, i, i + 1, d, j, j + 1));
     }
   }
 }
@@ -97,8 +97,7 @@ Centreline parse_centreline(const std::string& text, const std::string& file) {
   } catch (const nlohmann::json::exception& e) {
     throw Error(ErrorCode::parse, fmt::format("{}: not valid JSON: {}", file, e.what()));
   }
-  if (!doc.is_object())
-    throw Error(ErrorCode::parse, file + ": expected a JSON object with 'units' and 'points'");
+  if (!doc.is_object()) throw Error(ErrorCode::parse, file + ": expected a JSON object with 'units' and 'points'");
   if (!doc.contains("units") || !doc["units"].is_string())
     throw Error(ErrorCode::parse, file + ": field 'units': expected a string \"mm\", \"cm\" or \"m\"");
   if (!doc.contains("points") || !doc["points"].is_array())

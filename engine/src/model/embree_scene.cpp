@@ -19,7 +19,8 @@ namespace {
 
 void check(RTCDevice device, const char* what) {
   const RTCError e = rtcGetDeviceError(device);
-  if (e != RTC_ERROR_NONE) throw Error(ErrorCode::internal, fmt::format("Embree: {} failed (error {})", what, static_cast<int>(e)));
+  if (e != RTC_ERROR_NONE)
+    throw Error(ErrorCode::internal, fmt::format("Embree: {} failed (error {})", what, static_cast<int>(e)));
 }
 
 }  // namespace
@@ -102,7 +103,8 @@ int EmbreeScene::winding(const Eigen::Vector3d& origin, const Eigen::Vector3d& d
     if (!h.found) break;
     const Mesh& mesh = meshes_[h.geometry];
     const auto& tri = mesh.triangles[h.triangle];
-    const Eigen::Vector3d n = (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]);
+    const Eigen::Vector3d n =
+        (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]);
     count += n.dot(dir) > 0.0 ? 1 : -1;
     t = h.distance + step;
   }

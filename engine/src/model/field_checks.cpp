@@ -1,8 +1,8 @@
 // Checks of one description field each (field_checks.hpp).
 #include "model/field_checks.hpp"
 
-#include <cmath>
 #include <fmt/format.h>
+#include <cmath>
 
 #include "haustra/error.hpp"
 
@@ -12,8 +12,7 @@ namespace haustra::detail {
   throw FieldError(ErrorCode::invalid_argument, field, detail);
 }
 
-void check_positive(const std::string& field, double v, const char* unit, double plausible_max,
-                    const char* hint) {
+void check_positive(const std::string& field, double v, const char* unit, double plausible_max, const char* hint) {
   if (!std::isfinite(v) || !(v > 0.0))
     fail(field, fmt::format("expected a positive finite value in {}, got {}", unit, v));
   if (v > plausible_max)
@@ -22,7 +21,8 @@ void check_positive(const std::string& field, double v, const char* unit, double
 }
 
 void check_range(const std::string& field, double v, double lo, double hi, const char* what) {
-  if (!std::isfinite(v) || v < lo || v > hi) fail(field, fmt::format("expected {} in [{}, {}], got {}", what, lo, hi, v));
+  if (!std::isfinite(v) || v < lo || v > hi)
+    fail(field, fmt::format("expected {} in [{}, {}], got {}", what, lo, hi, v));
 }
 
 void check_int(const std::string& field, long long v, long long lo, long long hi) {

@@ -2,16 +2,16 @@
 // 0038): the model's and the state's arrays per node, the Newton solve's workspace per node, the
 // beads, and the procedural organ meshes per vertex. World::create refuses a world whose estimate
 // exceeds the memory the machine has available (or the host's world.memory_limit).
+#include <unistd.h>
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <string>
-#include <unistd.h>
 
 #include "haustra/kernels/rod_condensed.hpp"
-#include "step/collision.hpp"
 #include "haustra/world.hpp"
 #include "model/world_model.hpp"
+#include "step/collision.hpp"
 #include "step/world_state.hpp"
 
 namespace haustra {
@@ -55,7 +55,8 @@ std::size_t gain_bytes(std::size_t steps, std::size_t columns) {
 
 MemoryEstimate estimate_memory(const WorldDesc& desc) {
   MemoryEstimate e;
-  const bool newton = desc.solver.mode != SolverMode::lagged || desc.solver.on_instability == InstabilityPolicy::recover;
+  const bool newton =
+      desc.solver.mode != SolverMode::lagged || desc.solver.on_instability == InstabilityPolicy::recover;
   for (const SegmentDesc& s : desc.segments) {
     const std::size_t pieces = static_cast<std::size_t>(std::clamp(s.chain_pieces, 1, 4096));
     const std::size_t piece_nodes = static_cast<std::size_t>(std::clamp(s.nodes, 2, 10'000'000));

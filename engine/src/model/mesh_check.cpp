@@ -13,7 +13,7 @@ namespace {
 struct HalfEdge {
   std::uint32_t low, high;  // the edge's vertices, sorted
   std::uint32_t triangle;
-  bool forward;             // the triangle walks it from low to high
+  bool forward;  // the triangle walks it from low to high
   auto key() const { return std::pair{low, high}; }
 };
 
@@ -52,12 +52,13 @@ void check_mesh(const TriangleMesh& mesh, const std::string& where) {
       if (v >= mesh.vertices.size())
         reject(where, fmt::format("triangle {} uses vertex {}, but the mesh has {}", t, v, mesh.vertices.size()));
     if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2])
-      reject(where, fmt::format("triangle {} repeats a vertex ({}, {}, {}): a degenerate triangle", t, tri[0], tri[1], tri[2]));
+      reject(where, fmt::format("triangle {} repeats a vertex ({}, {}, {}): a degenerate triangle", t, tri[0], tri[1],
+                                tri[2]));
     const Eigen::Vector3d& a = mesh.vertices[tri[0]];
     const double doubled_area = (mesh.vertices[tri[1]] - a).cross(mesh.vertices[tri[2]] - a).norm();
     if (!(0.5 * doubled_area > area_floor))
       reject(where, fmt::format("triangle {} (vertices {}, {}, {}) has no area: a degenerate triangle", t,
-                              vertex_at(mesh, tri[0]), vertex_at(mesh, tri[1]), vertex_at(mesh, tri[2])));
+                                vertex_at(mesh, tri[0]), vertex_at(mesh, tri[1]), vertex_at(mesh, tri[2])));
     for (int e = 0; e < 3; ++e) {
       const std::uint32_t from = tri[static_cast<std::size_t>(e)], to = tri[static_cast<std::size_t>((e + 1) % 3)];
       edges.push_back({std::min(from, to), std::max(from, to), static_cast<std::uint32_t>(t), from < to});
@@ -70,15 +71,18 @@ void check_mesh(const TriangleMesh& mesh, const std::string& where) {
     std::size_t j = i + 1;
     while (j < edges.size() && edges[j].key() == edges[i].key()) ++j;
     if (j - i > 2)
-      reject(where, fmt::format("the edge between vertices {} and {} is shared by {} triangles ({}, {}, {}...): the mesh "
-                              "is not a manifold surface",
-                              vertex_at(mesh, edges[i].low), vertex_at(mesh, edges[i].high), j - i, edges[i].triangle, edges[i + 1].triangle,
-                              edges[i + 2].triangle));
+      reject(where,
+             fmt::format("the edge between vertices {} and {} is shared by {} triangles ({}, {}, {}...): the mesh "
+                         "is not a manifold surface",
+                         vertex_at(mesh, edges[i].low), vertex_at(mesh, edges[i].high), j - i, edges[i].triangle,
+                         edges[i + 1].triangle, edges[i + 2].triangle));
     if (j - i == 2 && edges[i].forward == edges[i + 1].forward)
-      reject(where, fmt::format("triangles {} and {} run the same way along their shared edge (vertices {} and {}): the winding is "
-                              "inconsistent, so normals would flip between them",
-                              edges[i].triangle, edges[i + 1].triangle, vertex_at(mesh, edges[i].low),
-                              vertex_at(mesh, edges[i].high)));
+      reject(
+          where,
+          fmt::format(
+              "triangles {} and {} run the same way along their shared edge (vertices {} and {}): the winding is "
+              "inconsistent, so normals would flip between them",
+              edges[i].triangle, edges[i + 1].triangle, vertex_at(mesh, edges[i].low), vertex_at(mesh, edges[i].high)));
     i = j;
   }
 }

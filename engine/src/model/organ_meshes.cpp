@@ -6,8 +6,8 @@
 #include <numbers>
 #include <optional>
 
-#include "haustra/kernels/mesh_normals.hpp"
 #include "haustra/error.hpp"
+#include "haustra/kernels/mesh_normals.hpp"
 #include "haustra/procedural_organ.hpp"
 #include "haustra/rod_curve.hpp"
 #include "model/world_model.hpp"
@@ -56,11 +56,13 @@ std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::ve
                            {rest.node_rotation.get(piece.first_node), rest.node_position.get(piece.first_node)});
       mesh = procedural_organ(curve, d.procedural, desc.segments[si].cross_section.radius, where + ".procedural");
     } else {
-      if (d.file.empty()) fail(ErrorCode::invalid_argument, where + ".file", "a mesh from a file needs file = \"path\"");
+      if (d.file.empty())
+        fail(ErrorCode::invalid_argument, where + ".file", "a mesh from a file needs file = \"path\"");
       if (!std::isfinite(d.scale) || !(d.scale > 0.0))
         fail(ErrorCode::invalid_argument, where + ".scale",
              fmt::format("expected a positive scale (0.001 for millimetres), got {}", d.scale));
-      if (!d.translate.allFinite()) fail(ErrorCode::invalid_argument, where + ".translate", "expected three finite numbers");
+      if (!d.translate.allFinite())
+        fail(ErrorCode::invalid_argument, where + ".translate", "expected three finite numbers");
       try {
         mesh = load_mesh(d.file);
       } catch (const Error& e) {
@@ -103,9 +105,10 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
                        d.cage.clearance));
     if (end_bead < first_bead + 2)
       fail(ErrorCode::invalid_argument, where,
-           seg.piece_count > 1 ? "the cage is built from the beads: give each piece of the chain at least two beads "
-                                 "([segment.beads])"
-                               : "the cage is built from the beads: give the segment at least two beads ([segment.beads])");
+           seg.piece_count > 1
+               ? "the cage is built from the beads: give each piece of the chain at least two beads "
+                 "([segment.beads])"
+               : "the cage is built from the beads: give the segment at least two beads ([segment.beads])");
 
     SegmentMesh& out = m.meshes_of[pi];
     out.enabled = true;
@@ -147,7 +150,8 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
     out.info.vertices = {out.vertex_offset, meshes[pi].vertices.size()};
     out.info.triangles = {out.triangle_offset, meshes[pi].triangles.size()};
     for (std::size_t first = 0; first < out.binding.blocks(); first += kChunkBlocks)
-      m.skin_chunks.push_back({static_cast<std::uint32_t>(pi), first, std::min(kChunkBlocks, out.binding.blocks() - first)});
+      m.skin_chunks.push_back(
+          {static_cast<std::uint32_t>(pi), first, std::min(kChunkBlocks, out.binding.blocks() - first)});
     const std::size_t chunk_vertices = kChunkBlocks * kernels::kSkinLanes;
     if (d.normals)
       for (std::size_t first = 0; first < meshes[pi].vertices.size(); first += chunk_vertices)

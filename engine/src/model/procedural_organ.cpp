@@ -1,6 +1,6 @@
 // Procedural organ meshes: a tube with haustra and taeniae around a rod's rest curve.
-#include "model/field_checks.hpp"
 #include "haustra/procedural_organ.hpp"
+#include "model/field_checks.hpp"
 
 #include <fmt/format.h>
 
@@ -55,7 +55,8 @@ TriangleMesh procedural_organ(const RodCurve& curve, const ProceduralOrganDesc& 
   // Rings of `around` vertices, about square quads: around / (2πR) ≈ along / L.
   const double cap = d.end_taper * radius;  // how far each rounded end reaches past the rod
   const double total = curve.length() + 2.0 * cap;
-  const int around = std::max(8, static_cast<int>(std::lround(std::sqrt(d.vertices * 2.0 * std::numbers::pi * radius / total))));
+  const int around =
+      std::max(8, static_cast<int>(std::lround(std::sqrt(d.vertices * 2.0 * std::numbers::pi * radius / total))));
   const int along = std::max(4, static_cast<int>(std::lround(static_cast<double>(d.vertices - 2) / around)));
 
   TriangleMesh mesh;
@@ -66,7 +67,8 @@ TriangleMesh procedural_organ(const RodCurve& curve, const ProceduralOrganDesc& 
     const double s = -cap + t * total;
     double taper = 1.0;
     if (s < 0.0) taper = std::sqrt(std::max(0.0, 1.0 - (s / cap) * (s / cap)));
-    if (s > curve.length()) taper = std::sqrt(std::max(0.0, 1.0 - ((s - curve.length()) / cap) * ((s - curve.length()) / cap)));
+    if (s > curve.length())
+      taper = std::sqrt(std::max(0.0, 1.0 - ((s - curve.length()) / cap) * ((s - curve.length()) / cap)));
     const kernels::Pose pose = curve.extend(s);
     const Eigen::Matrix3d r = pose.rotation.toRotationMatrix();
     const double ring_radius = radius * taper * haustra_factor(s, d.haustra_spacing, d.haustra_depth);

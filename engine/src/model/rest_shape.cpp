@@ -1,9 +1,9 @@
 // Rest shapes: straight, arc, or a centreline resampled into biarcs and turned into rest strains.
 #include "haustra/rest_shape.hpp"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 
 #include "haustra/error.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
@@ -145,8 +145,8 @@ double max_distance_to_rod(std::span<const Eigen::Vector3d> points, std::span<co
   double arc = 0.0;
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (i > 0) arc += (points[i] - points[i - 1]).norm();
-    const auto centre = static_cast<std::size_t>(std::llround(arc / std::max(source.length(), 1e-300) *
-                                                              static_cast<double>(segs)));
+    const auto centre =
+        static_cast<std::size_t>(std::llround(arc / std::max(source.length(), 1e-300) * static_cast<double>(segs)));
     const std::size_t lo = centre > window ? centre - window : 0;
     const std::size_t hi = std::min(segs, centre + window);
     double best = std::numeric_limits<double>::infinity();
@@ -163,9 +163,11 @@ double max_distance_to_rod(std::span<const Eigen::Vector3d> points, std::span<co
 
 RestShape rest_shape_from_centreline(std::span<const Eigen::Vector3d> points, int nodes,
                                      const Eigen::Vector3d& normal_hint, const std::string& source) {
-  if (nodes < 2) throw Error(ErrorCode::invalid_argument, fmt::format("{}: nodes must be at least 2, got {}", source, nodes));
+  if (nodes < 2)
+    throw Error(ErrorCode::invalid_argument, fmt::format("{}: nodes must be at least 2, got {}", source, nodes));
   if (points.size() < 2)
-    throw Error(ErrorCode::invalid_geometry, fmt::format("{}: a centreline needs at least 2 points, got {}", source, points.size()));
+    throw Error(ErrorCode::invalid_geometry,
+                fmt::format("{}: a centreline needs at least 2 points, got {}", source, points.size()));
   const Polyline line(points);
   const double total = line.length();
   if (!(total > 0.0)) throw Error(ErrorCode::invalid_geometry, source + ": the centreline has zero length");
@@ -221,8 +223,9 @@ RestShape rest_shape_from_centreline(std::span<const Eigen::Vector3d> points, in
     const double denom = vt + std::sqrt(vt * vt + 2.0 * (1.0 - t0.dot(t1)) * v.squaredNorm());
     if (!(denom > 1e-12 * v.norm()))
       throw Error(ErrorCode::invalid_geometry,
-                  where + ": the tangents point away from the chord; the centreline has a cusp or "
-                          "a bend tighter than the node spacing");
+                  where +
+                      ": the tangents point away from the chord; the centreline has a cusp or "
+                      "a bend tighter than the node spacing");
     const double a = v.squaredNorm() / denom;
     const Eigen::Vector3d junction = 0.5 * (pose.position + end) + 0.5 * a * (t0 - t1);
     emit(arc_to(pose, junction, where));

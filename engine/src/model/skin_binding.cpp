@@ -1,7 +1,6 @@
 // Binding an organ mesh to its cage: mean value coordinates, localized to the rings of largest weight.
 #include "model/skin_binding.hpp"
 
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -87,7 +86,8 @@ double rest_error(const SkinBinding& b, const TriangleMesh& mesh) {
   double worst = 0.0;
   for (std::size_t i = 0; i < b.vertex.size(); ++i)
     if (b.vertex[i] != kernels::kNoVertex)
-      worst = std::max(worst, (Eigen::Vector3d(b.rest_x[i], b.rest_y[i], b.rest_z[i]) - mesh.vertices[b.vertex[i]]).norm());
+      worst =
+          std::max(worst, (Eigen::Vector3d(b.rest_x[i], b.rest_y[i], b.rest_z[i]) - mesh.vertices[b.vertex[i]]).norm());
   return worst;
 }
 
@@ -98,7 +98,8 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t rings = cage.ring_station.size();
   const std::size_t n = cage.rest_vertices.size();
-  const std::size_t at_least = rings_per_vertex <= 0 ? rings : std::min(rings, static_cast<std::size_t>(rings_per_vertex));
+  const std::size_t at_least =
+      rings_per_vertex <= 0 ? rings : std::min(rings, static_cast<std::size_t>(rings_per_vertex));
   Slots slots;
   slots.resize(mesh.vertices.size());
   // Weights in the binding pose, where the cage embeds the mesh without folds.
@@ -137,7 +138,8 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
       for (std::size_t g = 0; g < rings; ++g) total_mass += mass[g];
       for (std::size_t k = at_least; k < rings; ++k) dropped += mass[order[k]];
       std::size_t keep = at_least;
-      while (weight_left_out > 0.0 && keep < rings && dropped > weight_left_out * total_mass) dropped -= mass[order[keep++]];
+      while (weight_left_out > 0.0 && keep < rings && dropped > weight_left_out * total_mass)
+        dropped -= mass[order[keep++]];
       std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep));
       double kept = 0.0;
       for (std::size_t k = 0; k < keep; ++k) kept += weight[order[k]];
@@ -156,7 +158,8 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
       const Eigen::Vector3d correction = mesh.vertices[v] - reach;
       for (std::size_t k = 0; k < keep; ++k) {
         const double bg = scale * weight[order[k]];
-        const Eigen::Vector3d ag = scale * moment[order[k]] + bg * (cage.ring_rest[order[k]].rotation.transpose() * correction);
+        const Eigen::Vector3d ag =
+            scale * moment[order[k]] + bg * (cage.ring_rest[order[k]].rotation.transpose() * correction);
         slots.set(v, k, order[k], bg, ag);
       }
       stats[v] = {r.min_weight, r.negative_mass, dropped, correction.norm(), keep, r.location};

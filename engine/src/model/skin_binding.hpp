@@ -7,19 +7,19 @@
 #include <cstdint>
 #include <vector>
 
-#include "model/cage_builder.hpp"
 #include "haustra/kernels/skinning.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/world.hpp"
+#include "model/cage_builder.hpp"
 
 namespace haustra::detail {
 
 struct SkinBinding {
   std::size_t vertices = 0;
-  std::vector<std::uint32_t> slot_start;     // blocks + 1
+  std::vector<std::uint32_t> slot_start;      // blocks + 1
   std::vector<float> rest_x, rest_y, rest_z;  // blocks × lanes
-  std::vector<std::uint32_t> vertex;         // blocks × lanes: mesh vertex (local), or kNoVertex
-  std::vector<std::uint32_t> ring;           // per slot, local to the segment's rings, local to the segment's rings
+  std::vector<std::uint32_t> vertex;          // blocks × lanes: mesh vertex (local), or kNoVertex
+  std::vector<std::uint32_t> ring;            // per slot, local to the segment's rings, local to the segment's rings
   std::vector<float> coefficient;
   [[nodiscard]] std::size_t blocks() const { return rest_x.size() / kernels::kSkinLanes; }
   [[nodiscard]] kernels::SkinBindingView view() const {

@@ -30,8 +30,8 @@ void copy_rotation(const RotationBuffer& from, std::size_t fo, RotationBuffer& t
 
 }  // namespace
 
-void carry_over_state(const WorldModel& from_model, const WorldState& from, const WorldModel& to_model,
-                      WorldState& to, std::span<const std::size_t> rod_map) {
+void carry_over_state(const WorldModel& from_model, const WorldState& from, const WorldModel& to_model, WorldState& to,
+                      std::span<const std::size_t> rod_map) {
   for (std::size_t r = 0; r < rod_map.size(); ++r) {
     if (rod_map[r] == kRodRemoved) continue;
     const SegmentModel& a = from_model.segments[r];
@@ -129,15 +129,17 @@ void World::reconfigure(WorldDesc next) {
                             "change them)",
                             next.segments.size(), now.segments.size()));
   for (std::size_t s = 0; s < now.segments.size(); ++s)
-    if (next.segments[s].nodes != now.segments[s].nodes || next.segments[s].chain_pieces != now.segments[s].chain_pieces)
+    if (next.segments[s].nodes != now.segments[s].nodes ||
+        next.segments[s].chain_pieces != now.segments[s].chain_pieces)
       throw Error(ErrorCode::invalid_argument,
                   fmt::format("reconfigure keeps every segment's nodes: segments[{}] ('{}') has {} nodes in {} pieces, "
                               "the world {} in {}",
                               s, next.segments[s].name, next.segments[s].nodes, next.segments[s].chain_pieces,
                               now.segments[s].nodes, now.segments[s].chain_pieces));
   if (next.instruments.size() != now.instruments.size())
-    throw Error(ErrorCode::invalid_argument, fmt::format("reconfigure keeps the instruments: {} given, the world has {}",
-                                                         next.instruments.size(), now.instruments.size()));
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("reconfigure keeps the instruments: {} given, the world has {}", next.instruments.size(),
+                            now.instruments.size()));
   std::vector<std::size_t> rod_map(impl_->model.segments.size());
   for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
   rebuild(std::move(next), rod_map);

@@ -86,7 +86,8 @@ StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius)
       const Eigen::Vector3d& e0 = corners[i];
       const Eigen::Vector3d& e1 = corners[(i + 1) % 3];
       if ((kernels::closest_point_on_segment(point, e0, e1) - point).norm() <= tol) {
-        const auto it = mesh.edge_normal.find(edge_key(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)]));
+        const auto it =
+            mesh.edge_normal.find(edge_key(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)]));
         if (it != mesh.edge_normal.end()) normal = it->second;
       }
     }

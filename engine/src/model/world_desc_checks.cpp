@@ -3,15 +3,15 @@
 // checked where it is built.
 #include "model/world_desc_checks.hpp"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 #include <numbers>
 #include <set>
 
-#include "model/field_checks.hpp"
 #include "haustra/error.hpp"
 #include "haustra/world.hpp"
+#include "model/field_checks.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -40,12 +40,13 @@ void check_segment_desc(const WorldDesc& desc, const SegmentDesc& d, const std::
   const auto pieces = static_cast<std::size_t>(d.chain_pieces);
   for (std::size_t p = 0; pieces > 1 && p < pieces; ++p) {
     const std::string piece = fmt::format("{}-{}", d.name, p + 1);
-    if (!names.insert(piece).second) fail(where + ".name", fmt::format("its piece '{}' takes a name already used", piece));
+    if (!names.insert(piece).second)
+      fail(where + ".name", fmt::format("its piece '{}' takes a name already used", piece));
   }
   if (pieces > 1) {
     if (static_cast<long long>(pieces) * (d.nodes - 1) + 1 > 10'000'000)
-      fail(where + ".chain.pieces", fmt::format("{} pieces of {} nodes: at most 10,000,000 nodes per chain",
-                                                pieces, d.nodes));
+      fail(where + ".chain.pieces",
+           fmt::format("{} pieces of {} nodes: at most 10,000,000 nodes per chain", pieces, d.nodes));
     if (d.mesh.enabled && d.mesh.source == MeshSource::file)
       fail(where + ".mesh.file", "a chain's pieces each get a procedural mesh; a mesh file covers one segment");
     if (d.beads.radius_from_mesh)
@@ -53,12 +54,12 @@ void check_segment_desc(const WorldDesc& desc, const SegmentDesc& d, const std::
     if (!d.beads.nodes.empty())
       fail(where + ".beads.nodes", "a chain's beads are given per piece by count or spacing, not as a node list");
   }
-  if (d.rest.kind != RestShapeKind::centreline)
-    check_positive(where + ".rest.length", d.rest.length, "m", 1000.0);
+  if (d.rest.kind != RestShapeKind::centreline) check_positive(where + ".rest.length", d.rest.length, "m", 1000.0);
   check_vector(where + ".base_position", d.base_position, false);
   check_vector(where + ".base_tangent", d.base_tangent, true);
   check_vector(where + ".base_normal", d.base_normal, false);
-  check_positive(where + ".radius", d.cross_section.radius, "m", 0.5, " (lengths are in metres: did you mean millimetres?)");
+  check_positive(where + ".radius", d.cross_section.radius, "m", 0.5,
+                 " (lengths are in metres: did you mean millimetres?)");
   check_positive(where + ".wall_thickness", d.cross_section.wall_thickness, "m", d.cross_section.radius,
                  " (the wall cannot be thicker than the radius)");
   check_positive(where + ".youngs_modulus", d.material.youngs_modulus, "Pa", 1e12);
@@ -74,8 +75,7 @@ void check_segment_desc(const WorldDesc& desc, const SegmentDesc& d, const std::
            "the EXP2 law is solved by Newton iteration: it needs solver.mode = \"newton\" (the lagged scheme "
            "assumes a constant stiffness)");
   }
-  const bool any_viscous =
-      std::any_of(d.law.begin(), d.law.end(), [](StrainLaw l) { return l != StrainLaw::elastic; });
+  const bool any_viscous = std::any_of(d.law.begin(), d.law.end(), [](StrainLaw l) { return l != StrainLaw::elastic; });
   if (any_viscous) check_positive(where + ".relaxation_time", d.relaxation_time, "s", 1e9);
   const double drag = d.drag.value_or(d.base == BaseMode::free ? 4.0 : 0.0);
   if (d.base == BaseMode::free)
@@ -95,18 +95,24 @@ void check_memory(const WorldDesc& desc) {
   if (limit == 0 || e.total <= limit) return;
   auto size = [](std::size_t b) {
     const double x = static_cast<double>(b);
-    return x >= 1e9 ? fmt::format("{:.2f} GB", x / 1e9) : x >= 1e6 ? fmt::format("{:.1f} MB", x / 1e6) : fmt::format("{:.0f} kB", x / 1e3);
+    return x >= 1e9   ? fmt::format("{:.2f} GB", x / 1e9)
+           : x >= 1e6 ? fmt::format("{:.1f} MB", x / 1e6)
+                      : fmt::format("{:.0f} kB", x / 1e3);
   };
   const std::size_t largest =
-      static_cast<std::size_t>(std::max_element(desc.segments.begin(), desc.segments.end(), [](const auto& a, const auto& b) {
-                                 return static_cast<long long>(a.nodes) * a.chain_pieces < static_cast<long long>(b.nodes) * b.chain_pieces;
-                               }) - desc.segments.begin());
+      static_cast<std::size_t>(std::max_element(desc.segments.begin(), desc.segments.end(),
+                                                [](const auto& a, const auto& b) {
+                                                  return static_cast<long long>(a.nodes) * a.chain_pieces <
+                                                         static_cast<long long>(b.nodes) * b.chain_pieces;
+                                                }) -
+                               desc.segments.begin());
   throw Error(ErrorCode::invalid_argument,
               fmt::format("the world would need about {} ({} nodes: {} of rod state and {} of Newton workspace, {:.0f} "
                           "bytes a node; beads {}, organ meshes {}), more than {} {}: lower segment[{}].nodes (or its "
                           "chain.pieces) or the mesh vertices{}",
                           size(e.total), e.nodes, size(e.rod_bytes), size(e.solver_bytes),
-                          static_cast<double>(e.rod_bytes + e.solver_bytes) / static_cast<double>(std::max<std::size_t>(e.nodes, 1)),
+                          static_cast<double>(e.rod_bytes + e.solver_bytes) /
+                              static_cast<double>(std::max<std::size_t>(e.nodes, 1)),
                           size(e.bead_bytes), size(e.mesh_bytes), size(limit),
                           set ? "(world.memory_limit)" : "this machine has available", largest,
                           set ? ", or raise world.memory_limit" : ""));

@@ -1,28 +1,28 @@
 // build_world_model: a world description checked and turned into the immutable model (mjModel).
 #include "model/world_model.hpp"
 
-#include <cmath>
 #include <fmt/format.h>
+#include <cmath>
 #include <numbers>
 #include <set>
 
-#include "model/field_checks.hpp"
 #include "haustra/error.hpp"
 #include "haustra/kernels/mass_matrix.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/rest_shape.hpp"
 #include "haustra/rod_pose_buffer.hpp"
+#include "model/field_checks.hpp"
 #include "model/world_desc_checks.hpp"
 
 namespace haustra::detail {
 namespace {
 
-
 std::size_t resolve_node(const std::string& field, int node, std::size_t node_count) {
   const auto n = static_cast<long long>(node_count);
   const long long k = node < 0 ? n + node : node;
   if (k < 0 || k >= n)
-    fail(field, fmt::format("expected a node index in [{}, {}] (negative counts from the tip), got {}", -n, n - 1, node));
+    fail(field,
+         fmt::format("expected a node index in [{}, {}] (negative counts from the tip), got {}", -n, n - 1, node));
   return static_cast<std::size_t>(k);
 }
 
@@ -37,9 +37,9 @@ RestShape build_rest_shape(const SegmentDesc& d, const std::string& where) {
     case RestShapeKind::centreline:
       if (d.rest.centreline.size() < 2)
         fail(where + ".rest.file", fmt::format("expected at least 2 points, got {}", d.rest.centreline.size()));
-      return rest_shape_from_centreline(d.rest.centreline, d.nodes, d.base_normal,
-                                        d.rest.centreline_source.empty() ? where + ".rest.file"
-                                                                         : d.rest.centreline_source);
+      return rest_shape_from_centreline(
+          d.rest.centreline, d.nodes, d.base_normal,
+          d.rest.centreline_source.empty() ? where + ".rest.file" : d.rest.centreline_source);
   }
   fail(where + ".rest.shape", "unknown rest shape");
 }
@@ -80,8 +80,8 @@ void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector
   seg.info.axial_stiffness = e * area;
   seg.info.linear_density = d.linear_density.value_or(d.material.density * area);
   seg.info.zeta = desc.filter.zeta_scale * std::numbers::pi / (16.0 * seg.info.axial_stiffness);
-  const std::array<double, 4> k = {seg.info.bending_stiffness, seg.info.bending_stiffness,
-                                   seg.info.torsion_stiffness, seg.info.axial_stiffness};
+  const std::array<double, 4> k = {seg.info.bending_stiffness, seg.info.bending_stiffness, seg.info.torsion_stiffness,
+                                   seg.info.axial_stiffness};
   seg.law = d.law;
   for (std::size_t c = 0; c < 4; ++c) {
     seg.stiffness[c] = d.law[c] == StrainLaw::viscous ? 0.0 : k[c];

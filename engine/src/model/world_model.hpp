@@ -3,22 +3,22 @@
 // stepping. Per-node arrays are contiguous across segments; a segment is an offset+count range.
 #include <array>
 #include <cstdint>
-#include <string>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <memory>
 
-#include "model/cage_builder.hpp"
 #include "haustra/embree_scene.hpp"
-#include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/mesh_normals.hpp"
+#include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/tissue_law.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/rod_pose_buffer.hpp"
-#include "haustra/world_types.hpp"
-#include "model/skin_binding.hpp"
 #include "haustra/world_desc.hpp"
+#include "haustra/world_types.hpp"
+#include "model/cage_builder.hpp"
+#include "model/skin_binding.hpp"
 
 namespace haustra::detail {
 
@@ -42,8 +42,8 @@ struct SegmentModel {
   std::size_t node_offset = 0;
   std::size_t node_count = 0;  // N+1
   double mean_section = 0.0;
-  std::array<double, 4> stiffness{};      // k_c in the law (zero for viscous components)
-  std::array<double, 4> viscosity{};      // η_c (zero for elastic components)
+  std::array<double, 4> stiffness{};  // k_c in the law (zero for viscous components)
+  std::array<double, 4> viscosity{};  // η_c (zero for elastic components)
   std::array<StrainLaw, 4> law{};
   // EXP2 tissue in bending and stretch (kernels/tissue_law): the stress is evaluated per node and
   // the Newton system takes its tangent; false: Hooke's constant stiffness.
@@ -54,13 +54,13 @@ struct SegmentModel {
   bool has_drag = false;
   kernels::Pose initial_base;
   std::vector<AttachmentModel> attachments;
-  std::size_t constraint_rows = 0;        // capacity: all attachments active
-  std::size_t attachment_offset = 0;      // into the world's attachment state arrays
+  std::size_t constraint_rows = 0;    // capacity: all attachments active
+  std::size_t attachment_offset = 0;  // into the world's attachment state arrays
   // Offsets into the world's constraint scratch (doubles), valid when constraint_rows > 0.
   std::size_t constraint_scratch_offset = 0;
-  std::size_t bead_offset = 0;   // into the world's bead arrays
+  std::size_t bead_offset = 0;  // into the world's bead arrays
   std::size_t bead_count = 0;
-  std::size_t first_piece = 0;   // into WorldModel::pieces
+  std::size_t first_piece = 0;  // into WorldModel::pieces
   std::size_t piece_count = 1;
   // Newton splits a long rod's solve at this node into a tip part and a base part that condense at
   // once (decision 0036); 0: solved whole. Fixed by the model, so any thread count splits alike.
@@ -86,10 +86,10 @@ struct SolvePart {
 // share their joint nodes (the tip node of one is the base node of the next), so their node ranges
 // overlap by one; their beads do not (a bead on a joint node belongs to the later piece).
 struct SegmentPiece {
-  SegmentInfo info;              // its name, global node range and rest length; the rod's stiffnesses
-  std::size_t rod = 0;           // into WorldModel::segments
-  std::size_t first_node = 0;    // local to the rod
-  std::size_t bead_offset = 0;   // into the world's bead arrays
+  SegmentInfo info;             // its name, global node range and rest length; the rod's stiffnesses
+  std::size_t rod = 0;          // into WorldModel::segments
+  std::size_t first_node = 0;   // local to the rod
+  std::size_t bead_offset = 0;  // into the world's bead arrays
   std::size_t bead_count = 0;
 };
 
@@ -97,10 +97,10 @@ class StaticMeshes;
 
 // Beads of all segments, ordered by segment then node: what the collision stages read.
 struct BeadModel {
-  std::vector<std::uint32_t> node;      // global node index
+  std::vector<std::uint32_t> node;  // global node index
   std::vector<std::uint32_t> segment;
-  std::vector<double> radius;           // m
-  std::vector<double> modulus;          // Young's modulus of its tissue, Pa
+  std::vector<double> radius;   // m
+  std::vector<double> modulus;  // Young's modulus of its tissue, Pa
   // Pairs of one segment that overlap or touch at rest never collide: for bead i, the excluded
   // partners j > i, ascending (CSR).
   std::vector<std::uint32_t> exclusion_start;
@@ -133,7 +133,7 @@ struct NormalChunk {
   std::uint32_t piece = 0;
   std::size_t first_vertex = 0;  // world mesh vertex
   std::size_t vertices = 0;
-  std::size_t first_block = 0;   // its whole blocks of 8 in WorldModel's normal blocks
+  std::size_t first_block = 0;  // its whole blocks of 8 in WorldModel's normal blocks
 };
 
 struct WorldModel {
@@ -162,7 +162,7 @@ struct WorldModel {
   BeadModel beads;
   ContactDesc contact;
   double contact_margin = 0.0;  // resolved
-  EnvironmentDesc environment;   // normals unit length
+  EnvironmentDesc environment;  // normals unit length
   std::shared_ptr<const StaticMeshes> meshes;
   std::vector<InstrumentDesc> instruments;  // keyframes sorted, axes unit length
 

@@ -11,7 +11,7 @@
 namespace haustra::detail {
 namespace {
 
-constexpr std::size_t kChunk = 64;  // beads per task: fixed, so the split does not depend on threads
+constexpr std::size_t kChunk = 64;    // beads per task: fixed, so the split does not depend on threads
 constexpr double kSpeculation = 1.5;  // a bead's reach: the margin plus this times its last motion
 // bench_collision, one thread: brute force costs ~110 ns a bead at 220 beads and ~790 at 1000,
 // the grid ~260 at any count; the grid's queries also spread over threads.
@@ -41,8 +41,7 @@ kernels::SphereContact measure(const WorldModel& model, const WorldState& state,
     case ContactKind::bead:
       return kernels::sphere_sphere(c, r, node_position(state, model.beads.node[k.other]), model.beads.radius[k.other]);
     case ContactKind::plane:
-    case ContactKind::mesh:
-      return kernels::sphere_plane(c, r, k.point, k.normal);
+    case ContactKind::mesh: return kernels::sphere_plane(c, r, k.point, k.normal);
     case ContactKind::sphere: {
       const SphereObstacleDesc& s = model.environment.spheres[k.other];
       return kernels::sphere_sphere(c, r, s.center, s.radius);
@@ -93,8 +92,8 @@ void environment_candidates(const WorldModel& model, const WorldState& state, st
   for (std::size_t i = 0; i < model.instruments.size(); ++i) {
     if (instrument_holds(state, i, b)) continue;  // the grasped bead sits in the jaws
     const InstrumentState& s = state.instruments[i];
-    if (kernels::sphere_capsule(c, r, s.tip, instrument_end(s, model.instruments[i]), model.instruments[i].radius).depth >
-        -margin)
+    if (kernels::sphere_capsule(c, r, s.tip, instrument_end(s, model.instruments[i]), model.instruments[i].radius)
+            .depth > -margin)
       add(ContactKind::instrument, i, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
   }
 }
@@ -208,7 +207,8 @@ void stage_collide(const WorldModel& model, WorldState& state, Scheduler& schedu
   for (std::size_t i = 0; i < cs.candidates.size(); ++i) {
     const ContactCandidate& k = cs.candidates[i];
     cs.bead_contact[cs.bead_contact_start[k.bead]++] = static_cast<std::uint32_t>(i << 1);
-    if (k.kind == ContactKind::bead) cs.bead_contact[cs.bead_contact_start[k.other]++] = static_cast<std::uint32_t>((i << 1) | 1);
+    if (k.kind == ContactKind::bead)
+      cs.bead_contact[cs.bead_contact_start[k.other]++] = static_cast<std::uint32_t>((i << 1) | 1);
   }
   for (std::size_t b = nb; b > 0; --b) cs.bead_contact_start[b] = cs.bead_contact_start[b - 1];
   cs.bead_contact_start[0] = 0;
@@ -239,7 +239,8 @@ void stage_contacts(const WorldModel& model, WorldState& state, Scheduler& sched
       k.force = p.force * m.normal;
       // Two beads both move: each side sees the pair's stiffness twice, so that their combined
       // correction is not doubled (one side held still then under-corrects, which converges).
-      k.stiffness = m.depth > 0.0 ? std::max(p.stiffness, floor.stiffness) * (k.kind == ContactKind::bead ? 2.0 : 1.0) : 0.0;
+      k.stiffness =
+          m.depth > 0.0 ? std::max(p.stiffness, floor.stiffness) * (k.kind == ContactKind::bead ? 2.0 : 1.0) : 0.0;
       k.coupled = false;
     }
   });
@@ -312,7 +313,8 @@ double segment_contact_potential(const WorldModel& model, const WorldState& stat
         depth = k.depth - (second ? -1.0 : 1.0) * k.direction.dot(moved);
       }
       if (depth > 0.0) {
-        const double power = exponent == 2.0 ? depth * depth * depth : std::pow(depth, exponent + 1.0);  // the paper's d²
+        const double power =
+            exponent == 2.0 ? depth * depth * depth : std::pow(depth, exponent + 1.0);  // the paper's d²
         potential += stiffness_of(model, k) * power / (exponent + 1.0);
       }
     }

@@ -11,8 +11,8 @@
 //                     Newton solves them as pairs (they hang on the same rod; node by node they
 //                     would not converge in a fold). The others enter its Jacobian node by node.
 //   stage_contact_report — at a frame's end: depths at the final positions.
-#include "step/scheduler.hpp"
 #include "model/world_model.hpp"
+#include "step/scheduler.hpp"
 #include "step/world_state.hpp"
 
 namespace haustra::detail {

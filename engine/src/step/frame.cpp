@@ -1,12 +1,12 @@
 // The frame pipeline, stage by stage: World::Impl's step() and run_frame(). Read this file to
 // see where a frame goes (like MuJoCo's engine_forward.c); the stages themselves live in their
 // own files (rod_stages, newton_stages, line_search, collision, instruments, mesh_stages).
+#include <fmt/format.h>
 #include <chrono>
 #include <type_traits>
-#include <fmt/format.h>
 
-#include "step/collision.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
+#include "step/collision.hpp"
 #include "step/instruments.hpp"
 #include "step/mesh_stages.hpp"
 #include "step/newton_stages.hpp"
@@ -52,9 +52,7 @@ constexpr std::size_t kMaxEvents = 1024;
 constexpr std::size_t kParallelMeshVertices = 50'000;
 constexpr int kGoodFramesBeforeRelaxing = 120;  // robust mode: calm frames before halving substeps again
 
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 }  // namespace
 
@@ -98,12 +96,13 @@ void World::Impl::follow_rod() {
   // Below ~50,000 vertices a chunk takes a few µs: dispatching it costs more than it saves.
   const bool parallel = model.mesh_vertex_total >= kParallelMeshVertices;
   stage(Stage::skin, [&] {
-    scheduler.for_each(model.skin_chunks.size(), [&](std::size_t c) { detail::stage_skin(model, state, c); }, parallel);
+    scheduler.for_each(
+        model.skin_chunks.size(), [&](std::size_t c) { detail::stage_skin(model, state, c); }, parallel);
   });
   if (!model.normal_chunks.empty())
     stage(Stage::normals, [&] {
-      scheduler.for_each(model.normal_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, state, c); },
-                         parallel);
+      scheduler.for_each(
+          model.normal_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, state, c); }, parallel);
     });
 }
 
@@ -203,9 +202,8 @@ std::size_t World::Impl::run_frame(int n, bool newton, bool chord) {
             bool searching = false;
             for (std::size_t s = 0; s < segs; ++s) searching = searching || state.newton[s].search.active;
             if (!searching) break;
-            scheduler.for_each(parts, [&](std::size_t i) {
-              detail::stage_newton_search_sweep(model, state, model.solve_parts[i]);
-            });
+            scheduler.for_each(
+                parts, [&](std::size_t i) { detail::stage_newton_search_sweep(model, state, model.solve_parts[i]); });
             scheduler.for_each(parts, [&](std::size_t i) {
               detail::stage_newton_search_measure(model, state, model.solve_parts[i], p);
             });
@@ -276,7 +274,9 @@ It World::Impl::describe(It out, std::size_t max, std::size_t s, const GuardResu
   const auto [piece, node] = piece_of(s, g.node);
   const auto name = std::string_view(model.pieces[piece].info.name);
   if (g.limit > 0.0)
-    return fmt::format_to_n(out, max, "frame {}: segment '{}' ({}), node {}: {} {:.4g} exceeds the limit {:.4g} after stage '{}' with {} substep{}",
+    return fmt::format_to_n(out, max,
+                            "frame {}: segment '{}' ({}), node {}: {} {:.4g} exceeds the limit {:.4g} after stage '{}' "
+                            "with {} substep{}",
                             state.frame, name, piece, node, g.quantity, g.value, g.limit, stage_name(g.stage), n,
                             n == 1 ? "" : "s")
         .out;
@@ -343,7 +343,8 @@ void World::Impl::step() {
     const std::size_t cap = e.text.size() - 1;
     char* it = fmt::format_to_n(e.text.data(), cap, "unstable at ").out;
     it = describe(it, cap - static_cast<std::size_t>(it - e.text.data()), failed, g, rung.substeps);
-    it = fmt::format_to_n(it, cap - static_cast<std::size_t>(it - e.text.data()), ". {}Lower the time step, raise "
+    it = fmt::format_to_n(it, cap - static_cast<std::size_t>(it - e.text.data()),
+                          ". {}Lower the time step, raise "
                           "solver.max_substeps or solver.iterations, or soften the loads. The world keeps its last "
                           "good frame.",
                           model.solver.on_instability == InstabilityPolicy::recover
@@ -363,8 +364,8 @@ void World::Impl::step() {
     char* it = fmt::format_to_n(e.text.data(), cap, "recovered: ").out;
     it = describe(it, cap - static_cast<std::size_t>(it - e.text.data()), first_segment, first, first_rung.substeps);
     it = fmt::format_to_n(it, cap - static_cast<std::size_t>(it - e.text.data()),
-                          "; the frame was redone with {}{} substep{}", rung.newton ? "Newton and " : "",
-                          rung.substeps, rung.substeps == 1 ? "" : "s")
+                          "; the frame was redone with {}{} substep{}", rung.newton ? "Newton and " : "", rung.substeps,
+                          rung.substeps == 1 ? "" : "s")
              .out;
     *std::min(it, e.text.data() + cap) = '\0';
     record(e);

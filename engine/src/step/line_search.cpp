@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "step/collision.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
+#include "step/collision.hpp"
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
 #include "step/segment_law.hpp"
@@ -231,7 +231,8 @@ void set_trial(const WorldModel& model, WorldState& state, std::size_t rod, doub
 
 // Stiffens the law's rows and solves again until the step descends (or the stiffenings run out).
 // The strains are back at the start; the poses are swept there. False: no solve.
-bool stiffen(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p, const Coupled& c) {
+bool stiffen(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p,
+             const Coupled& c) {
   NewtonWorkspace& ws = state.newton[rod];
   LineSearch& ls = ws.search;
   do {
@@ -294,7 +295,8 @@ void first_trial(const WorldModel& model, WorldState& state, std::size_t rod, bo
 
 }  // namespace
 
-void stage_newton_search_begin(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p) {
+void stage_newton_search_begin(const WorldModel& model, WorldState& state, std::size_t rod,
+                               const SubstepParameters& p) {
   const SegmentModel& seg = model.segments[rod];
   NewtonWorkspace& ws = state.newton[rod];
   LineSearch& ls = ws.search;

@@ -17,8 +17,8 @@ void stage_cage(const WorldModel& model, WorldState& state, std::size_t piece) {
   kernels::ring_poses(segment_views(model, state, p.rod).poses.subview(p.first_node, p.info.nodes.count),
                       mesh.cage.ring_station, pose);
   kernels::ring_deltas(mesh.cage.ring_rest, pose,
-                       std::span(state.mesh.ring_delta).subspan(kernels::kRingDeltaFloats * mesh.ring_offset,
-                                                               kernels::kRingDeltaFloats * rings));
+                       std::span(state.mesh.ring_delta)
+                           .subspan(kernels::kRingDeltaFloats * mesh.ring_offset, kernels::kRingDeltaFloats * rings));
 }
 
 void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk) {
@@ -27,11 +27,11 @@ void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk) {
   const std::size_t n = mesh.binding.vertices;
   auto part = [&](std::span<float> v) { return v.subspan(mesh.vertex_offset, n); };
   const std::size_t rings = mesh.cage.ring_station.size();
-  kernels::skin_rigid_groups(mesh.binding.view(),
-                             std::span<const float>(state.mesh.ring_delta)
-                                 .subspan(kernels::kRingDeltaFloats * mesh.ring_offset, kernels::kRingDeltaFloats * rings),
-                             c.first_block, c.blocks,
-                             {part(state.mesh.position.x), part(state.mesh.position.y), part(state.mesh.position.z)});
+  kernels::skin_rigid_groups(
+      mesh.binding.view(),
+      std::span<const float>(state.mesh.ring_delta)
+          .subspan(kernels::kRingDeltaFloats * mesh.ring_offset, kernels::kRingDeltaFloats * rings),
+      c.first_block, c.blocks, {part(state.mesh.position.x), part(state.mesh.position.y), part(state.mesh.position.z)});
 }
 
 void stage_normals(const WorldModel& model, WorldState& state, std::size_t chunk) {

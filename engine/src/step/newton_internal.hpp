@@ -15,7 +15,7 @@ using VectorC = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxCoupled, 1>;
 
 // A coupled contact pair: two beads of the segment, solved as one unknown force.
 struct Pair {
-  std::size_t a = 0, b = 0;  // local nodes
+  std::size_t a = 0, b = 0;                      // local nodes
   Eigen::Vector3d n = Eigen::Vector3d::UnitZ();  // separating direction, towards a
   double stiffness = 0.0;
 };

@@ -4,12 +4,12 @@
 #include <algorithm>
 #include <cmath>
 
-#include "step/collision.hpp"
 #include "haustra/kernels/block_tridiagonal.hpp"
 #include "haustra/kernels/rod_backward_sweep.hpp"
 #include "haustra/kernels/rod_condensed.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/kernels/rod_newton.hpp"
+#include "step/collision.hpp"
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
 #include "step/segment_law.hpp"
@@ -36,7 +36,6 @@ Coupled coupled_unknowns(const WorldModel& model, const WorldState& state, std::
   }
   return c;
 }
-
 
 namespace {
 
@@ -96,8 +95,8 @@ void linearize(const WorldModel& model, WorldState& state, std::size_t segment, 
 void unit_loads(const Coupled& c, NewtonWorkspace& ws) {
   ws.loads.clear();
   for (std::size_t j = 0; j < c.m; ++j)
-    ws.loads.push_back({static_cast<std::uint32_t>(c.rows[j].node), static_cast<std::uint32_t>(1 + j), c.rows[j].is_moment,
-                        c.rows[j].dir});
+    ws.loads.push_back({static_cast<std::uint32_t>(c.rows[j].node), static_cast<std::uint32_t>(1 + j),
+                        c.rows[j].is_moment, c.rows[j].dir});
   for (std::size_t i = 0; i < c.pc; ++i) {
     const auto col = static_cast<std::uint32_t>(1 + c.m + i);
     ws.loads.push_back({static_cast<std::uint32_t>(c.pairs[i].a), col, false, c.pairs[i].n});
@@ -175,8 +174,8 @@ void band_solve(const WorldModel& model, WorldState& state, std::size_t segment,
   for (std::size_t r = 0; r < ws.response_nodes.size(); ++r)
     for (int col = 0; col < cols; ++col)
       for (int i = 0; i < 6; ++i)
-        ws.responses[(r * static_cast<std::size_t>(cols) + static_cast<std::size_t>(col)) * 6 + static_cast<std::size_t>(i)] =
-            entry(ws.response_nodes[r], kernels::kNewtonRotation + i, col);
+        ws.responses[(r * static_cast<std::size_t>(cols) + static_cast<std::size_t>(col)) * 6 +
+                     static_cast<std::size_t>(i)] = entry(ws.response_nodes[r], kernels::kNewtonRotation + i, col);
 }
 
 // Step 4 for the banded path: the step Σ weight_c column_c into the step buffers.
@@ -186,10 +185,13 @@ void band_step(NewtonWorkspace& ws, std::size_t n, int cols) {
   for (std::size_t k = 0; k < n; ++k) {
     double z[B] = {};
     for (int col = 0; col < cols; ++col)
-      for (int r = 0; r < B; ++r) z[r] += ws.weights[static_cast<std::size_t>(col)] * ws.rhs[k * stride + static_cast<std::size_t>(col * B + r)];
+      for (int r = 0; r < B; ++r)
+        z[r] += ws.weights[static_cast<std::size_t>(col)] * ws.rhs[k * stride + static_cast<std::size_t>(col * B + r)];
     for (std::size_t i = 0; i < 4; ++i) ws.step_q[4 * k + i] = z[i];
-    ws.step_phi.view().set(k, {z[kernels::kNewtonRotation], z[kernels::kNewtonRotation + 1], z[kernels::kNewtonRotation + 2]});
-    ws.step_r.view().set(k, {z[kernels::kNewtonPosition], z[kernels::kNewtonPosition + 1], z[kernels::kNewtonPosition + 2]});
+    ws.step_phi.view().set(
+        k, {z[kernels::kNewtonRotation], z[kernels::kNewtonRotation + 1], z[kernels::kNewtonRotation + 2]});
+    ws.step_r.view().set(
+        k, {z[kernels::kNewtonPosition], z[kernels::kNewtonPosition + 1], z[kernels::kNewtonPosition + 2]});
   }
 }
 
@@ -202,11 +204,13 @@ void coupled_multipliers(const WorldModel& model, const WorldState& state, std::
   const auto cols = static_cast<std::size_t>(c.columns());
   // A node's responses: 6 × columns (δφ, δr of each column), found once per row.
   auto responses_at = [&](std::size_t node) {
-    const auto i = static_cast<std::size_t>(
-        std::lower_bound(ws.response_nodes.begin(), ws.response_nodes.end(), node) - ws.response_nodes.begin());
+    const auto i = static_cast<std::size_t>(std::lower_bound(ws.response_nodes.begin(), ws.response_nodes.end(), node) -
+                                            ws.response_nodes.begin());
     return ws.responses.data() + i * cols * 6;
   };
-  auto along = [](const double* r, const Eigen::Vector3d& dir) { return dir.x() * r[0] + dir.y() * r[1] + dir.z() * r[2]; };
+  auto along = [](const double* r, const Eigen::Vector3d& dir) {
+    return dir.x() * r[0] + dir.y() * r[1] + dir.z() * r[2];
+  };
   auto column = [&](Eigen::Index l) { return static_cast<std::size_t>(ws.column_of[static_cast<std::size_t>(1 + l)]); };
   const auto unknowns = static_cast<Eigen::Index>(c.m + c.pc);
   x = VectorC::Zero(unknowns);
@@ -294,8 +298,8 @@ kernels::RodLinearization linearization_at(const WorldModel& model, WorldState& 
                                            const SubstepParameters& p) {
   const SegmentModel& seg = model.segments[rod];
   NewtonWorkspace& ws = state.newton[rod];
-  kernels::RodLinearization lin = linearization_of(seg, segment_views(model, state, rod), ws, p,
-                                                   seg.has_drag || seg.bead_count > 0);
+  kernels::RodLinearization lin =
+      linearization_of(seg, segment_views(model, state, rod), ws, p, seg.has_drag || seg.bead_count > 0);
   lin.law_scale = ws.law_scale;
   return lin;
 }
@@ -355,10 +359,9 @@ bool join(const WorldModel& model, WorldState& state, std::size_t rod, const Sub
   bool ok = sp.joint > 0 ? sp.tip_ok && sp.base_ok : ws.ok;
   if (ok && sp.joint > 0) {
     const kernels::RodLinearization lin = linearization_at(model, state, rod, p);
-    ok = kernels::rod_condensed_join(lin, sp.joint,
-                                     {sp.interface, c.columns(), sp.at_joint, sp.base_columns, sp.tip_column,
-                                      sp.base_column},
-                                     sp.lambda, sp.y_joint);
+    ok = kernels::rod_condensed_join(
+        lin, sp.joint, {sp.interface, c.columns(), sp.at_joint, sp.base_columns, sp.tip_column, sp.base_column},
+        sp.lambda, sp.y_joint);
   }
   ws.band = !ok;
   if (ok) return true;
@@ -400,9 +403,9 @@ void responses_half(const WorldModel& model, WorldState& state, std::size_t rod,
     kernels::rod_condensed_responses_range(lin, sys, sp.joint, model.segments[rod].node_count - 1, sp.y_joint, nodes,
                                            std::span(ws.responses).subspan(sp.base_nodes * per_node), {}, first, end);
   if (half == 1)
-    kernels::rod_condensed_base_responses(sp.raw, sp.base_columns, std::span(sp.base_column).first(static_cast<std::size_t>(cols)),
-                                          std::span(sp.lambda).first(10 * static_cast<std::size_t>(cols)), sp.base_nodes,
-                                          ws.responses);
+    kernels::rod_condensed_base_responses(
+        sp.raw, sp.base_columns, std::span(sp.base_column).first(static_cast<std::size_t>(cols)),
+        std::span(sp.lambda).first(10 * static_cast<std::size_t>(cols)), sp.base_nodes, ws.responses);
 }
 
 // Step 4, the rod: the coupled unknowns' multipliers (the column weights), and where the rod is
@@ -459,7 +462,8 @@ void step_part(const WorldModel& model, WorldState& state, const SolvePart& part
 
 // The whole solve of one rod at a law scale, its parts one after another (the line search's
 // stiffened re-solves): what the condense and solve stages do over all rods at once.
-bool resolve(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p, double law_scale) {
+bool resolve(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p,
+             double law_scale) {
   state.newton[rod].law_scale = law_scale;
   const std::span<const SolvePart> parts = parts_of(model, rod);
   for (const SolvePart& part : parts) condense_part(model, state, part, p);
@@ -488,7 +492,8 @@ void stage_newton_linearize(const WorldModel& model, WorldState& state, std::siz
     ws.pattern_now.clear();
     for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
       const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
-      ws.pattern_now.push_back(as.active ? static_cast<std::uint32_t>(2 * as.node + (as.hold_frame ? 1 : 0)) : 0xFFFFFFFFu);
+      ws.pattern_now.push_back(as.active ? static_cast<std::uint32_t>(2 * as.node + (as.hold_frame ? 1 : 0))
+                                         : 0xFFFFFFFFu);
     }
     const CollisionState& cs = state.collision;
     for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
@@ -503,15 +508,16 @@ void stage_newton_linearize(const WorldModel& model, WorldState& state, std::siz
     for (std::size_t i = 0; same && i < ws.pattern_now.size(); ++i)
       same = i < seg.attachments.size() ? ws.pattern_now[i] == ws.chord_pattern[i]
                                         : ws.pattern_now[i] <= ws.chord_pattern[i];
-    ws.chord = p.chord && ws.chord_ready && state.frame - ws.chord_frame < static_cast<std::uint64_t>(model.solver.refactor_frames) &&
+    ws.chord = p.chord && ws.chord_ready &&
+               state.frame - ws.chord_frame < static_cast<std::uint64_t>(model.solver.refactor_frames) &&
                ws.chord_dt == p.dt && same;
   }
   NewtonSplit& sp = ws.split;
   if (sp.joint == 0) return;
   const auto cols = static_cast<std::size_t>(c.columns());
-  const auto [tip_loads, base_columns] = kernels::rod_condensed_split_loads(
-      ws.loads, c.columns(), sp.joint, sp.base_loads, std::span(sp.tip_column).first(cols),
-      std::span(sp.base_column).first(cols));
+  const auto [tip_loads, base_columns] =
+      kernels::rod_condensed_split_loads(ws.loads, c.columns(), sp.joint, sp.base_loads,
+                                         std::span(sp.tip_column).first(cols), std::span(sp.base_column).first(cols));
   sp.tip_loads = tip_loads;
   sp.base_load_count = ws.loads.size() - tip_loads;
   sp.base_columns = base_columns;

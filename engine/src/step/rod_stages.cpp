@@ -22,7 +22,6 @@ using MatrixS = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRow
 using VectorS = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRows, 1>;
 using Matrix6x = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxRows>;
 
-
 // Generalized forces of the drag that a unit base twist `axis` meets, into `out`. Uses the node
 // load buffers as scratch: the backward sweep has consumed them by the time this runs.
 void unit_drag_field(const WorldModel& model, const SegmentModel& seg, const SegmentViews& v, std::size_t axis,
@@ -59,10 +58,9 @@ kernels::Pose integrate_base(const kernels::Pose& start, const kernels::Vector6d
 void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
   const SegmentModel& seg = model.segments[segment];
   const SegmentViews v = segment_views(model, state, segment);
-  kernels::assemble_node_loads(v.node_mass, model.gravity,
-                               state.external_force.view().subview(seg.node_offset, seg.node_count),
-                               state.external_moment.view().subview(seg.node_offset, seg.node_count), v.force,
-                               v.moment);
+  kernels::assemble_node_loads(
+      v.node_mass, model.gravity, state.external_force.view().subview(seg.node_offset, seg.node_count),
+      state.external_moment.view().subview(seg.node_offset, seg.node_count), v.force, v.moment);
   // Contact penalties, as the collision stage last evaluated them.
   const auto bead_force = state.collision.bead_force.view();
   for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
@@ -91,8 +89,8 @@ void stage_free_base(const WorldModel& model, WorldState& state, std::size_t seg
   const Eigen::Vector3d origin = v.poses.node_position.get(0);
   // The rod moves rigidly so that the drag balances the total load, C (ω, v) = W, and the drag
   // loads join the node loads: the strains then see a self-equilibrated load, as a free body should.
-  const kernels::Matrix6d c = kernels::rigid_drag_resistance(v.poses.node_position, drag_of(model, seg),
-                                                             spin_drag_of(model, seg), origin);
+  const kernels::Matrix6d c =
+      kernels::rigid_drag_resistance(v.poses.node_position, drag_of(model, seg), spin_drag_of(model, seg), origin);
   const kernels::Vector6d w = kernels::total_wrench(v.poses.node_position, v.force, v.moment, origin);
   const kernels::Vector6d twist = c.ldlt().solve(w);
   state.base_resistance[segment] = c;
@@ -115,8 +113,7 @@ Eigen::Vector4d stage_solve(const WorldModel& model, WorldState& state, std::siz
             state.strain_before_update.begin() + static_cast<std::ptrdiff_t>(4 * seg.node_offset));
   kernels::mass_matrix_solve(factor_of(model, seg), v.generalized_force);
   const double w = model.solver.relaxation;
-  return kernels::strain_update(v.generalized_force, v.rest, v.strain_start, law_of(seg, p.dt), {w, w, w, w},
-                                v.strain);
+  return kernels::strain_update(v.generalized_force, v.rest, v.strain_start, law_of(seg, p.dt), {w, w, w, w}, v.strain);
 }
 
 void stage_forward_sweep(const WorldModel& model, WorldState& state, std::size_t segment) {
@@ -124,8 +121,7 @@ void stage_forward_sweep(const WorldModel& model, WorldState& state, std::size_t
   kernels::rod_forward_sweep(state.now.base[segment], v.section_length, v.strain, v.poses);
 }
 
-void stage_constraints(const WorldModel& model, WorldState& state, std::size_t segment,
-                       const SubstepParameters& p) {
+void stage_constraints(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
   const SegmentModel& seg = model.segments[segment];
   if (seg.constraint_rows == 0) return;
   ConstraintRows rows{};
@@ -140,7 +136,9 @@ void stage_constraints(const WorldModel& model, WorldState& state, std::size_t s
   const std::size_t n = seg.node_count;
   const bool free_base = seg.base_mode == BaseMode::free;
   double* scratch = state.constraint_scratch.data() + seg.constraint_scratch_offset;
-  auto g_row = [&](std::size_t j) { return kernels::StrainView<double>{std::span<double>(scratch + 4 * n * j, 4 * n)}; };
+  auto g_row = [&](std::size_t j) {
+    return kernels::StrainView<double>{std::span<double>(scratch + 4 * n * j, 4 * n)};
+  };
   auto y_row = [&](std::size_t j) {
     return kernels::StrainView<double>{std::span<double>(scratch + 4 * n * (seg.constraint_rows + j), 4 * n)};
   };
@@ -228,7 +226,8 @@ void stage_filter(const WorldModel& model, WorldState& state, std::size_t segmen
   std::fill(exempt.begin(), exempt.end(), std::uint8_t{0});
   if (seg.base_mode == BaseMode::clamped) exempt[0] = 1;
   for (std::size_t a = 0; a < seg.attachments.size(); ++a)
-    if (state.now.attachment[seg.attachment_offset + a].active) exempt[state.now.attachment[seg.attachment_offset + a].node] = 1;
+    if (state.now.attachment[seg.attachment_offset + a].active)
+      exempt[state.now.attachment[seg.attachment_offset + a].node] = 1;
   kernels::inertia_filter(state.frame_start.position.view().subview(seg.node_offset, seg.node_count), v.node_mass,
                           exempt, seg.info.zeta, model.dt, v.poses.node_position, v.poses.mid_position);
 }
@@ -360,7 +359,8 @@ double outside_work_bound(const WorldModel& model, const WorldState& state, std:
     const double moved = (state.now.position.view().get(node) - state.frame_start.position.view().get(node)).norm();
     work += std::max(now.force.norm(), start.force.norm()) * moved;
     if (now.hold_frame) {
-      const Eigen::Quaterniond turn = state.now.rotation.view().get(node) * state.frame_start.rotation.view().get(node).conjugate();
+      const Eigen::Quaterniond turn =
+          state.now.rotation.view().get(node) * state.frame_start.rotation.view().get(node).conjugate();
       work += std::max(now.moment.norm(), start.moment.norm()) * kernels::rotation_log(turn).norm();
     }
   }
@@ -385,10 +385,13 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
   const std::size_t n = seg.node_count;
   const double* q = state.now.strain.data() + 4 * off;
   if (p.newton && state.segment_solvable[segment] == 0)
-    return {false, state.newton[segment].singular_node, Stage::condense,
+    return {false,
+            state.newton[segment].singular_node,
+            Stage::condense,
             "pivot of the condensed Newton sweep too small relative to its row (a singular, buckled state), on a "
             "rod longer than the banded fallback holds (4096 nodes)",
-            0.0, 0.0};
+            0.0,
+            0.0};
   for (std::size_t k = 0; k < n; ++k) {
     for (std::size_t c = 0; c < 4; ++c)
       if (!std::isfinite(q[4 * k + c])) return {false, k, Stage::solve, "strain (not finite)", q[4 * k + c], 0.0};
@@ -405,7 +408,8 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
     if (std::abs(eps) > lim.max_axial_strain)
       return {false, k, Stage::solve, "axial strain", eps, lim.max_axial_strain};
     if (-eps > kCollapsedCompression)
-      return {false, k, Stage::solve, "compression (−axial strain) of a collapsing section", -eps, kCollapsedCompression};
+      return {
+          false, k, Stage::solve, "compression (−axial strain) of a collapsing section", -eps, kCollapsedCompression};
     if (u.norm() * h > lim.max_section_angle)
       return {false, k, Stage::solve, "bend and twist angle of one section (rad)", u.norm() * h, lim.max_section_angle};
   }
@@ -416,7 +420,8 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
     if (!r.allFinite()) return {false, k, Stage::forward_sweep, "node position (not finite)", r.norm(), 0.0};
     const double moved = (r - prev.get(k)).norm() / seg.info.length;
     if (moved > lim.max_displacement)
-      return {false, k, Stage::forward_sweep, "displacement in one frame (segment lengths)", moved, lim.max_displacement};
+      return {
+          false, k, Stage::forward_sweep, "displacement in one frame (segment lengths)", moved, lim.max_displacement};
   }
   // A bead deeper into the environment than its own radius has passed through, not touched.
   // (Through the segment's own beads' lists: every candidate of the world per segment would be
@@ -428,13 +433,18 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
       if (c.kind == ContactKind::bead) continue;
       const double ratio = c.depth / model.beads.radius[c.bead];
       if (ratio > 1.0)
-        return {false, model.beads.node[c.bead] - off, Stage::contacts,
-                "bead's depth into the environment (bead radii)", ratio, 1.0};
+        return {false,           model.beads.node[c.bead] - off,
+                Stage::contacts, "bead's depth into the environment (bead radii)",
+                ratio,           1.0};
     }
   std::size_t k = 0;
   const double miss = attachment_miss(model, state, segment, k) / seg.info.length;
   if (miss > lim.max_attachment_error)
-    return {false, k, Stage::constraints, "attachment's distance from its target (segment lengths)", miss,
+    return {false,
+            k,
+            Stage::constraints,
+            "attachment's distance from its target (segment lengths)",
+            miss,
             lim.max_attachment_error};
   // A segment that flows (a viscous or Kelvin–Voigt component) cannot gain more energy in a frame
   // than the outside worked on it: its flow, the medium and the filter (first order: it stores no
@@ -456,19 +466,20 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
       const double allowance =
           work + 1e-3 * (std::abs(before) + weight * model.gravity.norm() * seg.info.length) + 1e-12;
       if (after - before > allowance)
-        return {false, 0, Stage::solve, "energy gained beyond the work done on it in the frame (J)", after - before,
-                allowance};
+        return {false,          0,        Stage::solve, "energy gained beyond the work done on it in the frame (J)",
+                after - before, allowance};
     }
   }
   if (!p.newton) {
     const LaggedRatios& r = state.lagged_ratios[segment];
     if (r.elastic > kMaxElasticContraction)
-      return {false, 0, Stage::solve,
-              "ratio of the lagged iteration's next step to this one, elastic strains (it must shrink)", r.elastic,
-              kMaxElasticContraction};
+      return {false,        0,
+              Stage::solve, "ratio of the lagged iteration's next step to this one, elastic strains (it must shrink)",
+              r.elastic,    kMaxElasticContraction};
     if (r.viscous > kMaxViscousGrowth)
-      return {false, 0, Stage::solve, "growth of the lagged viscous flow's step from one frame to the next",
-              r.viscous, kMaxViscousGrowth};
+      return {false,        0,
+              Stage::solve, "growth of the lagged viscous flow's step from one frame to the next",
+              r.viscous,    kMaxViscousGrowth};
   }
   return {};
 }

@@ -12,10 +12,10 @@
 namespace haustra::detail {
 
 struct SubstepParameters {
-  double dt = 0.0;                       // substep length
-  bool newton = false;                   // Newton iterations rather than the lagged update
-  int iteration = 0;                     // within the substep
-  bool chord = false;                    // fast mode: Newton may reuse its last factorization
+  double dt = 0.0;      // substep length
+  bool newton = false;  // Newton iterations rather than the lagged update
+  int iteration = 0;    // within the substep
+  bool chord = false;   // fast mode: Newton may reuse its last factorization
 };
 
 // The active constraint rows of a segment: one per held axis of each active attachment.
@@ -28,7 +28,6 @@ struct ConstraintRow {
 using ConstraintRows = std::array<ConstraintRow, kMaxConstraintRows>;
 std::size_t active_constraint_rows(const SegmentModel& seg, const WorldState& state, ConstraintRows& rows);
 
-
 // Gravity and external loads; in Newton mode also the attachments' accumulated constraint forces and
 // the medium's drag on the motion since the substep began.
 void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p);
@@ -37,8 +36,7 @@ void stage_backward_sweep(const WorldModel& model, WorldState& state, std::size_
 // Returns the largest strain change of the update (per component).
 Eigen::Vector4d stage_solve(const WorldModel& model, WorldState& state, std::size_t segment,
                             const SubstepParameters& p);
-void stage_constraints(const WorldModel& model, WorldState& state, std::size_t segment,
-                       const SubstepParameters& p);
+void stage_constraints(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p);
 void stage_forward_sweep(const WorldModel& model, WorldState& state, std::size_t segment);
 void stage_filter(const WorldModel& model, WorldState& state, std::size_t segment);
 

@@ -1,11 +1,11 @@
 #pragma once
 // Runs a per-segment stage over all segments, on oneTBB inside an arena of the world's width.
 // Each call writes only its segment's slice, so the result does not depend on the thread count.
-#include <algorithm>
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/partitioner.h>
 #include <oneapi/tbb/task_arena.h>
+#include <algorithm>
 
 #include "haustra/world_desc.hpp"
 
@@ -60,7 +60,9 @@ void parallel_each(std::size_t count, F&& fn) {
 class Scheduler {
  public:
   explicit Scheduler(int threads, const JobSystemDesc& jobs = {})
-      : threads_(jobs.enabled() ? std::max(1, jobs.workers) : threads > 0 ? threads : tbb::info::default_concurrency()),
+      : threads_(jobs.enabled() ? std::max(1, jobs.workers)
+                 : threads > 0  ? threads
+                                : tbb::info::default_concurrency()),
         jobs_(jobs),
         arena_(jobs.enabled() ? 1 : threads_) {}
 

@@ -49,7 +49,6 @@ inline void zero(kernels::Vec3View<double> v) {
   std::fill(v.z.begin(), v.z.end(), 0.0);
 }
 
-
 // Adds the attachments' current constraint forces and moments to the node loads.
 inline void add_attachment_loads(const SegmentModel& seg, const WorldState& state, const SegmentViews& v) {
   for (std::size_t a = 0; a < seg.attachments.size(); ++a) {

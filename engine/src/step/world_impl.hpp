@@ -8,9 +8,9 @@
 
 #include "haustra/error.hpp"
 #include "haustra/world.hpp"
+#include "model/world_model.hpp"
 #include "step/rod_stages.hpp"
 #include "step/scheduler.hpp"
-#include "model/world_model.hpp"
 #include "step/world_state.hpp"
 
 namespace haustra {
@@ -66,9 +66,9 @@ struct World::Impl {
   [[nodiscard]] std::size_t attachment_index(std::size_t segment, std::size_t attachment) const {
     const auto& seg = model.segments[piece(segment).rod];
     if (attachment >= seg.attachments.size())
-      throw Error(ErrorCode::invalid_argument, fmt::format("segment '{}' has {} attachments, asked for index {}",
-                                                           model.pieces[segment].info.name, seg.attachments.size(),
-                                                           attachment));
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("segment '{}' has {} attachments, asked for index {}", model.pieces[segment].info.name,
+                              seg.attachments.size(), attachment));
     return seg.attachment_offset + attachment;
   }
 

@@ -3,8 +3,8 @@
 
 #include <algorithm>
 
-#include "step/collision.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
+#include "step/collision.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -189,8 +189,7 @@ SegmentViews segment_views(const WorldModel& model, WorldState& state, std::size
   const std::size_t n = seg.node_count;
   SegmentViews v{
       .poses = {state.now.position.view().subview(off, n), state.now.rotation.view().subview(off, n),
-                state.now.mid_position.view().subview(off, n - 1),
-                state.now.mid_rotation.view().subview(off, n - 1)},
+                state.now.mid_position.view().subview(off, n - 1), state.now.mid_rotation.view().subview(off, n - 1)},
       .strain = kernels::StrainView<double>{state.now.strain}.subview(off, n),
       .strain_start = kernels::StrainView<double>{state.strain_substep_start}.subview(off, n),
       .generalized_force = kernels::StrainView<double>{state.generalized_force}.subview(off, n),

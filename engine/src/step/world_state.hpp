@@ -7,11 +7,11 @@
 
 #include "haustra/kernels/broad_phase.hpp"
 #include "haustra/kernels/cage_rings.hpp"
-#include "haustra/kernels/skinning.hpp"
 #include "haustra/kernels/pose.hpp"
-#include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/rod_condensed.hpp"
+#include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/rod_newton.hpp"
+#include "haustra/kernels/skinning.hpp"
 #include "haustra/kernels/spans.hpp"
 #include "model/world_model.hpp"
 
@@ -51,11 +51,7 @@ struct Vec3BufferOf {
   }
   [[nodiscard]] kernels::Vec3View<T> view() { return {x, y, z}; }
   [[nodiscard]] kernels::Vec3View<const T> view() const { return {x, y, z}; }
-  [[nodiscard]] kernels::FloatVec3Out out()
-    requires std::is_same_v<T, float>
-  {
-    return {x, y, z};
-  }
+  [[nodiscard]] kernels::FloatVec3Out out() requires std::is_same_v<T, float> { return {x, y, z}; }
 
  private:
   void seat() {
@@ -89,11 +85,11 @@ struct LaggedRatios {
 
 struct AttachmentState {
   bool active = true;
-  std::size_t node = 0;     // local to the segment
+  std::size_t node = 0;  // local to the segment
   bool hold_frame = false;
   Eigen::Vector3d target = Eigen::Vector3d::Zero();
   Eigen::Quaterniond target_rotation = Eigen::Quaterniond::Identity();
-  Eigen::Vector3d force = Eigen::Vector3d::Zero();   // on the rod, last frame
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();  // on the rod, last frame
   Eigen::Vector3d moment = Eigen::Vector3d::Zero();
 };
 
@@ -136,14 +132,14 @@ struct NewtonSplit {
 // A rod's line search between the world's phases (line_search.cpp): the step's slope and the
 // merit at its start, the fraction under trial, and each part's share of the potential there.
 struct LineSearch {
-  bool active = false;          // trials under way
+  bool active = false;           // trials under way
   bool measuring_start = false;  // the trial under way is the start itself (α = 0)
   bool weigh = true;             // the merit decides (not on fast mode's own rung)
   double alpha = 0.0, slope = 0.0, merit0 = 0.0, rounding = 0.0, mu = 0.0, moment_work = 0.0;
   int attempt = 0, stiffened = 0;
   std::array<double, kMaxConstraintRows> lambda{};  // constraint forces after the step, per row
-  std::array<double, 2> potential{};                 // per part: whole or base, tip
-  std::array<std::uint8_t, 2> deepens{};             // per part: a contact deepened too far
+  std::array<double, 2> potential{};                // per part: whole or base, tip
+  std::array<std::uint8_t, 2> deepens{};            // per part: a contact deepened too far
 };
 
 // Scratch of one segment's Newton solve: the condensed sweep's gains and right-hand sides, the
@@ -156,13 +152,13 @@ struct NewtonWorkspace {
   // Fast mode (decision 0037): the sweep's record, and when its factorization may serve again —
   // the frame and step length it was made at, the attachments' nodes and the beads touching then.
   std::vector<double> record;
-  bool chord_ready = false;     // a recorded factorization at the law's own scale
-  bool chord = false;           // this iteration reuses it
+  bool chord_ready = false;  // a recorded factorization at the law's own scale
+  bool chord = false;        // this iteration reuses it
   std::uint64_t chord_frame = 0;
   double chord_dt = 0.0;
   std::vector<std::uint32_t> chord_pattern, pattern_now;
-  NewtonSplit split;  // joint == 0: the rod is solved whole
-  bool ok = true;     // the whole rod's sweep held its pivots
+  NewtonSplit split;                          // joint == 0: the rod is solved whole
+  bool ok = true;                             // the whole rod's sweep held its pivots
   std::vector<kernels::UnitLoad> loads;       // this iteration's unit loads, by node descending
   std::vector<std::uint32_t> response_nodes;  // constraint and coupled-pair nodes, ascending, unique
   std::vector<double> responses;              // 6 × columns per response node (δφ, δr)
@@ -175,7 +171,7 @@ struct NewtonWorkspace {
   bool band_available = false;
   bool band = false;  // this iteration is solved by the banded LU
   std::vector<kernels::NewtonBlock> lower, diag, upper;
-  std::vector<kernels::NewtonBlock> fill;                        // the factorization's second upper block
+  std::vector<kernels::NewtonBlock> fill;                              // the factorization's second upper block
   std::vector<std::array<std::uint8_t, kernels::kNewtonBlock>> swaps;  // its row swaps
   std::vector<double> rhs;
   Vec3Buffer distal_force, distal_moment;
@@ -184,22 +180,22 @@ struct NewtonWorkspace {
   std::vector<double> residual, target;
   // A nonlinear (EXP2) law's generalized stress and tangent per node, and the κ1–κ2 coupling.
   std::vector<double> law_stress, law_tangent, bend_coupling;
-  std::vector<Eigen::Matrix3d> force_stiffness;  // per node: −∂f/∂r of drag and contacts
-  std::vector<double> drag_moment_rate;          // s/Δt per node
+  std::vector<Eigen::Matrix3d> force_stiffness;               // per node: −∂f/∂r of drag and contacts
+  std::vector<double> drag_moment_rate;                       // s/Δt per node
   kernels::Vector6d base_wrench = kernels::Vector6d::Zero();  // free base: unbalanced total wrench
-  std::vector<Eigen::Vector3d> bead_start;       // the segment's bead positions before a step
+  std::vector<Eigen::Vector3d> bead_start;                    // the segment's bead positions before a step
   // The line search: strains and base before the step.
   std::vector<double> strain_before;
   kernels::Pose base_before;
-  double potential = 0.0;          // the incremental potential at the step the line search took
+  double potential = 0.0;  // the incremental potential at the step the line search took
   bool potential_cached = false;
   int max_columns = 1;
   std::size_t singular_node = 0;  // where the condensed sweep's pivot was unsafe
-  double law_scale = 1.0;  // the law's rows as condensed (stiffened where Newton's step is not a descent)
-  int fallbacks = 0;    // iterations solved by the banded LU this frame
-  int backtracks = 0;   // line-search halvings this frame
-  int stiffenings = 0;  // re-solves with stiffened law rows this frame
-  int chords = 0;       // iterations that reused the factorization this frame
+  double law_scale = 1.0;         // the law's rows as condensed (stiffened where Newton's step is not a descent)
+  int fallbacks = 0;              // iterations solved by the banded LU this frame
+  int backtracks = 0;             // line-search halvings this frame
+  int stiffenings = 0;            // re-solves with stiffened law rows this frame
+  int chords = 0;                 // iterations that reused the factorization this frame
 
   void allocate(std::size_t nodes, int columns, bool with_band, std::size_t split_at);
 };
@@ -214,25 +210,25 @@ struct InstrumentState {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   Eigen::Quaterniond frame = Eigen::Quaterniond::Identity();  // d3 along the axis
   bool closed = false;
-  bool scripted = true;       // follows its keyframes until the host sets a pose
+  bool scripted = true;  // follows its keyframes until the host sets a pose
   bool grasping = false;
   std::size_t grasp_segment = 0;
   std::size_t grasp_attachment = 0;  // global attachment index
   std::uint32_t grasp_bead = 0;
-  Eigen::Vector3d grasp_offset = Eigen::Vector3d::Zero();             // node in the instrument frame
+  Eigen::Vector3d grasp_offset = Eigen::Vector3d::Zero();              // node in the instrument frame
   Eigen::Quaterniond grasp_rotation = Eigen::Quaterniond::Identity();  // node frame in the instrument frame
   Eigen::Vector3d force = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
   Eigen::Vector3d filtered_force = Eigen::Vector3d::Zero(), filtered_torque = Eigen::Vector3d::Zero();
 };
 
 struct CollisionState {
-  Vec3Buffer bead_center;                        // at the substep's start
-  Vec3Buffer bead_position;                      // at the end of the last step, for hosts (World::bead_centres)
-  std::vector<double> bead_motion;               // how far each bead moved in the last substep, m
-  std::vector<double> reach_radius;              // radius + its share of the candidate margin
-  std::vector<ContactCandidate> candidates;      // capacity kept between frames
+  Vec3Buffer bead_center;                    // at the substep's start
+  Vec3Buffer bead_position;                  // at the end of the last step, for hosts (World::bead_centres)
+  std::vector<double> bead_motion;           // how far each bead moved in the last substep, m
+  std::vector<double> reach_radius;          // radius + its share of the candidate margin
+  std::vector<ContactCandidate> candidates;  // capacity kept between frames
   std::vector<kernels::SpherePair> pairs;
-  std::vector<std::vector<kernels::SpherePair>> chunk_pairs;      // per chunk of beads
+  std::vector<std::vector<kernels::SpherePair>> chunk_pairs;  // per chunk of beads
   std::vector<std::vector<ContactCandidate>> chunk_candidates;
   std::vector<std::size_t> chunk_count;
   kernels::SphereGrid grid;
@@ -240,11 +236,11 @@ struct CollisionState {
   // Per bead, the candidates it takes part in: (candidate << 1) | side, side 1 for the second bead.
   std::vector<std::uint32_t> bead_contact_start;
   std::vector<std::uint32_t> bead_contact;
-  std::vector<std::uint32_t> coupled_start;       // per segment (CSR): its coupled contacts
+  std::vector<std::uint32_t> coupled_start;  // per segment (CSR): its coupled contacts
   std::vector<std::uint32_t> coupled;
-  std::vector<std::uint32_t> coupled_fill;        // scratch
-  Vec3Buffer bead_force;                          // sum over its contacts
-  std::vector<Eigen::Matrix3d> bead_stiffness;    // −∂force/∂centre, normal part
+  std::vector<std::uint32_t> coupled_fill;      // scratch
+  Vec3Buffer bead_force;                        // sum over its contacts
+  std::vector<Eigen::Matrix3d> bead_stiffness;  // −∂force/∂centre, normal part
   ContactReport report;
 };
 
@@ -268,23 +264,24 @@ struct WorldState {
   std::vector<double> strain_substep_start;  // q^{t−1} of the strain law
   Vec3Buffer position_substep_start;         // for the medium's drag, v = (r − r_start)/Δt
   RotationBuffer rotation_substep_start;
-  std::vector<double> generalized_force;     // R, then M⁻¹R
-  Vec3Buffer force, moment;                  // assembled node loads
+  std::vector<double> generalized_force;  // R, then M⁻¹R
+  Vec3Buffer force, moment;               // assembled node loads
   Vec3Buffer external_force, external_moment;
   std::vector<std::uint8_t> filter_exempt;
   std::vector<kernels::Pose> base_substep_start;
-  std::vector<kernels::Vector6d> base_twist;     // free base: (ω, v) about node 0
+  std::vector<kernels::Vector6d> base_twist;  // free base: (ω, v) about node 0
   std::vector<kernels::Matrix6d> base_resistance;
-  std::vector<double> constraint_scratch;        // G, Y, H blocks per constrained segment
-  std::vector<int> segment_converged;            // per segment, within a substep
-  std::vector<Eigen::Vector4d> segment_change;   // last strain change per segment
-  std::vector<std::uint8_t> segment_step_cut;    // Newton's last step was scaled down
-  std::vector<std::uint8_t> segment_solving;     // Newton: this iteration's rods (active and solvable)
-  std::vector<LaggedRatios> lagged_ratios;       // lagged: the contraction stage's measure, for the guard
-  std::vector<std::uint8_t> segment_solvable;    // Newton: 0 when this substep met an unsafe pivot it could not fall back from
-  std::vector<NewtonWorkspace> newton;           // per segment; empty when Newton can never run
-  std::vector<CondenseTask> condense_tasks;      // this iteration's (capacity: the solve parts)
-  std::vector<double> strain_before_update;      // lagged: the strains before the last update
+  std::vector<double> constraint_scratch;       // G, Y, H blocks per constrained segment
+  std::vector<int> segment_converged;           // per segment, within a substep
+  std::vector<Eigen::Vector4d> segment_change;  // last strain change per segment
+  std::vector<std::uint8_t> segment_step_cut;   // Newton's last step was scaled down
+  std::vector<std::uint8_t> segment_solving;    // Newton: this iteration's rods (active and solvable)
+  std::vector<LaggedRatios> lagged_ratios;      // lagged: the contraction stage's measure, for the guard
+  std::vector<std::uint8_t>
+      segment_solvable;                 // Newton: 0 when this substep met an unsafe pivot it could not fall back from
+  std::vector<NewtonWorkspace> newton;  // per segment; empty when Newton can never run
+  std::vector<CondenseTask> condense_tasks;  // this iteration's (capacity: the solve parts)
+  std::vector<double> strain_before_update;  // lagged: the strains before the last update
   CollisionState collision;
   std::vector<InstrumentState> instruments;
   MeshState mesh;

@@ -109,8 +109,8 @@ void add_cone(render::Soup& s, const Eigen::Vector3d& base, const Eigen::Vector3
   s.vertices.push_back(apex);
   s.normals.push_back(axis);
   for (int k = 0; k < kSides; ++k)
-    s.triangles.push_back({first + static_cast<std::uint32_t>(k), first + static_cast<std::uint32_t>((k + 1) % kSides),
-                           first + kSides});
+    s.triangles.push_back(
+        {first + static_cast<std::uint32_t>(k), first + static_cast<std::uint32_t>((k + 1) % kSides), first + kSides});
 }
 
 const Rgb kTissue{0.80f, 0.42f, 0.40f};
@@ -235,7 +235,8 @@ void GlScene::build_overlays(const FramePublisher::Slot& f, const ModelInfo& m, 
   }
   if (o.centreline)
     for (const Range& r : m.segment_nodes)
-      for (std::size_t k = r.offset; k + 1 < r.offset + r.count; ++k) line(lines_, node(f, k), node(f, k + 1), kCentreline);
+      for (std::size_t k = r.offset; k + 1 < r.offset + r.count; ++k)
+        line(lines_, node(f, k), node(f, k + 1), kCentreline);
   if (o.cage)
     for (std::size_t s = 0; s < d.cages.size() && s < m.cage_triangles.size(); ++s) {
       const auto& cv = d.cages[s];

@@ -48,10 +48,14 @@ KnobChange set_knob(const WorldDesc& now, std::string_view name, std::string_vie
   KnobChange c{now, ""};
   WorldDesc& d = c.desc;
   if (name == "mode") {
-    if (value == "lagged") d.solver.mode = SolverMode::lagged;
-    else if (value == "newton") d.solver.mode = SolverMode::newton;
-    else if (value == "fast") d.solver.mode = SolverMode::fast;
-    else refuse(name, value, "lagged, newton or fast");
+    if (value == "lagged")
+      d.solver.mode = SolverMode::lagged;
+    else if (value == "newton")
+      d.solver.mode = SolverMode::newton;
+    else if (value == "fast")
+      d.solver.mode = SolverMode::fast;
+    else
+      refuse(name, value, "lagged, newton or fast");
   } else if (name == "iterations") {
     const double n = number(name, value);
     if (n < 1 || n > 64 || n != std::floor(n)) refuse(name, value, "a whole number from 1 to 64");
@@ -62,7 +66,8 @@ KnobChange set_knob(const WorldDesc& now, std::string_view name, std::string_vie
     d.filter.enabled = value == "on";
   } else if (name == "law") {
     if (value != "hooke" && value != "exp2") refuse(name, value, "hooke or exp2");
-    for (SegmentDesc& s : d.segments) s.material.response = value == "exp2" ? TissueResponse::exp2 : TissueResponse::hooke;
+    for (SegmentDesc& s : d.segments)
+      s.material.response = value == "exp2" ? TissueResponse::exp2 : TissueResponse::hooke;
   } else if (name == "beads_per_node") {
     const double x = number(name, value);
     if (x <= 0.0 || x > 1.0) refuse(name, value, "a number in (0, 1]");
@@ -82,12 +87,16 @@ KnobChange set_knob(const WorldDesc& now, std::string_view name, std::string_vie
     if (!(in >> x >> y >> z) || !std::isfinite(x + y + z)) refuse(name, value, "three numbers, m/s²");
     d.gravity = {x, y, z};
   } else if (name == "rate") {
-    if (value == "1khz") d.dt = 1e-3;
-    else if (value == "scene") d.dt = scene_dt;
-    else refuse(name, value, "scene or 1khz");
+    if (value == "1khz")
+      d.dt = 1e-3;
+    else if (value == "scene")
+      d.dt = scene_dt;
+    else
+      refuse(name, value, "scene or 1khz");
   } else {
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("no knob '{}' (mode, iterations, filter, law, beads_per_node, rings, gravity, rate)", name));
+    throw Error(
+        ErrorCode::invalid_argument,
+        fmt::format("no knob '{}' (mode, iterations, filter, law, beads_per_node, rings, gravity, rate)", name));
   }
   c.what = fmt::format("{} {} -> {}", name, knob_value(now, name), knob_value(d, name));
   return c;

@@ -66,8 +66,9 @@ void mouse_move(ViewerState& v, double x, double y) {
   switch (m.mode) {
     case MouseState::Mode::grasping: {
       if (m.ctrl) {  // along the view axis: up the screen pushes away from the eye
-        const double metres_per_pixel =
-            2.0 * (m.hit - v.camera.eye()).norm() * std::tan(0.5 * v.camera.fov_degrees * std::numbers::pi / 180.0) / v.camera.height;
+        const double metres_per_pixel = 2.0 * (m.hit - v.camera.eye()).norm() *
+                                        std::tan(0.5 * v.camera.fov_degrees * std::numbers::pi / 180.0) /
+                                        v.camera.height;
         m.hit += -dy * metres_per_pixel * v.camera.forward();
       } else {  // in the plane through the grasped point, facing the eye
         m.hit = intersect_plane(v.camera.ray(x, y), m.hit, v.camera.forward());

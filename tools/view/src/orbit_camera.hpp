@@ -12,10 +12,10 @@ struct Ray {
 
 struct OrbitCamera {
   Eigen::Vector3d target = Eigen::Vector3d::Zero();
-  double azimuth = -1.0;    // rad about +z, from +x
-  double elevation = 0.45;  // rad above the horizon
-  double distance = 1.5;    // m
-  double fov_degrees = 35.0;  // vertical
+  double azimuth = -1.0;           // rad about +z, from +x
+  double elevation = 0.45;         // rad above the horizon
+  double distance = 1.5;           // m
+  double fov_degrees = 35.0;       // vertical
   int width = 1280, height = 720;  // the viewport, pixels
 
   [[nodiscard]] Eigen::Vector3d eye() const;
@@ -34,6 +34,7 @@ struct OrbitCamera {
 };
 
 // Where a ray meets the plane through `point` with `normal`; the origin when parallel.
-[[nodiscard]] Eigen::Vector3d intersect_plane(const Ray& ray, const Eigen::Vector3d& point, const Eigen::Vector3d& normal);
+[[nodiscard]] Eigen::Vector3d intersect_plane(const Ray& ray, const Eigen::Vector3d& point,
+                                              const Eigen::Vector3d& normal);
 
 }  // namespace haustra::view

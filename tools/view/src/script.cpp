@@ -19,15 +19,22 @@ struct Shape {
 };
 
 const Shape* shape_of(const std::string& command) {
-  static const std::pair<std::string, Shape> shapes[] = {
-      {"wait", {1, 1, "wait FRAMES"}},          {"press", {2, 2, "press X Y | press bead K"}},
-      {"move", {2, 4, "move X Y [FRAMES] | move by DX DY [FRAMES]"}},    {"release", {0, 0, "release"}},
-      {"ctrl", {1, 1, "ctrl down|up"}},         {"toggle", {1, 1, "toggle beads|cage|centreline|contacts"}},
-      {"colour", {1, 1, "colour tissue|strain|penetration"}}, {"knob", {2, 4, "knob NAME VALUE"}},
-      {"pause", {0, 0, "pause"}},               {"resume", {0, 0, "resume"}},
-      {"step", {0, 0, "step"}},                 {"reset", {0, 0, "reset"}},
-      {"save", {0, 0, "save"}},                 {"restore", {0, 0, "restore"}},
-      {"screenshot", {1, 1, "screenshot FILE.png"}}, {"quit", {0, 0, "quit"}}};
+  static const std::pair<std::string, Shape> shapes[] = {{"wait", {1, 1, "wait FRAMES"}},
+                                                         {"press", {2, 2, "press X Y | press bead K"}},
+                                                         {"move", {2, 4, "move X Y [FRAMES] | move by DX DY [FRAMES]"}},
+                                                         {"release", {0, 0, "release"}},
+                                                         {"ctrl", {1, 1, "ctrl down|up"}},
+                                                         {"toggle", {1, 1, "toggle beads|cage|centreline|contacts"}},
+                                                         {"colour", {1, 1, "colour tissue|strain|penetration"}},
+                                                         {"knob", {2, 4, "knob NAME VALUE"}},
+                                                         {"pause", {0, 0, "pause"}},
+                                                         {"resume", {0, 0, "resume"}},
+                                                         {"step", {0, 0, "step"}},
+                                                         {"reset", {0, 0, "reset"}},
+                                                         {"save", {0, 0, "save"}},
+                                                         {"restore", {0, 0, "restore"}},
+                                                         {"screenshot", {1, 1, "screenshot FILE.png"}},
+                                                         {"quit", {0, 0, "quit"}}};
   for (const auto& [name, shape] : shapes)
     if (name == command) return &shape;
   return nullptr;
@@ -63,9 +70,10 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
     const std::string where = fmt::format("{} line {}", file.string(), n);
     const Shape* shape = shape_of(l.command);
     if (shape == nullptr)
-      throw Error(ErrorCode::parse, fmt::format("{}: unknown command '{}' (wait, press, move, release, ctrl, toggle, "
-                                                "colour, knob, pause, resume, step, reset, save, restore, screenshot, quit)",
-                                                where, l.command));
+      throw Error(ErrorCode::parse,
+                  fmt::format("{}: unknown command '{}' (wait, press, move, release, ctrl, toggle, "
+                              "colour, knob, pause, resume, step, reset, save, restore, screenshot, quit)",
+                              where, l.command));
     if (l.words.size() < shape->min_words || l.words.size() > shape->max_words)
       throw Error(ErrorCode::parse, fmt::format("{}: expected `{}`", where, shape->usage));
     if (l.command == "wait") l.frames = static_cast<int>(number(l.words[0], where, "a number of frames"));
@@ -83,7 +91,8 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
       l.frames = l.words.size() > w + 2 ? static_cast<int>(number(l.words[w + 2], where, "a number of frames")) : 1;
     }
     if ((l.command == "wait" || l.command == "move") && l.frames < (l.command == "move" ? 1 : 0))
-      throw Error(ErrorCode::parse, fmt::format("{}: the number of frames must be {}", where, l.command == "move" ? "at least 1" : "0 or more"));
+      throw Error(ErrorCode::parse, fmt::format("{}: the number of frames must be {}", where,
+                                                l.command == "move" ? "at least 1" : "0 or more"));
     if (l.command == "ctrl") check_word(l.words[0], {"down", "up"}, where);
     if (l.command == "toggle") check_word(l.words[0], {"beads", "cage", "centreline", "contacts"}, where);
     if (l.command == "colour") check_word(l.words[0], {"tissue", "strain", "penetration"}, where);

@@ -16,7 +16,8 @@ bool ScriptPlayer::tick(ViewerState& v) {
     if (!started_) {
       started_ = true;
       start_frame_ = v.frame;
-      v.events.push_back({"script " + l.command, v.frame, v.mouse.x, v.mouse.y, false, 0, Eigen::Vector3d::Zero(), v.camera});
+      v.events.push_back(
+          {"script " + l.command, v.frame, v.mouse.x, v.mouse.y, false, 0, Eigen::Vector3d::Zero(), v.camera});
       from_x_ = v.mouse.x;
       from_y_ = v.mouse.y;
     }
@@ -49,12 +50,17 @@ bool ScriptPlayer::tick(ViewerState& v) {
       v.mouse.ctrl = l.words[0] == "down";
     } else if (l.command == "toggle") {
       const std::string& w = l.words[0];
-      bool& flag = w == "beads" ? v.draw.beads : w == "cage" ? v.draw.cage : w == "centreline" ? v.draw.centreline : v.draw.contacts;
+      bool& flag = w == "beads"        ? v.draw.beads
+                   : w == "cage"       ? v.draw.cage
+                   : w == "centreline" ? v.draw.centreline
+                                       : v.draw.contacts;
       flag = !flag;
       if (w == "cage") v.sim.frames().want_cages(flag);
     } else if (l.command == "colour") {
       const std::string& w = l.words[0];
-      v.draw.colour = w == "strain" ? Colouring::strain : w == "penetration" ? Colouring::penetration : Colouring::tissue;
+      v.draw.colour = w == "strain"        ? Colouring::strain
+                      : w == "penetration" ? Colouring::penetration
+                                           : Colouring::tissue;
     } else if (l.command == "knob") {
       turn_knob(v, l.words[0], l.words[1]);
     } else if (l.command == "pause" || l.command == "resume") {

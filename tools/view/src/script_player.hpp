@@ -16,7 +16,7 @@ class ScriptPlayer {
  private:
   std::vector<ScriptLine> lines_;
   std::size_t next_ = 0;
-  bool started_ = false;            // the current line has begun (wait, move)
+  bool started_ = false;  // the current line has begun (wait, move)
   std::uint64_t start_frame_ = 0;
   double from_x_ = 0, from_y_ = 0;  // a move's start
 };

@@ -49,7 +49,9 @@ Simulation::~Simulation() {
   if (thread_.joinable()) thread_.join();
 }
 
-void Simulation::start() { thread_ = std::thread([this] { run(); }); }
+void Simulation::start() {
+  thread_ = std::thread([this] { run(); });
+}
 
 void Simulation::post(Command command) {
   {
@@ -158,9 +160,12 @@ void Simulation::apply(Command& command) {
                           checkpoint_file_.empty() ? ", in memory" : ", " + checkpoint_file_));
         } else if constexpr (std::is_same_v<T, RestoreCheckpoint>) {
           try {
-            if (!checkpoint_file_.empty()) w.restore_checkpoint_file(checkpoint_file_);
-            else if (checkpoint_.empty()) throw Error(ErrorCode::invalid_argument, "no checkpoint saved yet");
-            else w.restore_checkpoint(checkpoint_, "the checkpoint saved in this session");
+            if (!checkpoint_file_.empty())
+              w.restore_checkpoint_file(checkpoint_file_);
+            else if (checkpoint_.empty())
+              throw Error(ErrorCode::invalid_argument, "no checkpoint saved yet");
+            else
+              w.restore_checkpoint(checkpoint_, "the checkpoint saved in this session");
             unstable_ = false;
             frames_->publish(w);
             log(fmt::format("checkpoint restored: frame {}", w.frame()));

@@ -25,34 +25,42 @@ struct ModelInfo {
   WorldDesc desc;  // what the model was built from (the knobs start here)
   std::size_t node_count = 0;
   std::vector<Range> segment_nodes;
-  std::vector<MeshInfo> meshes;                                   // per segment
-  std::vector<std::array<std::uint32_t, 3>> triangles;            // all meshes, global vertex indices
-  std::vector<std::uint32_t> vertex_node;                         // per mesh vertex: its nearest node at build
+  std::vector<MeshInfo> meshes;                                           // per segment
+  std::vector<std::array<std::uint32_t, 3>> triangles;                    // all meshes, global vertex indices
+  std::vector<std::uint32_t> vertex_node;                                 // per mesh vertex: its nearest node at build
   std::vector<std::vector<std::array<std::uint32_t, 3>>> cage_triangles;  // per segment
   std::vector<std::uint32_t> bead_nodes;
   std::vector<double> bead_radii;
   std::size_t mouse = 0;  // the instrument the mouse drives (the viewer adds it to the scene)
 };
 
-struct GraspAt { Eigen::Vector3d tip, axis; };
-struct MoveTip { Eigen::Vector3d tip; };
+struct GraspAt {
+  Eigen::Vector3d tip, axis;
+};
+struct MoveTip {
+  Eigen::Vector3d tip;
+};
 struct Release {};
-struct SetPaused { bool paused; };
+struct SetPaused {
+  bool paused;
+};
 struct StepOnce {};
 struct Reset {};
 struct SaveCheckpoint {};
 struct RestoreCheckpoint {};
 // A knob (knobs.hpp), applied to the description the world has when the command is taken, so
 // several knobs turned between two frames all hold.
-struct Reconfigure { std::string knob, value; };
-using Command = std::variant<GraspAt, MoveTip, Release, SetPaused, StepOnce, Reset, SaveCheckpoint, RestoreCheckpoint,
-                             Reconfigure>;
+struct Reconfigure {
+  std::string knob, value;
+};
+using Command =
+    std::variant<GraspAt, MoveTip, Release, SetPaused, StepOnce, Reset, SaveCheckpoint, RestoreCheckpoint, Reconfigure>;
 
 struct SimulationStats {
   double real_time_factor = 0.0;  // simulated seconds per wall second over the last half second
   double steps_per_second = 0.0;
   bool paused = false;
-  bool unstable = false;          // the last step was refused; paused until a reset or restore
+  bool unstable = false;  // the last step was refused; paused until a reset or restore
 };
 
 class Simulation {

@@ -5,10 +5,10 @@
 #define GL_GLEXT_PROTOTYPES 1
 #define GLFW_INCLUDE_GLCOREARB 1
 #include <GLFW/glfw3.h>
-#include <fmt/format.h>
-#include <imgui.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
+#include <fmt/format.h>
+#include <imgui.h>
 
 #include <chrono>
 #include <filesystem>
@@ -41,8 +41,9 @@ bool imgui_has_mouse() { return ImGui::GetIO().WantCaptureMouse; }
 void install_input(GLFWwindow* window) {
   glfwSetMouseButtonCallback(window, [](GLFWwindow* w, int button, int action, int mods) {
     ViewerState& v = state_of(w);
-    const Button b = button == GLFW_MOUSE_BUTTON_RIGHT ? Button::right
-                     : button == GLFW_MOUSE_BUTTON_MIDDLE ? Button::middle : Button::left;
+    const Button b = button == GLFW_MOUSE_BUTTON_RIGHT    ? Button::right
+                     : button == GLFW_MOUSE_BUTTON_MIDDLE ? Button::middle
+                                                          : Button::left;
     v.mouse.ctrl = (mods & GLFW_MOD_CONTROL) != 0;
     if (action == GLFW_PRESS && !imgui_has_mouse()) mouse_press(v, b, v.mouse.x, v.mouse.y);
     if (action == GLFW_RELEASE) mouse_release(v, b);
@@ -117,7 +118,8 @@ void save_screenshot(const std::string& path, int width, int height) {
   for (int y = 0; y < height; ++y)
     std::copy_n(rgb.begin() + static_cast<std::ptrdiff_t>(row * static_cast<std::size_t>(height - 1 - y)), row,
                 top_down.begin() + static_cast<std::ptrdiff_t>(row * static_cast<std::size_t>(y)));
-  if (const auto dir = std::filesystem::path(path).parent_path(); !dir.empty()) std::filesystem::create_directories(dir);
+  if (const auto dir = std::filesystem::path(path).parent_path(); !dir.empty())
+    std::filesystem::create_directories(dir);
   render::Image::from_srgb8(width, height, top_down).save_png(path);
 }
 
@@ -129,15 +131,29 @@ void write_record(const ViewerState& v, const std::string& path) {
   j["frames"] = v.frame;
   j["unstable"] = v.sim.went_unstable();
   for (const Sample& s : v.samples)
-    j["samples"].push_back({{"frame", s.frame}, {"time", s.time}, {"grasping", s.grasping}, {"node", s.node},
-                            {"node_position", vec(s.node_position)}, {"tip", vec(s.tip)}, {"force", vec(s.force)},
+    j["samples"].push_back({{"frame", s.frame},
+                            {"time", s.time},
+                            {"grasping", s.grasping},
+                            {"node", s.node},
+                            {"node_position", vec(s.node_position)},
+                            {"tip", vec(s.tip)},
+                            {"force", vec(s.force)},
                             {"filtered_force", vec(s.filtered_force)}});
   for (const InputEvent& e : v.events) {
     const OrbitCamera& c = e.camera;
-    j["events"].push_back({{"kind", e.kind}, {"frame", e.frame}, {"x", e.x}, {"y", e.y}, {"on_organ", e.on_organ},
-                           {"bead", e.bead}, {"hit", vec(e.hit)},
-                           {"camera", {{"eye", vec(c.eye())}, {"target", vec(c.target)}, {"fov_degrees", c.fov_degrees},
-                                       {"width", c.width}, {"height", c.height}}}});
+    j["events"].push_back({{"kind", e.kind},
+                           {"frame", e.frame},
+                           {"x", e.x},
+                           {"y", e.y},
+                           {"on_organ", e.on_organ},
+                           {"bead", e.bead},
+                           {"hit", vec(e.hit)},
+                           {"camera",
+                            {{"eye", vec(c.eye())},
+                             {"target", vec(c.target)},
+                             {"fov_degrees", c.fov_degrees},
+                             {"width", c.width},
+                             {"height", c.height}}}});
   }
   j["plot"]["raw"] = std::vector<float>(v.plot.raw.begin(), v.plot.raw.end());
   j["plot"]["filtered"] = std::vector<float>(v.plot.filtered.begin(), v.plot.filtered.end());
@@ -166,8 +182,9 @@ GLFWwindow* open_window(const ViewerOptions& o, const std::string& title) {
   glfwWindowHint(GLFW_SAMPLES, 4);
   GLFWwindow* w = glfwCreateWindow(o.width, o.height, title.c_str(), nullptr, nullptr);
   if (w == nullptr)
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("no window with OpenGL 3.3: {} (run on a desktop, or under xvfb-run with Mesa)", g_glfw_error));
+    throw Error(
+        ErrorCode::invalid_argument,
+        fmt::format("no window with OpenGL 3.3: {} (run on a desktop, or under xvfb-run with Mesa)", g_glfw_error));
   glfwMakeContextCurrent(w);
   glfwSwapInterval(1);
   return w;

@@ -9,10 +9,10 @@ struct ViewerOptions {
   std::string scene;
   std::vector<std::string> sets;  // scene overrides, as `haustra run --set`
   int threads = 0;
-  std::string script;             // scripted input (script.hpp)
-  std::string screenshot;         // the last frame drawn, at exit
-  std::string record;             // JSON of what happened (for tests)
-  std::string checkpoint;         // file for Save / Restore ("" : in memory)
+  std::string script;      // scripted input (script.hpp)
+  std::string screenshot;  // the last frame drawn, at exit
+  std::string record;      // JSON of what happened (for tests)
+  std::string checkpoint;  // file for Save / Restore ("" : in memory)
   int width = 1280, height = 720;
   bool paused = false;
 };

@@ -22,25 +22,25 @@ struct ImportOptions {
 };
 
 struct ImportReport {
-  std::string units;                 // "mm" or "m", and how it was decided
+  std::string units;  // "mm" or "m", and how it was decided
   std::string units_reason;
-  double scale = 1.0;                // file units to metres
+  double scale = 1.0;  // file units to metres
   std::size_t vertices = 0, triangles = 0;
-  int holes = 0;                     // boundary loops of the surface (open ends)
-  std::string centreline_source;     // the file, or "computed: ..."
-  double raw_length = 0.0;           // m, before trimming
-  double length = 0.0;               // m, as written
-  double trimmed_start = 0.0, trimmed_end = 0.0;  // m cut where the centreline ran past the mesh
-  double median_radius = 0.0;        // m, centreline to wall
-  double tightest_bend = 0.0;        // m, smallest radius of curvature (smoothed over 5 mm)
-  double tightest_bend_at = 0.0;     // m along the centreline
+  int holes = 0;                                    // boundary loops of the surface (open ends)
+  std::string centreline_source;                    // the file, or "computed: ..."
+  double raw_length = 0.0;                          // m, before trimming
+  double length = 0.0;                              // m, as written
+  double trimmed_start = 0.0, trimmed_end = 0.0;    // m cut where the centreline ran past the mesh
+  double median_radius = 0.0;                       // m, centreline to wall
+  double tightest_bend = 0.0;                       // m, smallest radius of curvature (smoothed over 5 mm)
+  double tightest_bend_at = 0.0;                    // m along the centreline
   std::vector<std::pair<double, double>> touching;  // arc positions (m) of parts whose walls touch
   int nodes = 0, beads = 0;
   std::filesystem::path scene, centreline_file;
   // From building the written scene once.
   std::size_t cage_rings = 0, dropped_rings = 0, rest_pose_outside = 0;
   double max_dropped_mass = 0.0, max_rest_correction = 0.0, build_seconds = 0.0;
-  std::vector<std::string> retries;  // builds that failed with more beads (the cage), and why
+  std::vector<std::string> retries;        // builds that failed with more beads (the cage), and why
   [[nodiscard]] std::string text() const;  // what was done, for the terminal
 };
 

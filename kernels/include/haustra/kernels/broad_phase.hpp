@@ -70,15 +70,15 @@ class SphereGrid {
   double inverse_cell_ = 1.0;
   double margin_ = 0.0;
   double origin_[3] = {0, 0, 0};
-  std::vector<Entry> unsorted_;                // in sphere order
-  std::vector<Entry> entries_;                 // grouped by bucket
-  std::vector<std::uint32_t> bucket_start_;    // buckets + 1
-  std::vector<double> radii_;                  // scratch for the median
-  std::vector<std::uint32_t> large_;           // spheres kept out of the grid, ascending
+  std::vector<Entry> unsorted_;              // in sphere order
+  std::vector<Entry> entries_;               // grouped by bucket
+  std::vector<std::uint32_t> bucket_start_;  // buckets + 1
+  std::vector<double> radii_;                // scratch for the median
+  std::vector<std::uint32_t> large_;         // spheres kept out of the grid, ascending
   std::vector<std::uint8_t> is_large_;
   std::size_t bucket_mask_ = 0;
-  bool dense_ = false;                         // buckets are cells, indexed directly
-  std::uint64_t dims_[3] = {1, 1, 1};          // cells per axis in dense mode
+  bool dense_ = false;                 // buckets are cells, indexed directly
+  std::uint64_t dims_[3] = {1, 1, 1};  // cells per axis in dense mode
 };
 
 }  // namespace haustra::kernels

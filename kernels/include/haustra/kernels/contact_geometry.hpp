@@ -14,8 +14,8 @@ namespace haustra::kernels {
                                                        const Eigen::Vector3d& b);
 
 struct SphereContact {
-  double depth = 0.0;                                  // > 0: the spheres overlap by this much
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();   // pushes the first sphere out
+  double depth = 0.0;                                 // > 0: the spheres overlap by this much
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // pushes the first sphere out
 };
 
 // A sphere (centre c, radius r) against another sphere (centre o, radius ro). Coincident centres

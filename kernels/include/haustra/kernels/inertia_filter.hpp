@@ -14,7 +14,7 @@ namespace haustra::kernels {
 // exempt[k] != 0 keeps node k as estimated (clamped base, attached nodes).
 // Returns Δr, the largest distance between estimated and previous positions.
 double inertia_filter(Vec3View<const double> previous, std::span<const double> node_mass,
-                      std::span<const std::uint8_t> exempt, double zeta, double dt,
-                      Vec3View<double> node_position, Vec3View<double> mid_position);
+                      std::span<const std::uint8_t> exempt, double zeta, double dt, Vec3View<double> node_position,
+                      Vec3View<double> mid_position);
 
 }  // namespace haustra::kernels

@@ -15,18 +15,15 @@ struct MassMatrixFactorView {
 };
 
 // Factor M = L D Lᵀ for section lengths h (N values). Outputs have N+1 values.
-void mass_matrix_factor(std::span<const double> section_length, std::span<double> inv_pivot,
-                        std::span<double> lower);
+void mass_matrix_factor(std::span<const double> section_length, std::span<double> inv_pivot, std::span<double> lower);
 
 // Solve M x = b in place for all four strain components at once.
 void mass_matrix_solve(MassMatrixFactorView factor, StrainView<double> rhs_to_solution);
 
 // y = M x for all four components (used to form right-hand sides and in tests).
-void mass_matrix_multiply(std::span<const double> section_length, StrainView<const double> x,
-                          StrainView<double> y);
+void mass_matrix_multiply(std::span<const double> section_length, StrainView<const double> x, StrainView<double> y);
 
 // Reference: assemble M densely and solve with Eigen's LDLT, column by column.
-void mass_matrix_solve_reference(std::span<const double> section_length,
-                                 StrainView<double> rhs_to_solution);
+void mass_matrix_solve_reference(std::span<const double> section_length, StrainView<double> rhs_to_solution);
 
 }  // namespace haustra::kernels

@@ -27,9 +27,9 @@ enum class MvcLocation : std::uint8_t { general, on_vertex, on_face };
 
 struct MvcResult {
   MvcLocation location = MvcLocation::general;
-  double min_weight = 0.0;      // the most negative (or smallest) weight
-  double negative_mass = 0.0;   // Σ |w_j| over negative w_j: 0 for a point that sees the cage convex
-  double total_weight = 0.0;    // Σ of the unnormalized weights (their scale; 0 on a vertex or face)
+  double min_weight = 0.0;     // the most negative (or smallest) weight
+  double negative_mass = 0.0;  // Σ |w_j| over negative w_j: 0 for a point that sees the cage convex
+  double total_weight = 0.0;   // Σ of the unnormalized weights (their scale; 0 on a vertex or face)
 };
 
 // The cage's centroid and size (bounding-box diagonal): coordinates are taken relative to the

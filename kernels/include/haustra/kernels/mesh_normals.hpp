@@ -47,15 +47,16 @@ std::size_t append_normal_blocks(std::span<const std::uint32_t> start, std::span
 
 // Unit area-weighted normals of vertices [first, first + count): whole blocks from `blocks`
 // (their first is first_block), the rest one by one from the corner pairs.
-void vertex_normals_blocked(const NormalBlocksView& blocks, std::size_t first_block, std::span<const std::uint32_t> start,
-                            std::span<const std::uint32_t> pairs, std::span<const float> x, std::span<const float> y,
-                            std::span<const float> z, std::size_t first, std::size_t count, const FloatVec3Out& normal);
+void vertex_normals_blocked(const NormalBlocksView& blocks, std::size_t first_block,
+                            std::span<const std::uint32_t> start, std::span<const std::uint32_t> pairs,
+                            std::span<const float> x, std::span<const float> y, std::span<const float> z,
+                            std::size_t first, std::size_t count, const FloatVec3Out& normal);
 
 // Unit area-weighted normals of vertices [first, first + count) from their corner pairs, one by
 // one (the blocked form's tail, and its plain reference).
-void vertex_normals(std::span<const std::uint32_t> start, std::span<const std::uint32_t> pairs, std::span<const float> x,
-                    std::span<const float> y, std::span<const float> z, std::size_t first, std::size_t count,
-                    const FloatVec3Out& normal);
+void vertex_normals(std::span<const std::uint32_t> start, std::span<const std::uint32_t> pairs,
+                    std::span<const float> x, std::span<const float> y, std::span<const float> z, std::size_t first,
+                    std::size_t count, const FloatVec3Out& normal);
 
 // Reference, pass 1: triangle normals (twice the area long) of triangles [first, first + count).
 void face_normals_reference(std::span<const std::array<std::uint32_t, 3>> triangles, std::span<const float> x,

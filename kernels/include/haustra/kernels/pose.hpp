@@ -39,7 +39,6 @@ struct Pose {
 
 // A right-handed frame whose third axis is `tangent` (unit) and whose first axis is as close as
 // possible to `normal_hint` (falls back to a fixed world axis when the hint is parallel).
-[[nodiscard]] Eigen::Quaterniond frame_from_tangent(const Eigen::Vector3d& tangent,
-                                                    const Eigen::Vector3d& normal_hint);
+[[nodiscard]] Eigen::Quaterniond frame_from_tangent(const Eigen::Vector3d& tangent, const Eigen::Vector3d& normal_hint);
 
 }  // namespace haustra::kernels

@@ -24,19 +24,16 @@ Wrench rod_backward_sweep(RodPoses<const double> poses, std::span<const double> 
                           StrainView<double> generalized_force);
 
 // Reference: each section's distal wrench summed directly over all distal loads (O(N²)).
-Wrench rod_backward_sweep_reference(RodPoses<const double> poses,
-                                    std::span<const double> section_length,
-                                    Vec3View<const double> node_force,
-                                    Vec3View<const double> node_moment,
+Wrench rod_backward_sweep_reference(RodPoses<const double> poses, std::span<const double> section_length,
+                                    Vec3View<const double> node_force, Vec3View<const double> node_moment,
                                     StrainView<double> generalized_force);
 
 // R for a single unit load at `node`: a force along `direction` (is_moment = false) or a moment
 // about it. Only nodes 0..node are non-zero; the rest are written as zero. This is one row of the
 // constraint Jacobian J: the same numbers give J·δq, the linearized displacement (or rotation) of
 // that node along `direction` for a strain change δq.
-void rod_unit_load_generalized_force(RodPoses<const double> poses,
-                                     std::span<const double> section_length, std::size_t node,
-                                     const Eigen::Vector3d& direction, bool is_moment,
+void rod_unit_load_generalized_force(RodPoses<const double> poses, std::span<const double> section_length,
+                                     std::size_t node, const Eigen::Vector3d& direction, bool is_moment,
                                      StrainView<double> generalized_force);
 
 }  // namespace haustra::kernels

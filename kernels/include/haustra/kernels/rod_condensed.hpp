@@ -87,7 +87,7 @@ struct CondensedSystem {
   std::span<double> scratch;  // condensed_scratch_size(columns)
   std::span<double> base;     // 10 × columns: y_0 of each right-hand side (column-major)
   int columns = 1;
-  std::span<double> record;   // optional: condensed_record_size(nodes), for rod_condensed_resweep
+  std::span<double> record;  // optional: condensed_record_size(nodes), for rod_condensed_resweep
 };
 
 struct CondenseReport {

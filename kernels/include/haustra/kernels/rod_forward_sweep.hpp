@@ -11,8 +11,8 @@
 namespace haustra::kernels {
 
 // section_length: N values (h_0 … h_{N−1}); strain: N+1 nodes; out: N+1 nodes, N midpoints.
-void rod_forward_sweep(const Pose& base, std::span<const double> section_length,
-                       StrainView<const double> strain, RodPoses<double> out);
+void rod_forward_sweep(const Pose& base, std::span<const double> section_length, StrainView<const double> strain,
+                       RodPoses<double> out);
 
 // Reference: the same map through the 4×4 matrix exponential of each section's twist (Eigen's
 // MatrixFunctions), with no closed forms, quaternions or half steps shared with the fast path.

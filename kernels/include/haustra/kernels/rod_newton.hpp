@@ -43,14 +43,14 @@ struct NewtonLoadStiffness {
 // A nonlinear strain law's tangent per node (kernels/tissue_law): the law's rows become −M T with
 // T_j node j's ∂s/∂q. Empty: the linear law's law_total for every node.
 struct NodalLawTangent {
-  StrainView<const double> tangent;          // per node and component
-  std::span<const double> bend_coupling;     // per node, ∂s_κ1/∂κ2
+  StrainView<const double> tangent;       // per node and component
+  std::span<const double> bend_coupling;  // per node, ∂s_κ1/∂κ2
 };
 
 // law_total: a_c = k_c + η_c/Δt per component. node_force/moment: all current loads, drag included.
 // distal_force, distal_moment: caller scratch, N+1. free_base: the base rows balance the rod's
-// total wrench instead of holding node 0 (needs a load stiffness at every node, e.g. drag). Returns that total wrench (moment about
-// node 0, then force), which is the right-hand side of the free base rows, negated.
+// total wrench instead of holding node 0 (needs a load stiffness at every node, e.g. drag). Returns that total wrench
+// (moment about node 0, then force), which is the right-hand side of the free base rows, negated.
 Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, std::span<const double> section_length,
                                                 Vec3View<const double> node_force, Vec3View<const double> node_moment,
                                                 const std::array<double, 4>& law_total, NewtonLoadStiffness stiffness,

@@ -19,9 +19,7 @@ struct Vec3View {
 
   [[nodiscard]] std::size_t size() const { return x.size(); }
   [[nodiscard]] Eigen::Vector3d get(std::size_t i) const { return {x[i], y[i], z[i]}; }
-  void set(std::size_t i, const Eigen::Vector3d& v) const
-    requires(!std::is_const_v<T>)
-  {
+  void set(std::size_t i, const Eigen::Vector3d& v) const requires(!std::is_const_v<T>) {
     x[i] = v.x();
     y[i] = v.y();
     z[i] = v.z();
@@ -30,8 +28,7 @@ struct Vec3View {
     return {x.subspan(offset, count), y.subspan(offset, count), z.subspan(offset, count)};
   }
   operator Vec3View<const T>() const  // NOLINT(google-explicit-constructor): const view of a mutable one
-    requires(!std::is_const_v<T>)
-  {
+      requires(!std::is_const_v<T>) {
     return {x, y, z};
   }
 };
@@ -42,21 +39,17 @@ struct RotationView {
 
   [[nodiscard]] std::size_t size() const { return w.size(); }
   [[nodiscard]] Eigen::Quaterniond get(std::size_t i) const { return {w[i], x[i], y[i], z[i]}; }
-  void set(std::size_t i, const Eigen::Quaterniond& q) const
-    requires(!std::is_const_v<T>)
-  {
+  void set(std::size_t i, const Eigen::Quaterniond& q) const requires(!std::is_const_v<T>) {
     w[i] = q.w();
     x[i] = q.x();
     y[i] = q.y();
     z[i] = q.z();
   }
   [[nodiscard]] RotationView subview(std::size_t offset, std::size_t count) const {
-    return {w.subspan(offset, count), x.subspan(offset, count), y.subspan(offset, count),
-            z.subspan(offset, count)};
+    return {w.subspan(offset, count), x.subspan(offset, count), y.subspan(offset, count), z.subspan(offset, count)};
   }
   operator RotationView<const T>() const  // NOLINT(google-explicit-constructor)
-    requires(!std::is_const_v<T>)
-  {
+      requires(!std::is_const_v<T>) {
     return {w, x, y, z};
   }
 };
@@ -70,9 +63,7 @@ struct StrainView {
   [[nodiscard]] Eigen::Vector4d get(std::size_t k) const {
     return {data[4 * k], data[4 * k + 1], data[4 * k + 2], data[4 * k + 3]};
   }
-  void set(std::size_t k, const Eigen::Vector4d& v) const
-    requires(!std::is_const_v<T>)
-  {
+  void set(std::size_t k, const Eigen::Vector4d& v) const requires(!std::is_const_v<T>) {
     for (std::size_t c = 0; c < kStrainComponents; ++c) data[4 * k + c] = v[static_cast<Eigen::Index>(c)];
   }
   [[nodiscard]] T& at(std::size_t k, std::size_t c) const { return data[4 * k + c]; }
@@ -80,8 +71,7 @@ struct StrainView {
     return {data.subspan(kStrainComponents * node_offset, kStrainComponents * node_count)};
   }
   operator StrainView<const T>() const  // NOLINT(google-explicit-constructor)
-    requires(!std::is_const_v<T>)
-  {
+      requires(!std::is_const_v<T>) {
     return {data};
   }
 };
@@ -102,8 +92,7 @@ struct RodPoses {
             mid_position.subview(first, count - 1), mid_rotation.subview(first, count - 1)};
   }
   operator RodPoses<const T>() const  // NOLINT(google-explicit-constructor)
-    requires(!std::is_const_v<T>)
-  {
+      requires(!std::is_const_v<T>) {
     return {node_position, node_rotation, mid_position, mid_rotation};
   }
 };

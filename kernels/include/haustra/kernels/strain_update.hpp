@@ -18,9 +18,7 @@ struct StrainLawCoefficients {
 // strain: in, the current iterate; out, the updated strain. solved_force = M⁻¹R. relaxation: ω
 // per component. Returns the largest |change| per component.
 Eigen::Vector4d strain_update(StrainView<const double> solved_force, StrainView<const double> rest,
-                              StrainView<const double> start_of_step,
-                              const StrainLawCoefficients& law,
-                              const std::array<double, kStrainComponents>& relaxation,
-                              StrainView<double> strain);
+                              StrainView<const double> start_of_step, const StrainLawCoefficients& law,
+                              const std::array<double, kStrainComponents>& relaxation, StrainView<double> strain);
 
 }  // namespace haustra::kernels

@@ -37,17 +37,28 @@ struct Overlays {
 
 struct RenderOptions {
   int width = 960, height = 600;
-  std::optional<Camera> camera;  // default: fitted to the segments and instruments
+  std::optional<Camera> camera;                                 // default: fitted to the segments and instruments
   Eigen::Vector3d view_from = Eigen::Vector3d(1.0, -1.6, 0.9);  // direction from the target to a fitted eye
   Overlays overlays;
-  int samples = 2;               // per pixel side (2: 4 rays per pixel)
+  int samples = 2;  // per pixel side (2: 4 rays per pixel)
   // Extra polylines drawn as thin wires (the cage's colour): templates, construction lines.
   std::vector<std::vector<Eigen::Vector3d>> wires;
   bool shadows = true;
 };
 
 // What each pixel shows (the most opaque thing along its centre ray), for checks.
-enum class Shows : std::uint8_t { background, floor, organ, rod, bead, cage, centreline, contact, instrument, obstacle };
+enum class Shows : std::uint8_t {
+  background,
+  floor,
+  organ,
+  rod,
+  bead,
+  cage,
+  centreline,
+  contact,
+  instrument,
+  obstacle
+};
 
 struct Picture {
   Image image;

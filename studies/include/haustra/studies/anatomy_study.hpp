@@ -16,11 +16,11 @@ namespace haustra::import {
 struct AnatomyRow {
   std::string organ, localization;
   std::size_t vertices = 0, rings = 0;
-  double mean_rings = 0.0, max_rings = 0.0;  // kept per vertex
-  double skin_us = 0.0;                      // the skin stage on one thread, median
-  std::vector<double> max_error, p99_error;  // m against full MVC, per deformation
-  double rigid_max = 0.0, rigid_p99 = 0.0;   // m against rigid cross-sections, over the deformations
-  double volume_change = 0.0;                // relative, in the 90° bend (closed meshes; NaN when open)
+  double mean_rings = 0.0, max_rings = 0.0;      // kept per vertex
+  double skin_us = 0.0;                          // the skin stage on one thread, median
+  std::vector<double> max_error, p99_error;      // m against full MVC, per deformation
+  double rigid_max = 0.0, rigid_p99 = 0.0;       // m against rigid cross-sections, over the deformations
+  double volume_change = 0.0;                    // relative, in the 90° bend (closed meshes; NaN when open)
   double rest_correction = 0.0, left_out = 0.0;  // worst vertex
 };
 
@@ -33,7 +33,7 @@ struct AnatomyStudy {
 // CT colon (assets/large-intestine-A-DSJ*) with its midline and without, and procedural organs
 // (straight; bent at 1.2 radii; a loop touching itself). (name, scene file) pairs.
 std::vector<std::pair<std::string, std::filesystem::path>> import_study_organs(const std::filesystem::path& assets,
-                                                                             const std::filesystem::path& work);
+                                                                               const std::filesystem::path& work);
 
 // organs: (name, scene file) pairs, scenes as `haustra import` writes them.
 AnatomyStudy run_anatomy_study(const std::vector<std::pair<std::string, std::filesystem::path>>& organs);
@@ -41,7 +41,7 @@ std::string anatomy_markdown(const AnatomyStudy& study);
 
 // A procedural organ (radius 20 mm, 12,000 vertices) along pieces of constant (κ1, κ2, τ) of the
 // given lengths, written as a mesh file scaled by `scale` (1000: millimetres): test and study input.
-void write_procedural_organ(const std::filesystem::path& file, const std::vector<std::pair<double, Eigen::Vector3d>>& pieces,
-                            double scale);
+void write_procedural_organ(const std::filesystem::path& file,
+                            const std::vector<std::pair<double, Eigen::Vector3d>>& pieces, double scale);
 
 }  // namespace haustra::import

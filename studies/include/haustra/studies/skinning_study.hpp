@@ -12,19 +12,19 @@
 namespace haustra::validation {
 
 struct SkinningStudyRow {
-  std::string method;          // "MVC, K = 4", "MVC, all rings", "linear blend"
-  int rings_per_vertex = 0;    // 0: all
-  double slots = 0.0;          // rings per vertex actually stored (mean over the vertices)
+  std::string method;        // "MVC, K = 4", "MVC, all rings", "linear blend"
+  int rings_per_vertex = 0;  // 0: all
+  double slots = 0.0;        // rings per vertex actually stored (mean over the vertices)
   double bytes_per_vertex = 0.0;
-  double skin_us = 0.0;        // median skinning time per frame, µs
-  double rest_error = 0.0;     // m, max over vertices
-  double max_error = 0.0;      // m, against full MVC over the posed frames
-  double p99_error = 0.0;      // m
+  double skin_us = 0.0;     // median skinning time per frame, µs
+  double rest_error = 0.0;  // m, max over vertices
+  double max_error = 0.0;   // m, against full MVC over the posed frames
+  double p99_error = 0.0;   // m
   // m, against carrying each vertex rigidly with the rod's frame at its own arc length (what a
   // tube whose cross-sections stay rigid and square to the centreline does)
   double transport_max = 0.0, transport_p99 = 0.0;
-  double bend_volume_change = 0.0;  // relative, 90° bend
-  double twist_volume_change = 0.0; // relative, 90° twist
+  double bend_volume_change = 0.0;   // relative, 90° bend
+  double twist_volume_change = 0.0;  // relative, 90° twist
   double mean_dropped_mass = 0.0;
 };
 

@@ -11,14 +11,14 @@ struct StabilityCell {
   double youngs_modulus = 0.0;  // Pa
   double dt = 0.0;              // s
   int nodes = 0;
-  std::string load;             // "gravity", "pull" (gravity + a tip pull to 100% strain) or "contact"
-                                // (gravity, lying on a floor with 100× the paper's penalty)
-  std::string law;              // "elastic" or "viscous" (bending and torsion; axial elastic)
+  std::string load;  // "gravity", "pull" (gravity + a tip pull to 100% strain) or "contact"
+                     // (gravity, lying on a floor with 100× the paper's penalty)
+  std::string law;   // "elastic" or "viscous" (bending and torsion; axial elastic)
   int frames = 0;
-  std::string outcome;          // "lagged" (stable as the paper runs it), "robust", "error"
-  std::string detail;           // the robust mode's event, or the error
-  bool finite = true;           // every node position and strain finite at the end
-  bool names_cause = true;      // an error names segment, node and stage
+  std::string outcome;      // "lagged" (stable as the paper runs it), "robust", "error"
+  std::string detail;       // the robust mode's event, or the error
+  bool finite = true;       // every node position and strain finite at the end
+  bool names_cause = true;  // an error names segment, node and stage
   // The fast mode (decision 0037) in the same cell, with the robust mode behind it: "fast" (held
   // on its own), "robust" (the guard had frames redone by Newton), "error"; "" when not run.
   std::string fast_outcome;
@@ -29,11 +29,11 @@ struct StabilityOptions {
   std::vector<double> youngs_moduli = {10.0, 1e3, 33.2e3, 1e6, 1e7};
   std::vector<double> time_steps = {1e-4, 1e-3, 1.0 / 60.0, 0.1};
   std::vector<int> nodes = {2, 20, 167, 2000};
-  int frames_small = 30;    // N ≤ 200
-  int frames_large = 6;     // N > 200
-  int max_substeps = 8;     // the robust ladder: lagged, Newton, Newton with 2, 4, 8 substeps
+  int frames_small = 30;  // N ≤ 200
+  int frames_large = 6;   // N > 200
+  int max_substeps = 8;   // the robust ladder: lagged, Newton, Newton with 2, 4, 8 substeps
   std::vector<std::string> loads = {"gravity", "pull", "contact"};
-  bool fast = true;         // also run each cell in fast mode
+  bool fast = true;  // also run each cell in fast mode
 };
 
 std::vector<StabilityCell> stability_sweep(const StabilityOptions& options);

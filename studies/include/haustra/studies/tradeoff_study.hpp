@@ -9,11 +9,11 @@
 namespace haustra::validation {
 
 struct TradeoffRow {
-  std::string setting;     // "N = 167", "every 3rd node", "Newton, 2 iterations"
-  double error = 0.0;      // in the knob's error unit
-  double cost_us = 0.0;    // µs per frame (or of the stage the knob changes; see the knob's cost)
-  std::string details;     // further measurements, as text
-  bool is_default = false; // what the engine does unless told otherwise
+  std::string setting;        // "N = 167", "every 3rd node", "Newton, 2 iterations"
+  double error = 0.0;         // in the knob's error unit
+  double cost_us = 0.0;       // µs per frame (or of the stage the knob changes; see the knob's cost)
+  std::string details;        // further measurements, as text
+  bool is_default = false;    // what the engine does unless told otherwise
   bool is_reference = false;  // the reference itself (error 0 by definition): never the guide's pick
 };
 
@@ -26,7 +26,7 @@ struct TradeoffKnob {
   std::vector<TradeoffRow> rows;
   // The guide's haptic pick: the cheapest setting within this error (0: no pick, see the table).
   double haptic_error = 0.0;
-  bool pareto = true;  // false where the rows are not alternatives (different loads)
+  bool pareto = true;        // false where the rows are not alternatives (different loads)
   std::string guide_note{};  // what the rule cannot see, added to the guide's line
 };
 

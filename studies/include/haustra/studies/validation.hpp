@@ -15,9 +15,9 @@ struct CaseResult {
   std::string quantity;  // what was compared, with units
   double reference = 0.0;
   double value = 0.0;
-  double error = 0.0;      // relative unless `absolute`
+  double error = 0.0;  // relative unless `absolute`
   double tolerance = 0.0;
-  bool absolute = false;   // error is absolute (same units as the quantity)
+  bool absolute = false;  // error is absolute (same units as the quantity)
   bool pass = false;
   std::string note;
 };
