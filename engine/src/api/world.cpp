@@ -10,7 +10,18 @@
 
 namespace haustra {
 
+std::unique_ptr<World> World::create(const WorldDesc& desc) {
+  if (desc.jobs.enabled() != (desc.jobs.wait != nullptr))
+    throw Error(ErrorCode::invalid_argument, "jobs: a host job system needs both enqueue and wait (or neither)");
+  if (desc.jobs.enabled() && (desc.jobs.workers < 1 || desc.jobs.workers > 1024))
+    throw Error(ErrorCode::invalid_argument, fmt::format("jobs.workers = {}: expected 1 to 1024", desc.jobs.workers));
+  return std::unique_ptr<World>(new World(std::make_unique<Impl>(desc, detail::build_world_model(desc))));
+}
+
 World::World(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+// One frame: the pipeline is step/frame.cpp.
+void World::step() { impl_->step(); }
 World::~World() = default;
 
 std::size_t World::segment_count() const { return impl_->model.pieces.size(); }

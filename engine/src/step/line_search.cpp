@@ -8,6 +8,7 @@
 #include "step/collision.hpp"
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
+#include "step/scheduler.hpp"
 #include "step/segment_law.hpp"
 
 namespace haustra::detail {
@@ -443,6 +444,24 @@ void stage_newton_search_decide(const WorldModel& model, WorldState& state, std:
     return;
   }
   first_trial(model, state, rod, false);
+}
+
+void stage_line_search(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p) {
+  const std::size_t segs = model.segments.size();
+  scheduler.for_each(segs, [&](std::size_t s) {
+    if (state.segment_converged[s] == 0 && state.segment_solvable[s] != 0)
+      stage_newton_search_begin(model, state, s, p);
+  });
+  for (;;) {
+    bool searching = false;
+    for (std::size_t s = 0; s < segs; ++s) searching = searching || state.newton[s].search.active;
+    if (!searching) break;
+    scheduler.for_each(model.solve_parts.size(),
+                       [&](std::size_t i) { stage_newton_search_sweep(model, state, model.solve_parts[i]); });
+    scheduler.for_each(model.solve_parts.size(),
+                       [&](std::size_t i) { stage_newton_search_measure(model, state, model.solve_parts[i], p); });
+    scheduler.for_each(segs, [&](std::size_t s) { stage_newton_search_decide(model, state, s, p); });
+  }
 }
 
 }  // namespace haustra::detail

@@ -12,6 +12,7 @@
 #include "step/collision.hpp"
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
+#include "step/scheduler.hpp"
 #include "step/segment_law.hpp"
 
 namespace haustra::detail {
@@ -614,6 +615,46 @@ void stage_newton_multipliers(const WorldModel& model, WorldState& state, std::s
 void stage_newton_step_part(const WorldModel& model, WorldState& state, const SolvePart& part,
                             const SubstepParameters& p) {
   step_part(model, state, part, p);
+}
+
+// The stages over the whole world, as frame.cpp runs them in each Newton iteration.
+
+void stage_condense(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p) {
+  const std::size_t segs = model.segments.size();
+  const auto active = [&](std::size_t s) { return state.segment_converged[s] == 0; };
+  scheduler.for_each(segs, [&](std::size_t s) {
+    if (active(s)) stage_newton_linearize(model, state, s, p);
+  });
+  for (std::size_t s = 0; s < segs; ++s) state.segment_solving[s] = active(s) && state.segment_solvable[s] != 0;
+  plan_newton_condense(model, state, state.segment_solving);
+  scheduler.for_each(state.condense_tasks.size(),
+                     [&](std::size_t i) { stage_newton_condense_task(model, state, state.condense_tasks[i], p); });
+  scheduler.for_each(segs, [&](std::size_t s) {
+    if (active(s)) state.segment_solvable[s] = stage_newton_join(model, state, s, p) ? 1 : 0;
+  });
+}
+
+void stage_newton_solve(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p) {
+  const std::size_t segs = model.segments.size();
+  const auto solving = [&](std::size_t s) { return state.segment_converged[s] == 0 && state.segment_solvable[s] != 0; };
+  scheduler.for_each(2 * segs, [&](std::size_t i) {
+    const std::size_t s = i / 2;
+    if (solving(s)) stage_newton_responses(model, state, s, static_cast<int>(i % 2), p);
+  });
+  scheduler.for_each(segs, [&](std::size_t s) {
+    if (solving(s)) stage_newton_multipliers(model, state, s);
+  });
+  scheduler.for_each(model.solve_parts.size(), [&](std::size_t i) {
+    if (solving(model.solve_parts[i].rod)) stage_newton_step_part(model, state, model.solve_parts[i], p);
+  });
+}
+
+void end_unsolvable(const WorldModel& model, WorldState& state) {
+  for (std::size_t s = 0; s < model.segments.size(); ++s)
+    if (state.segment_converged[s] == 0 && state.segment_solvable[s] == 0) {
+      state.segment_change[s].setZero();
+      state.segment_converged[s] = 1;
+    }
 }
 
 }  // namespace haustra::detail

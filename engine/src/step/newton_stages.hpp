@@ -5,6 +5,17 @@
 
 namespace haustra::detail {
 
+class Scheduler;
+
+// The three Newton stages over the whole world, as the frame runs them in each iteration: each spreads
+// its per-rod and per-part steps (below) over the scheduler, for the rods still iterating.
+void stage_condense(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p);
+void stage_newton_solve(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p);
+void stage_line_search(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p);
+// Rods that neither the condensed sweep nor the banded LU could solve end their iterations here:
+// the guard reports them.
+void end_unsolvable(const WorldModel& model, WorldState& state);
+
 // The condense stage. Per rod: the implicit law linearized at the current iterate, the coupled
 // unknowns' unit loads (and a split rod's parts' share of them). Per solve part: the system
 // condensed from the tip (kernels/rod_condensed). Per rod: a split rod's parts joined, or the

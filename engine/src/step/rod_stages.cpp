@@ -484,4 +484,37 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
   return {};
 }
 
+void stage_snapshot(const WorldModel& model, WorldState& state, std::size_t segment, bool newton) {
+  const SegmentModel& seg = model.segments[segment];
+  const auto off = static_cast<std::ptrdiff_t>(seg.node_offset);
+  const auto cnt = static_cast<std::ptrdiff_t>(seg.node_count);
+  std::copy_n(state.now.strain.begin() + 4 * off, 4 * cnt, state.strain_substep_start.begin() + 4 * off);
+  if (newton && seg.has_drag) {
+    const auto copy = [&](std::span<const double> from, std::span<double> to) {
+      std::copy_n(from.begin() + off, cnt, to.begin() + off);
+    };
+    copy(state.now.position.x, state.position_substep_start.x);
+    copy(state.now.position.y, state.position_substep_start.y);
+    copy(state.now.position.z, state.position_substep_start.z);
+    copy(state.now.rotation.w, state.rotation_substep_start.w);
+    copy(state.now.rotation.x, state.rotation_substep_start.x);
+    copy(state.now.rotation.y, state.rotation_substep_start.y);
+    copy(state.now.rotation.z, state.rotation_substep_start.z);
+  }
+  state.base_substep_start[segment] = state.now.base[segment];
+  state.segment_converged[segment] = 0;
+  state.segment_solvable[segment] = 1;
+}
+
+bool iteration_converged(const WorldModel& model, const WorldState& state, std::size_t segment, bool past_fixed_count) {
+  const Eigen::Vector4d& d = state.segment_change[segment];
+  const double moved = std::max(d.head<3>().maxCoeff() * model.segments[segment].mean_section, d[3]);
+  if (moved <= model.solver.tolerance) return true;
+  // Past the fixed count, Newton goes on only where a contact cut its step short or an attachment
+  // is still off target.
+  std::size_t node = 0;
+  return past_fixed_count && state.segment_step_cut[segment] == 0 &&
+         attachment_miss(model, state, segment, node) <= model.solver.attachment_tolerance;
+}
+
 }  // namespace haustra::detail

@@ -28,6 +28,9 @@ struct ConstraintRow {
 using ConstraintRows = std::array<ConstraintRow, kMaxConstraintRows>;
 std::size_t active_constraint_rows(const SegmentModel& seg, const WorldState& state, ConstraintRows& rows);
 
+// A substep's start: the strains, poses and base its drag and potential measure from; the segment
+// iterates again.
+void stage_snapshot(const WorldModel& model, WorldState& state, std::size_t segment, bool newton);
 // Gravity and external loads; in Newton mode also the attachments' accumulated constraint forces and
 // the medium's drag on the motion since the substep began.
 void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p);
@@ -65,6 +68,11 @@ void stage_lagged_contraction(const WorldModel& model, WorldState& state, std::s
 
 // The largest distance (m) of an active attachment from its target, and its node (local).
 double attachment_miss(const WorldModel& model, const WorldState& state, std::size_t segment, std::size_t& node);
+// After an iteration: the segment moved less than the solver's tolerance, or, once the fixed
+// iteration count is past, nothing holds Newton back (no contact cut its step, every attachment
+// on target).
+[[nodiscard]] bool iteration_converged(const WorldModel& model, const WorldState& state, std::size_t segment,
+                                       bool past_fixed_count);
 // The guard: finite values and bounds, energy, and for the lagged scheme the contraction measured
 // just before it.
 GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p);

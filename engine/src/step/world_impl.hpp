@@ -3,6 +3,7 @@
 // (world.cpp), the frame pipeline (frame.cpp), checkpoints and rebuilding share.
 #include <fmt/format.h>
 
+#include <chrono>
 #include <utility>
 #include <vector>
 
@@ -73,16 +74,50 @@ struct World::Impl {
   }
 
  private:
-  // A stage timed into the profile: per segment over the scheduler when fn takes a segment
-  // index, else world-wide (fn spreads its own work).
-  template <class F>
-  void stage(Stage stage, F&& fn);
-  template <class It>
-  It describe(It out, std::size_t max, std::size_t s, const detail::GuardResult& g, int n) const;
-  [[nodiscard]] Event make_event(Event::Kind kind, std::size_t s, const detail::GuardResult& g, int n) const;
-  void record(const Event& e);
+  using Clock = std::chrono::steady_clock;
+  // The first failure of a frame the robust mode redid: where, what, on which rung.
+  struct Failure {
+    std::size_t segment;
+    detail::GuardResult guard;
+    Rung rung;
+    [[nodiscard]] bool happened(const detail::WorldModel& m) const { return segment < m.segments.size(); }
+  };
+
+  // frame.cpp: the frame's verbs, in pipeline order.
+  Rung attempt_until_stable(Clock::time_point t0);
+  void newton_iteration(const detail::SubstepParameters& p);
+  void lagged_iteration(const detail::SubstepParameters& p);
+  void move_instruments();
+  void snapshot(bool newton);
+  void collide();
+  void contacts();
+  void loads(const detail::SubstepParameters& p);
+  void backward_sweep();
+  [[nodiscard]] bool all_converged(bool past_fixed_count);
+  void filter();
+  void contraction(const detail::SubstepParameters& p);
+  [[nodiscard]] std::size_t guard_segments(const detail::SubstepParameters& p);
+  void report();
+  void finish_frame(const Rung& kept, Clock::time_point t0);
+  [[noreturn]] void stop_unstable(std::size_t failed, const Rung& rung, Clock::time_point t0);
   [[nodiscard]] bool can_escalate(const Rung& r) const;
   [[nodiscard]] Rung escalate(const Rung& r) const;
+  // A stage timed into the profile: world-wide (fn spreads its own work), per segment over the
+  // scheduler, or per segment still iterating in this substep.
+  template <class F>
+  void timed(Stage stage, F&& fn);
+  template <class F>
+  void per_segment(Stage stage, F&& fn);
+  template <class F>
+  void per_active_segment(Stage stage, F&& fn);
+
+  // frame_events.cpp: the events a frame records and their text.
+  char* describe(Event& e, char* it, std::size_t s, const detail::GuardResult& g, int n) const;
+  [[nodiscard]] Event make_event(Event::Kind kind, std::size_t s, const detail::GuardResult& g, int n) const;
+  [[nodiscard]] Event unstable_event(std::size_t failed, const detail::GuardResult& g, const Rung& rung) const;
+  [[nodiscard]] Event recovered_event(const Failure& first, const Rung& rung) const;
+  void record(const Event& e);
+  void reserve_events();
 };
 
 }  // namespace haustra

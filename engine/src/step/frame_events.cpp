@@ -1,0 +1,81 @@
+// The events a frame records (unstable, recovered) and their text, written without allocating
+// into the event's fixed buffer: which frame, segment, node, quantity and stage, and what to change.
+#include <fmt/format.h>
+
+#include "step/world_impl.hpp"
+
+namespace haustra {
+
+using detail::GuardResult;
+
+namespace {
+
+constexpr std::size_t kMaxEvents = 1024;
+
+// Appends to an event's text, never past its end.
+template <class... Args>
+char* append(Event& e, char* it, fmt::format_string<Args...> format, Args&&... args) {
+  const std::size_t cap = e.text.size() - 1;
+  const auto left = cap - static_cast<std::size_t>(it - e.text.data());
+  return fmt::format_to_n(it, left, format, std::forward<Args>(args)...).out;
+}
+
+void terminate_text(Event& e, char* it) { *std::min(it, e.text.data() + e.text.size() - 1) = '\0'; }
+
+}  // namespace
+
+// Writes "frame F: segment 'S' (i), node K: <what failed> after stage 'X' with N substeps".
+char* World::Impl::describe(Event& e, char* it, std::size_t s, const GuardResult& g, int n) const {
+  const auto [piece, node] = piece_of(s, g.node);
+  const auto name = std::string_view(model.pieces[piece].info.name);
+  if (g.limit > 0.0)
+    return append(e, it,
+                  "frame {}: segment '{}' ({}), node {}: {} {:.4g} exceeds the limit {:.4g} after stage '{}' with {} "
+                  "substep{}",
+                  state.frame, name, piece, node, g.quantity, g.value, g.limit, stage_name(g.stage), n,
+                  n == 1 ? "" : "s");
+  return append(e, it, "frame {}: segment '{}' ({}), node {}: {} after stage '{}' with {} substep{}", state.frame, name,
+                piece, node, g.quantity, stage_name(g.stage), n, n == 1 ? "" : "s");
+}
+
+Event World::Impl::make_event(Event::Kind kind, std::size_t s, const GuardResult& g, int n) const {
+  Event e;
+  e.kind = kind;
+  e.frame = state.frame;
+  std::tie(e.segment, e.node) = piece_of(s, g.node);
+  e.stage = g.stage;
+  e.substeps = n;
+  return e;
+}
+
+Event World::Impl::unstable_event(std::size_t failed, const GuardResult& g, const Rung& rung) const {
+  Event e = make_event(Event::Kind::unstable, failed, g, rung.substeps);
+  char* it = append(e, e.text.data(), "unstable at ");
+  it = describe(e, it, failed, g, rung.substeps);
+  it = append(e, it,
+              ". {}Lower the time step, raise solver.max_substeps or solver.iterations, or soften the loads. The world "
+              "keeps its last good frame.",
+              model.solver.on_instability == InstabilityPolicy::recover
+                  ? "Newton with more substeps did not recover either. "
+                  : "solver.on_instability is \"stop\". ");
+  terminate_text(e, it);
+  return e;
+}
+
+Event World::Impl::recovered_event(const Failure& first, const Rung& rung) const {
+  Event e = make_event(Event::Kind::recovered, first.segment, first.guard, rung.substeps);
+  char* it = append(e, e.text.data(), "recovered: ");
+  it = describe(e, it, first.segment, first.guard, first.rung.substeps);
+  it = append(e, it, "; the frame was redone with {}{} substep{}", rung.newton ? "Newton and " : "", rung.substeps,
+              rung.substeps == 1 ? "" : "s");
+  terminate_text(e, it);
+  return e;
+}
+
+void World::Impl::record(const Event& e) {
+  if (events.size() < kMaxEvents) events.push_back(e);  // capacity reserved at creation
+}
+
+void World::Impl::reserve_events() { events.reserve(kMaxEvents); }
+
+}  // namespace haustra
