@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo view import-asan test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study skinning-doc figures soak fuzz clean
+.PHONY: all deps configure build demo view anatomy import-asan test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study skinning-doc figures soak fuzz clean
 
 all: build
 
@@ -137,6 +137,13 @@ study: build
 	@mv out/tradeoff.md docs/tradeoff.md
 	@/usr/bin/python3 scripts/plots.py tradeoff out/tradeoff.csv docs/figures/tradeoff.png
 	@echo "wrote $(abspath docs/tradeoff.md) and $(abspath docs/figures/tradeoff.png)"
+
+# docs/anatomy.md: every surface of ANATOMY imported with the defaults, grasped at the middle and
+# lifted (decision 0049). The surfaces: ../shared/data/anatomy (25 real intestines, its README).
+ANATOMY ?= ../shared/data/anatomy
+anatomy: build
+	@$(BIN)/haustra anatomy $(ANATOMY) --out build/anatomy > docs/anatomy.md.new; status=$$?; \
+	  mv docs/anatomy.md.new docs/anatomy.md; echo "wrote $(abspath docs/anatomy.md)"; exit $$status
 
 # Regenerates docs/skinning.md's tables (the localization study and real anatomy).
 skinning-doc: build

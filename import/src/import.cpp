@@ -1,15 +1,15 @@
-// haustra import: surface → units → centreline (read or skeleton) → trimmed to the mesh →
-// scene file → the scene built once to prove it.
+// haustra import: surface → units → repair → pieces and shells → centreline (read or computed) →
+// beads from the wall → scene files → the scene built once to prove it.
 #include "haustra/import/import.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <set>
 
 #include "centreline_fit.hpp"
 #include "haustra/centreline.hpp"
@@ -17,42 +17,20 @@
 #include "haustra/error.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/scene.hpp"
-#include "skeleton.hpp"
+#include "organ_centreline.hpp"
+#include "organ_layout.hpp"
+#include "scene_files.hpp"
+#include "surface_repair.hpp"
 
 namespace haustra::import {
 namespace {
 
-constexpr double kSpacing = 0.001;  // m between resampled centreline points
+constexpr double kSpacing = 0.001;          // m between resampled centreline points
+constexpr double kBuildBudgetSeconds = 45.0;  // tries at building the scene stop after this
 
-std::size_t boundary_loops(const TriangleMesh& mesh) {
-  // Border edges (used by one triangle), then loops by following them vertex to vertex.
-  std::map<std::pair<std::uint32_t, std::uint32_t>, int> uses;
-  for (const auto& t : mesh.triangles)
-    for (int i = 0; i < 3; ++i) {
-      const std::uint32_t a = t[static_cast<std::size_t>(i)], b = t[static_cast<std::size_t>((i + 1) % 3)];
-      ++uses[{std::min(a, b), std::max(a, b)}];
-    }
-  std::map<std::uint32_t, std::vector<std::uint32_t>> next;
-  for (const auto& [e, n] : uses)
-    if (n == 1) {
-      next[e.first].push_back(e.second);
-      next[e.second].push_back(e.first);
-    }
-  std::set<std::uint32_t> seen;
-  std::size_t loops = 0;
-  for (const auto& [v, _] : next) {
-    if (seen.count(v) != 0) continue;
-    ++loops;
-    std::vector<std::uint32_t> stack{v};
-    while (!stack.empty()) {
-      const std::uint32_t u = stack.back();
-      stack.pop_back();
-      if (!seen.insert(u).second) continue;
-      for (std::uint32_t w : next[u]) stack.push_back(w);
-    }
-  }
-  return loops;
-}
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 std::pair<double, std::string> decide_units(const TriangleMesh& mesh, const std::string& asked,
                                             const std::string& file) {
@@ -75,217 +53,267 @@ std::pair<double, std::string> decide_units(const TriangleMesh& mesh, const std:
                           file, size));
 }
 
-void write_centreline(const std::filesystem::path& file, const Polyline& p, const std::string& source) {
-  nlohmann::json j;
-  j["units"] = "m";
-  j["source"] = source;
-  for (const auto& q : p) j["points"].push_back({q.x(), q.y(), q.z()});
-  std::ofstream out(file);
-  out << j.dump() << "\n";
-  if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write the centreline", file.string()));
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
 }
 
-std::string commented(const std::string& text) {
-  std::string out;
-  for (char c : text) out += c == '\n' ? std::string("\n#   ") : std::string(1, c);
-  while (!out.empty() && (out.back() == ' ' || out.back() == '#')) out.pop_back();
-  return out;
-}
-
-std::string toml_path(const std::filesystem::path& target, const std::filesystem::path& scene_dir) {
-  std::error_code ec;
-  const auto rel =
-      std::filesystem::relative(std::filesystem::absolute(target), std::filesystem::absolute(scene_dir), ec);
-  return ec || rel.empty() ? std::filesystem::absolute(target).string() : rel.string();
-}
-
-void write_scene(const ImportOptions& o, const ImportReport& r) {
-  const std::string name = o.mesh.stem().string();
-  std::string text = fmt::format(
-      "# Written by `haustra import {}`. What it found:\n#   {}\n\n"
-      "[scene]\nname = \"{}\"\ndescription = \"{} imported: {:.3f} m of centreline, {} vertices\"\nframes = 240\n\n"
-      "[world]\ndt = 0.016666666666666666\ngravity = [0.0, 0.0, -9.81]\n\n"
-      "[solver]\nmode = \"newton\"\niterations = 2\n\n"
-      "[[segment]]\nname = \"{}\"\nnodes = {}\nradius = {:.6g}\nwall_thickness = {:.6g}\nbase = \"{}\"\n"
-      "[segment.rest]\nshape = \"centreline\"\nfile = \"{}\"\n"
-      "[segment.beads]\ncount = {}\nradius = \"mesh\"             # each bead as wide as the wall around its node\n"
-      "[segment.mesh]\nfile = \"{}\"\nscale = {}\n"
-      "[segment.mesh.cage]\nring_vertices = 8\n",
-      o.mesh.filename().string(), commented(r.text()), name, name, r.length, r.vertices, name, r.nodes, r.median_radius,
-      std::min(0.003, 0.25 * r.median_radius), o.ends == "free" ? "free" : "clamped",
-      toml_path(r.centreline_file, r.scene.parent_path()), r.beads, toml_path(o.mesh, r.scene.parent_path()), r.scale);
-  if (o.ends == "held") text += "[[segment.attachment]]\nnode = -1                   # the far end stays where it is\n";
-  std::ofstream out(r.scene);
-  out << text;
-  if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write the scene", r.scene.string()));
-}
-
-}  // namespace
-
-std::string ImportReport::text() const {
-  std::string t = fmt::format("surface: {} vertices, {} triangles, {} open end{}; units: {}\n", vertices, triangles,
-                              holes, holes == 1 ? "" : "s", units_reason);
-  t += fmt::format("centreline: {}\n", centreline_source);
-  t += fmt::format(
-      "length: {:.1f} mm (trimmed {:.1f} mm at the start and {:.1f} mm at the end, where it ran past the "
-      "mesh)\n",
-      1e3 * length, 1e3 * trimmed_start, 1e3 * trimmed_end);
-  t += fmt::format(
-      "radius: {:.1f} mm (median); tightest bend: radius {:.1f} mm (over 5 mm, the line smoothed over half a radius) "
-      "at {:.0f} mm ({:.2f}x the organ's "
-      "radius)\n",
-      1e3 * median_radius, 1e3 * tightest_bend, 1e3 * tightest_bend_at,
-      median_radius > 0 ? tightest_bend / median_radius : 0.0);
-  if (touching.empty()) t += "loops: no part of the organ touches another\n";
-  for (const auto& [a, b] : touching)
-    t += fmt::format("loops: the wall at {:.0f} mm touches the wall at {:.0f} mm\n", 1e3 * a, 1e3 * b);
-  t += fmt::format("rod: {} nodes, {} beads sized from the mesh\n", nodes, beads);
-  for (const std::string& why : retries)
-    t += fmt::format("fewer beads: the cage did not embed the mesh with {}\n", why.substr(0, why.find(" (mesh ")));
-  if (cage_rings > 0)
-    t += fmt::format(
-        "built in {:.2f} s: cage of {} rings ({} dropped), {} mesh vertices outside it at the curved rest "
-        "pose, weight left out by localization up to {:.3f}, rest correction up to {:.2f} mm\n",
-        build_seconds, cage_rings, dropped_rings, rest_pose_outside, max_dropped_mass, 1e3 * max_rest_correction);
-  return t;
-}
-
-ImportReport import_surface(const ImportOptions& o) {
-  if (o.ends != "held" && o.ends != "base" && o.ends != "free")
-    throw Error(ErrorCode::invalid_argument, fmt::format("--ends: expected held, base or free, got '{}'", o.ends));
-  if (o.units != "auto" && o.units != "mm" && o.units != "m")
-    throw Error(ErrorCode::invalid_argument, fmt::format("--units: expected auto, mm or m, got '{}'", o.units));
-  const std::string file = o.mesh.string();
-  TriangleMesh mesh = load_mesh(o.mesh);
-  ImportReport r;
-  r.vertices = mesh.vertices.size();
-  r.triangles = mesh.triangles.size();
-  r.holes = static_cast<int>(boundary_loops(mesh));
-  std::tie(r.scale, r.units_reason) = decide_units(mesh, o.units, file);
-  r.units = r.scale == 1.0 ? "m" : "mm";
-
-  // The centreline, in metres.
-  Polyline raw;
-  if (!o.centreline.empty()) {
-    raw = read_centreline(o.centreline).points;
-    r.centreline_source = o.centreline.string();
-  } else {
-    const SkeletonResult sk = skeleton_path(mesh, file);
-    for (const auto& p : sk.path) raw.push_back(r.scale * p);
-    r.centreline_source = fmt::format(
-        "computed by CGAL's mean curvature flow skeleton ({} skeleton vertices, {} at "
-        "branches, {} holes filled first, {:.1f} s)",
-        sk.skeleton_vertices, sk.branches, sk.holes_filled, sk.seconds);
-  }
-  if (o.reverse) std::reverse(raw.begin(), raw.end());
-  Polyline line = resample(raw, kSpacing);
-  std::vector<Eigen::Vector3d> wall_vertices;
-  for (const auto& v : mesh.vertices) wall_vertices.push_back(r.scale * v);
-  EmbreeScene wall;
-  wall.add_triangles(wall_vertices, mesh.triangles);
-  wall.commit();
-  if (o.centreline.empty()) {
-    // A skeleton is pulled towards haustral bulges (up to 11 mm off the CT colon's midline) and
-    // stops about a radius short of each end: each point is moved to the middle of the wall
-    // around it, three times, smoothed over half the organ's radius (measured first), so real
-    // bends stay (a bend of radius R moves in by about σ²/2R: 1.3 mm for R = 1.2 radii).
-    const Coverage first_look = coverage(wall, smooth(line, kSpacing, 0.005), 0.1);
-    std::vector<double> rs;
-    for (std::size_t i = 0; i < line.size(); ++i)
-      if (first_look.covered[i]) rs.push_back(first_look.radius[i]);
-    const double radius =
-        rs.empty() ? 0.01
-                   : (std::nth_element(rs.begin(), rs.begin() + static_cast<std::ptrdiff_t>(rs.size() / 2), rs.end()),
-                      rs[rs.size() / 2]);
-    line = recentre(
-        wall, smooth(resample(remove_backtracks(line, 0.5 * radius, 2.0 * radius), kSpacing), kSpacing, 0.5 * radius),
-        kSpacing, 0.5 * radius, 3);
-    line = straighten_ends(line, kSpacing, radius);
-    r.centreline_source += fmt::format(
-        ", moved to the middle of the lumen and smoothed over {:.1f} mm (half its radius), "
-        "its last {:.0f} mm at each end straight",
-        0.5e3 * radius, 1e3 * radius);
-  }
-  r.raw_length = polyline_length(line);
-
-  // Where the mesh surrounds the centreline: trim what runs past the open ends.
+// A given midline: kept where the outer wall surrounds it (what runs past the open ends is cut).
+Polyline trimmed_midline(const EmbreeScene& wall, Polyline line, const std::string& file, const std::string& source,
+                         ImportReport& r) {
   const Coverage cov = coverage(wall, line, 0.1);
   const auto first = std::find(cov.covered.begin(), cov.covered.end(), true);
   if (first == cov.covered.end())
     throw Error(ErrorCode::invalid_geometry,
                 fmt::format("{}: the centreline ({}) is outside the mesh: at none of its {} points does the surface "
                             "surround it (16 rays in the normal plane, within 0.1 m)",
-                            file, r.centreline_source, line.size()));
+                            file, source, line.size()));
   const auto begin = static_cast<std::size_t>(first - cov.covered.begin());
   const std::size_t end =
       cov.covered.size() -
       static_cast<std::size_t>(std::find(cov.covered.rbegin(), cov.covered.rend(), true) - cov.covered.rbegin());
-  std::size_t inside = 0;
-  std::vector<double> radii;
-  for (std::size_t i = begin; i < end; ++i)
-    if (cov.covered[i]) {
-      ++inside;
-      radii.push_back(cov.radius[i]);
-    }
-  if (inside < 10)
-    throw Error(ErrorCode::invalid_geometry,
-                fmt::format("{}: no tube in this mesh: the surface surrounds only {} mm of its centreline ({})", file,
-                            inside, r.centreline_source));
+  const auto inside = static_cast<std::size_t>(std::count(cov.covered.begin() + static_cast<std::ptrdiff_t>(begin),
+                                                          cov.covered.begin() + static_cast<std::ptrdiff_t>(end), true));
   if (static_cast<double>(inside) < 0.8 * static_cast<double>(end - begin))
     throw Error(
         ErrorCode::invalid_geometry,
         fmt::format("{}: the centreline ({}) leaves the mesh: between its ends inside the surface only {} of {} "
                     "points have the wall around them — is it this mesh's midline, in its units?",
-                    file, r.centreline_source, inside, end - begin));
+                    file, source, inside, end - begin));
   r.trimmed_start = static_cast<double>(begin) * kSpacing;
   r.trimmed_end = static_cast<double>(line.size() - end) * kSpacing;
-  line = Polyline(line.begin() + static_cast<std::ptrdiff_t>(begin), line.begin() + static_cast<std::ptrdiff_t>(end));
-  r.length = polyline_length(line);
-  std::nth_element(radii.begin(), radii.begin() + static_cast<std::ptrdiff_t>(radii.size() / 2), radii.end());
-  r.median_radius = radii[radii.size() / 2];
-  if (r.length < 4.0 * r.median_radius)
-    throw Error(
-        ErrorCode::invalid_geometry,
-        fmt::format("{}: no tube in this mesh: the centreline inside it is {:.1f} mm long for a radius of {:.1f} "
-                    "mm (a tube is at least four radii long)",
-                    file, 1e3 * r.length, 1e3 * r.median_radius));
+  return Polyline(line.begin() + static_cast<std::ptrdiff_t>(begin), line.begin() + static_cast<std::ptrdiff_t>(end));
+}
 
+// The beads' radius along the rod: the median distance to the outer wall over 16 rays in each
+// normal plane, smoothed over a radius; where the rays escape (past an open end), the nearest value.
+std::vector<std::pair<double, double>> radius_profile(const EmbreeScene& wall, const Polyline& line, double& median_r) {
+  const Coverage cov = coverage(wall, line, 0.1);
+  std::vector<double> r(line.size(), 0.0), known;
+  for (std::size_t i = 0; i < line.size(); ++i)
+    if (cov.covered[i]) known.push_back(cov.radius[i]);
+  median_r = median(known);
+  if (known.empty()) return {{0.0, median_r}, {1.0, median_r}};
+  // Fill the gaps from the nearest covered point on each side.
+  std::ptrdiff_t last = -1;
+  for (std::size_t i = 0; i < line.size(); ++i)
+    if (cov.covered[i]) {
+      for (auto j = static_cast<std::size_t>(last + 1); j < i; ++j)
+        r[j] = last < 0 ? cov.radius[i] : (j - static_cast<std::size_t>(last) < i - j ? r[static_cast<std::size_t>(last)] : cov.radius[i]);
+      r[i] = cov.radius[i];
+      last = static_cast<std::ptrdiff_t>(i);
+    }
+  for (auto j = static_cast<std::size_t>(last + 1); j < line.size(); ++j) r[j] = r[static_cast<std::size_t>(last)];
+  // Smoothed (a moving median then mean over a radius: a haustral fold or a ray through a side
+  // opening is not the organ's width), sampled at up to 65 places.
+  const auto half = static_cast<std::ptrdiff_t>(std::max(1.0, std::round(median_r / kSpacing)));
+  const auto n = static_cast<std::ptrdiff_t>(line.size());
+  std::vector<double> smoothed(line.size());
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    std::vector<double> window;
+    for (std::ptrdiff_t j = std::max<std::ptrdiff_t>(0, i - half); j <= std::min(n - 1, i + half); ++j)
+      window.push_back(r[static_cast<std::size_t>(j)]);
+    smoothed[static_cast<std::size_t>(i)] = median(window);
+  }
+  std::vector<std::pair<double, double>> profile;
+  const std::size_t samples = std::min<std::size_t>(65, line.size());
+  for (std::size_t k = 0; k < samples; ++k) {
+    const std::size_t i = (k * (line.size() - 1)) / std::max<std::size_t>(1, samples - 1);
+    profile.emplace_back(static_cast<double>(i) / static_cast<double>(line.size() - 1), smoothed[i]);
+  }
+  return profile;
+}
+
+// The wall's thickness where it is two shells: the median distance from the lumen's vertices to
+// the outer wall.
+double wall_thickness(const OrganLayout& layout) {
+  if (layout.lumens.empty()) return 0.0;
+  EmbreeScene outer;
+  for (std::size_t p : layout.path) outer.add_triangles(layout.pieces[p].mesh.vertices, layout.pieces[p].mesh.triangles);
+  outer.commit();
+  std::vector<double> d;
+  for (std::size_t p : layout.lumens) {
+    const auto& vs = layout.pieces[p].mesh.vertices;
+    const std::size_t stride = std::max<std::size_t>(1, vs.size() / 2000);
+    for (std::size_t v = 0; v < vs.size(); v += stride) {
+      const EmbreeScene::Hit h = outer.closest(vs[v], 1.0);
+      if (h.found) d.push_back(h.distance);
+    }
+  }
+  return median(d);
+}
+
+}  // namespace
+
+std::string ImportReport::text() const {
+  std::string t = fmt::format("surface: {} vertices, {} triangles; units: {}\n", vertices, triangles, units_reason);
+  t += fmt::format("repair: {}\n", repairs);
+  t += fmt::format("organ: {}; {} open end{}, {} boundary loop{} in all{}\n", layout, open_ends,
+                   open_ends == 1 ? "" : "s", holes, holes == 1 ? "" : "s",
+                   wall_thickness > 0.0 ? fmt::format("; wall {:.1f} mm thick (between the shells)", 1e3 * wall_thickness)
+                                        : "");
+  t += fmt::format("centreline: {}\n", centreline_source);
+  t += fmt::format("length: {:.1f} mm", 1e3 * length);
+  if (trimmed_start > 0.0 || trimmed_end > 0.0)
+    t += fmt::format(" (trimmed {:.1f} mm at the start and {:.1f} mm at the end, where it ran past the mesh)",
+                     1e3 * trimmed_start, 1e3 * trimmed_end);
+  t += fmt::format(
+      "\nradius: {:.1f} mm (median); tightest bend: radius {:.1f} mm at {:.0f} mm ({:.2f}x the organ's radius)\n",
+      1e3 * median_radius, 1e3 * tightest_bend, 1e3 * tightest_bend_at,
+      median_radius > 0 ? tightest_bend / median_radius : 0.0);
+  if (touching.empty()) t += "loops: no part of the organ touches another\n";
+  const std::size_t shown = std::min<std::size_t>(touching.size(), 6);
+  for (std::size_t i = 0; i < shown; ++i)
+    t += fmt::format("loops: the wall at {:.0f} mm touches the wall at {:.0f} mm\n", 1e3 * touching[i].first,
+                     1e3 * touching[i].second);
+  if (touching.size() > shown) t += fmt::format("loops: ... {} more touching places\n", touching.size() - shown);
+  t += fmt::format("rod: {} nodes, {} beads sized from the outer wall, rings of {} vertices\n", nodes, beads,
+                   ring_vertices);
+  for (const std::string& why : retries) t += fmt::format("retried: {}\n", why.substr(0, why.find(" (mesh ")));
+  if (cage_rings > 0)
+    t += fmt::format(
+        "built in {:.2f} s: cage of {} rings ({} dropped), binding from a harmonic function on {} piece{}, {} mesh "
+        "vertices outside the cage at the curved rest pose, weight left out by localization up to {:.3f}, rest "
+        "correction up to {:.2f} mm\n",
+        build_seconds, cage_rings, dropped_rings, binding_pieces, binding_pieces == 1 ? "" : "s", rest_pose_outside,
+        max_dropped_mass, 1e3 * max_rest_correction);
+  t += fmt::format("import took {:.1f} s\n", seconds);
+  return t;
+}
+
+ImportReport import_surface(const ImportOptions& o) {
+  const auto started = Clock::now();
+  if (o.ends != "held" && o.ends != "base" && o.ends != "free")
+    throw Error(ErrorCode::invalid_argument, fmt::format("--ends: expected held, base or free, got '{}'", o.ends));
+  if (o.units != "auto" && o.units != "mm" && o.units != "m")
+    throw Error(ErrorCode::invalid_argument, fmt::format("--units: expected auto, mm or m, got '{}'", o.units));
+  auto phase = [&](const std::string& what, Clock::time_point since) {
+    if (o.progress) o.progress(fmt::format("{} ({:.1f} s)", what, seconds_since(since)));
+  };
+  const std::string file = o.mesh.string();
+  ImportReport r;
+
+  // Read as it is, in metres.
+  auto t = Clock::now();
+  TriangleMesh raw = load_mesh_as_read(o.mesh);
+  r.vertices = raw.vertices.size();
+  r.triangles = raw.triangles.size();
+  if (raw.triangles.empty()) throw Error(ErrorCode::invalid_geometry, fmt::format("{}: the mesh holds no triangles", file));
+  std::tie(r.scale, r.units_reason) = decide_units(raw, o.units, file);
+  r.units = r.scale == 1.0 ? "m" : "mm";
+  for (auto& v : raw.vertices) v *= r.scale;
+  phase(fmt::format("read {} vertices, {} triangles, in {}", r.vertices, r.triangles, r.units), t);
+
+  // Repaired, and sorted into outer walls, lumens and the organ's path.
+  t = Clock::now();
+  RepairedSurface repaired = repair_surface(raw, file);
+  r.repairs = repaired.report.text();
+  phase("repair: " + r.repairs, t);
+  t = Clock::now();
+  const OrganLayout layout = organ_layout(std::move(repaired.pieces));
+  if (layout.path.empty())
+    throw Error(ErrorCode::invalid_geometry, fmt::format("{}: no outer wall in this mesh to follow", file));
+  r.layout = layout.text();
+  r.pieces = layout.path.size();
+  r.shells = layout.lumens.size();
+  for (std::size_t p : layout.path) r.holes += static_cast<int>(layout.pieces[p].loops.size());
+  r.wall_thickness = wall_thickness(layout);
+  phase("organ: " + r.layout, t);
+
+  EmbreeScene wall;
+  for (std::size_t p : layout.path) wall.add_triangles(layout.pieces[p].mesh.vertices, layout.pieces[p].mesh.triangles);
+  wall.commit();
+
+  // The centreline, in metres.
+  t = Clock::now();
+  Polyline line;
+  if (!o.centreline.empty()) {
+    Polyline raw_line = read_centreline(o.centreline).points;
+    if (o.reverse) std::reverse(raw_line.begin(), raw_line.end());
+    r.centreline_source = o.centreline.string();
+    line = trimmed_midline(wall, resample(raw_line, kSpacing), file, r.centreline_source, r);
+    r.open_ends = std::min(2, r.holes);
+  } else {
+    OrganCentreline c;
+    try {
+      c = organ_centreline(layout, o.reverse);
+    } catch (const Error& e) {
+      throw Error(e.code(), fmt::format("{}: {} (give its midline with --centreline)", file, e.what()));
+    }
+    line = std::move(c.points);
+    r.centreline_source = c.text;
+    r.open_ends = c.open_ends;
+  }
+  r.length = polyline_length(line);
+  const std::vector<std::pair<double, double>> profile = radius_profile(wall, line, r.median_radius);
+  if (!(r.median_radius > 0.0))
+    throw Error(ErrorCode::invalid_geometry,
+                fmt::format("{}: no tube in this mesh: nowhere along its centreline does the wall surround it", file));
+  if (r.length < r.median_radius)
+    throw Error(ErrorCode::invalid_geometry,
+                fmt::format("{}: no tube in this mesh: the centreline inside it is {:.1f} mm long for a radius of "
+                            "{:.1f} mm (a tube is at least as long as its radius)",
+                            file, 1e3 * r.length, 1e3 * r.median_radius));
   // Bends of the centreline smoothed over half a radius: a midline's voxel steps are not bends.
-  const std::vector<double> bends = bend_radii(smooth(line, kSpacing, 0.5 * r.median_radius), kSpacing, 0.005);
+  const std::vector<double> bends =
+      bend_radii(smooth(line, kSpacing, 0.5 * r.median_radius), kSpacing, std::min(0.005, 0.25 * r.length));
   const auto tight = std::min_element(bends.begin(), bends.end());
   r.tightest_bend = *tight;
   r.tightest_bend_at = static_cast<double>(tight - bends.begin()) * kSpacing;
   r.touching = touching_parts(line, kSpacing, 6.0 * r.median_radius, 2.5 * r.median_radius);
+  phase(fmt::format("centreline: {:.0f} mm, radius {:.1f} mm", 1e3 * r.length, 1e3 * r.median_radius), t);
 
-  r.nodes = o.nodes > 0 ? o.nodes : std::clamp(static_cast<int>(std::lround(r.length / 0.005)) + 1, 41, 401);
+  // The files: the repaired surface (outer pieces on the path and their lumens), the centreline, the scene.
+  r.nodes = o.nodes > 0 ? o.nodes : std::clamp(static_cast<int>(std::lround(r.length / 0.005)) + 1, 9, 401);
   r.beads = o.beads > 0 ? o.beads : std::max(2, r.nodes / 3);
   r.scene = o.out.empty() ? std::filesystem::path(o.mesh.stem().string() + ".toml") : o.out;
   if (r.scene.has_parent_path()) std::filesystem::create_directories(r.scene.parent_path());
-  r.centreline_file = r.scene.parent_path() / (r.scene.stem().string() + "-centreline.json");
+  const std::string stem = (r.scene.parent_path() / r.scene.stem()).string();
+  r.centreline_file = stem + "-centreline.json";
+  r.surface_file = stem + "-surface.obj";
+  std::vector<const TriangleMesh*> kept;
+  for (std::size_t p : layout.path) kept.push_back(&layout.pieces[p].mesh);
+  for (std::size_t p : layout.lumens) kept.push_back(&layout.pieces[p].mesh);
+  const TriangleMesh surface = joined_apart(kept);
+  r.repaired_vertices = surface.vertices.size();
+  r.repaired_triangles = surface.triangles.size();
+  write_obj(r.surface_file, surface, fmt::format("repaired by haustra import from {}", o.mesh.filename().string()));
   write_centreline(r.centreline_file, line, r.centreline_source);
-  write_scene(o, r);
+  SceneFileInputs scene{.options = o, .report = r, .radius_profile = profile};
+  write_scene(scene);
 
   // Built once: what fails here would fail in `haustra run`. A cage that cannot embed the mesh
-  // gets fewer, wider-spaced rings (rings sit on beads): a quarter fewer beads at a time, down to
-  // one bead per eight nodes, unless --beads fixed them.
-  const auto t0 = std::chrono::steady_clock::now();
-  for (;;) {
+  // gets more vertices per ring, then fewer, wider-spaced rings (rings sit on beads), within a
+  // time budget.
+  t = Clock::now();
+  for (int attempt = 1;; ++attempt) {
     try {
-      const SceneDesc scene = load_scene(r.scene);
-      const auto world = create_world(scene);
+      const SceneDesc desc = load_scene(r.scene);
+      const auto world = create_world(desc);
       const MeshInfo& m = world->mesh(0);
       r.cage_rings = m.cage.rings;
       r.dropped_rings = m.cage.dropped_rings;
       r.rest_pose_outside = m.cage.rest_pose_outside;
+      r.binding_pieces = m.cage.binding_pieces;
       r.max_dropped_mass = m.skin.max_dropped_mass;
       r.max_rest_correction = m.skin.max_rest_correction;
       break;
     } catch (const Error& e) {
+      const bool cage = e.code() == ErrorCode::invalid_geometry;
       const int fewer = r.beads * 3 / 4;
-      if (o.beads == 0 && e.code() == ErrorCode::invalid_geometry && fewer >= std::max(8, r.nodes / 8)) {
-        r.retries.push_back(fmt::format("{} beads: {}", r.beads, e.what()));
-        r.beads = fewer;
-        write_scene(o, r);
+      const bool more_vertices = r.ring_vertices < 16;
+      const bool can_thin = o.beads == 0 && fewer >= std::max(2, r.nodes / 8);
+      if (cage && (more_vertices || can_thin) && seconds_since(t) < kBuildBudgetSeconds) {
+        r.retries.push_back(fmt::format("{} beads, rings of {}: {}", r.beads, r.ring_vertices, e.what()));
+        if (more_vertices)
+          r.ring_vertices += 4;
+        else
+          r.beads = fewer;
+        write_scene(scene);
+        phase(fmt::format("build {} failed at the cage; trying {} beads with rings of {}", attempt, r.beads,
+                          r.ring_vertices),
+              t);
         continue;
       }
       throw Error(e.code(),
@@ -294,12 +322,14 @@ ImportReport import_surface(const ImportOptions& o) {
                               "--centreline FILE (a midline of your own), --units",
                               e.what(), r.scene.string(),
                               r.retries.empty() ? ""
-                                                : fmt::format(" (with {} beads, after {} tries with more)", r.beads,
-                                                              r.retries.size())));
+                                                : fmt::format(" (with {} beads and rings of {}, after {} tries)",
+                                                              r.beads, r.ring_vertices, r.retries.size())));
     }
   }
-  r.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  write_scene(o, r);  // again, with what the build found in its comments
+  r.build_seconds = seconds_since(t);
+  phase(fmt::format("built: cage of {} rings", r.cage_rings), t);
+  r.seconds = seconds_since(started);
+  write_scene(scene);  // again, with what the build found in its comments
   return r;
 }
 

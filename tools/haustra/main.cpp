@@ -17,6 +17,8 @@
 #include "haustra/import/import.hpp"
 #include "haustra/render/render.hpp"
 #include "haustra/scene.hpp"
+#include "haustra/mesh_io.hpp"
+#include "haustra/studies/anatomy_cohort.hpp"
 #include "haustra/studies/anatomy_study.hpp"
 #include "haustra/studies/skinning_study.hpp"
 #include "haustra/studies/stability.hpp"
@@ -71,8 +73,28 @@ struct RunOptions {
   std::string mesh_format = "ply";
 };
 
+bool is_surface(const fs::path& file) {
+  std::string ext = file.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return std::find(kMeshFormats.begin(), kMeshFormats.end(), ext) != kMeshFormats.end();
+}
+
+// A surface given where a scene is expected is imported with the defaults first, into the system's
+// temporary folder under the surface's name: a surface to a running organ is one command.
+fs::path scene_or_import(const fs::path& given) {
+  if (!is_surface(given)) return given;
+  import::ImportOptions io;
+  io.mesh = given;
+  io.out = fs::temp_directory_path() / "haustra-import" / given.stem() / "scene.toml";
+  io.progress = [](std::string_view line) { fmt::print(stderr, "import: {}\n", line); };
+  const import::ImportReport r = import::import_surface(io);
+  fmt::print(stderr, "import: {} is now the scene {} ({:.2f} m of centreline, {} nodes, {} beads)\n",
+             given.string(), r.scene.string(), r.length, r.nodes, r.beads);
+  return r.scene;
+}
+
 int run(const RunOptions& o) {
-  SceneDesc scene = load_scene(o.scene, o.sets);
+  SceneDesc scene = load_scene(scene_or_import(o.scene), o.sets);
   if (o.frames) scene.frames = *o.frames;
   if (o.dt) scene.world.dt = *o.dt;
   if (o.threads) scene.world.threads = *o.threads;
@@ -418,7 +440,9 @@ int main(int argc, char** argv) {
 
   RunOptions ro;
   CLI::App* run_cmd = app.add_subcommand("run", "step a scene and report per-stage timings");
-  run_cmd->add_option("scene", ro.scene, "scene file (TOML)")->required()->check(CLI::ExistingFile);
+  run_cmd->add_option("scene", ro.scene, "scene file (TOML), or a surface to import first with the defaults")
+      ->required()
+      ->check(CLI::ExistingFile);
   run_cmd->add_option("--frames", ro.frames, "number of frames (default: the scene's)");
   run_cmd->add_option("--dt", ro.dt, "time step in seconds (default: the scene's)");
   run_cmd->add_option("--threads", ro.threads, "worker threads (0: all)");
@@ -498,24 +522,57 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"auto", "mm", "m"}));
   import_cmd->add_option("--ends", io.ends, "held (default: both ends), base (the first) or free")
       ->check(CLI::IsMember({"held", "base", "free"}));
-  import_cmd->add_option("--nodes", io.nodes, "rod nodes (default: one per 5 mm, 41 to 401)")
+  import_cmd->add_option("--nodes", io.nodes, "rod nodes (default: one per 5 mm, 9 to 401)")
       ->check(CLI::Range(3, 20000));
   import_cmd->add_option("--beads", io.beads, "beads (default: a third of the nodes)")->check(CLI::Range(2, 20000));
   import_cmd->add_flag("--reverse", io.reverse, "run the rod from the other end");
+
+  fs::path anatomy_folder, anatomy_out = fs::temp_directory_path() / "haustra-anatomy";
+  CLI::App* anatomy_cmd = app.add_subcommand(
+      "anatomy", "import every surface of a folder with the defaults, grasp and lift each: docs/anatomy.md's table");
+  anatomy_cmd->add_option("folder", anatomy_folder, "folder of surfaces (.obj)")->required()->check(CLI::ExistingDirectory);
+  anatomy_cmd->add_option("--out", anatomy_out, "where the imported scenes go");
 
   CLI::App* view_cmd = app.add_subcommand("view", "open a scene in the interactive viewer (haustra-view; `make view`)");
   view_cmd->prefix_command();
   view_cmd->set_help_flag();  // --help goes to the viewer
 
   CLI11_PARSE(app, argc, argv);
-  if (*view_cmd) return open_viewer(argv[0], view_cmd->remaining());
+  if (*view_cmd) {
+    std::vector<std::string> args = view_cmd->remaining();
+    try {
+      for (std::size_t i = 0; i < args.size(); ++i) {
+        const bool names_a_file_option =
+            i > 0 && (args[i - 1] == "--script" || args[i - 1] == "--screenshot" || args[i - 1] == "--record" ||
+                      args[i - 1] == "--checkpoint");
+        if (!names_a_file_option && args[i].rfind("-", 0) != 0 && is_surface(args[i])) {
+          args[i] = scene_or_import(args[i]).string();
+          break;
+        }
+      }
+    } catch (const haustra::Error& e) {
+      fmt::print(stderr, "error: {}\n", e.what());
+      return kExitBadInput;
+    }
+    return open_viewer(argv[0], args);
+  }
   try {
     if (*run_cmd) return run(ro);
     if (*import_cmd) {
+      // A line per phase on a terminal (a whole organ takes a minute): what was done and how long.
+      if (isatty(fileno(stderr)) != 0)
+        io.progress = [](std::string_view line) { fmt::print(stderr, "import: {}\n", line); };
       const import::ImportReport report = import::import_surface(io);
       fmt::print("{}scene: {} (centreline: {})\nrun it: haustra run {}\n", report.text(), report.scene.string(),
                  report.centreline_file.string(), report.scene.string());
       return 0;
+    }
+    if (*anatomy_cmd) {
+      const auto rows = import::run_cohort(anatomy_folder, anatomy_out);
+      fmt::print("{}", import::cohort_markdown(rows, anatomy_folder));
+      std::size_t ok = 0;
+      for (const auto& r : rows) ok += r.ran ? 1 : 0;
+      return ok == rows.size() ? 0 : kExitFailedCase;
     }
     if (*validate_cmd) return validate(json, validate_markdown, assets);
     if (*stability_cmd) return stability(markdown, stability_csv);

@@ -30,6 +30,8 @@ inline constexpr std::uintmax_t kMaxMeshFileBytes = std::uintmax_t{2} << 30;
 // Throws Error{io} (cannot read), Error{parse} (assimp's message), Error{invalid_argument} (a file
 // or mesh beyond the limits above) or Error{invalid_geometry} (what check_mesh finds), naming the file.
 TriangleMesh load_mesh(const std::filesystem::path& file);
+// The same without check_mesh: what the file holds, defects and all (for a repair to look at).
+TriangleMesh load_mesh_as_read(const std::filesystem::path& file);
 
 // What the engine relies on in a mesh: triangles, finite vertices, indices in range, no triangle
 // that repeats a vertex or has no area, no edge shared by more than two triangles, neighbouring

@@ -137,8 +137,16 @@ enum class SkinningMethod : std::uint8_t {
 // The cage around the organ mesh (the paper's §6): a bead template ring on every bead, a middle
 // template ring halfway between beads, each of `ring_vertices` vertices pushed out until the mesh
 // is embedded; capped ends.
+// How each mesh vertex finds its place along the rod in the binding pose (decision 0049).
+enum class CageBinding : std::uint8_t {
+  automatic,  // harmonic for a mesh from a file, closest for a procedural one (made around the rod)
+  closest,    // the closest point of the rest centreline (neighbours' median where it jumps)
+  harmonic,   // from a harmonic function on the mesh's surface: smooth, never folds where loops touch
+};
+
 struct CageDesc {
   int ring_vertices = 8;
+  CageBinding binding = CageBinding::automatic;
   bool middle_rings = true;
   double clearance = 0.0;   // m between the mesh and the cage; 0: 5 % of the segment radius
   int max_iterations = 40;  // inflation passes

@@ -70,7 +70,7 @@ class AllowedReadersOnly {
 
 }  // namespace
 
-TriangleMesh load_mesh(const std::filesystem::path& file) {
+TriangleMesh load_mesh_as_read(const std::filesystem::path& file) {
   // Only formats whose readers in Debian's assimp survive fuzzing (docs/decisions/0023).
   std::string ext = file.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -119,6 +119,11 @@ TriangleMesh load_mesh(const std::filesystem::path& file) {
       mesh.triangles.push_back({base + face.mIndices[0], base + face.mIndices[1], base + face.mIndices[2]});
     }
   }
+  return mesh;
+}
+
+TriangleMesh load_mesh(const std::filesystem::path& file) {
+  TriangleMesh mesh = load_mesh_as_read(file);
   check_mesh(mesh, file.string());
   return mesh;
 }

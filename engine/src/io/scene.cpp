@@ -260,7 +260,10 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
   }
   if (const toml::table* c = r.table(t, "cage", path + ".cage")) {
     const std::string cp = path + ".cage";
-    r.check_keys(*c, cp, {"ring_vertices", "middle_rings", "clearance", "max_iterations"});
+    r.check_keys(*c, cp, {"ring_vertices", "middle_rings", "clearance", "max_iterations", "binding"});
+    d.cage.binding = r.choice<CageBinding>(
+        *c, "binding", cp + ".binding", d.cage.binding,
+        {{"auto", CageBinding::automatic}, {"closest", CageBinding::closest}, {"harmonic", CageBinding::harmonic}});
     d.cage.ring_vertices = r.integer(*c, "ring_vertices", cp + ".ring_vertices", d.cage.ring_vertices);
     d.cage.middle_rings = r.boolean(*c, "middle_rings", cp + ".middle_rings", d.cage.middle_rings);
     d.cage.clearance = r.number(*c, "clearance", cp + ".clearance", d.cage.clearance);

@@ -15,6 +15,7 @@
 #include "haustra/error.hpp"
 #include "haustra/kernels/contact_geometry.hpp"
 #include "haustra/rod_curve.hpp"
+#include "haustra/tube_axis.hpp"
 #include "step/scheduler.hpp"
 
 namespace haustra::detail {
@@ -27,12 +28,16 @@ constexpr double kMaxGrowth = 3.0;
 // Centreline samples per metre for the closest-point search of the binding pose.
 constexpr double kSamplesPerMetre = 2000.0;
 
+constexpr int kMiddleRing = -1, kEndRing = -2;
+
 struct Ring {
   std::uint32_t station = 0;
-  int bead = -1;  // local bead index, −1 for a middle ring
+  int bead = kMiddleRing;  // local bead index, kMiddleRing or kEndRing (past an end, on the end's station)
   double template_radius = 0.0;
-  double arc = 0.0;        // rest arc length of its station: its axial place in the binding pose
+  double arc = 0.0;        // rest arc length of its station
+  double axial = 0.0;      // its vertices' offset along the rod from the station (end rings: past the rim)
   kernels::RingPose rest;  // the station's rest pose
+  [[nodiscard]] double z() const { return arc + axial; }  // its axial place in the binding pose
 };
 
 struct Shape {
@@ -73,6 +78,7 @@ std::vector<Ring> place_rings(const CageBuildInput& in, std::span<const double> 
         best = st;
     Ring mid;
     mid.station = best;
+    mid.bead = kMiddleRing;
     mid.template_radius = 0.5 * (in.bead_radius[b] + in.bead_radius[b + 1]);
     if (!dropped.contains(best)) rings.push_back(mid);
   }
@@ -88,33 +94,9 @@ Eigen::Vector3d ring_direction(std::size_t i, std::size_t m) {
   return {std::cos(theta), std::sin(theta), 0.0};
 }
 
-// The mesh in the binding pose: each vertex at (o_x, o_y, s + o_z) for its closest rod point s and
-// its offset o in the rod's frame there. Where loops of the organ touch, a vertex may lie nearer
-// another loop's centreline: a vertex whose s jumps by more than `local` from the median of its
-// neighbours takes their median instead.
-std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleMesh& mesh, double local) {
-  const double length = curve.length();
-  const auto samples = static_cast<std::size_t>(std::max(64.0, std::ceil(length * kSamplesPerMetre)));
-  std::vector<Eigen::Vector3d> point(samples + 1);
-  for (std::size_t i = 0; i <= samples; ++i)
-    point[i] = curve.pose_at(length * static_cast<double>(i) / static_cast<double>(samples)).position;
+// Where a vertex's closest place jumped to another loop: its neighbours' median.
+std::vector<double> neighbour_medians(const TriangleMesh& mesh, std::vector<double> s, double local) {
   const std::size_t n = mesh.vertices.size();
-  std::vector<double> s(n, 0.0);
-  parallel_each(n, [&](std::size_t v) {
-    const Eigen::Vector3d& x = mesh.vertices[v];
-    double best = kInf, best_s = 0.0;
-    for (std::size_t i = 0; i < samples; ++i) {
-      const Eigen::Vector3d d = point[i + 1] - point[i];
-      const double t = std::clamp((x - point[i]).dot(d) / std::max(d.squaredNorm(), 1e-300), 0.0, 1.0);
-      const double dist = (point[i] + t * d - x).squaredNorm();
-      if (dist < best) {
-        best = dist;
-        best_s = length * (static_cast<double>(i) + t) / static_cast<double>(samples);
-      }
-    }
-    s[v] = best_s;
-  });
-  // Neighbours' medians where a vertex jumped to another loop.
   std::vector<std::vector<std::uint32_t>> neighbours(n);
   for (const auto& t : mesh.triangles)
     for (int i = 0; i < 3; ++i) {
@@ -133,6 +115,33 @@ std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleM
     }
     s.swap(next);
   }
+  return s;
+}
+
+// The mesh in the binding pose: each vertex at (o_x, o_y, s + o_z) for its place s along the rod and
+// its offset o in the rod's frame there. `harmonic`: s from a harmonic function on the mesh's
+// surface (decision 0049), smooth and never folding. Otherwise s is the closest rod point; where
+// loops of the organ touch, a vertex may lie nearer another loop's centreline: a vertex whose s
+// jumps by more than `local` from the median of its neighbours takes their median instead.
+std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleMesh& mesh, double local, bool harmonic,
+                                          CageReport& report) {
+  const double length = curve.length();
+  const auto samples = static_cast<std::size_t>(std::max(64.0, std::ceil(length * kSamplesPerMetre)));
+  std::vector<Eigen::Vector3d> point(samples + 1);
+  for (std::size_t i = 0; i <= samples; ++i)
+    point[i] = curve.pose_at(length * static_cast<double>(i) / static_cast<double>(samples)).position;
+  const std::size_t n = mesh.vertices.size();
+  std::vector<double> s(n, 0.0);
+  report.binding = harmonic ? "harmonic" : "closest";
+  if (harmonic) {
+    BindingArcs arcs = harmonic_binding_arcs(mesh, point, length);
+    report.binding_pieces = arcs.pieces;
+    report.binding_closest_pieces = arcs.closest_pieces;
+    s = std::move(arcs.arc);
+  } else {
+    parallel_each(n, [&](std::size_t v) { s[v] = closest_arc(point, length, mesh.vertices[v]); });
+    s = neighbour_medians(mesh, std::move(s), local);
+  }
   std::vector<Eigen::Vector3d> out(n);
   parallel_each(n, [&](std::size_t v) {
     const kernels::Pose pose = curve.pose_at(s[v]);
@@ -140,6 +149,64 @@ std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleM
     out[v] = Eigen::Vector3d(o.x(), o.y(), s[v] + o.z());
   });
   return out;
+}
+
+// Where the mesh runs on past an end ring (an open end's rim beyond the rod's last bead, an
+// oblique cut), a ring on the end's station reaches past it: the cage's end follows the rim
+// instead of a long cone.
+void add_end_rings(std::vector<Ring>& rings, std::span<const Eigen::Vector3d> mesh, double clearance) {
+  double lo = kInf, hi = -kInf;
+  for (const auto& b : mesh) {
+    lo = std::min(lo, b.z());
+    hi = std::max(hi, b.z());
+  }
+  const Ring first = rings.front(), last = rings.back();
+  if (lo < first.z() - 0.5 * first.template_radius) {
+    Ring r = first;
+    r.bead = kEndRing;
+    r.axial = lo - first.arc - clearance;
+    rings.insert(rings.begin(), r);
+  }
+  if (hi > last.z() + 0.5 * last.template_radius) {
+    Ring r = last;
+    r.bead = kEndRing;
+    r.axial = hi - last.arc + clearance;
+    rings.push_back(r);
+  }
+}
+
+// Each ring vertex's radius from the mesh around it in the binding pose: every mesh vertex between
+// the ring's neighbours (beyond it, for an end ring) in the two sectors either side of the vertex's
+// direction, divided by cos(π/m) so the ring's chords pass outside it too; plus the clearance. A
+// sector with nothing in it takes its neighbours' larger radius (or the template).
+std::vector<double> envelope_radii(const std::vector<Ring>& rings, std::size_t m, std::span<const Eigen::Vector3d> mesh,
+                                   double clearance) {
+  const std::size_t n = rings.size();
+  std::vector<double> z(n), radius(n * m, 0.0);
+  for (std::size_t g = 0; g < n; ++g) z[g] = rings[g].z();
+  const double sector = 2.0 * std::numbers::pi / static_cast<double>(m);
+  const double chord = 1.0 / std::cos(0.5 * sector);
+  for (const auto& b : mesh) {
+    const double rho = b.head<2>().norm() * chord;
+    double phi = std::atan2(b.y(), b.x());
+    if (phi < 0.0) phi += 2.0 * std::numbers::pi;
+    const auto k = static_cast<std::size_t>(std::min(static_cast<double>(m - 1), std::floor(phi / sector)));
+    // The rings whose window [z_{g−1}, z_{g+1}] holds b.z: the two either side of it.
+    const auto above = static_cast<std::size_t>(std::upper_bound(z.begin(), z.end(), b.z()) - z.begin());
+    for (std::size_t g : {above > 0 ? above - 1 : 0, std::min(above, n - 1)})
+      for (std::size_t i : {k, (k + 1) % m}) radius[g * m + i] = std::max(radius[g * m + i], rho);
+  }
+  for (std::size_t g = 0; g < n; ++g) {
+    std::vector<double> ring(radius.begin() + static_cast<std::ptrdiff_t>(g * m),
+                             radius.begin() + static_cast<std::ptrdiff_t>((g + 1) * m));
+    for (std::size_t i = 0; i < m; ++i) {
+      double r = ring[i];
+      if (r == 0.0) r = std::max(ring[(i + m - 1) % m], ring[(i + 1) % m]);
+      if (r == 0.0) r = rings[g].template_radius;
+      radius[g * m + i] = r + clearance;
+    }
+  }
+  return radius;
 }
 
 void assemble(const Shape& shape, CageModel& cage) {
@@ -166,11 +233,12 @@ void assemble(const Shape& shape, CageModel& cage) {
     cage.ring_rest.push_back(r.rest);
     cage.ring_binding.push_back({Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.0, 0.0, r.arc)});
     cage.ring_bead.push_back(r.bead);
-    for (std::size_t i = 0; i < m; ++i) add_vertex(g, shape.radius[g * m + i] * ring_direction(i, m));
+    for (std::size_t i = 0; i < m; ++i)
+      add_vertex(g, shape.radius[g * m + i] * ring_direction(i, m) + Eigen::Vector3d(0.0, 0.0, r.axial));
   }
   const auto caps = static_cast<std::uint32_t>(cage.offset.size());
-  add_vertex(0, Eigen::Vector3d(0.0, 0.0, -shape.cap_start));
-  add_vertex(rings - 1, Eigen::Vector3d(0.0, 0.0, shape.cap_end));
+  add_vertex(0, Eigen::Vector3d(0.0, 0.0, shape.rings.front().axial - shape.cap_start));
+  add_vertex(rings - 1, Eigen::Vector3d(0.0, 0.0, shape.rings.back().axial + shape.cap_end));
   auto id = [&](std::size_t g, std::size_t i) { return static_cast<std::uint32_t>(g * m + i % m); };
   // Outward with (d1, d2, d3) right-handed: (g, i) → (g, i+1) → (g+1, i).
   for (std::size_t g = 0; g + 1 < rings; ++g)
@@ -264,6 +332,8 @@ std::string ring_name(const Ring& r, std::size_t g) {
   const std::size_t k = r.station / 2;
   const std::string at = (r.station & 1U) != 0 ? fmt::format("the middle of section {}", k) : fmt::format("node {}", k);
   if (r.bead >= 0) return fmt::format("ring {} (bead {} at {}, {:.3f} m along the rod)", g, r.bead, at, r.arc);
+  if (r.bead == kEndRing)
+    return fmt::format("ring {} (past the end at {}, {:.3f} m along the rod)", g, at, r.arc + r.axial);
   return fmt::format("ring {} (middle ring at {}, {:.3f} m along the rod)", g, at, r.arc);
 }
 
@@ -293,20 +363,20 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
   for (std::size_t k = 0; k < in.section_length.size(); ++k) arc[k + 1] = arc[k] + in.section_length[k];
 
   CageModel cage;
-  cage.mesh_binding = binding_pose(curve, mesh, 4.0 * largest_radius);
+  cage.mesh_binding = binding_pose(curve, mesh, 4.0 * largest_radius, in.harmonic_binding, report);
   // Every mesh vertex should lie within a few radii of the rod: otherwise the mesh is somewhere
   // else (other units, another pose) and no cage can be grown around it.
   for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
     const Eigen::Vector3d& b = cage.mesh_binding[v];
     const double beyond = std::max({0.0, -b.z(), b.z() - curve.length()});
     const double away = std::hypot(b.head<2>().norm(), beyond);
-    if (away > 6.0 * largest_radius + 0.01)
+    if (away > (in.harmonic_binding ? 12.0 : 6.0) * largest_radius + 0.01)
       throw FieldError(
           ErrorCode::invalid_geometry, in.where,
-          fmt::format("mesh vertex {} lies {:.4g} m from the rod, more than six bead radii ({:.4g} m): is the "
+          fmt::format("mesh vertex {} lies {:.4g} m from the rod, more than {} bead radii ({:.4g} m): is the "
                       "mesh around the segment's rest centreline, in metres (scale), in the same place "
                       "(translate)?",
-                      v, away, largest_radius));
+                      v, away, in.harmonic_binding ? "twelve" : "six", largest_radius));
   }
 
   EmbreeScene wall;
@@ -314,26 +384,37 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
   wall.commit();
   std::set<std::uint32_t> dropped;  // middle rings taken out of the cage
   Problems final_check;
+  std::vector<double> template_radius;  // of the final cage's rings
   for (;;) {
     Shape shape;
     shape.m = m;
     shape.rings = place_rings(in, arc, dropped);
+    if (in.cross_section_rings) add_end_rings(shape.rings, cage.mesh_binding, in.clearance);
     const std::size_t rings = shape.rings.size();
-    // Each ring vertex starts at the wall (the first hit of the ray from the ring's centre) plus
-    // the clearance; each cap just past the farthest mesh vertex beyond its end ring.
-    shape.radius.assign(rings * m, 0.0);
-    for (std::size_t g = 0; g < rings; ++g) {
-      const Ring& r = shape.rings[g];
-      for (std::size_t i = 0; i < m; ++i) {
-        const EmbreeScene::Hit h =
-            wall.first_hit(Eigen::Vector3d(0.0, 0.0, r.arc), ring_direction(i, m), 0.0, kMaxGrowth * r.template_radius);
-        shape.radius[g * m + i] = h.found ? h.distance + in.clearance : r.template_radius;
+    // Each ring vertex starts at the wall plus the clearance: the envelope of the cross-sections
+    // around it (cross_section_rings), or the paper's template, the first hit of the ray from the
+    // ring's centre; each cap just past the farthest mesh vertex beyond its end ring.
+    std::vector<double> limit(rings * m);
+    if (in.cross_section_rings) {
+      shape.radius = envelope_radii(shape.rings, m, cage.mesh_binding, in.clearance);
+      for (std::size_t j = 0; j < rings * m; ++j)
+        limit[j] = std::max(kMaxGrowth * shape.rings[j / m].template_radius, 3.0 * shape.radius[j]);
+    } else {
+      shape.radius.assign(rings * m, 0.0);
+      for (std::size_t g = 0; g < rings; ++g) {
+        const Ring& r = shape.rings[g];
+        for (std::size_t i = 0; i < m; ++i) {
+          const EmbreeScene::Hit h = wall.first_hit(Eigen::Vector3d(0.0, 0.0, r.arc), ring_direction(i, m), 0.0,
+                                                    kMaxGrowth * r.template_radius);
+          shape.radius[g * m + i] = h.found ? h.distance + in.clearance : r.template_radius;
+          limit[g * m + i] = kMaxGrowth * r.template_radius;
+        }
       }
     }
     double start_reach = 0.0, end_reach = 0.0;
     for (const auto& b : cage.mesh_binding) {
-      start_reach = std::max(start_reach, shape.rings.front().arc - b.z());
-      end_reach = std::max(end_reach, b.z() - shape.rings.back().arc);
+      start_reach = std::max(start_reach, shape.rings.front().z() - b.z());
+      end_reach = std::max(end_reach, b.z() - shape.rings.back().z());
     }
     shape.cap_start = start_reach + in.clearance;
     shape.cap_end = end_reach + in.clearance;
@@ -365,7 +446,7 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
                                       : j == rings * m ? Eigen::Vector3d(-Eigen::Vector3d::UnitZ())
                                                        : Eigen::Vector3d(Eigen::Vector3d::UnitZ());
           const double c = dir.dot(away);
-          const double cap = shape.rings[cage.vertex_ring[j]].template_radius;
+          const double cap = j < rings * m ? 0.5 * limit[j] : shape.rings[cage.vertex_ring[j]].template_radius;
           if (c > 0.1) need[j] = std::max(need[j], std::min((h.distance + extra) / c, cap));
         }
       };
@@ -375,7 +456,7 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
       bool moved = false;
       for (std::size_t j = 0; j < rings * m; ++j) {
         if (need[j] <= 0.0) continue;
-        const double grown = std::min(shape.radius[j] + need[j], kMaxGrowth * shape.rings[j / m].template_radius);
+        const double grown = std::min(shape.radius[j] + need[j], limit[j]);
         moved = moved || grown > shape.radius[j];
         shape.radius[j] = grown;
       }
@@ -394,26 +475,30 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
       const auto& [v, tri] = problems.self.front();
       blamed = cage.vertex_ring[v];
       what = fmt::format("its cage crosses the cage of ring {}", cage.vertex_ring[cage.triangles[tri][0]]);
-    } else if (!problems.crossing.empty() || !problems.outside.empty()) {
+    } else if (!problems.outside.empty() || (!problems.crossing.empty() && !in.cross_section_rings)) {
+      // Every vertex inside is what the binding needs; a real surface's long edges that still
+      // cut a corner of a cross-section cage are counted, not refused (decision 0049).
       EmbreeScene cage_scene;
       cage_scene.add_triangles(cage.binding_vertices, cage.triangles);
       cage_scene.commit();
-      const Eigen::Vector3d p = !problems.crossing.empty() ? cage.mesh_binding[problems.crossing.front().first]
-                                                           : cage.mesh_binding[problems.outside.front()];
+      const bool outside = !problems.outside.empty();
+      const Eigen::Vector3d p = outside ? cage.mesh_binding[problems.outside.front()]
+                                        : cage.mesh_binding[problems.crossing.front().first];
       const EmbreeScene::Hit h = cage_scene.closest(p, kInf);
       blamed = h.found ? cage.vertex_ring[cage.triangles[h.triangle][0]] : 0;
-      what = !problems.crossing.empty() ? fmt::format("{} mesh edges cross the cage", problems.crossing.size())
-                                        : fmt::format("{} mesh vertices stay outside the cage (vertex {} among them)",
-                                                      problems.outside.size(), problems.outside.front());
+      what = outside ? fmt::format("{} mesh vertices stay outside the cage (vertex {} among them)",
+                                   problems.outside.size(), problems.outside.front())
+                     : fmt::format("{} mesh edges cross the cage", problems.crossing.size());
     }
     if (blamed == rings) {
       final_check = std::move(problems);
+      for (const Ring& r : shape.rings) template_radius.push_back(r.template_radius);
       break;
     }
     // Repair: take the nearest middle ring out of the cage (longer quads can span a bulge).
     std::size_t drop = rings;
     for (std::size_t g : {blamed, blamed + 1, blamed > 0 ? blamed - 1 : rings})
-      if (g < rings && shape.rings[g].bead < 0) {
+      if (g < rings && shape.rings[g].bead == kMiddleRing) {
         drop = g;
         break;
       }
@@ -437,7 +522,9 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
   report.rings = rings;
   report.bead_rings = static_cast<std::size_t>(
       std::count_if(cage.ring_bead.begin(), cage.ring_bead.end(), [](int b) { return b >= 0; }));
-  report.middle_rings = rings - report.bead_rings;
+  report.end_rings = static_cast<std::size_t>(
+      std::count_if(cage.ring_bead.begin(), cage.ring_bead.end(), [](int b) { return b == kEndRing; }));
+  report.middle_rings = rings - report.bead_rings - report.end_rings;
   report.dropped_rings = dropped.size();
   report.ring_vertices = m;
   report.vertices = cage.offset.size();
@@ -448,11 +535,7 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
   double sum = 0.0;
   report.tightest_bend = kInf;
   for (std::size_t g = 0; g < rings; ++g) {
-    const int bead = cage.ring_bead[g];
-    // A middle ring's template is the mean of the beads on either side.
-    const double tmpl = bead >= 0 ? in.bead_radius[static_cast<std::size_t>(bead)]
-                                  : 0.5 * (in.bead_radius[static_cast<std::size_t>(cage.ring_bead[g - 1])] +
-                                           in.bead_radius[static_cast<std::size_t>(cage.ring_bead[g - 1]) + 1]);
+    const double tmpl = template_radius[g];
     for (std::size_t i = 0; i < m; ++i) {
       const double grow = cage.offset[g * m + i].norm() - tmpl;
       report.inflation_min = std::min(report.inflation_min, grow);

@@ -122,6 +122,9 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
                       .mesh = &meshes[pi],
                       .desc = d.cage,
                       .clearance = d.cage.clearance > 0.0 ? d.cage.clearance : 0.05 * sd.cross_section.radius,
+                      .harmonic_binding = d.cage.binding == CageBinding::harmonic ||
+                                          (d.cage.binding == CageBinding::automatic && d.source == MeshSource::file),
+                      .cross_section_rings = d.source == MeshSource::file,
                       .where = where};
     for (std::size_t b = first_bead; b < end_bead; ++b) {
       in.bead_node.push_back(m.beads.node[b] - off);

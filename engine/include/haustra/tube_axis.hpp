@@ -1,0 +1,86 @@
+#pragma once
+// The axis of a tube-shaped surface from a harmonic function on it: u = 0 on one end (an open end's
+// rim, or a closed end's tip), 1 on the other, Laplace's equation between. Its level sets are the
+// tube's cross-sections, their area centroids the centreline, and u gives every vertex a place
+// along the tube that is smooth and never folds, wherever loops touch (docs/decisions/0049).
+#include <Eigen/Core>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "haustra/mesh_io.hpp"
+
+namespace haustra {
+
+// The boundary loops of a manifold mesh, each as its vertices in order.
+std::vector<std::vector<std::uint32_t>> boundary_loops(const TriangleMesh& mesh);
+
+// One end of a tube: an open end (the vertices of its boundary loops: one, or concentric ones
+// where a wall of two shells is cut, its outer rim and its lumen's) or a closed end (its tip vertex).
+struct TubeEnd {
+  std::vector<std::uint32_t> vertices;
+  bool open = false;
+  std::vector<int> loops;  // indices into the loops it came from; empty for a tip
+};
+
+// Boundary loops grouped into ends: loops whose centres lie within half the larger one's radius
+// of each other (a walled tube's outer rim and lumen rim) are one end. Per loop, its group's number.
+std::vector<int> loop_groups(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops);
+
+// The open end that loop `loop` belongs to (with its concentric loops).
+TubeEnd loop_end(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops, int loop);
+
+// Geodesic distances over the mesh's edges from a set of vertices (Dijkstra, ties by index).
+std::vector<double> edge_distances(const TriangleMesh& mesh, const std::vector<std::uint32_t>& from);
+
+// The two ends farthest apart along the surface: from `start` if given, else from the extremity
+// found by sweeping from vertex 0; the far end is the farthest vertex's loop, or that vertex.
+std::pair<TubeEnd, TubeEnd> farthest_ends(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops,
+                                          const std::optional<TubeEnd>& start);
+
+struct CrossSection {
+  double u = 0.0;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // area centroid of the level's contour
+  double area = 0.0;                                  // enclosed, projected on its best plane
+  double perimeter = 0.0;
+  int pieces = 1;  // closed contours at this level (1 along a simple tube)
+};
+
+struct TubeAxis {
+  TubeEnd start, end;
+  std::vector<double> u;               // per mesh vertex: 0 at the start, 1 at the end
+  std::vector<CrossSection> sections;  // by ascending u, from the start's rim or tip to the end's
+  int capped_loops = 0;                // other boundary loops (side openings, holes) capped for the solve
+  double geodesic_length = 0.0;        // between the ends, along the surface's edges
+};
+
+// Throws Error{invalid_geometry} when the ends coincide or the surface is not connected between them.
+// `spacing`: the largest gap wanted between consecutive section centres (levels are refined until met).
+TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops,
+                   const TubeEnd& start, const TubeEnd& end, double spacing);
+
+// Arc length along the section centres at each section (0 at the first).
+std::vector<double> section_arcs(const std::vector<CrossSection>& sections);
+
+// Each mesh vertex's place along a centreline (arc length from its first point), for binding the
+// mesh to a cage without folds where the organ's loops touch or bend tightly: per connected piece
+// of the mesh, u from its two ends (the boundary loops whose centres lie first and last along the
+// centreline; a closed end, the vertex farthest along the surface), its sections' centres placed on
+// the centreline by their closest points, made non-decreasing, and every vertex placed by its u.
+// `samples`: points evenly spaced along the centreline, the first at arc 0, the last at `length`.
+struct BindingArcs {
+  std::vector<double> arc;          // per mesh vertex, m
+  std::size_t pieces = 0;           // connected pieces of the mesh
+  std::size_t closest_pieces = 0;   // pieces placed by each vertex's closest point (no two ends found)
+  std::size_t followed = 0;         // vertices the harmonic function passed by, placed from their neighbours
+};
+BindingArcs harmonic_binding_arcs(const TriangleMesh& mesh, std::span<const Eigen::Vector3d> samples, double length);
+
+// The arc length of the point of a sampled centreline (as above) closest to x.
+double closest_arc(std::span<const Eigen::Vector3d> samples, double length, const Eigen::Vector3d& x);
+
+// The value of a monotone table (xs ascending) at x, linear between entries, clamped at its ends.
+double interpolate(const std::vector<double>& xs, const std::vector<double>& ys, double x);
+
+}  // namespace haustra

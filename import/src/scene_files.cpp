@@ -1,0 +1,127 @@
+// The repaired surface, the centreline and the scene an import writes.
+#include "scene_files.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "haustra/error.hpp"
+
+namespace haustra::import {
+namespace {
+
+std::string commented(const std::string& text) {
+  std::string out;
+  for (char c : text) out += c == '\n' ? std::string("\n#   ") : std::string(1, c);
+  while (!out.empty() && (out.back() == ' ' || out.back() == '#')) out.pop_back();
+  return out;
+}
+
+std::string toml_path(const std::filesystem::path& target, const std::filesystem::path& scene_dir) {
+  std::error_code ec;
+  const auto rel =
+      std::filesystem::relative(std::filesystem::absolute(target), std::filesystem::absolute(scene_dir), ec);
+  return ec || rel.empty() ? std::filesystem::absolute(target).string() : rel.string();
+}
+
+std::string toml_string(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+}  // namespace
+
+TriangleMesh joined_apart(const std::vector<const TriangleMesh*>& pieces) {
+  TriangleMesh out;
+  for (const TriangleMesh* p : pieces) {
+    const auto base = static_cast<std::uint32_t>(out.vertices.size());
+    out.vertices.insert(out.vertices.end(), p->vertices.begin(), p->vertices.end());
+    for (const auto& t : p->triangles) out.triangles.push_back({base + t[0], base + t[1], base + t[2]});
+  }
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  for (const auto& v : out.vertices) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  const double nudge = 1e-6 * (hi - lo).norm();
+  // Each vertex's triangles' centroid, the way a split point moves (into its own fan).
+  std::vector<Eigen::Vector3d> towards(out.vertices.size(), Eigen::Vector3d::Zero());
+  for (const auto& t : out.triangles) {
+    const Eigen::Vector3d c = (out.vertices[t[0]] + out.vertices[t[1]] + out.vertices[t[2]]) / 3.0;
+    for (std::uint32_t v : t) towards[v] += c;
+  }
+  std::map<std::array<float, 3>, std::uint32_t> seen;
+  for (std::uint32_t v = 0; v < out.vertices.size(); ++v) {
+    for (int guard = 0; guard < 8; ++guard) {
+      const Eigen::Vector3d& x = out.vertices[v];
+      const std::array<float, 3> key{static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z())};
+      if (seen.emplace(key, v).second) break;
+      const Eigen::Vector3d d = towards[v] - x;
+      out.vertices[v] += nudge * (d.norm() > 0.0 ? d.normalized() : Eigen::Vector3d::UnitX());
+    }
+  }
+  return out;
+}
+
+void write_obj(const std::filesystem::path& file, const TriangleMesh& mesh, const std::string& comment) {
+  std::FILE* f = std::fopen(file.string().c_str(), "w");
+  if (f == nullptr) throw Error(ErrorCode::io, fmt::format("{}: cannot write the surface", file.string()));
+  fmt::print(f, "# {}; metres\n", comment);
+  for (const auto& v : mesh.vertices) fmt::print(f, "v {:.9g} {:.9g} {:.9g}\n", v.x(), v.y(), v.z());
+  for (const auto& t : mesh.triangles) fmt::print(f, "f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+  const bool ok = std::ferror(f) == 0;
+  if (std::fclose(f) != 0 || !ok) throw Error(ErrorCode::io, fmt::format("{}: cannot write the surface", file.string()));
+}
+
+void write_centreline(const std::filesystem::path& file, const Polyline& p, const std::string& source) {
+  nlohmann::json j;
+  j["units"] = "m";
+  j["source"] = source;
+  for (const auto& q : p) j["points"].push_back({q.x(), q.y(), q.z()});
+  std::ofstream out(file);
+  out << j.dump() << "\n";
+  if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write the centreline", file.string()));
+}
+
+void write_scene(const SceneFileInputs& in) {
+  const ImportOptions& o = in.options;
+  const ImportReport& r = in.report;
+  const std::string name = o.mesh.stem().string();
+  const std::filesystem::path dir = r.scene.parent_path();
+  const double wall = r.wall_thickness > 0.0 ? std::clamp(r.wall_thickness, 2e-4, 0.5 * r.median_radius)
+                                             : std::min(0.003, 0.25 * r.median_radius);
+  std::string profile;
+  for (std::size_t i = 0; i < in.radius_profile.size(); ++i)
+    profile += fmt::format("{}[{:.4f}, {:.6g}]", i == 0 ? "" : (i % 4 == 0 ? ",\n  " : ", "),
+                           in.radius_profile[i].first, std::clamp(in.radius_profile[i].second, 1e-4, 0.5));
+  std::string text = fmt::format(
+      "# Written by `haustra import {}`. What it found:\n#   {}\n\n"
+      "[scene]\nname = {}\ndescription = {}\nframes = 240\n\n"
+      "[world]\ndt = 0.016666666666666666\ngravity = [0.0, 0.0, -9.81]\n\n"
+      "[solver]\nmode = \"newton\"\niterations = 2\n\n"
+      "[[segment]]\nname = {}\nnodes = {}\nradius = {:.6g}\nwall_thickness = {:.6g}{}\nbase = \"{}\"\n"
+      "[segment.rest]\nshape = \"centreline\"\nfile = {}\n"
+      "[segment.beads]\ncount = {}\n# each bead as wide as the outer wall around its node (16 rays, smoothed)\n"
+      "radius_profile = [\n  {}]\n"
+      "[segment.mesh]\nfile = {}   # repaired, in metres\n"
+      "[segment.mesh.cage]\nring_vertices = {}\nbinding = \"harmonic\"\n",
+      o.mesh.filename().string(), commented(r.text()), toml_string(name),
+      toml_string(fmt::format("{} imported: {:.3f} m of centreline, {} vertices", name, r.length, r.repaired_vertices)),
+      toml_string(name), r.nodes, r.median_radius, wall, r.wall_thickness > 0.0 ? "   # measured between the shells" : "",
+      o.ends == "free" ? "free" : "clamped", toml_string(toml_path(r.centreline_file, dir)), r.beads, profile,
+      toml_string(toml_path(r.surface_file, dir)), r.ring_vertices);
+  if (o.ends == "held") text += "[[segment.attachment]]\nnode = -1                   # the far end stays where it is\n";
+  std::ofstream out(r.scene);
+  out << text;
+  if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write the scene", r.scene.string()));
+}
+
+}  // namespace haustra::import
