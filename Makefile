@@ -102,7 +102,8 @@ bench: build
 	@$(BIN)/haustra_bench --benchmark_out=build/release/bench.json --benchmark_out_format=json
 	@$(BIN)/haustra_bench_collision --benchmark_out=build/release/bench_collision.json --benchmark_out_format=json
 	@$(BIN)/haustra_bench_mesh --benchmark_out=build/release/bench_mesh.json --benchmark_out_format=json
-	@echo "benchmark results: $(abspath build/release/bench.json) $(abspath build/release/bench_collision.json) $(abspath build/release/bench_mesh.json)"
+	@$(BIN)/haustra_bench_anatomy --benchmark_out=build/release/bench_anatomy.json --benchmark_out_format=json
+	@echo "benchmark results: $(abspath build/release/bench.json) $(abspath build/release/bench_collision.json) $(abspath build/release/bench_mesh.json) $(abspath build/release/bench_anatomy.json)"
 
 # The same rope in haustra, Bullet and MuJoCo (Debian's), time per frame next to stretch and
 # floor penetration. Optional: installs libbullet-dev and libmujoco-dev first.

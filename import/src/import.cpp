@@ -168,8 +168,11 @@ std::string ImportReport::text() const {
     t += fmt::format("loops: the wall at {:.0f} mm touches the wall at {:.0f} mm\n", 1e3 * touching[i].first,
                      1e3 * touching[i].second);
   if (touching.size() > shown) t += fmt::format("loops: ... {} more touching places\n", touching.size() - shown);
-  t += fmt::format("rod: {} nodes, {} beads sized from the outer wall, rings of {} vertices\n", nodes, beads,
-                   ring_vertices);
+  t += fmt::format("rod: {} nodes, {} beads sized from the outer wall, rings of {} vertices{}\n", nodes, beads,
+                   ring_vertices,
+                   chain_pieces > 1 ? fmt::format(", as a chain of {} pieces of {} nodes (each its own mesh and cage)",
+                                                  chain_pieces, (nodes - 1) / chain_pieces + 1)
+                                    : "");
   for (const std::string& why : retries) t += fmt::format("retried: {}\n", why.substr(0, why.find(" (mesh ")));
   if (cage_rings > 0)
     t += fmt::format(
@@ -265,8 +268,14 @@ ImportReport import_surface(const ImportOptions& o) {
   phase(fmt::format("centreline: {:.0f} mm, radius {:.1f} mm", 1e3 * r.length, 1e3 * r.median_radius), t);
 
   // The files: the repaired surface (outer pieces on the path and their lumens), the centreline, the scene.
-  r.nodes = o.nodes > 0 ? o.nodes : std::clamp(static_cast<int>(std::lround(r.length / 0.005)) + 1, 9, 401);
-  r.beads = o.beads > 0 ? o.beads : std::max(2, r.nodes / 3);
+  // A node per 5 mm; past 201 nodes, a chain of pieces of at most 101 nodes each (the cage and the
+  // skinning per piece, the solve still one rod: decision 0030).
+  r.nodes = o.nodes > 0 ? o.nodes : std::clamp(static_cast<int>(std::lround(r.length / 0.005)) + 1, 9, 1201);
+  if (r.nodes > 201) {
+    r.chain_pieces = (r.nodes - 1 + 99) / 100;
+    r.nodes = r.chain_pieces * ((r.nodes - 1 + r.chain_pieces - 1) / r.chain_pieces) + 1;
+  }
+  r.beads = o.beads > 0 ? o.beads : std::max(2 * r.chain_pieces, r.nodes / 3);
   r.scene = o.out.empty() ? std::filesystem::path(o.mesh.stem().string() + ".toml") : o.out;
   if (r.scene.has_parent_path()) std::filesystem::create_directories(r.scene.parent_path());
   const std::string stem = (r.scene.parent_path() / r.scene.stem()).string();
@@ -291,19 +300,22 @@ ImportReport import_surface(const ImportOptions& o) {
     try {
       const SceneDesc desc = load_scene(r.scene);
       const auto world = create_world(desc);
-      const MeshInfo& m = world->mesh(0);
-      r.cage_rings = m.cage.rings;
-      r.dropped_rings = m.cage.dropped_rings;
-      r.rest_pose_outside = m.cage.rest_pose_outside;
-      r.binding_pieces = m.cage.binding_pieces;
-      r.max_dropped_mass = m.skin.max_dropped_mass;
-      r.max_rest_correction = m.skin.max_rest_correction;
+      r.cage_rings = r.dropped_rings = r.rest_pose_outside = r.binding_pieces = 0;
+      for (std::size_t s = 0; s < world->segment_count(); ++s) {
+        const MeshInfo& m = world->mesh(s);
+        r.cage_rings += m.cage.rings;
+        r.dropped_rings += m.cage.dropped_rings;
+        r.rest_pose_outside += m.cage.rest_pose_outside;
+        r.binding_pieces += m.cage.binding_pieces;
+        r.max_dropped_mass = std::max(r.max_dropped_mass, m.skin.max_dropped_mass);
+        r.max_rest_correction = std::max(r.max_rest_correction, m.skin.max_rest_correction);
+      }
       break;
     } catch (const Error& e) {
       const bool cage = e.code() == ErrorCode::invalid_geometry;
       const int fewer = r.beads * 3 / 4;
       const bool more_vertices = r.ring_vertices < 16;
-      const bool can_thin = o.beads == 0 && fewer >= std::max(2, r.nodes / 8);
+      const bool can_thin = o.beads == 0 && fewer >= std::max(2 * r.chain_pieces, r.nodes / 8);
       if (cage && (more_vertices || can_thin) && seconds_since(t) < kBuildBudgetSeconds) {
         r.retries.push_back(fmt::format("{} beads, rings of {}: {}", r.beads, r.ring_vertices, e.what()));
         if (more_vertices)

@@ -95,6 +95,7 @@ void write_scene(const SceneFileInputs& in) {
   const ImportOptions& o = in.options;
   const ImportReport& r = in.report;
   const std::string name = o.mesh.stem().string();
+  const int pieces = r.chain_pieces;
   const std::filesystem::path dir = r.scene.parent_path();
   const double wall = r.wall_thickness > 0.0 ? std::clamp(r.wall_thickness, 2e-4, 0.5 * r.median_radius)
                                              : std::min(0.003, 0.25 * r.median_radius);
@@ -107,16 +108,20 @@ void write_scene(const SceneFileInputs& in) {
       "[scene]\nname = {}\ndescription = {}\nframes = 240\n\n"
       "[world]\ndt = 0.016666666666666666\ngravity = [0.0, 0.0, -9.81]\n\n"
       "[solver]\nmode = \"newton\"\niterations = 2\n\n"
-      "[[segment]]\nname = {}\nnodes = {}\nradius = {:.6g}\nwall_thickness = {:.6g}{}\nbase = \"{}\"\n"
+      "[[segment]]\nname = {}\nnodes = {}{}\nradius = {:.6g}\nwall_thickness = {:.6g}{}\nbase = \"{}\"\n{}"
       "[segment.rest]\nshape = \"centreline\"\nfile = {}\n"
-      "[segment.beads]\ncount = {}\n# each bead as wide as the outer wall around its node (16 rays, smoothed)\n"
+      "[segment.beads]\ncount = {}{}\n# each bead as wide as the outer wall around its node (16 rays, smoothed)\n"
       "radius_profile = [\n  {}]\n"
       "[segment.mesh]\nfile = {}   # repaired, in metres\n"
       "[segment.mesh.cage]\nring_vertices = {}\nbinding = \"harmonic\"\n",
       o.mesh.filename().string(), commented(r.text()), toml_string(name),
       toml_string(fmt::format("{} imported: {:.3f} m of centreline, {} vertices", name, r.length, r.repaired_vertices)),
-      toml_string(name), r.nodes, r.median_radius, wall, r.wall_thickness > 0.0 ? "   # measured between the shells" : "",
-      o.ends == "free" ? "free" : "clamped", toml_string(toml_path(r.centreline_file, dir)), r.beads, profile,
+      toml_string(name), pieces > 1 ? (r.nodes - 1) / pieces + 1 : r.nodes,
+      pieces > 1 ? fmt::format("   # per piece: {} in all", r.nodes) : "", r.median_radius, wall,
+      r.wall_thickness > 0.0 ? "   # measured between the shells" : "", o.ends == "free" ? "free" : "clamped",
+      pieces > 1 ? fmt::format("[segment.chain]\npieces = {}   # one rod; each piece its own mesh and cage\n", pieces) : "",
+      toml_string(toml_path(r.centreline_file, dir)), pieces > 1 ? (r.beads + pieces - 1) / pieces : r.beads,
+      pieces > 1 ? "   # per piece" : "", profile,
       toml_string(toml_path(r.surface_file, dir)), r.ring_vertices);
   if (o.ends == "held") text += "[[segment.attachment]]\nnode = -1                   # the far end stays where it is\n";
   std::ofstream out(r.scene);

@@ -105,10 +105,12 @@ CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::fi
     full.world.segments[0].mesh.weight_left_out = 0.0;
     const auto world = create_world(scene);
     const auto reference = create_world(full);
-    const MeshInfo& m = world->mesh(0);
-    row.mesh_vertices = m.vertices.count;
-    row.outside = m.cage.mesh_vertices_outside;
-    row.crossing = m.cage.crossing_edges;
+    for (std::size_t s = 0; s < world->segment_count(); ++s) {  // a chain's pieces each have a mesh
+      const MeshInfo& m = world->mesh(s);
+      row.mesh_vertices += m.vertices.count;
+      row.outside += m.cage.mesh_vertices_outside;
+      row.crossing += m.cage.crossing_edges;
+    }
     std::vector<double> seconds;
     const auto rest_z = world->node_positions().z;
     const std::vector<double> z0(rest_z.begin(), rest_z.end());

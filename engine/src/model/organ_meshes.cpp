@@ -10,6 +10,7 @@
 #include "haustra/kernels/mesh_normals.hpp"
 #include "haustra/procedural_organ.hpp"
 #include "haustra/rod_curve.hpp"
+#include "haustra/tube_axis.hpp"
 #include "model/world_model.hpp"
 
 namespace haustra::detail {
@@ -20,6 +21,13 @@ namespace {
 }
 
 constexpr std::size_t kChunkBlocks = 64;  // 512 vertices per skinning task
+
+// Decision 0049: a mesh from a file binds by the harmonic place unless the scene says otherwise; a
+// procedural one, made around the rod, by its closest points.
+bool harmonic_binding(const OrganMeshDesc& d) {
+  return d.cage.binding == CageBinding::harmonic ||
+         (d.cage.binding == CageBinding::automatic && d.source == MeshSource::file);
+}
 
 }  // namespace
 
@@ -36,6 +44,60 @@ std::optional<double> mesh_cross_section_radius(const EmbreeScene& wall, const k
   if (hits.size() < kRays / 2) return std::nullopt;  // past an open end, or outside the mesh
   std::nth_element(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(hits.size() / 2), hits.end());
   return hits[hits.size() / 2];
+}
+
+// A chain's mesh from a file, cut into its pieces: each triangle goes to the piece whose stretch of
+// the rod holds its vertices' mean place along the rod (the binding's place: harmonic or closest,
+// as the cage will use), each piece with its own copy of the vertices it uses.
+void split_into_pieces(const TriangleMesh& mesh, const WorldModel& m, const SegmentModel& seg,
+                       const kernels::RodPoses<const double>& rest, bool harmonic, const std::string& where,
+                       std::vector<TriangleMesh>& meshes) {
+  const std::size_t off = seg.node_offset, n = seg.node_count;
+  const RodCurve curve(std::span<const double>(m.section_length).subspan(off, n - 1),
+                       std::span<const double>(m.rest_strain).subspan(4 * off, 4 * n),
+                       {rest.node_rotation.get(0), rest.node_position.get(0)});
+  const double length = curve.length();
+  const auto samples = static_cast<std::size_t>(std::max(64.0, std::ceil(length * 2000.0)));
+  std::vector<Eigen::Vector3d> points(samples + 1);
+  for (std::size_t i = 0; i <= samples; ++i)
+    points[i] = curve.pose_at(length * static_cast<double>(i) / static_cast<double>(samples)).position;
+  std::vector<double> arc;
+  if (harmonic) {
+    arc = harmonic_binding_arcs(mesh, points, length).arc;
+  } else {
+    arc.resize(mesh.vertices.size());
+    for (std::size_t v = 0; v < arc.size(); ++v) arc[v] = closest_arc(points, length, mesh.vertices[v]);
+  }
+  // Each piece's first node's place along the rod.
+  std::vector<double> starts;
+  for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p) {
+    double s = 0.0;
+    for (std::size_t k = 0; k < m.pieces[p].first_node; ++k) s += m.section_length[off + k];
+    starts.push_back(s);
+  }
+  std::vector<std::vector<std::uint32_t>> index(seg.piece_count,
+                                                std::vector<std::uint32_t>(mesh.vertices.size(), UINT32_MAX));
+  for (const auto& t : mesh.triangles) {
+    const double at = (arc[t[0]] + arc[t[1]] + arc[t[2]]) / 3.0;
+    const auto p = static_cast<std::size_t>(std::upper_bound(starts.begin() + 1, starts.end(), at) - starts.begin() - 1);
+    TriangleMesh& piece = meshes[seg.first_piece + p];
+    std::array<std::uint32_t, 3> local{};
+    for (int c = 0; c < 3; ++c) {
+      std::uint32_t& slot = index[p][t[static_cast<std::size_t>(c)]];
+      if (slot == UINT32_MAX) {
+        slot = static_cast<std::uint32_t>(piece.vertices.size());
+        piece.vertices.push_back(mesh.vertices[t[static_cast<std::size_t>(c)]]);
+      }
+      local[static_cast<std::size_t>(c)] = slot;
+    }
+    piece.triangles.push_back(local);
+  }
+  for (std::size_t p = 0; p < seg.piece_count; ++p)
+    if (meshes[seg.first_piece + p].triangles.empty())
+      fail(ErrorCode::invalid_geometry, where + ".file",
+           fmt::format("no part of the mesh lies along piece {} of the chain (from {:.3f} m along the rod): fewer "
+                       "pieces ([segment.chain] pieces) or a mesh that covers the whole centreline",
+                       p + 1, starts[p]));
 }
 
 std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
@@ -56,6 +118,8 @@ std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::ve
                            {rest.node_rotation.get(piece.first_node), rest.node_position.get(piece.first_node)});
       mesh = procedural_organ(curve, d.procedural, desc.segments[si].cross_section.radius, where + ".procedural");
     } else {
+      const SegmentModel& seg = m.segments[si];
+      if (pi != seg.first_piece) continue;  // a chain's mesh is read once, by its first piece
       if (d.file.empty())
         fail(ErrorCode::invalid_argument, where + ".file", "a mesh from a file needs file = \"path\"");
       if (!std::isfinite(d.scale) || !(d.scale > 0.0))
@@ -69,6 +133,11 @@ std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::ve
         fail(e.code(), where + ".file", e.what());
       }
       for (auto& v : mesh.vertices) v = d.scale * v + d.translate;
+      if (seg.piece_count > 1) {
+        const TriangleMesh whole = std::move(mesh);
+        mesh = TriangleMesh{};
+        split_into_pieces(whole, m, seg, rest_poses[si].view(), harmonic_binding(d), where, meshes);
+      }
     }
   }
   return meshes;
@@ -122,8 +191,7 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
                       .mesh = &meshes[pi],
                       .desc = d.cage,
                       .clearance = d.cage.clearance > 0.0 ? d.cage.clearance : 0.05 * sd.cross_section.radius,
-                      .harmonic_binding = d.cage.binding == CageBinding::harmonic ||
-                                          (d.cage.binding == CageBinding::automatic && d.source == MeshSource::file),
+                      .harmonic_binding = harmonic_binding(d),
                       .cross_section_rings = d.source == MeshSource::file,
                       .where = where};
     for (std::size_t b = first_bead; b < end_bead; ++b) {

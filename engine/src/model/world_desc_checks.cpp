@@ -47,8 +47,6 @@ void check_segment_desc(const WorldDesc& desc, const SegmentDesc& d, const std::
     if (static_cast<long long>(pieces) * (d.nodes - 1) + 1 > 10'000'000)
       fail(where + ".chain.pieces",
            fmt::format("{} pieces of {} nodes: at most 10,000,000 nodes per chain", pieces, d.nodes));
-    if (d.mesh.enabled && d.mesh.source == MeshSource::file)
-      fail(where + ".mesh.file", "a chain's pieces each get a procedural mesh; a mesh file covers one segment");
     if (d.beads.radius_from_mesh)
       fail(where + ".beads.radius", "radius = \"mesh\" is for a segment with a mesh file, not a chain");
     if (!d.beads.nodes.empty())

@@ -19,7 +19,7 @@ struct ImportOptions {
   std::filesystem::path out;         // the scene file; the repaired surface and centreline go beside it
   std::string units = "auto";        // auto (from the size), mm or m
   std::string ends = "held";         // held (both), base (the first only) or free
-  int nodes = 0;                     // 0: one per 5 mm of centreline, 9 to 401
+  int nodes = 0;                     // 0: one per 5 mm of centreline, 9 to 1,201
   int beads = 0;                     // 0: a third of the nodes (the paper's 55 on 167)
   bool reverse = false;              // run the rod from the other end
   // Called as each phase ends ("repair: ... (0.2 s)"); the command line prints it on a terminal.
@@ -45,7 +45,8 @@ struct ImportReport {
   double tightest_bend = 0.0;                       // m, smallest radius of curvature (smoothed)
   double tightest_bend_at = 0.0;                    // m along the centreline
   std::vector<std::pair<double, double>> touching;  // arc positions (m) of parts whose walls touch
-  int nodes = 0, beads = 0, ring_vertices = 8;
+  int nodes = 0, beads = 0, ring_vertices = 8;  // in all, along the whole rod
+  int chain_pieces = 1;  // a long organ runs as a chain of pieces (decision 0030), each with its mesh and cage
   std::filesystem::path scene, centreline_file, surface_file;
   // From building the written scene once.
   std::size_t cage_rings = 0, dropped_rings = 0, rest_pose_outside = 0, binding_pieces = 0;
