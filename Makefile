@@ -32,7 +32,7 @@ view: build
 python: build
 	@echo "python module: $(abspath build/release/python)/haustra — PYTHONPATH=$(abspath build/release/python) /usr/bin/python3 -c 'import haustra'"
 
-# Once, by hand: the import tests (CGAL) under ASan+UBSan, which `make test` leaves to release.
+# Once, by hand: every import test (CGAL) under ASan+UBSan; `make test` runs the quick ones there.
 import-asan: deps
 	@cmake --preset asan >/dev/null
 	@cmake --build --preset asan -j $(JOBS) --target haustra_import_tests
@@ -74,14 +74,15 @@ gate-baseline: build
 # engine's, under TSan), the CLI's re-run of the validation cases (run in-process), the N = 20,000
 # stability sweep (N up to 2,000 runs), and accuracy studies whose code paths other tests run
 # under ASan (MVC against quadrature, the localization study, the 50 s catenary, the 900 frames
-# of `drop` settling): minutes of sanitizer time. The import tests are a binary of their own that
-# the sanitizer builds leave out (CGAL's skeleton compiles for about a minute; `make import-asan`
-# runs them under ASan+UBSan by hand).
-ASAN_SKIP = settles on the floor without penetrating|with 1 and 2 threads|1 thread, 2 threads|host job system's threads give|validate --json|N = 20000|agree with quadrature|localization study|settles on the catenary
+# of `drop` settling): minutes of sanitizer time; and the import cases that run a whole organ or the
+# CT colon for 120 frames (the repair, layout, axis and cage run there in the quick cases; `make
+# import-asan` runs them all).
+ASAN_SKIP = settles on the floor without penetrating|with 1 and 2 threads|1 thread, 2 threads|host job system's threads give|validate --json|N = 20000|agree with quadrature|localization study|settles on the catenary|import: the CT colon|import: a colon mesh|import: a procedural organ|import: a wall whose two shells are joined|import: the whole|import: the same surface|import: an imported whole organ
 test-asan: deps
 	@cmake --preset asan >/dev/null
 	@cmake --build --preset asan -j $(JOBS) --target haustra_tests haustra haustra_soak haustra_fuzz_scene \
-	  haustra_fuzz_centreline haustra_fuzz_mesh haustra_fuzz_c_api haustra_c_api_tests haustra_example_build_world
+	  haustra_fuzz_centreline haustra_fuzz_mesh haustra_fuzz_c_api haustra_c_api_tests haustra_example_build_world \
+	  haustra_import_tests
 	@ctest --preset asan -j $(JOBS) -E "$(ASAN_SKIP)"
 
 # TSan checks what runs on more than one thread: stepping worlds with 2 threads.

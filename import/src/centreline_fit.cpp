@@ -86,11 +86,11 @@ Eigen::Vector3d tangent_at(const Polyline& p, std::size_t i) {
 
 }  // namespace
 
-Coverage coverage(const EmbreeScene& wall, const Polyline& p, double reach) {
+Coverage coverage(const EmbreeScene& wall, const Polyline& p, double reach, int min_hits) {
   Coverage c{std::vector<bool>(p.size(), false), std::vector<double>(p.size(), 0.0)};
   for (std::size_t i = 0; i < p.size(); ++i) {
     PlaneHits h = normal_plane_hits(wall, p[i], tangent_at(p, i), reach);
-    if (h.distance.size() < 3 * kRays / 4) continue;
+    if (h.distance.size() < static_cast<std::size_t>(min_hits)) continue;
     std::nth_element(h.distance.begin(), h.distance.begin() + static_cast<std::ptrdiff_t>(h.distance.size() / 2),
                      h.distance.end());
     c.covered[i] = true;
@@ -119,32 +119,6 @@ Polyline remove_backtracks(const Polyline& p, double near, double loop) {
       arc.push_back(out.empty() ? 0.0 : arc.back() + (q - out.back()).norm());
       out.push_back(q);
     }
-  }
-  return out;
-}
-
-Polyline recentre(const EmbreeScene& wall, const Polyline& p, double spacing, double sigma, int passes) {
-  Polyline line = p;
-  for (int pass = 0; pass < passes; ++pass) {
-    Polyline moved = line;
-    for (std::size_t i = 0; i < line.size(); ++i) {
-      const PlaneHits h = normal_plane_hits(wall, line[i], tangent_at(line, i), 0.1);
-      if (h.distance.size() >= 3 * kRays / 4) moved[i] = h.sum / static_cast<double>(h.distance.size());
-    }
-    line = smooth(resample(remove_backtracks(moved, sigma, 4.0 * sigma), spacing), spacing, sigma);
-  }
-  return line;
-}
-
-Polyline straighten_ends(const Polyline& p, double spacing, double length) {
-  const auto k = static_cast<std::size_t>(std::round(length / spacing));
-  if (p.size() < 4 * k + 2 || k == 0) return p;
-  Polyline out = p;
-  const Eigen::Vector3d t0 = (p[2 * k] - p[k]).normalized(),
-                        t1 = (p[p.size() - 1 - k] - p[p.size() - 1 - 2 * k]).normalized();
-  for (std::size_t i = 0; i < k; ++i) {
-    out[i] = p[k] - static_cast<double>(k - i) * spacing * t0;
-    out[p.size() - 1 - i] = p[p.size() - 1 - k] + static_cast<double>(k - i) * spacing * t1;
   }
   return out;
 }

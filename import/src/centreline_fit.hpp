@@ -18,24 +18,15 @@ Polyline resample(const Polyline& p, double spacing);
 Polyline smooth(const Polyline& p, double spacing, double sigma);
 
 struct Coverage {
-  std::vector<bool> covered;   // at least 12 of 16 rays in the normal plane meet the mesh
-  std::vector<double> radius;  // median distance to the wall (0 where not covered)
+  std::vector<bool> covered;   // at least min_hits of 16 rays in the normal plane meet the mesh
+  std::vector<double> radius;  // median distance to the wall where they do (0 where not covered)
 };
-Coverage coverage(const EmbreeScene& wall, const Polyline& p, double reach);
+Coverage coverage(const EmbreeScene& wall, const Polyline& p, double reach, int min_hits = 12);
 
 // Spurs cut: a point that would make the line turn back on itself (its step against the one before)
 // removes the points before it until the line runs forward again; and a point that comes back
 // within `near` of a point more than `loop` of arc behind it erases the loop between them.
 Polyline remove_backtracks(const Polyline& p, double near = 0.0, double loop = 0.0);
-
-// Each point moved to the centroid of the wall points its 16 normal-plane rays meet (where at least
-// 12 do), `passes` times, smoothed over `sigma` after each pass: a skeleton pulled towards bulges
-// comes back to the middle of the lumen.
-Polyline recentre(const EmbreeScene& wall, const Polyline& p, double spacing, double sigma, int passes);
-
-// The first and last `length` of the line laid straight along the tangent the line has between
-// `length` and twice that from each end (a skeleton's ends wander in the caps and flares).
-Polyline straighten_ends(const Polyline& p, double spacing, double length);
 
 // Radius of curvature at every point, from the circle through the points ±half_window away.
 std::vector<double> bend_radii(const Polyline& p, double spacing, double half_window);

@@ -7,9 +7,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <fstream>
+#include <functional>
 #include <map>
-#include <nlohmann/json.hpp>
 
 #include "centreline_fit.hpp"
 #include "haustra/centreline.hpp"
@@ -86,10 +85,11 @@ Polyline trimmed_midline(const EmbreeScene& wall, Polyline line, const std::stri
   return Polyline(line.begin() + static_cast<std::ptrdiff_t>(begin), line.begin() + static_cast<std::ptrdiff_t>(end));
 }
 
-// The beads' radius along the rod: the median distance to the outer wall over 16 rays in each
-// normal plane, smoothed over a radius; where the rays escape (past an open end), the nearest value.
+// The beads' radius along the rod: the median distance to the outer wall over the rays (of 16 in
+// each normal plane, at least half) that meet it, smoothed over a radius; where fewer meet it (past
+// an open end), the nearest value.
 std::vector<std::pair<double, double>> radius_profile(const EmbreeScene& wall, const Polyline& line, double& median_r) {
-  const Coverage cov = coverage(wall, line, 0.1);
+  const Coverage cov = coverage(wall, line, 0.1, 8);
   std::vector<double> r(line.size(), 0.0), known;
   for (std::size_t i = 0; i < line.size(); ++i)
     if (cov.covered[i]) known.push_back(cov.radius[i]);
@@ -154,6 +154,9 @@ std::string ImportReport::text() const {
                    wall_thickness > 0.0 ? fmt::format("; wall {:.1f} mm thick (between the shells)", 1e3 * wall_thickness)
                                         : "");
   t += fmt::format("centreline: {}\n", centreline_source);
+  if (off_path_vertices > 0)
+    t += fmt::format("left out: {} vertices of the surface farther than eight radii from the centreline\n",
+                     off_path_vertices);
   t += fmt::format("length: {:.1f} mm", 1e3 * length);
   if (trimmed_start > 0.0 || trimmed_end > 0.0)
     t += fmt::format(" (trimmed {:.1f} mm at the start and {:.1f} mm at the end, where it ran past the mesh)",
@@ -185,57 +188,34 @@ std::string ImportReport::text() const {
   return t;
 }
 
-ImportReport import_surface(const ImportOptions& o) {
-  const auto started = Clock::now();
-  if (o.ends != "held" && o.ends != "base" && o.ends != "free")
-    throw Error(ErrorCode::invalid_argument, fmt::format("--ends: expected held, base or free, got '{}'", o.ends));
-  if (o.units != "auto" && o.units != "mm" && o.units != "m")
-    throw Error(ErrorCode::invalid_argument, fmt::format("--units: expected auto, mm or m, got '{}'", o.units));
-  auto phase = [&](const std::string& what, Clock::time_point since) {
-    if (o.progress) o.progress(fmt::format("{} ({:.1f} s)", what, seconds_since(since)));
-  };
-  const std::string file = o.mesh.string();
-  ImportReport r;
+namespace {
 
-  // Read as it is, in metres.
-  auto t = Clock::now();
+using Phase = std::function<void(const std::string&, Clock::time_point)>;
+
+// The surface as the file holds it, in metres.
+TriangleMesh read_in_metres(const ImportOptions& o, ImportReport& r) {
   TriangleMesh raw = load_mesh_as_read(o.mesh);
   r.vertices = raw.vertices.size();
   r.triangles = raw.triangles.size();
-  if (raw.triangles.empty()) throw Error(ErrorCode::invalid_geometry, fmt::format("{}: the mesh holds no triangles", file));
-  std::tie(r.scale, r.units_reason) = decide_units(raw, o.units, file);
+  if (raw.triangles.empty())
+    throw Error(ErrorCode::invalid_geometry, fmt::format("{}: the mesh holds no triangles", o.mesh.string()));
+  std::tie(r.scale, r.units_reason) = decide_units(raw, o.units, o.mesh.string());
   r.units = r.scale == 1.0 ? "m" : "mm";
   for (auto& v : raw.vertices) v *= r.scale;
-  phase(fmt::format("read {} vertices, {} triangles, in {}", r.vertices, r.triangles, r.units), t);
+  return raw;
+}
 
-  // Repaired, and sorted into outer walls, lumens and the organ's path.
-  t = Clock::now();
-  RepairedSurface repaired = repair_surface(raw, file);
-  r.repairs = repaired.report.text();
-  phase("repair: " + r.repairs, t);
-  t = Clock::now();
-  const OrganLayout layout = organ_layout(std::move(repaired.pieces));
-  if (layout.path.empty())
-    throw Error(ErrorCode::invalid_geometry, fmt::format("{}: no outer wall in this mesh to follow", file));
-  r.layout = layout.text();
-  r.pieces = layout.path.size();
-  r.shells = layout.lumens.size();
-  for (std::size_t p : layout.path) r.holes += static_cast<int>(layout.pieces[p].loops.size());
-  r.wall_thickness = wall_thickness(layout);
-  phase("organ: " + r.layout, t);
-
-  EmbreeScene wall;
-  for (std::size_t p : layout.path) wall.add_triangles(layout.pieces[p].mesh.vertices, layout.pieces[p].mesh.triangles);
-  wall.commit();
-
-  // The centreline, in metres.
-  t = Clock::now();
+// The centreline (given or computed), measured: length, radius, bends, touching parts; and the
+// beads' radius profile from the outer wall.
+Polyline centreline_of(const ImportOptions& o, const OrganLayout& layout, const EmbreeScene& wall, ImportReport& r,
+                       std::vector<std::pair<double, double>>& profile) {
+  const std::string file = o.mesh.string();
   Polyline line;
   if (!o.centreline.empty()) {
-    Polyline raw_line = read_centreline(o.centreline).points;
-    if (o.reverse) std::reverse(raw_line.begin(), raw_line.end());
+    Polyline given = read_centreline(o.centreline).points;
+    if (o.reverse) std::reverse(given.begin(), given.end());
     r.centreline_source = o.centreline.string();
-    line = trimmed_midline(wall, resample(raw_line, kSpacing), file, r.centreline_source, r);
+    line = trimmed_midline(wall, resample(given, kSpacing), file, r.centreline_source, r);
     r.open_ends = std::min(2, r.holes);
   } else {
     OrganCentreline c;
@@ -249,10 +229,12 @@ ImportReport import_surface(const ImportOptions& o) {
     r.open_ends = c.open_ends;
   }
   r.length = polyline_length(line);
-  const std::vector<std::pair<double, double>> profile = radius_profile(wall, line, r.median_radius);
+  profile = radius_profile(wall, line, r.median_radius);
   if (!(r.median_radius > 0.0))
     throw Error(ErrorCode::invalid_geometry,
-                fmt::format("{}: no tube in this mesh: nowhere along its centreline does the wall surround it", file));
+                fmt::format("{}: no tube in this mesh: nowhere along its centreline does the wall surround it (16 "
+                            "rays in each normal plane; give its midline with --centreline)",
+                            file));
   if (r.length < r.median_radius)
     throw Error(ErrorCode::invalid_geometry,
                 fmt::format("{}: no tube in this mesh: the centreline inside it is {:.1f} mm long for a radius of "
@@ -265,17 +247,76 @@ ImportReport import_surface(const ImportOptions& o) {
   r.tightest_bend = *tight;
   r.tightest_bend_at = static_cast<double>(tight - bends.begin()) * kSpacing;
   r.touching = touching_parts(line, kSpacing, 6.0 * r.median_radius, 2.5 * r.median_radius);
-  phase(fmt::format("centreline: {:.0f} mm, radius {:.1f} mm", 1e3 * r.length, 1e3 * r.median_radius), t);
+  return line;
+}
 
-  // The files: the repaired surface (outer pieces on the path and their lumens), the centreline, the scene.
-  // A node per 5 mm; past 201 nodes, a chain of pieces of at most 101 nodes each (the cage and the
-  // skinning per piece, the solve still one rod: decision 0030).
+// A node per 5 mm; past 201 nodes, a chain of pieces of at most 101 nodes each (the cage and the
+// skinning per piece, the solve still one rod: decision 0030); a bead per three nodes.
+void size_the_rod(const ImportOptions& o, ImportReport& r) {
   r.nodes = o.nodes > 0 ? o.nodes : std::clamp(static_cast<int>(std::lround(r.length / 0.005)) + 1, 9, 1201);
   if (r.nodes > 201) {
     r.chain_pieces = (r.nodes - 1 + 99) / 100;
     r.nodes = r.chain_pieces * ((r.nodes - 1 + r.chain_pieces - 1) / r.chain_pieces) + 1;
   }
   r.beads = o.beads > 0 ? o.beads : std::max(2 * r.chain_pieces, r.nodes / 3);
+}
+
+// Parts of the surface the centreline does not reach (farther from it than eight times the organ's
+// median radius: a branch or a loop the computed line passes by) are left out and counted, so that
+// the rest runs; more than a quarter of the surface is a centreline that misses the organ: refused.
+void off_the_path(TriangleMesh& surface, const Polyline& line, ImportReport& r, const std::string& file) {
+  const double far = 8.0 * r.median_radius, cell = far;
+  std::map<std::array<long, 3>, std::vector<std::uint32_t>> grid;  // centreline points by cell
+  auto key = [&](const Eigen::Vector3d& x) {
+    return std::array<long, 3>{std::lround(std::floor(x.x() / cell)), std::lround(std::floor(x.y() / cell)),
+                               std::lround(std::floor(x.z() / cell))};
+  };
+  for (std::uint32_t i = 0; i < line.size(); ++i) grid[key(line[i])].push_back(i);
+  std::vector<std::uint8_t> off(surface.vertices.size(), 1);
+  for (std::size_t v = 0; v < surface.vertices.size(); ++v) {
+    const auto k = key(surface.vertices[v]);
+    for (long dx = -1; dx <= 1 && off[v] != 0; ++dx)
+      for (long dy = -1; dy <= 1 && off[v] != 0; ++dy)
+        for (long dz = -1; dz <= 1 && off[v] != 0; ++dz) {
+          const auto it = grid.find({k[0] + dx, k[1] + dy, k[2] + dz});
+          if (it == grid.end()) continue;
+          for (std::uint32_t i : it->second)
+            if ((line[i] - surface.vertices[v]).norm() < far) {
+              off[v] = 0;
+              break;
+            }
+        }
+  }
+  const auto left = static_cast<std::size_t>(std::count(off.begin(), off.end(), std::uint8_t{1}));
+  if (left == 0) return;
+  if (4 * left > surface.vertices.size())
+    throw Error(ErrorCode::invalid_geometry,
+                fmt::format("{}: the centreline ({}) reaches only {} of the surface's {} vertices (within eight "
+                            "radii): it misses the organ; give its midline with --centreline",
+                            file, r.centreline_source, surface.vertices.size() - left, surface.vertices.size()));
+  TriangleMesh kept;
+  std::vector<std::uint32_t> index(surface.vertices.size(), UINT32_MAX);
+  for (const auto& t : surface.triangles) {
+    if (off[t[0]] != 0 || off[t[1]] != 0 || off[t[2]] != 0) continue;
+    std::array<std::uint32_t, 3> nt{};
+    for (int c = 0; c < 3; ++c) {
+      std::uint32_t& slot = index[t[static_cast<std::size_t>(c)]];
+      if (slot == UINT32_MAX) {
+        slot = static_cast<std::uint32_t>(kept.vertices.size());
+        kept.vertices.push_back(surface.vertices[t[static_cast<std::size_t>(c)]]);
+      }
+      nt[static_cast<std::size_t>(c)] = slot;
+    }
+    kept.triangles.push_back(nt);
+  }
+  r.off_path_vertices = surface.vertices.size() - kept.vertices.size();
+  surface = std::move(kept);
+}
+
+// The repaired surface (the outer pieces on the organ's path and their lumens) and the centreline,
+// beside the scene.
+void write_surface_and_centreline(const ImportOptions& o, const OrganLayout& layout, const Polyline& line,
+                                  ImportReport& r) {
   r.scene = o.out.empty() ? std::filesystem::path(o.mesh.stem().string() + ".toml") : o.out;
   if (r.scene.has_parent_path()) std::filesystem::create_directories(r.scene.parent_path());
   const std::string stem = (r.scene.parent_path() / r.scene.stem()).string();
@@ -284,24 +325,23 @@ ImportReport import_surface(const ImportOptions& o) {
   std::vector<const TriangleMesh*> kept;
   for (std::size_t p : layout.path) kept.push_back(&layout.pieces[p].mesh);
   for (std::size_t p : layout.lumens) kept.push_back(&layout.pieces[p].mesh);
-  const TriangleMesh surface = joined_apart(kept);
+  TriangleMesh surface = joined_apart(kept);
+  off_the_path(surface, line, r, o.mesh.string());
   r.repaired_vertices = surface.vertices.size();
   r.repaired_triangles = surface.triangles.size();
   write_obj(r.surface_file, surface, fmt::format("repaired by haustra import from {}", o.mesh.filename().string()));
   write_centreline(r.centreline_file, line, r.centreline_source);
-  SceneFileInputs scene{.options = o, .report = r, .radius_profile = profile};
-  write_scene(scene);
+}
 
-  // Built once: what fails here would fail in `haustra run`. A cage that cannot embed the mesh
-  // gets more vertices per ring, then fewer, wider-spaced rings (rings sit on beads), within a
-  // time budget.
-  t = Clock::now();
+// Built once: what fails here would fail in `haustra run`. A cage that cannot embed the mesh gets
+// more vertices per ring, then fewer, wider-spaced rings (rings sit on beads), within a time budget.
+void build_once(const ImportOptions& o, const SceneFileInputs& scene, ImportReport& r, const Phase& phase) {
+  const auto t = Clock::now();
   for (int attempt = 1;; ++attempt) {
     try {
-      const SceneDesc desc = load_scene(r.scene);
-      const auto world = create_world(desc);
+      const auto world = create_world(load_scene(r.scene));
       r.cage_rings = r.dropped_rings = r.rest_pose_outside = r.binding_pieces = 0;
-      for (std::size_t s = 0; s < world->segment_count(); ++s) {
+      for (std::size_t s = 0; s < world->segment_count(); ++s) {  // a chain: each piece's mesh and cage
         const MeshInfo& m = world->mesh(s);
         r.cage_rings += m.cage.rings;
         r.dropped_rings += m.cage.dropped_rings;
@@ -312,10 +352,10 @@ ImportReport import_surface(const ImportOptions& o) {
       }
       break;
     } catch (const Error& e) {
-      const bool cage = e.code() == ErrorCode::invalid_geometry;
       const int fewer = r.beads * 3 / 4;
       const bool more_vertices = r.ring_vertices < 16;
       const bool can_thin = o.beads == 0 && fewer >= std::max(2 * r.chain_pieces, r.nodes / 8);
+      const bool cage = std::string_view(e.what()).find("the cage cannot embed") != std::string_view::npos;
       if (cage && (more_vertices || can_thin) && seconds_since(t) < kBuildBudgetSeconds) {
         r.retries.push_back(fmt::format("{} beads, rings of {}: {}", r.beads, r.ring_vertices, e.what()));
         if (more_vertices)
@@ -340,6 +380,53 @@ ImportReport import_surface(const ImportOptions& o) {
   }
   r.build_seconds = seconds_since(t);
   phase(fmt::format("built: cage of {} rings", r.cage_rings), t);
+}
+
+}  // namespace
+
+ImportReport import_surface(const ImportOptions& o) {
+  const auto started = Clock::now();
+  if (o.ends != "held" && o.ends != "base" && o.ends != "free")
+    throw Error(ErrorCode::invalid_argument, fmt::format("--ends: expected held, base or free, got '{}'", o.ends));
+  if (o.units != "auto" && o.units != "mm" && o.units != "m")
+    throw Error(ErrorCode::invalid_argument, fmt::format("--units: expected auto, mm or m, got '{}'", o.units));
+  const Phase phase = [&](const std::string& what, Clock::time_point since) {
+    if (o.progress) o.progress(fmt::format("{} ({:.1f} s)", what, seconds_since(since)));
+  };
+  ImportReport r;
+  auto t = Clock::now();
+  const TriangleMesh raw = read_in_metres(o, r);
+  phase(fmt::format("read {} vertices, {} triangles, in {}", r.vertices, r.triangles, r.units), t);
+
+  t = Clock::now();
+  RepairedSurface repaired = repair_surface(raw, o.mesh.string());
+  r.repairs = repaired.report.text();
+  phase("repair: " + r.repairs, t);
+
+  t = Clock::now();
+  const OrganLayout layout = organ_layout(std::move(repaired.pieces));
+  if (layout.path.empty())
+    throw Error(ErrorCode::invalid_geometry, fmt::format("{}: no outer wall in this mesh to follow", o.mesh.string()));
+  r.layout = layout.text();
+  r.pieces = layout.path.size();
+  r.shells = layout.lumens.size();
+  for (std::size_t p : layout.path) r.holes += static_cast<int>(layout.pieces[p].loops.size());
+  r.wall_thickness = wall_thickness(layout);
+  phase("organ: " + r.layout, t);
+
+  t = Clock::now();
+  EmbreeScene wall;
+  for (std::size_t p : layout.path) wall.add_triangles(layout.pieces[p].mesh.vertices, layout.pieces[p].mesh.triangles);
+  wall.commit();
+  std::vector<std::pair<double, double>> profile;
+  const Polyline line = centreline_of(o, layout, wall, r, profile);
+  phase(fmt::format("centreline: {:.0f} mm, radius {:.1f} mm", 1e3 * r.length, 1e3 * r.median_radius), t);
+
+  size_the_rod(o, r);
+  write_surface_and_centreline(o, layout, line, r);
+  const SceneFileInputs scene{.options = o, .report = r, .radius_profile = profile};
+  write_scene(scene);
+  build_once(o, scene, r, phase);
   r.seconds = seconds_since(started);
   write_scene(scene);  // again, with what the build found in its comments
   return r;

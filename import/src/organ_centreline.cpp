@@ -77,17 +77,14 @@ std::size_t fold_back(const Stretch& s) {
   return best;
 }
 
-}  // namespace
-
-OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
-  if (layout.path.empty()) throw Error(ErrorCode::invalid_geometry, "no outer wall to follow");
-  OrganCentreline out;
+// The sections' centres through every piece on the organ's path, in order.
+Stretch axis_through_pieces(const OrganLayout& layout, int& capped_loops) {
   Stretch line;
   for (std::size_t i = 0; i < layout.path.size(); ++i) {
     const OrganPiece& piece = layout.pieces[layout.path[i]];
     const auto [start, end] = piece_ends(piece, layout.start_loop[i], layout.end_loop[i]);
     const TubeAxis axis = tube_axis(piece.mesh, piece.loops, start, end, kLevelSpacing);
-    out.capped_loops += axis.capped_loops;
+    capped_loops += axis.capped_loops;
     if (i == 0) line.start_open = start.open;
     if (i + 1 == layout.path.size()) line.end_open = end.open;
     for (const CrossSection& s : axis.sections) {
@@ -95,13 +92,19 @@ OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
       line.radius.push_back(std::sqrt(s.area / std::numbers::pi));
     }
   }
-  // Folded back inside itself: the longer way from the fold is the organ, the rest its other shell.
+  return line;
+}
+
+// Folded back inside itself: the longer way from the fold is the organ, the rest its other shell.
+// Returns the length left out.
+double unfold(Stretch& line) {
+  double folded = 0.0;
   for (int guard = 0; guard < 4; ++guard) {
     const std::size_t fold = fold_back(line);
     if (fold == line.centre.size()) break;
-    const double before = polyline_length(Polyline(line.centre.begin(), line.centre.begin() + static_cast<std::ptrdiff_t>(fold) + 1));
-    const double total = polyline_length(line.centre);
     const auto at = static_cast<std::ptrdiff_t>(fold);
+    const double before = polyline_length(Polyline(line.centre.begin(), line.centre.begin() + at + 1));
+    const double total = polyline_length(line.centre);
     if (before >= total - before) {
       line.centre.resize(fold + 1);
       line.radius.resize(fold + 1);
@@ -111,9 +114,14 @@ OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
       line.radius.erase(line.radius.begin(), line.radius.begin() + at);
       line.start_open = false;
     }
-    out.folded += std::min(before, total - before);
+    folded += std::min(before, total - before);
   }
-  // The base is the wider open end: a tip never, the wider rim where both are open.
+  return folded;
+}
+
+// The base is the wider open end: a tip never, the wider rim where both are open (`reverse`: the
+// other way). Returns whether the line was turned round.
+bool orient(Stretch& line, bool reverse) {
   const double r0 = line.radius.front(), r1 = line.radius.back();
   bool flip = (!line.start_open && line.end_open) || (line.start_open == line.end_open && r1 > r0);
   if (reverse) flip = !flip;
@@ -122,10 +130,13 @@ OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
     std::reverse(line.radius.begin(), line.radius.end());
     std::swap(line.start_open, line.end_open);
   }
-  out.reversed = flip;
-  out.open_ends = (line.start_open ? 1 : 0) + (line.end_open ? 1 : 0);
-  // Closed ends: the centres run onto the tip; the rod stops a radius short of it.
-  const double before = polyline_length(line.centre);
+  return flip;
+}
+
+// Closed ends: the centres run onto the tip; the line stops a radius short of it. Where pieces meet,
+// their rims' centres may step back a little: the line never turns back. Returns the line kept
+// and, in `radius`, the median section radius along it.
+Polyline cut_tips(const Stretch& line, double& radius) {
   std::size_t cut_start = 0, cut_end = 0;
   if (!line.start_open) cut_start = tip_cut(line);
   if (!line.end_open) {
@@ -136,14 +147,26 @@ OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
   }
   if (cut_start + cut_end + 2 > line.centre.size())
     throw Error(ErrorCode::invalid_geometry, "no tube in this mesh: its ends are closer than its radius");
-  // Where pieces meet, their rims' centres may step back a little: the line never turns back.
-  Polyline kept = remove_backtracks(Polyline(line.centre.begin() + static_cast<std::ptrdiff_t>(cut_start),
-                                             line.centre.end() - static_cast<std::ptrdiff_t>(cut_end)));
-  out.pulled_back = before - polyline_length(kept);
-  std::vector<double> radii(line.radius.begin() + static_cast<std::ptrdiff_t>(cut_start),
-                            line.radius.end() - static_cast<std::ptrdiff_t>(cut_end));
+  const auto first = static_cast<std::ptrdiff_t>(cut_start), last = static_cast<std::ptrdiff_t>(cut_end);
+  std::vector<double> radii(line.radius.begin() + first, line.radius.end() - last);
   std::nth_element(radii.begin(), radii.begin() + static_cast<std::ptrdiff_t>(radii.size() / 2), radii.end());
-  const double radius = radii[radii.size() / 2];
+  radius = radii[radii.size() / 2];
+  return remove_backtracks(Polyline(line.centre.begin() + first, line.centre.end() - last));
+}
+
+}  // namespace
+
+OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
+  if (layout.path.empty()) throw Error(ErrorCode::invalid_geometry, "no outer wall to follow");
+  OrganCentreline out;
+  Stretch line = axis_through_pieces(layout, out.capped_loops);
+  out.folded = unfold(line);
+  out.reversed = orient(line, reverse);
+  out.open_ends = (line.start_open ? 1 : 0) + (line.end_open ? 1 : 0);
+  const double before = polyline_length(line.centre);
+  double radius = 0.0;
+  const Polyline kept = cut_tips(line, radius);
+  out.pulled_back = before - polyline_length(kept);
   out.points = resample(smooth(resample(kept, kLineSpacing), kLineSpacing, 0.5 * radius), kLineSpacing);
   out.text = fmt::format(
       "computed: the area centroids of a harmonic function's level sets on the outer wall ({} piece{}, {} open "

@@ -39,6 +39,7 @@ struct ImportReport {
   int holes = 0;                            // boundary loops of the kept surface
   int open_ends = 0;                        // of the organ's two ends
   std::string centreline_source;            // the file, or "computed: ..."
+  std::size_t off_path_vertices = 0;        // of the surface, beyond the centreline's reach: left out
   double length = 0.0;                      // m, as written
   double trimmed_start = 0.0, trimmed_end = 0.0;    // m cut where a given centreline ran past the mesh
   double median_radius = 0.0;                       // m, centreline to the outer wall
