@@ -142,6 +142,36 @@ TEST_CASE("each piece of a chain carries its own mesh, which follows the piece")
   CHECK(worst > 0.015);  // the wall, not the centreline: the check measures something
 }
 
+TEST_CASE("a chain with a mesh file: each piece gets the part of the surface along it and its own cage") {
+  // The CT colon as one segment, then as a chain of 3 pieces of the same 163 nodes.
+  SceneDesc one = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/anatomy-grasp.toml");
+  one.world.instruments.clear();
+  one.world.segments[0].nodes = 163;
+  one.world.segments[0].beads.count = 54;
+  one.world.segments[0].beads.radius_from_mesh = false;
+  one.world.segments[0].beads.radius = 0.018;
+  SceneDesc chain = one;
+  chain.world.segments[0].nodes = 55;
+  chain.world.segments[0].chain_pieces = 3;
+  chain.world.segments[0].beads.count = 18;
+  const auto whole = create_world(one);
+  const auto w = create_world(chain);
+  REQUIRE(w->segment_count() == 3);
+  std::size_t triangles = 0;
+  for (std::size_t p = 0; p < 3; ++p) {
+    const MeshInfo& m = w->mesh(p);
+    MESSAGE("piece " << p << ": " << m.triangles.count << " triangles, cage of " << m.cage.rings << " rings");
+    CHECK(m.triangles.count > 3000);  // each a fair share of 19,838
+    CHECK(m.cage.mesh_vertices_outside == 0);
+    triangles += m.triangles.count;
+  }
+  CHECK(triangles == whole->mesh(0).triangles.count);  // every triangle in exactly one piece
+  for (int f = 0; f < 10; ++f) w->step();
+  const auto p = w->mesh_positions();
+  for (std::size_t v = 0; v < p.size(); ++v) REQUIRE(std::isfinite(p.x[v] + p.y[v] + p.z[v]));
+  CHECK(w->events().empty());
+}
+
 TEST_CASE("the bowel scene: 32 chained segments in a box, touching each other, a grasper lifts a loop") {
   SceneDesc s = scene_file("bowel");
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
@@ -193,7 +223,7 @@ TEST_CASE("chains refuse what they cannot do, by name") {
         d.mesh.source = MeshSource::file;
         d.mesh.file = "x.obj";
       },
-      "segment[0].mesh.file", "procedural");
+      "segment[0].mesh.file", "no such mesh file");
   refuse(
       [](SegmentDesc& d) {
         d.beads.count = 0;

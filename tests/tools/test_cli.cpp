@@ -192,6 +192,20 @@ TEST_CASE("haustra validate --json reports every case, all passing") {
   }
 }
 
+TEST_CASE("haustra run SURFACE imports it with the defaults first, a line per phase, and runs it") {
+  const fs::path dir = out_dir("surface");
+  const Result r = run("run " + std::string(HAUSTRA_SOURCE_DIR) +
+                       "/tests/data/anatomy/HuBMAPVHM-00070-large-intestine-Appendix.obj --frames 5 --out " + dir.string());
+  INFO(r.out << r.err);
+  REQUIRE(r.code == 0);
+  for (const char* phase : {"import: read ", "import: repair: ", "import: organ: ", "import: centreline: ", "import: built"})
+    CHECK(r.err.find(phase) != std::string::npos);
+  CHECK(fs::exists(dir / "summary.json"));
+  // A surface that is not there: the usual bad-input exit.
+  const Result missing = run("run " + (dir / "missing.obj").string());
+  CHECK(missing.code == 2);
+}
+
 TEST_CASE("haustra run grasps and pulls the CT colon and writes its deformed mesh: files and an animated glTF") {
   const fs::path dir = out_dir("anatomy");
   const Result r = run("run " + kCliScenes + "anatomy-grasp.toml --frames 40 --mesh-every 20 --out " + dir.string());

@@ -189,6 +189,23 @@ TEST_CASE(
   CHECK(plotted == doctest::Approx(during).epsilon(1e-6));
 }
 
+TEST_CASE("haustra view SURFACE: a surface where a scene is expected is imported with the defaults and shown") {
+  const fs::path dir = scratch("surface");
+  const fs::path script = write(dir / "look.txt", "wait 10\nscreenshot " + (dir / "organ.png").string() + "\nquit\n");
+  const Result r = run(kXvfb + kCli + " view " + kSource +
+                           "/tests/data/anatomy/HuBMAPVHM-00070-large-intestine-Rectum.obj --script " +
+                           script.string() + " --record " + (dir / "record.json").string(),
+                       dir);
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.err.find("import: built") != std::string::npos);  // a line per phase
+  const nlohmann::json rec = nlohmann::json::parse(slurp(dir / "record.json"));
+  CHECK(rec["unstable"] == false);
+  const Coverage organ = coverage(dir / "organ.png");
+  MESSAGE("tissue " << organ.tissue << " of the view");
+  CHECK(organ.tissue > 0.03);  // measured 0.12 of the view
+}
+
 TEST_CASE("haustra view: knobs at run time rebuild the model with the state kept, each logged, bad values refused") {
   const fs::path dir = scratch("knobs");
   const fs::path script = write(dir / "knobs.txt",

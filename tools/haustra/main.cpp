@@ -537,7 +537,13 @@ int main(int argc, char** argv) {
   view_cmd->prefix_command();
   view_cmd->set_help_flag();  // --help goes to the viewer
 
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help and --version are a success; a missing file or a bad value is bad input (exit 2).
+    const int code = app.exit(e);
+    return code == 0 ? 0 : kExitBadInput;
+  }
   if (*view_cmd) {
     std::vector<std::string> args = view_cmd->remaining();
     try {

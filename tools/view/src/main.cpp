@@ -23,7 +23,13 @@ int main(int argc, char** argv) {
   app.add_option("--width", o.width, "window width, pixels")->check(CLI::Range(320, 8192));
   app.add_option("--height", o.height, "window height, pixels")->check(CLI::Range(240, 8192));
   app.add_flag("--paused", o.paused, "open paused (Space runs)");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help is a success; a missing scene or a bad value is bad input, exit 2 as `haustra run`.
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
   try {
     return haustra::view::run_viewer(o);
   } catch (const haustra::Error& e) {
