@@ -228,6 +228,12 @@ Polyline centreline_of(const ImportOptions& o, const OrganLayout& layout, const 
     r.centreline_source = c.text;
     r.open_ends = c.open_ends;
   }
+  try {
+    check_centreline_points(line, "the centreline");
+  } catch (const Error& e) {
+    throw Error(ErrorCode::invalid_geometry,
+                fmt::format("{}: {} ({}); give its midline with --centreline", file, e.what(), r.centreline_source));
+  }
   r.length = polyline_length(line);
   profile = radius_profile(wall, line, r.median_radius);
   if (!(r.median_radius > 0.0))

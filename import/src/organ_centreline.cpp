@@ -151,7 +151,11 @@ Polyline cut_tips(const Stretch& line, double& radius) {
   std::vector<double> radii(line.radius.begin() + first, line.radius.end() - last);
   std::nth_element(radii.begin(), radii.begin() + static_cast<std::ptrdiff_t>(radii.size() / 2), radii.end());
   radius = radii[radii.size() / 2];
-  return remove_backtracks(Polyline(line.centre.begin() + first, line.centre.end() - last));
+  // And a line that comes back within half a radius of itself, more than two radii further on,
+  // has run round a loop that is no part of a tube (a tube's U-turn keeps its legs two radii apart):
+  // the loop goes.
+  return remove_backtracks(Polyline(line.centre.begin() + first, line.centre.end() - last), 0.5 * radius,
+                           2.0 * radius);
 }
 
 }  // namespace
@@ -167,7 +171,9 @@ OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
   double radius = 0.0;
   const Polyline kept = cut_tips(line, radius);
   out.pulled_back = before - polyline_length(kept);
-  out.points = resample(smooth(resample(kept, kLineSpacing), kLineSpacing, 0.5 * radius), kLineSpacing);
+  out.points = resample(
+      remove_backtracks(smooth(resample(kept, kLineSpacing), kLineSpacing, 0.5 * radius), 0.5 * radius, 2.0 * radius),
+      kLineSpacing);
   out.text = fmt::format(
       "computed: the area centroids of a harmonic function's level sets on the outer wall ({} piece{}, {} open "
       "end{}{}{}{}), smoothed over {:.1f} mm",

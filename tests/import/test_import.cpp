@@ -81,11 +81,13 @@ Imported import_and_run(const import::ImportOptions& o) {
 import::CohortRow grasp_and_lift(const std::string& surface, double skin_bound) {
   const import::CohortRow row = import::run_cohort_surface(kAnatomy / (surface + ".obj"), scratch(surface));
   MESSAGE(row.name << ": " << (row.imported ? row.report.text() : row.error) << "lift " << row.lift
-                   << " m, skin error " << row.skin_error << " m, " << row.events << " events; " << row.error);
+                   << " m, skin error " << row.skin_error << " m, " << row.recovered << " frames redone; "
+                   << row.error);
   REQUIRE(row.imported);
   CHECK(row.ran);
   CHECK(row.finite);
-  CHECK(row.events == 0);
+  CHECK(row.unstable == 0);
+  CHECK(row.recovered == 0);
   CHECK(row.frames == 120);
   CHECK(row.outside == 0);
   CHECK(row.grasped);

@@ -6,7 +6,6 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <optional>
-#include <span>
 #include <vector>
 
 #include "haustra/mesh_io.hpp"
@@ -22,6 +21,11 @@ struct TubeEnd {
   std::vector<std::uint32_t> vertices;
   bool open = false;
   std::vector<int> loops;  // indices into the loops it came from; empty for a tip
+  [[nodiscard]] bool has_loop(std::size_t l) const {
+    for (int k : loops)
+      if (static_cast<std::size_t>(k) == l) return true;
+    return false;
+  }
 };
 
 // Boundary loops grouped into ends: loops whose centres lie within half the larger one's radius
@@ -62,23 +66,6 @@ TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::
 
 // Arc length along the section centres at each section (0 at the first).
 std::vector<double> section_arcs(const std::vector<CrossSection>& sections);
-
-// Each mesh vertex's place along a centreline (arc length from its first point), for binding the
-// mesh to a cage without folds where the organ's loops touch or bend tightly: per connected piece
-// of the mesh, u from its two ends (the boundary loops whose centres lie first and last along the
-// centreline; a closed end, the vertex farthest along the surface), its sections' centres placed on
-// the centreline by their closest points, made non-decreasing, and every vertex placed by its u.
-// `samples`: points evenly spaced along the centreline, the first at arc 0, the last at `length`.
-struct BindingArcs {
-  std::vector<double> arc;          // per mesh vertex, m
-  std::size_t pieces = 0;           // connected pieces of the mesh
-  std::size_t closest_pieces = 0;   // pieces placed by each vertex's closest point (no two ends found)
-  std::size_t followed = 0;         // vertices the harmonic function passed by, placed from their neighbours
-};
-BindingArcs harmonic_binding_arcs(const TriangleMesh& mesh, std::span<const Eigen::Vector3d> samples, double length);
-
-// The arc length of the point of a sampled centreline (as above) closest to x.
-double closest_arc(std::span<const Eigen::Vector3d> samples, double length, const Eigen::Vector3d& x);
 
 // The value of a monotone table (xs ascending) at x, linear between entries, clamped at its ends.
 double interpolate(const std::vector<double>& xs, const std::vector<double>& ys, double x);

@@ -15,7 +15,7 @@
 #include "haustra/error.hpp"
 #include "haustra/kernels/contact_geometry.hpp"
 #include "haustra/rod_curve.hpp"
-#include "haustra/tube_axis.hpp"
+#include "model/binding_arcs.hpp"
 #include "step/scheduler.hpp"
 
 namespace haustra::detail {

@@ -10,7 +10,7 @@
 #include "haustra/kernels/mesh_normals.hpp"
 #include "haustra/procedural_organ.hpp"
 #include "haustra/rod_curve.hpp"
-#include "haustra/tube_axis.hpp"
+#include "model/binding_arcs.hpp"
 #include "model/world_model.hpp"
 
 namespace haustra::detail {

@@ -9,15 +9,9 @@
 #include "haustra/error.hpp"
 #include "haustra/kernels/contact_geometry.hpp"
 #include "haustra/mesh_io.hpp"
+#include "model/surface_graph.hpp"
 
 namespace haustra::detail {
-namespace {
-
-std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
-  return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
-}
-
-}  // namespace
 
 StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
   if (descs.empty()) return;

@@ -1,4 +1,5 @@
-// A tube's axis from a harmonic function on its surface: ends, the solve, level contours, centroids.
+// A tube's axis from a harmonic function on its surface: the solve, its level contours, the
+// sections' centroids along the longest way through them.
 #include "haustra/tube_axis.hpp"
 
 #include <fmt/format.h>
@@ -9,103 +10,15 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
-#include <queue>
 
 #include "haustra/error.hpp"
+#include "model/surface_graph.hpp"
 
 namespace haustra {
 namespace {
 
-using Triangles = std::vector<std::array<std::uint32_t, 3>>;
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
-  return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
-}
-
-// Vertex neighbours with edge lengths (CSR), each list ascending.
-struct Adjacency {
-  std::vector<std::uint32_t> start, to;
-  std::vector<double> length;
-};
-
-Adjacency adjacency(const TriangleMesh& mesh) {
-  std::vector<std::uint64_t> keys;
-  keys.reserve(3 * mesh.triangles.size());
-  for (const auto& t : mesh.triangles)
-    for (int i = 0; i < 3; ++i) keys.push_back(edge_key(t[static_cast<std::size_t>(i)], t[(i + 1) % 3]));
-  std::sort(keys.begin(), keys.end());
-  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-  const std::size_t n = mesh.vertices.size();
-  Adjacency a;
-  a.start.assign(n + 1, 0);
-  for (std::uint64_t k : keys) {
-    ++a.start[(k >> 32) + 1];
-    ++a.start[(k & 0xffffffffU) + 1];
-  }
-  std::partial_sum(a.start.begin(), a.start.end(), a.start.begin());
-  a.to.resize(a.start.back());
-  a.length.resize(a.start.back());
-  std::vector<std::uint32_t> fill(a.start.begin(), a.start.end() - 1);
-  for (std::uint64_t k : keys) {
-    const auto u = static_cast<std::uint32_t>(k >> 32), v = static_cast<std::uint32_t>(k & 0xffffffffU);
-    const double len = (mesh.vertices[u] - mesh.vertices[v]).norm();
-    a.to[fill[u]] = v;
-    a.length[fill[u]++] = len;
-    a.to[fill[v]] = u;
-    a.length[fill[v]++] = len;
-  }
-  return a;
-}
-
-std::vector<double> dijkstra(const Adjacency& adj, std::size_t n, const std::vector<std::uint32_t>& from) {
-  std::vector<double> dist(n, kInf);
-  using Item = std::pair<double, std::uint32_t>;  // ties broken by vertex index: deterministic
-  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-  for (std::uint32_t v : from) {
-    dist[v] = 0.0;
-    queue.push({0.0, v});
-  }
-  while (!queue.empty()) {
-    const auto [d, v] = queue.top();
-    queue.pop();
-    if (d > dist[v]) continue;
-    for (std::uint32_t e = adj.start[v]; e < adj.start[v + 1]; ++e) {
-      const std::uint32_t w = adj.to[e];
-      if (d + adj.length[e] < dist[w]) {
-        dist[w] = d + adj.length[e];
-        queue.push({dist[w], w});
-      }
-    }
-  }
-  return dist;
-}
-
-std::uint32_t farthest_vertex(const std::vector<double>& dist) {
-  std::uint32_t best = 0;
-  double far = -1.0;
-  for (std::size_t v = 0; v < dist.size(); ++v)
-    if (dist[v] < kInf && dist[v] > far) {
-      far = dist[v];
-      best = static_cast<std::uint32_t>(v);
-    }
-  return best;
-}
-
-TubeEnd group_end(const std::vector<std::vector<std::uint32_t>>& loops, const std::vector<int>& group, int loop) {
-  TubeEnd e;
-  e.open = true;
-  for (std::size_t l = 0; l < loops.size(); ++l)
-    if (group[l] == group[static_cast<std::size_t>(loop)]) {
-      e.loops.push_back(static_cast<int>(l));
-      e.vertices.insert(e.vertices.end(), loops[l].begin(), loops[l].end());
-    }
-  return e;
-}
-
-bool is_end_loop(const TubeEnd& e, std::size_t l) {
-  return std::find(e.loops.begin(), e.loops.end(), static_cast<int>(l)) != e.loops.end();
-}
+using detail::edge_key;
+using detail::kNoPath;
 
 // Every boundary loop but the ends capped by a fan around its centroid (the solve needs closed
 // level sets; a fan is linear in the loop's size, unlike a hole filler's search).
@@ -114,7 +27,7 @@ TriangleMesh capped(const TriangleMesh& mesh, const std::vector<std::vector<std:
   TriangleMesh out = mesh;
   // Loop order follows the triangles' winding along the border: the fan is wound the other way.
   for (std::size_t l = 0; l < loops.size(); ++l) {
-    if (is_end_loop(start, l) || is_end_loop(end, l)) continue;
+    if (start.has_loop(l) || end.has_loop(l)) continue;
     const auto& loop = loops[l];
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
     for (std::uint32_t v : loop) c += mesh.vertices[v];
@@ -325,11 +238,11 @@ std::vector<CrossSection> longest_way(const std::vector<std::vector<CrossSection
   score[0].assign(levels[0].size(), 0.0);
   from[0].assign(levels[0].size(), 0);
   for (std::size_t k = 1; k < n; ++k) {
-    score[k].assign(levels[k].size(), -kInf);
+    score[k].assign(levels[k].size(), -kNoPath);
     from[k].assign(levels[k].size(), 0);
     for (std::size_t j = 0; j < levels[k].size(); ++j) {
       const CrossSection& c = levels[k][j];
-      double nearest = kInf;
+      double nearest = kNoPath;
       std::size_t nearest_i = 0;
       for (std::size_t i = 0; i < levels[k - 1].size(); ++i) {
         const CrossSection& p = levels[k - 1][i];
@@ -345,7 +258,7 @@ std::vector<CrossSection> longest_way(const std::vector<std::vector<CrossSection
           from[k][j] = i;
         }
       }
-      if (score[k][j] == -kInf) {  // nothing near: the nearest, so the way never breaks
+      if (score[k][j] == -kNoPath) {  // nothing near: the nearest, so the way never breaks
         score[k][j] = score[k - 1][nearest_i] + nearest;
         from[k][j] = nearest_i;
       }
@@ -362,146 +275,6 @@ std::vector<CrossSection> longest_way(const std::vector<std::vector<CrossSection
 
 }  // namespace
 
-std::vector<std::vector<std::uint32_t>> boundary_loops(const TriangleMesh& mesh) {
-  // Border half-edges (an edge one triangle uses), followed head to tail; a vertex where two loops
-  // touch (a pinch the repair did not split) starts a new loop at the lower unused half-edge.
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> half;  // (edge key, triangle·3 + corner)
-  half.reserve(3 * mesh.triangles.size());
-  for (std::uint32_t t = 0; t < mesh.triangles.size(); ++t)
-    for (std::uint32_t i = 0; i < 3; ++i)
-      half.emplace_back(edge_key(mesh.triangles[t][i], mesh.triangles[t][(i + 1) % 3]), 3 * t + i);
-  std::sort(half.begin(), half.end());
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> border;  // (from, to) in the triangle's winding
-  for (std::size_t i = 0; i < half.size();) {
-    std::size_t j = i + 1;
-    while (j < half.size() && half[j].first == half[i].first) ++j;
-    if (j - i == 1) {
-      const std::uint32_t t = half[i].second / 3, c = half[i].second % 3;
-      border.emplace_back(mesh.triangles[t][c], mesh.triangles[t][(c + 1) % 3]);
-    }
-    i = j;
-  }
-  std::sort(border.begin(), border.end());
-  std::vector<std::uint8_t> used(border.size(), 0);
-  std::vector<std::vector<std::uint32_t>> loops;
-  for (std::size_t first = 0; first < border.size(); ++first) {
-    if (used[first] != 0) continue;
-    std::vector<std::uint32_t> loop;
-    std::size_t e = first;
-    for (;;) {
-      used[e] = 1;
-      loop.push_back(border[e].first);
-      const std::uint32_t to = border[e].second;
-      auto it = std::lower_bound(border.begin(), border.end(), std::pair{to, 0U});
-      while (it != border.end() && it->first == to && used[static_cast<std::size_t>(it - border.begin())] != 0) ++it;
-      if (it == border.end() || it->first != to) break;
-      e = static_cast<std::size_t>(it - border.begin());
-    }
-    loops.push_back(std::move(loop));
-  }
-  return loops;
-}
-
-std::vector<int> loop_groups(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops) {
-  std::vector<Eigen::Vector3d> centre(loops.size(), Eigen::Vector3d::Zero());
-  std::vector<double> radius(loops.size(), 0.0);
-  for (std::size_t l = 0; l < loops.size(); ++l) {
-    for (std::uint32_t v : loops[l]) centre[l] += mesh.vertices[v];
-    centre[l] /= static_cast<double>(loops[l].size());
-    for (std::uint32_t v : loops[l]) radius[l] += (mesh.vertices[v] - centre[l]).norm();
-    radius[l] /= static_cast<double>(loops[l].size());
-  }
-  std::vector<int> group(loops.size());
-  std::iota(group.begin(), group.end(), 0);
-  for (std::size_t a = 0; a < loops.size(); ++a)
-    for (std::size_t b = a + 1; b < loops.size(); ++b)
-      if ((centre[a] - centre[b]).norm() < 0.5 * std::max(radius[a], radius[b])) {
-        const int from = group[b], to = group[a];
-        for (int& g : group)
-          if (g == from) g = to;
-      }
-  return group;
-}
-
-TubeEnd loop_end(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops, int loop) {
-  return group_end(loops, loop_groups(mesh, loops), loop);
-}
-
-std::vector<double> edge_distances(const TriangleMesh& mesh, const std::vector<std::uint32_t>& from) {
-  return dijkstra(adjacency(mesh), mesh.vertices.size(), from);
-}
-
-std::pair<TubeEnd, TubeEnd> farthest_ends(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops,
-                                          const std::optional<TubeEnd>& start) {
-  const Adjacency adj = adjacency(mesh);
-  const std::size_t n = mesh.vertices.size();
-  const std::vector<int> group = loop_groups(mesh, loops);
-  // The open ends worth ending at: groups of loops at least a quarter as long as the longest
-  // (a hole of a few triangles in the wall is a defect, not an end).
-  std::vector<double> perimeter(loops.size(), 0.0);
-  for (std::size_t l = 0; l < loops.size(); ++l)
-    for (std::size_t i = 0; i < loops[l].size(); ++i)
-      perimeter[l] += (mesh.vertices[loops[l][(i + 1) % loops[l].size()]] - mesh.vertices[loops[l][i]]).norm();
-  const double longest = loops.empty() ? 0.0 : *std::max_element(perimeter.begin(), perimeter.end());
-  std::vector<int> ends;  // one loop per significant group, the group's first
-  for (std::size_t l = 0; l < loops.size(); ++l) {
-    bool seen = false;
-    for (int e : ends) seen = seen || group[static_cast<std::size_t>(e)] == group[l];
-    if (seen) continue;
-    double widest = 0.0;
-    for (std::size_t k = 0; k < loops.size(); ++k)
-      if (group[k] == group[l]) widest = std::max(widest, perimeter[k]);
-    if (widest >= 0.25 * longest) ends.push_back(static_cast<int>(l));
-  }
-  // A wall of two shells is cut through both at each end, so where two ends have concentric
-  // rims, those are the ends (a lone loop is a hole in one shell; the shells, fused here and
-  // there, make paths along the surface that are no guide).
-  std::vector<int> walled;
-  for (int e : ends)
-    if (std::count(group.begin(), group.end(), group[static_cast<std::size_t>(e)]) >= 2) walled.push_back(e);
-  if (walled.size() >= 2) ends = walled;
-  // From an end: the farthest other open end, or the farthest vertex (a closed end) where that is
-  // half as far again (a tube closed at one end with a side opening near the other).
-  auto far_end = [&](const TubeEnd& from, double& distance) {
-    const std::vector<double> d = dijkstra(adj, n, from.vertices);
-    TubeEnd best;
-    distance = -1.0;
-    for (int e : ends) {
-      if (from.open && is_end_loop(from, static_cast<std::size_t>(e))) continue;
-      double reach = kInf;
-      for (std::uint32_t v : loops[static_cast<std::size_t>(e)]) reach = std::min(reach, d[v]);
-      if (reach < kInf && reach > distance) {
-        distance = reach;
-        best = group_end(loops, group, e);
-      }
-    }
-    const std::uint32_t tip = farthest_vertex(d);
-    if (distance < 0.0 || d[tip] > 1.5 * distance) {
-      distance = d[tip];
-      best = TubeEnd{{tip}, false, {}};
-    }
-    return best;
-  };
-  double distance = 0.0;
-  if (start) return {*start, far_end(*start, distance)};
-  if (ends.empty()) {
-    // Closed: two sweeps, the farthest from vertex 0 and the farthest from that.
-    const TubeEnd a{{farthest_vertex(dijkstra(adj, n, {0}))}, false, {}};
-    return {a, far_end(a, distance)};
-  }
-  std::pair<TubeEnd, TubeEnd> best;
-  double farthest = -1.0;
-  for (int e : ends) {
-    const TubeEnd a = group_end(loops, group, e);
-    TubeEnd b = far_end(a, distance);
-    if (distance > farthest) {
-      farthest = distance;
-      best = {a, std::move(b)};
-    }
-  }
-  return best;
-}
-
 TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops,
                    const TubeEnd& start, const TubeEnd& end, double spacing) {
   TubeAxis axis;
@@ -510,9 +283,9 @@ TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::
   const TriangleMesh work = capped(mesh, loops, start, end, axis.capped_loops);
   {
     const std::vector<double> d = edge_distances(work, start.vertices);
-    double to_end = kInf;
+    double to_end = kNoPath;
     for (std::uint32_t v : end.vertices) to_end = std::min(to_end, d[v]);
-    if (!(to_end < kInf) || to_end <= 0.0)
+    if (!(to_end < kNoPath) || to_end <= 0.0)
       throw Error(ErrorCode::invalid_geometry,
                   "the surface does not connect its two ends (or they coincide): it is not one tube");
     axis.geodesic_length = to_end;
@@ -577,172 +350,6 @@ std::vector<double> section_arcs(const std::vector<CrossSection>& sections) {
   for (std::size_t k = 1; k < sections.size(); ++k)
     arc[k] = arc[k - 1] + (sections[k].centre - sections[k - 1].centre).norm();
   return arc;
-}
-
-namespace {
-
-// The closest point's arc among the centreline's samples [first, last).
-double closest_arc_between(std::span<const Eigen::Vector3d> samples, double length, const Eigen::Vector3d& x,
-                           std::size_t first, std::size_t last) {
-  const std::size_t segments = samples.size() - 1;
-  double best = kInf, best_s = 0.0;
-  for (std::size_t i = first; i < std::min(last, segments); ++i) {
-    const Eigen::Vector3d d = samples[i + 1] - samples[i];
-    const double t = std::clamp((x - samples[i]).dot(d) / std::max(d.squaredNorm(), 1e-300), 0.0, 1.0);
-    const double dist = (samples[i] + t * d - x).squaredNorm();
-    if (dist < best) {
-      best = dist;
-      best_s = length * (static_cast<double>(i) + t) / static_cast<double>(segments);
-    }
-  }
-  return best_s;
-}
-
-}  // namespace
-
-double closest_arc(std::span<const Eigen::Vector3d> samples, double length, const Eigen::Vector3d& x) {
-  return closest_arc_between(samples, length, x, 0, samples.size());
-}
-
-namespace {
-
-// One connected piece's arcs from its harmonic u; throws Error where it has no two ends.
-std::vector<double> piece_arcs(const TriangleMesh& piece, std::span<const Eigen::Vector3d> samples, double length) {
-  const auto loops = boundary_loops(piece);
-  auto centre_arc = [&](const std::vector<std::uint32_t>& vs) {
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (std::uint32_t v : vs) c += piece.vertices[v];
-    return closest_arc(samples, length, c / static_cast<double>(vs.size()));
-  };
-  // Its two ends as along any surface (farthest apart), the one nearer the centreline's start first.
-  auto [start, end] = farthest_ends(piece, loops, std::nullopt);
-  if (centre_arc(start.vertices) > centre_arc(end.vertices)) std::swap(start, end);
-  const TubeAxis axis = tube_axis(piece, loops, start, end, std::max(1e-4, length / 4000.0));
-  // The sections' places, followed along the centreline from the start's: each looks near the one
-  // before (within twice the step between them, and a millimetre), so a section beside another
-  // loop of the organ stays on its own, and a wall that folds back runs back along the line.
-  std::vector<double> us, arcs;
-  const std::size_t segments = samples.size() - 1;
-  const double per_sample = length / static_cast<double>(segments);
-  for (std::size_t k = 0; k < axis.sections.size(); ++k) {
-    const CrossSection& s = axis.sections[k];
-    us.push_back(s.u);
-    if (k == 0) {
-      arcs.push_back(closest_arc(samples, length, s.centre));
-      continue;
-    }
-    const double reach = 2.0 * (s.centre - axis.sections[k - 1].centre).norm() + 1e-3;
-    const double lo = std::max(0.0, arcs.back() - reach), hi = std::min(length, arcs.back() + reach);
-    arcs.push_back(closest_arc_between(samples, length, s.centre, static_cast<std::size_t>(lo / per_sample),
-                                       static_cast<std::size_t>(std::ceil(hi / per_sample)) + 1));
-  }
-  std::vector<double> out(piece.vertices.size());
-  for (std::size_t v = 0; v < out.size(); ++v) out[v] = interpolate(us, arcs, axis.u[v]);
-  return out;
-}
-
-// Where u is all but constant, a part of the surface the harmonic function's flow passes by (a
-// pouch, a shell that folds back, a loop fused into a handle) has one place for all its vertices,
-// far from most of them. Such a vertex (farther from its place on the centreline than twice its
-// distance to the line, and 2 mm) takes instead the closest place near a neighbour's, the
-// neighbours followed outward from the vertices that are well placed (Dijkstra, ties by index).
-std::size_t follow_dead_ends(const TriangleMesh& piece, std::span<const Eigen::Vector3d> samples, double length,
-                             std::vector<double>& arc) {
-  const std::size_t n = piece.vertices.size(), segments = samples.size() - 1;
-  const double per_sample = length / static_cast<double>(segments);
-  auto at = [&](double s) {
-    const double x = std::clamp(s / per_sample, 0.0, static_cast<double>(segments));
-    const auto i = std::min(static_cast<std::size_t>(x), segments - 1);
-    return samples[i] + (x - static_cast<double>(i)) * (samples[i + 1] - samples[i]);
-  };
-  std::vector<std::uint8_t> placed(n, 1);
-  std::size_t misplaced = 0;
-  for (std::size_t v = 0; v < n; ++v) {
-    const Eigen::Vector3d& x = piece.vertices[v];
-    const double nearest = (at(closest_arc(samples, length, x)) - x).norm();
-    if ((at(arc[v]) - x).norm() > 2.0 * nearest + 2e-3) {
-      placed[v] = 0;
-      ++misplaced;
-    }
-  }
-  if (misplaced == 0 || misplaced == n) return 0;
-  const Adjacency adj = adjacency(piece);
-  using Item = std::pair<double, std::uint32_t>;
-  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-  std::vector<double> dist(n, kInf);
-  for (std::uint32_t v = 0; v < n; ++v)
-    if (placed[v] != 0) {
-      dist[v] = 0.0;
-      queue.push({0.0, v});
-    }
-  while (!queue.empty()) {
-    const auto [d, v] = queue.top();
-    queue.pop();
-    if (d > dist[v]) continue;
-    for (std::uint32_t e = adj.start[v]; e < adj.start[v + 1]; ++e) {
-      const std::uint32_t w = adj.to[e];
-      if (placed[w] != 0 || d + adj.length[e] >= dist[w]) continue;
-      dist[w] = d + adj.length[e];
-      const double reach = 2.0 * adj.length[e] + 1e-3;
-      const double lo = std::max(0.0, arc[v] - reach), hi = std::min(length, arc[v] + reach);
-      arc[w] = closest_arc_between(samples, length, piece.vertices[w], static_cast<std::size_t>(lo / per_sample),
-                                   static_cast<std::size_t>(std::ceil(hi / per_sample)) + 1);
-      queue.push({dist[w], w});
-    }
-  }
-  return misplaced;
-}
-
-}  // namespace
-
-BindingArcs harmonic_binding_arcs(const TriangleMesh& mesh, std::span<const Eigen::Vector3d> samples, double length) {
-  // Connected pieces (union–find over the triangles' corners), each in ascending vertex order.
-  const std::size_t n = mesh.vertices.size();
-  std::vector<std::uint32_t> parent(n);
-  std::iota(parent.begin(), parent.end(), 0U);
-  auto root = [&](std::uint32_t v) {
-    while (parent[v] != v) v = parent[v] = parent[parent[v]];
-    return v;
-  };
-  for (const auto& t : mesh.triangles)
-    for (int i = 1; i < 3; ++i) {
-      const std::uint32_t a = root(t[0]), b = root(t[static_cast<std::size_t>(i)]);
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
-  std::vector<std::uint32_t> piece_of(n), local(n);
-  std::vector<TriangleMesh> pieces;
-  std::vector<std::vector<std::uint32_t>> members;
-  std::vector<std::int64_t> index_of_root(n, -1);
-  for (std::uint32_t v = 0; v < n; ++v) {
-    const std::uint32_t r = root(v);
-    if (index_of_root[r] < 0) {
-      index_of_root[r] = static_cast<std::int64_t>(pieces.size());
-      pieces.emplace_back();
-      members.emplace_back();
-    }
-    piece_of[v] = static_cast<std::uint32_t>(index_of_root[r]);
-    local[v] = static_cast<std::uint32_t>(members[piece_of[v]].size());
-    members[piece_of[v]].push_back(v);
-    pieces[piece_of[v]].vertices.push_back(mesh.vertices[v]);
-  }
-  for (const auto& t : mesh.triangles) pieces[piece_of[t[0]]].triangles.push_back({local[t[0]], local[t[1]], local[t[2]]});
-  BindingArcs out;
-  out.arc.assign(n, 0.0);
-  out.pieces = pieces.size();
-  for (std::size_t p = 0; p < pieces.size(); ++p) {
-    std::vector<double> arcs;
-    try {
-      if (pieces[p].triangles.empty()) throw Error(ErrorCode::invalid_geometry, "no triangles");
-      arcs = piece_arcs(pieces[p], samples, length);
-      out.followed += follow_dead_ends(pieces[p], samples, length, arcs);
-    } catch (const Error&) {
-      ++out.closest_pieces;
-      arcs.resize(pieces[p].vertices.size());
-      for (std::size_t v = 0; v < arcs.size(); ++v) arcs[v] = closest_arc(samples, length, pieces[p].vertices[v]);
-    }
-    for (std::size_t v = 0; v < arcs.size(); ++v) out.arc[members[p][v]] = arcs[v];
-  }
-  return out;
 }
 
 double interpolate(const std::vector<double>& xs, const std::vector<double>& ys, double x) {

@@ -18,7 +18,7 @@ struct CohortRow {
   std::size_t mesh_vertices = 0, outside = 0, crossing = 0;  // binding pose: vertices outside the cage, edges across it
   int frames = 0;
   bool finite = false;
-  std::size_t events = 0;           // recovered or unstable
+  std::size_t recovered = 0, unstable = 0;  // events: frames redone by the robust mode, frames that failed
   bool grasped = false;             // the grasper still held a node at the end
   double lift = 0.0;                // m the grasped node rose
   double skin_error = 0.0;          // m: localized skinning against full MVC of the same cage, after the lift
