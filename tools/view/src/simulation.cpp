@@ -30,8 +30,13 @@ InstrumentDesc mouse_instrument() {
   return d;
 }
 
-Simulation::Simulation(const SceneDesc& scene, int threads, std::string checkpoint_file, bool start_paused)
-    : scene_(scene), threads_(threads), checkpoint_file_(std::move(checkpoint_file)), paused_(start_paused) {
+Simulation::Simulation(const SceneDesc& scene, int threads, std::string checkpoint_file, bool start_paused,
+                       bool lockstep)
+    : scene_(scene),
+      threads_(threads),
+      checkpoint_file_(std::move(checkpoint_file)),
+      lockstep_(lockstep),
+      paused_(start_paused) {
   scene_.world.threads = threads_;
   scene_.world.instruments.push_back(mouse_instrument());
   world_ = create_world(scene_);
@@ -46,11 +51,47 @@ Simulation::~Simulation() {
     quit_ = true;
   }
   command_ready_.notify_all();
+  tick_done_.notify_all();
   if (thread_.joinable()) thread_.join();
 }
 
 void Simulation::start() {
-  thread_ = std::thread([this] { run(); });
+  thread_ = std::thread([this] { lockstep_ ? run_in_lockstep() : run(); });
+}
+
+void Simulation::step_in_lockstep() {
+  std::unique_lock lock(command_mutex_);
+  const std::uint64_t target = ++ticks_asked_;
+  command_ready_.notify_all();
+  tick_done_.wait(lock, [&] { return quit_ || ticks_done_ >= target; });
+}
+
+void Simulation::run_in_lockstep() {
+  std::vector<Command> pending;
+  for (;;) {
+    std::uint64_t asked = 0;
+    {
+      std::unique_lock lock(command_mutex_);
+      command_ready_.wait(lock, [&] { return quit_ || ticks_asked_ > ticks_done_; });
+      if (quit_) return;
+      pending.swap(commands_);
+      asked = ticks_asked_;
+    }
+    for (Command& c : pending) apply(c);
+    pending.clear();
+    if (!paused_ && !unstable_) step_once();
+    {
+      std::lock_guard lock(log_mutex_);
+      stats_.paused = paused_;
+      stats_.unstable = unstable_;
+      stats_.real_time_factor = 0.0;  // stepped by the window, not the clock
+    }
+    {
+      std::lock_guard lock(command_mutex_);
+      ticks_done_ = asked;
+    }
+    tick_done_.notify_all();
+  }
 }
 
 void Simulation::post(Command command) {

@@ -1,7 +1,9 @@
 #pragma once
 // The viewer's physics thread: owns the world, steps it at the scene's dt in real time, applies the
 // window's commands between frames and publishes every frame through the engine's FramePublisher,
-// so the window draws the latest completed frame and never makes a step wait.
+// so the window draws the latest completed frame and never makes a step wait. A scripted run steps
+// in lockstep instead: one frame per window frame, when the window asks, so the same script gives
+// the same frames however loaded the machine is.
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -67,13 +69,17 @@ class Simulation {
  public:
   // Builds the world from the scene (plus the mouse's instrument); throws haustra::Error as
   // `haustra run` does. checkpoint: a file for save/restore ("" keeps checkpoints in memory).
-  Simulation(const SceneDesc& scene, int threads, std::string checkpoint_file, bool start_paused);
+  Simulation(const SceneDesc& scene, int threads, std::string checkpoint_file, bool start_paused,
+             bool lockstep = false);
   ~Simulation();
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
   void start();
   void post(Command command);
+  // Lockstep only: the commands posted so far applied, then one frame stepped (none while paused);
+  // returns when it is published.
+  void step_in_lockstep();
   FramePublisher& frames() { return *frames_; }
   // The model of the frames acquired from now on: read it after acquire() (a rebuild waits for
   // the window to release its frame, so the two always match).
@@ -84,6 +90,7 @@ class Simulation {
 
  private:
   void run();
+  void run_in_lockstep();
   void apply(Command& command);
   void step_once();
   void rebuild(WorldDesc next, const std::string& what, bool keep_state);
@@ -104,6 +111,9 @@ class Simulation {
   std::condition_variable command_ready_;
   std::vector<Command> commands_;
   bool quit_ = false;
+  bool lockstep_ = false;
+  std::uint64_t ticks_asked_ = 0, ticks_done_ = 0;  // lockstep: frames the window asked for, and taken
+  std::condition_variable tick_done_;
 
   mutable std::mutex log_mutex_;
   std::vector<std::string> log_;

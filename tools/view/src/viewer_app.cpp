@@ -196,6 +196,7 @@ int loop(ViewerState& v, GLFWwindow* window, std::optional<ScriptPlayer>& script
   while (glfwWindowShouldClose(window) == GLFW_FALSE && !v.quit) {
     const auto started = std::chrono::steady_clock::now();
     glfwPollEvents();
+    if (script) v.sim.step_in_lockstep();  // a frame of physics per window frame, whatever the load
     for (std::string& line : v.sim.take_log()) v.note(std::move(line));
     if (script && !script->tick(v)) v.quit = true;
     if (!script && !o.screenshot.empty() && v.frame >= static_cast<std::uint64_t>(v.scene_frames)) v.quit = true;
@@ -219,7 +220,7 @@ int loop(ViewerState& v, GLFWwindow* window, std::optional<ScriptPlayer>& script
     }
     if (v.quit && !o.screenshot.empty()) save_screenshot(o.screenshot, fbw, fbh);
     glfwSwapBuffers(window);
-    std::this_thread::sleep_until(started + frame_budget);
+    if (!script) std::this_thread::sleep_until(started + frame_budget);
   }
   return script && v.sim.went_unstable() ? kExitUnstable : 0;
 }
@@ -231,7 +232,7 @@ int run_viewer(const ViewerOptions& o) {
   const SceneDesc scene = load_scene(o.scene, o.sets);
   std::optional<ScriptPlayer> script;
   if (!o.script.empty()) script.emplace(read_script(o.script));
-  Simulation sim(scene, o.threads, o.checkpoint, o.paused);
+  Simulation sim(scene, o.threads, o.checkpoint, o.paused, /*lockstep=*/script.has_value());
   GlfwSession glfw;
   GLFWwindow* window = open_window(o, fmt::format("haustra view - {}", scene.name));
   ViewerState v(sim);
