@@ -14,8 +14,8 @@ using namespace haustra;
 
 namespace {
 
-SceneDesc scene_file(const std::string& name) {
-  SceneDesc s = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml");
+SceneDesc scene_file(const std::string& name, const std::vector<std::string>& sets = {}) {
+  SceneDesc s = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
   s.world.threads = 1;
   return s;
 }
@@ -239,9 +239,19 @@ TEST_CASE("chains refuse what they cannot do, by name") {
   w->pose_rod(0, w->base_pose(0), std::vector<double>(w->strains().data.begin(), w->strains().data.end()));
 }
 
-TEST_CASE("a segment added between frames leaves the others' motion unchanged, bit for bit") {
-  // Two rectums far apart (3 m), each falling on the floor: neither ever touches the other.
-  SceneDesc one = scene_file("drop");
+TEST_CASE("a segment added between frames leaves the others' motion unchanged, bit for bit, in every solver mode") {
+  // Two rectums far apart (3 m), each falling on the floor: neither ever touches the other. Fast
+  // mode's chord factorization carries over with the rod it belongs to (added at frame 4, between
+  // two refactorizations).
+  const char* mode = "newton";
+  int before = 40;
+  SUBCASE("Newton") {}
+  SUBCASE("fast") {
+    mode = "fast";
+    before = 4;
+  }
+  SUBCASE("lagged") { mode = "lagged"; }
+  SceneDesc one = scene_file("drop", {std::string("solver.mode=") + mode});
   SceneDesc two = one;
   const SegmentDesc far = far_copy(one);
   two.world.segments.push_back(far);
@@ -249,7 +259,7 @@ TEST_CASE("a segment added between frames leaves the others' motion unchanged, b
   auto grown = create_world(one);
   auto alone = create_world(one);
   auto both = create_world(two);
-  for (int f = 0; f < 40; ++f) {
+  for (int f = 0; f < before; ++f) {
     grown->step();
     alone->step();
     both->step();
@@ -257,7 +267,7 @@ TEST_CASE("a segment added between frames leaves the others' motion unchanged, b
   const std::size_t added = grown->add_segment(far);
   CHECK(added == 1);
   REQUIRE(grown->segment_count() == 2);
-  CHECK(grown->frame() == 40);
+  CHECK(grown->frame() == static_cast<std::uint64_t>(before));
   CHECK(segment_state(*grown, 0) == segment_state(*alone, 0));
   // The newcomer starts from its rest pose, as a fresh world's would.
   auto fresh = create_world(two);
@@ -268,7 +278,10 @@ TEST_CASE("a segment added between frames leaves the others' motion unchanged, b
     fresh->step();
   }
   CHECK(segment_state(*grown, 0) == segment_state(*alone, 0));
-  CHECK(segment_state(*grown, 1) == segment_state(*fresh, 1));  // it fell as in a fresh world
+  // It fell as in a fresh world — where the world's robust mode is on the rung a fresh world starts
+  // on: the lagged `drop` climbs to Newton in its first frames, and the rung is the world's, so a
+  // rod added later steps with Newton where a fresh world's starts lagged.
+  if (std::string(mode) != "lagged") CHECK(segment_state(*grown, 1) == segment_state(*fresh, 1));
 
   // Refused additions leave the world as it was.
   SegmentDesc bad = far;

@@ -142,7 +142,7 @@ class World {
  private:
   struct Impl;  // engine/src/world_impl.hpp
   explicit World(std::unique_ptr<Impl> impl);
-  void rebuild(WorldDesc next, std::span<const std::size_t> rod_map);
+  void rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver);
   std::shared_ptr<Impl> impl_;  // shared with buffers_keeper()'s handles
 };
 

@@ -20,7 +20,7 @@ namespace haustra::detail {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'H', 'A', 'U', 'S', 'T', 'R', 'C', 'K'};
-constexpr std::uint32_t kFormatVersion = 1;
+constexpr std::uint32_t kFormatVersion = 2;  // 2: fast mode's chord state
 
 std::uint64_t fnv1a(std::span<const std::byte> bytes, std::uint64_t h = 0xcbf29ce484222325ull) {
   for (std::byte b : bytes) {
@@ -89,6 +89,26 @@ void visit_members(Io& io, R& r) {
   io(r.candidates), io(r.touching), io(r.max_environment_depth), io(r.max_environment_depth_ratio),
       io(r.max_bead_overlap), io(r.max_bead_overlap_ratio);
 }
+// Fast mode's chord state (decision 0037): whether a recorded factorization may serve again (its
+// frame, step length and contact pattern: at most an entry per attachment and bead), the record,
+// the gains and the unit loads' responses it left — so a frame restored from here reuses it as the
+// uninterrupted run does. A workspace with no record (another mode, a split rod) holds none of it.
+template <class Io, class State>
+void visit_chords(Io& io, const WorldModel& model, State& st) {
+  std::uint64_t rods = st.newton.size();
+  io(rods);
+  if (rods != st.newton.size()) io.mismatch("was saved in another solver mode (its Newton workspaces)");
+  for (std::size_t s = 0; s < st.newton.size(); ++s) {
+    auto& ws = st.newton[s];
+    bool recorded = !ws.record.empty();
+    io(recorded);
+    if (recorded != !ws.record.empty()) io.mismatch("was saved in another solver mode (fast mode's chord state)");
+    if (!recorded) continue;
+    io(ws.chord_ready), io(ws.chord_frame), io(ws.chord_dt);
+    io.list(ws.chord_pattern, model.segments[s].attachments.size() + model.segments[s].bead_count);
+    io(ws.record), io(ws.gain), io(ws.base_solution), io(ws.responses);
+  }
+}
 // Appends values as raw little-endian bytes (the checkpoint is for the machine that wrote it, or
 // one of the same byte order; the header's magic would not match otherwise).
 class Writer {
@@ -117,6 +137,12 @@ class Writer {
   void operator()(const std::span<T>& v) {
     array(std::span<const T>(v));
   }
+  // A list whose length varies from frame to frame (up to `capacity`).
+  template <class T>
+  void list(const std::vector<T>& v, std::size_t /*capacity*/) {
+    array(std::span<const T>(v));
+  }
+  void mismatch(const char*) const {}
 
  private:
   template <class T>
@@ -176,6 +202,22 @@ class Reader {
     if (n != v.size()) fail(fmt::format("has an array of {} entries where this world has {}", n, v.size()));
     for (T& e : v) (*this)(e);
   }
+  template <class T>
+  void list(std::vector<T>& v, std::size_t capacity) {
+    std::uint64_t n = 0;
+    const bool apply = apply_;
+    apply_ = true;
+    (*this)(n);
+    apply_ = apply;
+    if (n > capacity) fail(fmt::format("has a list of {} entries where this world holds at most {}", n, capacity));
+    if (apply_) v.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      T e{};
+      (*this)(e);
+      if (apply_) v[i] = e;
+    }
+  }
+  void mismatch(const std::string& what) const { fail(what); }
   [[nodiscard]] bool at_end() const { return at_ == bytes_.size(); }
   [[noreturn]] void fail(const std::string& what) const {
     throw Error(ErrorCode::parse, fmt::format("checkpoint '{}': the state {}; it was not restored", source_, what));
@@ -236,6 +278,7 @@ void check_indices(const WorldModel& model, const WorldState& st, const Reader& 
 std::vector<std::byte> save_checkpoint(const WorldModel& model, const WorldState& state) {
   Writer payload;
   visit_state(payload, state);
+  visit_chords(payload, model, state);
   Writer out;
   for (char c : kMagic) out(c);
   out(kFormatVersion);
@@ -288,10 +331,12 @@ void restore_checkpoint(const WorldModel& model, WorldState& state, std::span<co
   WorldState staged = state;
   Reader check(payload, true, source);
   visit_state(check, staged);
+  visit_chords(check, model, staged);
   if (!check.at_end()) check.fail("is longer than this world's state");
   check_indices(model, staged, check);
   Reader apply(payload, true, source);
   visit_state(apply, state);
+  visit_chords(apply, model, state);
 }
 
 }  // namespace haustra::detail

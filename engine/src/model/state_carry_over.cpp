@@ -28,10 +28,30 @@ void copy_rotation(const RotationBuffer& from, std::size_t fo, RotationBuffer& t
   copy_range(from.z, fo, to.z, tofs, n);
 }
 
+// Fast mode's chord state of a rod that stays as it was (decision 0037): the same factorization
+// serves on, as it would have without the change around it.
+void carry_chords(const std::vector<NewtonWorkspace>& from, std::size_t a, std::vector<NewtonWorkspace>& to,
+                  std::size_t b) {
+  if (a >= from.size() || b >= to.size()) return;
+  const NewtonWorkspace& f = from[a];
+  NewtonWorkspace& t = to[b];
+  if (f.record.size() != t.record.size() || f.gain.size() != t.gain.size() || f.record.empty() ||
+      f.responses.size() != t.responses.size() || f.chord_pattern.size() > t.chord_pattern.capacity())
+    return;
+  t.chord_ready = f.chord_ready;
+  t.chord_frame = f.chord_frame;
+  t.chord_dt = f.chord_dt;
+  t.chord_pattern = f.chord_pattern;
+  t.record = f.record;
+  t.gain = f.gain;
+  t.base_solution = f.base_solution;
+  t.responses = f.responses;
+}
+
 }  // namespace
 
 void carry_over_state(const WorldModel& from_model, const WorldState& from, const WorldModel& to_model, WorldState& to,
-                      std::span<const std::size_t> rod_map) {
+                      std::span<const std::size_t> rod_map, bool carry_solver) {
   for (std::size_t r = 0; r < rod_map.size(); ++r) {
     if (rod_map[r] == kRodRemoved) continue;
     const SegmentModel& a = from_model.segments[r];
@@ -51,6 +71,7 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
     copy_range(from.now.attachment, a.attachment_offset, to.now.attachment, b.attachment_offset, a.attachments.size());
     if (a.bead_count == b.bead_count)  // beads re-chosen (reconfigure): they start at rest
       copy_range(from.collision.bead_motion, a.bead_offset, to.collision.bead_motion, b.bead_offset, a.bead_count);
+    if (carry_solver) carry_chords(from.newton, r, to.newton, rod_map[r]);
   }
   to.collision.report = from.collision.report;
   to.robust_substeps = from.robust_substeps;
@@ -86,9 +107,9 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
 namespace haustra {
 
 // The new model is built first: a description it refuses leaves the world as it was.
-void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map) {
+void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver) {
   auto fresh = std::make_unique<Impl>(next, detail::build_world_model(next));
-  detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, rod_map);
+  detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, rod_map, carry_solver);
   fresh->events = impl_->events;
   fresh->follow_rod();
   fresh->profile = FrameProfile{};
@@ -101,7 +122,7 @@ std::size_t World::add_segment(const SegmentDesc& segment) {
   std::vector<std::size_t> rod_map(impl_->model.segments.size());
   for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
   const std::size_t first = impl_->model.pieces.size();
-  rebuild(std::move(next), rod_map);
+  rebuild(std::move(next), rod_map, true);
   return first;
 }
 
@@ -118,7 +139,7 @@ void World::remove_segment(std::size_t segment) {
   std::vector<std::size_t> rod_map(impl_->model.segments.size());
   for (std::size_t r = 0; r < rod_map.size(); ++r)
     rod_map[r] = r < piece.rod ? r : r == piece.rod ? detail::kRodRemoved : r - 1;
-  rebuild(std::move(next), rod_map);
+  rebuild(std::move(next), rod_map, true);
 }
 
 void World::reconfigure(WorldDesc next) {
@@ -142,7 +163,7 @@ void World::reconfigure(WorldDesc next) {
                             now.instruments.size()));
   std::vector<std::size_t> rod_map(impl_->model.segments.size());
   for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
-  rebuild(std::move(next), rod_map);
+  rebuild(std::move(next), rod_map, false);
 }
 
 const WorldDesc& World::desc() const { return impl_->desc; }
