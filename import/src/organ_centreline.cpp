@@ -158,6 +158,21 @@ Polyline cut_tips(const Stretch& line, double& radius) {
                            2.0 * radius);
 }
 
+// The last radius at each end laid straight along the line's direction one to two radii in: the
+// sections next to an obliquely cut rim, or to a tip, are tilted, and their centroids hook (a hook
+// at an end is a kink the rod's first sections cannot hold). Lines shorter than four radii stay.
+Polyline straight_ends(const Polyline& p, double spacing, double radius) {
+  const auto k = static_cast<std::size_t>(std::round(radius / spacing));
+  if (k == 0 || p.size() < 4 * k + 2) return p;
+  Polyline out = p;
+  const Eigen::Vector3d t0 = (p[2 * k] - p[k]).normalized(), t1 = (p[p.size() - 1 - k] - p[p.size() - 1 - 2 * k]).normalized();
+  for (std::size_t i = 0; i < k; ++i) {
+    out[i] = p[k] - static_cast<double>(k - i) * spacing * t0;
+    out[p.size() - 1 - i] = p[p.size() - 1 - k] + static_cast<double>(k - i) * spacing * t1;
+  }
+  return out;
+}
+
 }  // namespace
 
 OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
@@ -172,7 +187,9 @@ OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
   const Polyline kept = cut_tips(line, radius);
   out.pulled_back = before - polyline_length(kept);
   out.points = resample(
-      remove_backtracks(smooth(resample(kept, kLineSpacing), kLineSpacing, 0.5 * radius), 0.5 * radius, 2.0 * radius),
+      straight_ends(
+          remove_backtracks(smooth(resample(kept, kLineSpacing), kLineSpacing, 0.5 * radius), 0.5 * radius, 2.0 * radius),
+          kLineSpacing, radius),
       kLineSpacing);
   out.text = fmt::format(
       "computed: the area centroids of a harmonic function's level sets on the outer wall ({} piece{}, {} open "

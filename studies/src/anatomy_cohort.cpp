@@ -10,9 +10,11 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <numbers>
 #include <fstream>
 
 #include "haustra/error.hpp"
+#include "haustra/kernels/pose.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
 
@@ -42,9 +44,33 @@ SceneDesc with_grasp(SceneDesc scene, const World& rest, double lift) {
   const auto node = [&](std::size_t i) { return Eigen::Vector3d(nodes.x[i], nodes.y[i], nodes.z[i]); };
   const Eigen::Vector3d tangent =
       (node(std::min(k + 1, rest.node_count() - 1)) - node(k > 0 ? k - 1 : 0)).normalized();
-  Eigen::Vector3d side = Eigen::Vector3d::UnitZ() - tangent.z() * tangent;
-  if (side.norm() < 0.1) side = Eigen::Vector3d::UnitX() - tangent.x() * tangent;
-  side.normalize();
+  // Of 16 directions square to the organ, the one facing up most whose shaft stays 2 mm clear of
+  // every other bead (an organ that curls round the grasp point would have the shaft in it); if
+  // none does, the clearest.
+  const Eigen::Quaterniond frame = kernels::frame_from_tangent(tangent, Eigen::Vector3d::UnitZ());
+  const Eigen::Vector3d u = frame * Eigen::Vector3d::UnitX(), w = frame * Eigen::Vector3d::UnitY();
+  const auto centres = rest.bead_centres();
+  auto clearance = [&](const Eigen::Vector3d& d) {
+    const Eigen::Vector3d a = node(k) + (radii[nearest] + 0.003) * d, b = a + 0.05 * d;
+    double clear = 1e300;
+    for (std::size_t j = 0; j < radii.size(); ++j) {
+      if (j == nearest) continue;
+      const Eigen::Vector3d c(centres.x[j], centres.y[j], centres.z[j]);
+      const double t = std::clamp((c - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+      clear = std::min(clear, (a + t * (b - a) - c).norm() - radii[j] - 0.003);
+    }
+    return clear;
+  };
+  Eigen::Vector3d side = u, clearest = u;
+  double best_up = -2.0, best_clear = -1e300;
+  for (int i = 0; i < 16; ++i) {
+    const double a = 2.0 * std::numbers::pi * i / 16;
+    const Eigen::Vector3d d = std::cos(a) * u + std::sin(a) * w;
+    const double clear = clearance(d);
+    if (clear > best_clear) best_clear = clear, clearest = d;
+    if (clear > 0.002 && d.z() > best_up) best_up = d.z(), side = d;
+  }
+  if (best_up < -1.5) side = clearest;
   InstrumentDesc g;
   g.name = "grasper";
   g.radius = 0.003;

@@ -166,8 +166,8 @@ std::pair<TubeEnd, TubeEnd> farthest_ends(const TriangleMesh& mesh, const std::v
     for (int e : ends) {
       if (from.open && from.has_loop(static_cast<std::size_t>(e))) continue;
       if (wall_beyond(e, d)) continue;
-      double reach = kNoPath;
-      for (std::uint32_t v : loops[static_cast<std::size_t>(e)]) reach = std::min(reach, d[v]);
+      double reach = 0.0;  // to the loop's far side: an obliquely cut rim reaches as far as it goes
+      for (std::uint32_t v : loops[static_cast<std::size_t>(e)]) reach = std::max(reach, d[v]);
       if (reach < kNoPath && reach > distance) {
         distance = reach;
         best = group_end(loops, group, e);
