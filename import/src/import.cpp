@@ -300,21 +300,12 @@ void off_the_path(TriangleMesh& surface, const Polyline& line, ImportReport& r, 
                 fmt::format("{}: the centreline ({}) reaches only {} of the surface's {} vertices (within eight "
                             "radii): it misses the organ; give its midline with --centreline",
                             file, r.centreline_source, surface.vertices.size() - left, surface.vertices.size()));
-  TriangleMesh kept;
-  std::vector<std::uint32_t> index(surface.vertices.size(), UINT32_MAX);
-  for (const auto& t : surface.triangles) {
-    if (off[t[0]] != 0 || off[t[1]] != 0 || off[t[2]] != 0) continue;
-    std::array<std::uint32_t, 3> nt{};
-    for (int c = 0; c < 3; ++c) {
-      std::uint32_t& slot = index[t[static_cast<std::size_t>(c)]];
-      if (slot == UINT32_MAX) {
-        slot = static_cast<std::uint32_t>(kept.vertices.size());
-        kept.vertices.push_back(surface.vertices[t[static_cast<std::size_t>(c)]]);
-      }
-      nt[static_cast<std::size_t>(c)] = slot;
-    }
-    kept.triangles.push_back(nt);
+  std::vector<std::uint8_t> keep(surface.triangles.size());
+  for (std::size_t t = 0; t < keep.size(); ++t) {
+    const auto& tri = surface.triangles[t];
+    keep[t] = off[tri[0]] == 0 && off[tri[1]] == 0 && off[tri[2]] == 0 ? 1 : 0;
   }
+  TriangleMesh kept = submesh(surface, keep);
   r.off_path_vertices = surface.vertices.size() - kept.vertices.size();
   surface = std::move(kept);
 }

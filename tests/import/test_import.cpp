@@ -170,22 +170,13 @@ TEST_CASE("haustra import: a colon mesh 20 mm shorter at each end than its centr
       if ((mid[i] - v).squaredNorm() < (mid[best] - v).squaredNorm()) best = i;
     return arc[best] > 0.020 && arc[best] < arc.back() - 0.020;
   };
-  TriangleMesh cut;
-  std::vector<std::uint32_t> index(colon.vertices.size(), UINT32_MAX);
-  for (const auto& t : colon.triangles) {
-    if (!kept(colon.vertices[t[0]]) || !kept(colon.vertices[t[1]]) || !kept(colon.vertices[t[2]])) continue;
-    std::array<std::uint32_t, 3> nt{};
-    for (int i = 0; i < 3; ++i) {
-      std::uint32_t& slot = index[t[static_cast<std::size_t>(i)]];
-      if (slot == UINT32_MAX) {
-        slot = static_cast<std::uint32_t>(cut.vertices.size());
-        cut.vertices.push_back(colon.vertices[t[static_cast<std::size_t>(i)]]);
-      }
-      nt[static_cast<std::size_t>(i)] = slot;
-    }
-    cut.triangles.push_back(nt);
-  }
-  save_mesh(dir / "cut.obj", cut);
+  std::vector<std::uint8_t> keep(colon.triangles.size());
+  for (std::size_t t = 0; t < keep.size(); ++t)
+    keep[t] = kept(colon.vertices[colon.triangles[t][0]]) && kept(colon.vertices[colon.triangles[t][1]]) &&
+                      kept(colon.vertices[colon.triangles[t][2]])
+                  ? 1
+                  : 0;
+  save_mesh(dir / "cut.obj", submesh(colon, keep));
   const Imported r = import_and_run(options(dir / "cut.obj", kMidline, dir / "cut.toml"));
   MESSAGE(r.report.text());
   CHECK(r.report.holes == 2);

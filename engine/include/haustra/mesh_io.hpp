@@ -42,6 +42,10 @@ void check_mesh(const TriangleMesh& mesh, const std::string& where);
 // True when every edge is shared by exactly two triangles (the mesh bounds a volume).
 bool is_closed(const TriangleMesh& mesh);
 
+// The triangles for which keep[t] is nonzero, with the vertices they use, numbered in the order
+// the kept triangles first use them.
+TriangleMesh submesh(const TriangleMesh& mesh, std::span<const std::uint8_t> keep);
+
 // Writes a mesh in the format of the file's extension (.obj, .ply binary, .stl, .glb), through
 // assimp's exporters. normals: one per vertex, or empty. Throws Error{io} naming the file.
 void save_mesh(const std::filesystem::path& file, const TriangleMesh& mesh,

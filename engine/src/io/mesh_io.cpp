@@ -5,6 +5,7 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <limits>
 #include <cctype>
 #include <fstream>
 #include <new>
@@ -126,6 +127,25 @@ TriangleMesh load_mesh(const std::filesystem::path& file) {
   TriangleMesh mesh = load_mesh_as_read(file);
   check_mesh(mesh, file.string());
   return mesh;
+}
+
+TriangleMesh submesh(const TriangleMesh& mesh, std::span<const std::uint8_t> keep) {
+  TriangleMesh out;
+  std::vector<std::uint32_t> index(mesh.vertices.size(), std::numeric_limits<std::uint32_t>::max());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    if (keep[t] == 0) continue;
+    std::array<std::uint32_t, 3> tri{};
+    for (std::size_t c = 0; c < 3; ++c) {
+      std::uint32_t& slot = index[mesh.triangles[t][c]];
+      if (slot == std::numeric_limits<std::uint32_t>::max()) {
+        slot = static_cast<std::uint32_t>(out.vertices.size());
+        out.vertices.push_back(mesh.vertices[mesh.triangles[t][c]]);
+      }
+      tri[c] = slot;
+    }
+    out.triangles.push_back(tri);
+  }
+  return out;
 }
 
 bool is_closed(const TriangleMesh& mesh) {

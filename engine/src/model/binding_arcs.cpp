@@ -5,7 +5,6 @@
 #include <cmath>
 #include <numeric>
 #include <optional>
-#include <queue>
 
 #include "haustra/error.hpp"
 #include "haustra/tube_axis.hpp"
@@ -99,30 +98,17 @@ std::size_t follow_dead_ends(const TriangleMesh& piece, std::span<const Eigen::V
     }
   }
   if (misplaced == 0 || misplaced == n) return 0;
-  const Adjacency adj = adjacency(piece);
-  using Item = std::pair<double, std::uint32_t>;
-  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-  std::vector<double> dist(n, kNoPath);
+  std::vector<std::uint32_t> well_placed;
   for (std::uint32_t v = 0; v < n; ++v)
-    if (placed[v] != 0) {
-      dist[v] = 0.0;
-      queue.push({0.0, v});
-    }
-  while (!queue.empty()) {
-    const auto [d, v] = queue.top();
-    queue.pop();
-    if (d > dist[v]) continue;
-    for (std::uint32_t e = adj.start[v]; e < adj.start[v + 1]; ++e) {
-      const std::uint32_t w = adj.to[e];
-      if (placed[w] != 0 || d + adj.length[e] >= dist[w]) continue;
-      dist[w] = d + adj.length[e];
-      const double reach = 2.0 * adj.length[e] + 1e-3;
-      const double lo = std::max(0.0, arc[v] - reach), hi = std::min(length, arc[v] + reach);
-      arc[w] = closest_arc_between(samples, length, piece.vertices[w], static_cast<std::size_t>(lo / per_sample),
-                                   static_cast<std::size_t>(std::ceil(hi / per_sample)) + 1);
-      queue.push({dist[w], w});
-    }
-  }
+    if (placed[v] != 0) well_placed.push_back(v);
+  // Out from the well-placed vertices: each vertex reached looks near the place of the one it was
+  // reached from (within twice the edge, and a millimetre).
+  dijkstra_within(adjacency(piece), n, well_placed, kNoPath, [&](std::uint32_t v, std::uint32_t w, double edge) {
+    const double reach = 2.0 * edge + 1e-3;
+    const double lo = std::max(0.0, arc[v] - reach), hi = std::min(length, arc[v] + reach);
+    arc[w] = closest_arc_between(samples, length, piece.vertices[w], static_cast<std::size_t>(lo / per_sample),
+                                 static_cast<std::size_t>(std::ceil(hi / per_sample)) + 1);
+  });
   // Where even that runs astray (a surface whose topology is no tube's), the closest point.
   for (std::size_t v = 0; v < n; ++v) {
     const Eigen::Vector3d& x = piece.vertices[v];

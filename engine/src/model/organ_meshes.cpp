@@ -75,29 +75,22 @@ void split_into_pieces(const TriangleMesh& mesh, const WorldModel& m, const Segm
     for (std::size_t k = 0; k < m.pieces[p].first_node; ++k) s += m.section_length[off + k];
     starts.push_back(s);
   }
-  std::vector<std::vector<std::uint32_t>> index(seg.piece_count,
-                                                std::vector<std::uint32_t>(mesh.vertices.size(), UINT32_MAX));
-  for (const auto& t : mesh.triangles) {
-    const double at = (arc[t[0]] + arc[t[1]] + arc[t[2]]) / 3.0;
-    const auto p = static_cast<std::size_t>(std::upper_bound(starts.begin() + 1, starts.end(), at) - starts.begin() - 1);
-    TriangleMesh& piece = meshes[seg.first_piece + p];
-    std::array<std::uint32_t, 3> local{};
-    for (int c = 0; c < 3; ++c) {
-      std::uint32_t& slot = index[p][t[static_cast<std::size_t>(c)]];
-      if (slot == UINT32_MAX) {
-        slot = static_cast<std::uint32_t>(piece.vertices.size());
-        piece.vertices.push_back(mesh.vertices[t[static_cast<std::size_t>(c)]]);
-      }
-      local[static_cast<std::size_t>(c)] = slot;
-    }
-    piece.triangles.push_back(local);
+  std::vector<std::size_t> piece_of(mesh.triangles.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    const double at = (arc[tri[0]] + arc[tri[1]] + arc[tri[2]]) / 3.0;
+    piece_of[t] = static_cast<std::size_t>(std::upper_bound(starts.begin() + 1, starts.end(), at) - starts.begin() - 1);
   }
-  for (std::size_t p = 0; p < seg.piece_count; ++p)
+  std::vector<std::uint8_t> keep(mesh.triangles.size());
+  for (std::size_t p = 0; p < seg.piece_count; ++p) {
+    for (std::size_t t = 0; t < keep.size(); ++t) keep[t] = piece_of[t] == p ? 1 : 0;
+    meshes[seg.first_piece + p] = submesh(mesh, keep);
     if (meshes[seg.first_piece + p].triangles.empty())
       fail(ErrorCode::invalid_geometry, where + ".file",
            fmt::format("no part of the mesh lies along piece {} of the chain (from {:.3f} m along the rod): fewer "
                        "pieces ([segment.chain] pieces) or a mesh that covers the whole centreline",
                        p + 1, starts[p]));
+  }
 }
 
 std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,

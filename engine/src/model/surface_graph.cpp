@@ -41,7 +41,7 @@ Adjacency adjacency(const TriangleMesh& mesh) {
 }
 
 std::vector<double> dijkstra_within(const Adjacency& adj, std::size_t n, const std::vector<std::uint32_t>& from,
-                                    double limit) {
+                                    double limit, const DistanceImproved& improved) {
   std::vector<double> dist(n, kNoPath);
   using Item = std::pair<double, std::uint32_t>;
   std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
@@ -58,6 +58,7 @@ std::vector<double> dijkstra_within(const Adjacency& adj, std::size_t n, const s
       const double next = d + adj.length[e];
       if (next < dist[w] && next <= limit) {
         dist[w] = next;
+        if (improved) improved(v, w, adj.length[e]);
         queue.push({next, w});
       }
     }

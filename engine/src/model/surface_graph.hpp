@@ -2,6 +2,7 @@
 // A triangle mesh as a graph of its vertices and edges: neighbours with edge lengths, and distances
 // along the edges (Dijkstra, ties broken by vertex index, so the same mesh gives the same answer).
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <vector>
 
@@ -22,8 +23,10 @@ struct Adjacency {
 Adjacency adjacency(const TriangleMesh& mesh);
 
 // Distances along the edges from a set of vertices, stopping at `limit` (beyond it: kNoPath).
+// `improved(v, w, edge)`, if given, is told each time w's distance improves by way of v.
+using DistanceImproved = std::function<void(std::uint32_t, std::uint32_t, double)>;
 std::vector<double> dijkstra_within(const Adjacency& adj, std::size_t n, const std::vector<std::uint32_t>& from,
-                                    double limit);
+                                    double limit, const DistanceImproved& improved = {});
 std::vector<double> dijkstra(const Adjacency& adj, std::size_t n, const std::vector<std::uint32_t>& from);
 
 // The vertex of largest finite distance (the lowest index among equals).
