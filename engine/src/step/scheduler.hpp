@@ -6,6 +6,7 @@
 #include <oneapi/tbb/partitioner.h>
 #include <oneapi/tbb/task_arena.h>
 #include <algorithm>
+#include <array>
 
 #include "haustra/world_desc.hpp"
 
@@ -17,19 +18,26 @@ namespace haustra::detail {
 
 // oneTBB orders each task after its dispatch and the caller after every task, but Debian's libtbb
 // is not built with ThreadSanitizer, so that ordering is invisible to it and everything a stage
-// shares looks racy. Under TSan the same ordering is stated explicitly, on a fixed address a task
-// can name before it reads anything shared; other builds compile it away.
+// shares looks racy. Under TSan the same ordering is stated explicitly, and only that ordering:
+// each task acquires what the dispatch released and releases on an address of its own, which the
+// join acquires — so two tasks of one call are never ordered with each other (one address for
+// all would order a task after any that happened to end before it began, hiding their races).
+// Other builds compile it away.
 #if defined(__SANITIZE_THREAD__)
-inline char g_task_ordering = 0;
-inline void task_dispatch() { __tsan_release(&g_task_ordering); }
-inline void task_begin() { __tsan_acquire(&g_task_ordering); }
-inline void task_end() { __tsan_release(&g_task_ordering); }
-inline void tasks_joined() { __tsan_acquire(&g_task_ordering); }
+inline constexpr std::size_t kTaskAddresses = 4096;
+inline char g_task_dispatch = 0;
+inline std::array<char, kTaskAddresses> g_task_done{};
+inline void task_dispatch() { __tsan_release(&g_task_dispatch); }
+inline void task_begin() { __tsan_acquire(&g_task_dispatch); }
+inline void task_end(std::size_t task) { __tsan_release(&g_task_done[task % kTaskAddresses]); }
+inline void tasks_joined(std::size_t tasks) {
+  for (std::size_t t = 0; t < std::min(tasks, kTaskAddresses); ++t) __tsan_acquire(&g_task_done[t]);
+}
 #else
 inline void task_dispatch() {}
 inline void task_begin() {}
-inline void task_end() {}
-inline void tasks_joined() {}
+inline void task_end(std::size_t) {}
+inline void tasks_joined(std::size_t) {}
 #endif
 
 // Model building's parallel loops (cages, weights): fn(first, last) over [0, count) in blocks of
@@ -43,11 +51,11 @@ void parallel_blocks(std::size_t count, std::size_t grain, F&& fn) {
   const auto body = [&fn, count, grain](std::size_t b) {
     task_begin();
     fn(b * grain, std::min(count, (b + 1) * grain));
-    task_end();
+    task_end(b);
   };
   task_dispatch();
   tbb::parallel_for(std::size_t{0}, blocks, body, tbb::simple_partitioner{});
-  tasks_joined();
+  tasks_joined(blocks);
 }
 
 template <class F>
@@ -80,7 +88,7 @@ class Scheduler {
     const auto body = [&fn](std::size_t i) {
       task_begin();
       fn(i);
-      task_end();
+      task_end(i);
     };
     if (jobs_.enabled()) {
       run_on_host(count, fn);
@@ -88,7 +96,7 @@ class Scheduler {
     }
     task_dispatch();
     arena_.execute([&] { tbb::parallel_for(std::size_t{0}, count, body, tbb::simple_partitioner{}); });
-    tasks_joined();
+    tasks_joined(count);
   }
 
  private:
@@ -102,14 +110,14 @@ class Scheduler {
       task_begin();
       F& f = *static_cast<Batch*>(data)->fn;
       for (std::size_t i = first; i < last; ++i) f(i);
-      task_end();
+      task_end(first);  // ranges start at distinct indices
     };
     const std::size_t ranges = std::min(count, static_cast<std::size_t>(threads_));
     task_dispatch();
     for (std::size_t r = 0; r < ranges; ++r)
       jobs_.enqueue(jobs_.host, task, &batch, r * count / ranges, (r + 1) * count / ranges);
     jobs_.wait(jobs_.host);
-    tasks_joined();
+    tasks_joined(count);
   }
 
   int threads_;
