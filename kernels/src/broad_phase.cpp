@@ -92,6 +92,9 @@ std::int64_t SphereGrid::cell_of(double coordinate, int axis) const {
 void SphereGrid::build(const SphereSet& s, double margin, double cell) {
   const std::size_t n = s.size();
   margin_ = margin;
+  // The most buckets either way (dense: the cells allowed; hashed: twice the spheres, rounded up to
+  // a power of two), reserved once: a scene that spreads out later must not allocate in a step.
+  bucket_start_.reserve(std::max(kMaxDenseCells, kDenseCellsPerSphere * n) + 4 * n + 1);
   unsorted_.clear();
   large_.clear();
   is_large_.assign(n, 0);

@@ -1,6 +1,7 @@
 #pragma once
-// Counts heap allocations through operator new while a scope is armed (the replacement operators
-// live in allocation_counter.cpp and serve the whole test binary).
+// Counts heap allocations while a scope is armed: operator new everywhere, and malloc and its kin
+// where no sanitizer owns them (the replacements live in allocation_counter.cpp and serve the
+// whole test binary).
 #include <atomic>
 #include <cstddef>
 
