@@ -175,8 +175,9 @@ behind it: **ok** — it held on its own; **robust** — the guard had frames re
 **error** — stopped with a named cause.
 
 No cell ended with a non-finite value. Regenerate this file with `make stability-doc`
-(`haustra stability --markdown --csv … > docs/stability.md`, then `scripts/plots.py stability`);
-the tests `stability sweep` assert the same properties (the stiff floor at N ≤ 20 there; the whole
+(`haustra stability --markdown --csv tests/data/stability-map.csv > docs/stability.md`, then
+`scripts/plots.py stability`); the tests `stability sweep` run the cells again and assert each one's
+outcome, lagged and fast, against that committed table (the stiff floor at N ≤ 20 there; the whole
 map takes under a minute on one core).
 
 What the map says:

@@ -463,5 +463,6 @@ TEST_CASE("the CT colon's rest pose is its input mesh, measured against the file
   }
   MESSAGE("CT colon at rest: every vertex within " << worst << " m of the file's (the engine reports "
                                                    << info.skin.rest_error << ")");
-  test::measured("CT colon at rest against its mesh file, largest vertex distance", worst, 2e-7, "m");
+  // Mesh positions are floats: half an ulp of 0.3 m is 1.5e-8 m (measured 1.8e-8 m).
+  test::measured("CT colon at rest against its mesh file, largest vertex distance", worst, 1e-7, "m");
 }

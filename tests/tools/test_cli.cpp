@@ -76,7 +76,7 @@ TEST_CASE("haustra run writes a summary with counts, stage times and final posit
   const auto tip = j["segments"][0]["final_node_positions_m"].back();
   const auto ref = haustra::reference::elastica_cantilever_tip(3.0);
   const double err = std::hypot(tip[0].get<double>() - ref.x, tip[2].get<double>() - ref.z);
-  CHECK(err < 0.005 * std::hypot(1.0 - ref.x, ref.z));
+  CHECK(err < 3e-4 * std::hypot(1.0 - ref.x, ref.z));  // measured 3.8e-5 of the tip's deflection
   CHECK(fs::exists(dir / "frames.csv"));
   CHECK(fs::exists(dir / "nodes.csv"));
 }
