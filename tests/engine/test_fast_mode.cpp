@@ -63,17 +63,44 @@ TEST_CASE("fast mode on drop: the fall as converged Newton's, factorizations reu
     a->step();
     b->step();
   }
-  CHECK(largest_distance(*a, *b) < 1e-10);
+  const double before_contact = largest_distance(*a, *b);
   int iterations = 0, chords = 0;
   std::size_t most_touching = 0;
+  double after_contact = 0.0;  // the largest gap to converged Newton once beads touch
+  double centroid_gap = 0.0;   // the rod's centre of mass against converged Newton's, once touching
+  int first_touch_a = -1, first_touch_b = -1;
+  auto centroid = [](const World& w) {
+    const auto p = w.node_positions();
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < w.node_count(); ++k) c += p.get(k);
+    return Eigen::Vector3d(c / static_cast<double>(w.node_count()));
+  };
   for (int f = 10; f < 150; ++f) {
     a->step();
+    b->step();
     iterations += a->last_profile().iterations;
     chords += a->last_profile().chords;
     most_touching = std::max(most_touching, a->contacts().touching);
+    if (first_touch_a < 0 && a->contacts().touching > 0) first_touch_a = f;
+    if (first_touch_b < 0 && b->contacts().touching > 0) first_touch_b = f;
+    if (a->contacts().touching > 0) {
+      after_contact = std::max(after_contact, largest_distance(*a, *b));
+      centroid_gap = std::max(centroid_gap, (centroid(*a) - centroid(*b)).norm());
+    }
   }
+
   MESSAGE("drop in fast mode, frames 10–150: " << chords << " of " << iterations
-                                               << " iterations reused a factorization");
+                                               << " iterations reused a factorization; from converged Newton "
+                                               << before_contact << " m at frame 10, up to " << after_contact
+                                               << " m at a node once touching, the centre of mass within "
+                                               << centroid_gap << " m; first touch at frames " << first_touch_a
+                                               << " and " << first_touch_b);
+  CHECK(before_contact < 5e-12);  // measured 5.3e-13 m: one iteration a frame, converged while falling
+  // Once beads touch, a pile-up is chaotic: a micrometre at the first touch grows to centimetres at
+  // a node (measured 77 mm), so the comparison is of what the pile does as a whole — the centre of
+  // mass (measured within 11.8 mm) and when it lands (frames 17 and 15).
+  CHECK(centroid_gap < 0.1);
+  CHECK(std::abs(first_touch_a - first_touch_b) <= 3);
   CHECK(most_touching > 10);       // it landed and piled up
   CHECK(chords > iterations / 2);  // mostly reused
   CHECK(chords < iterations);      // and factored afresh where contacts began

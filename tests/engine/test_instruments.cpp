@@ -19,16 +19,6 @@ std::unique_ptr<World> grasp_pull(int threads = 1) {
   return create_world(scene);
 }
 
-// Σ of what the instrument's contacts and its grasp exert on the rod, from the public outputs.
-Eigen::Vector3d forces_on_rod_from(const World& w, std::size_t instrument) {
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (const Contact& c : w.contact_list())
-    if (c.kind == ContactKind::instrument && c.other == instrument) sum += c.force;
-  const InstrumentReading r = w.instrument(instrument);
-  if (r.grasping) sum += w.attachment_force(r.grasped_segment, r.grasp_attachment);
-  return sum;
-}
-
 // Σ of what the floor exerts on the rod.
 Eigen::Vector3d floor_force(const World& w) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -39,10 +29,9 @@ Eigen::Vector3d floor_force(const World& w) {
 
 }  // namespace
 
-// The force's real check is the equilibrium test below; this one holds the grasp to the jaws and
-// keeps the bookkeeping honest (the reading is the negative of what the engine applied to the rod).
-TEST_CASE(
-    "grasp-pull: the grasped node follows the grasper, and the reading is the applied force's reaction (bookkeeping)") {
+// The force's check is the equilibrium test below (the reading against the weight the floor does
+// not carry); this one holds the grasp to the jaws.
+TEST_CASE("grasp-pull: the grasped node follows the grasper") {
   auto w = grasp_pull();
   REQUIRE(w->instrument_count() == 1);
   // Stated tolerance: the grasped node stays within a micrometre of where the grasp holds it
@@ -55,9 +44,6 @@ TEST_CASE(
   for (int f = 1; f <= 240; ++f) {
     w->step();
     const InstrumentReading r = w->instrument(0);
-    const Eigen::Vector3d on_rod = forces_on_rod_from(*w, 0);
-    // The reading is the reaction of what the instrument does to the rod, every frame.
-    REQUIRE((r.force + on_rod).norm() <= 1e-12 * std::max(1.0, on_rod.norm()));
     if (!r.grasping) {
       CHECK(first_grasp < 0);  // once grasped it is never let go in this scene
       continue;

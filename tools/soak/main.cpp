@@ -12,6 +12,9 @@
 // or make it creep. So every frame must lie within [¼, 4] times the warm-up's extremes (cycles 2
 // to 4; the first is the fall from hanging), and the mean over the last tenth of the samples within
 // ±25 % of the mean over the first tenth after warm-up.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#include <sanitizer/allocator_interface.h>
+#endif
 #include <fmt/format.h>
 #include <malloc.h>
 
@@ -53,7 +56,12 @@ long resident_kib() {
 }
 
 // Bytes the allocator has handed out and not taken back (glibc; 0 under a sanitizer's allocator).
+// glibc's count, or the sanitizer's allocator's where one replaces glibc's (mallinfo2 reads 0 there).
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+std::size_t heap_in_use() { return __sanitizer_get_current_allocated_bytes(); }
+#else
 std::size_t heap_in_use() { return mallinfo2().uordblks; }
+#endif
 
 struct Grasper {
   Eigen::Vector3d park{0.0, 0.0, 0.6};             // where it waits, high above the rod
