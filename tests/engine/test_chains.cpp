@@ -9,21 +9,16 @@
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
+#include "scene_fixtures.hpp"
 
 using namespace haustra;
 
 namespace {
 
-SceneDesc scene_file(const std::string& name, const std::vector<std::string>& sets = {}) {
-  SceneDesc s = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
-  s.world.threads = 1;
-  return s;
-}
-
 // `drop` (a rectum falling onto the floor and onto itself) as 7 chained pieces of 25 nodes with
 // 9 beads each, or as the one rod of the same 169 nodes and 57 beads (every third node).
 SceneDesc drop_as(bool chained) {
-  SceneDesc s = scene_file("drop");
+  SceneDesc s = test::scene_desc("drop");
   SegmentDesc& d = s.world.segments.at(0);
   if (chained) {
     d.chain_pieces = 7;
@@ -144,7 +139,7 @@ TEST_CASE("each piece of a chain carries its own mesh, which follows the piece")
 
 TEST_CASE("a chain with a mesh file: each piece gets the part of the surface along it and its own cage") {
   // The CT colon as one segment, then as a chain of 3 pieces of the same 163 nodes.
-  SceneDesc one = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/anatomy-grasp.toml");
+  SceneDesc one = test::scene_desc("anatomy-grasp");
   one.world.instruments.clear();
   one.world.segments[0].nodes = 163;
   one.world.segments[0].beads.count = 54;
@@ -173,7 +168,7 @@ TEST_CASE("a chain with a mesh file: each piece gets the part of the surface alo
 }
 
 TEST_CASE("the bowel scene: 32 chained segments in a box, touching each other, a grasper lifts a loop") {
-  SceneDesc s = scene_file("bowel");
+  SceneDesc s = test::scene_desc("bowel");
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
   s.world.segments[0].mesh.enabled = false;  // the meshes' cages and weights: most of the time under ASan
 #endif
@@ -251,7 +246,7 @@ TEST_CASE("a segment added between frames leaves the others' motion unchanged, b
     before = 4;
   }
   SUBCASE("lagged") { mode = "lagged"; }
-  SceneDesc one = scene_file("drop", {std::string("solver.mode=") + mode});
+  SceneDesc one = test::scene_desc("drop", {std::string("solver.mode=") + mode});
   SceneDesc two = one;
   const SegmentDesc far = far_copy(one);
   two.world.segments.push_back(far);
@@ -294,7 +289,7 @@ TEST_CASE("a segment added between frames leaves the others' motion unchanged, b
 }
 
 TEST_CASE("a segment removed between frames leaves the others stepping on, bit for bit") {
-  SceneDesc one = scene_file("drop");
+  SceneDesc one = test::scene_desc("drop");
   SceneDesc two = one;
   const SegmentDesc far = far_copy(one);
   two.world.segments.insert(two.world.segments.begin(), far);  // the far one first: removal moves the other down
@@ -321,7 +316,7 @@ TEST_CASE("a segment removed between frames leaves the others stepping on, bit f
 }
 
 TEST_CASE("a grasp survives a segment added beside it, and removing the grasped segment lets it go") {
-  SceneDesc s = scene_file("grasp-pull");
+  SceneDesc s = test::scene_desc("grasp-pull");
   const SegmentDesc far = far_copy(s);
   auto changed = create_world(s);
   auto unchanged = create_world(s);
@@ -352,7 +347,7 @@ TEST_CASE("a grasp survives a segment added beside it, and removing the grasped 
 }
 
 TEST_CASE("reconfigure: the same description steps on bit for bit, a new one from frame 0 is a fresh world of it") {
-  SceneDesc s = scene_file("grasp-pull");
+  SceneDesc s = test::scene_desc("grasp-pull");
   auto changed = create_world(s);
   auto unchanged = create_world(s);
   for (int f = 0; f < 60; ++f) {  // grasping from frame 36
@@ -385,7 +380,7 @@ TEST_CASE("reconfigure: the same description steps on bit for bit, a new one fro
 }
 
 TEST_CASE("reconfigure: new beads let a grasp go, new nodes or instruments are refused and leave the world as it was") {
-  SceneDesc s = scene_file("grasp-pull");
+  SceneDesc s = test::scene_desc("grasp-pull");
   auto w = create_world(s);
   for (int f = 0; f < 60; ++f) w->step();
   REQUIRE(w->instrument(0).grasping);

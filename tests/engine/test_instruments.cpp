@@ -7,6 +7,7 @@
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
+#include "scene_fixtures.hpp"
 #include "measured.hpp"
 
 using namespace haustra;
@@ -14,9 +15,7 @@ using namespace haustra;
 namespace {
 
 std::unique_ptr<World> grasp_pull(int threads = 1) {
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/grasp-pull.toml");
-  scene.world.threads = threads;
-  return create_world(scene);
+  return test::scene_world("grasp-pull", threads);
 }
 
 // Σ of what the floor exerts on the rod.

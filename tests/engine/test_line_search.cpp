@@ -9,6 +9,7 @@
 #include "haustra/scene.hpp"
 #include "haustra/studies/references.hpp"
 #include "haustra/world.hpp"
+#include "scene_fixtures.hpp"
 
 using namespace haustra;
 
@@ -16,9 +17,8 @@ namespace {
 
 // scenes/cantilever.toml (1 m, 101 nodes, elastic, no gravity) with its tip load raised to PL²/B.
 SceneDesc cantilever(double load_parameter) {
-  SceneDesc sc = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/cantilever.toml", {});
+  SceneDesc sc = test::scene_desc("cantilever");
   sc.world.segments[0].loads[0].force *= load_parameter / 3.0;  // the scene's load is PL²/B = 3
-  sc.world.threads = 1;
   return sc;
 }
 

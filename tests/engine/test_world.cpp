@@ -20,8 +20,7 @@ using test::positions;
 
 std::vector<double> run_scene(const std::string& name, int threads, int frames, std::vector<std::string> sets = {},
                               HostJobPool* pool = nullptr) {
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
-  scene.world.threads = threads;
+  SceneDesc scene = test::scene_desc(name, sets, threads);
   if (pool != nullptr) scene.world.jobs = {&HostJobPool::enqueue, &HostJobPool::wait, pool, threads};
   auto w = create_world(scene);
   for (int f = 0; f < frames; ++f) w->step();
@@ -122,8 +121,7 @@ TEST_CASE("the whole state, byte for byte at every frame, with 1 thread, 2 threa
                         Case{"bowel", fast_frames, {coarse, pieces, "solver.mode=fast"}},
                         Case{"two-segments", pair_frames, {}}}) {
     auto make = [&](int threads, HostJobPool* pool) {
-      SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + c.scene + ".toml", c.sets);
-      scene.world.threads = threads;
+      SceneDesc scene = test::scene_desc(c.scene, c.sets, threads);
       if (pool != nullptr) scene.world.jobs = {&HostJobPool::enqueue, &HostJobPool::wait, pool, threads};
       for (InstrumentDesc& i : scene.world.instruments)
         for (InstrumentKeyframe& k : i.keyframes) k.time *= script_pace;
@@ -225,9 +223,7 @@ TEST_CASE("a step allocates nothing in the scenes that use every stage, on 2 thr
   };
   for (const Case& c : {Case{"demo", {}, 50}, Case{"drop", {}, 40}, Case{"drop", {"solver.mode=fast"}, 40},
                         Case{"bowel", {}, 35}, Case{"cantilever", {"solver.mode=lagged"}, 10}}) {
-    SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + c.scene + ".toml", c.sets);
-    scene.world.threads = 2;
-    auto w = create_world(scene);
+    auto w = test::scene_world(c.scene, 2, c.sets);
     for (int f = 0; f < c.warm_up; ++f) w->step();
     std::size_t allocations = 0;
     int newton_frames = 0;
@@ -414,8 +410,7 @@ TEST_CASE("a host that pushes too hard: the frame is refused, nodes and mesh buf
   // host pulls the tip, which that scheme cannot hold for an elastic rod (it diverges). With
   // on_instability = "stop" the step throws Error{unstable}; everything a host reads must still be
   // the last good frame, bit for bit, and finite.
-  const SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/tests/scenes/lagged-elastic-colon.toml");
-  auto w = create_world(scene);
+  auto w = test::scene_world("tests/scenes/lagged-elastic-colon.toml");
   w->set_external_load(w->node_count() - 1, Eigen::Vector3d(0.0, 0.0, 1e-3), Eigen::Vector3d::Zero());
   for (int f = 0; f < 5; ++f) w->step();
   auto mesh_copy = [&] {

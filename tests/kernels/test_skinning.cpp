@@ -21,6 +21,7 @@
 #include "haustra/studies/skinning_study.hpp"
 #include "haustra/world.hpp"
 #include "measured.hpp"
+#include "scene_fixtures.hpp"
 #include "model/skin_binding.hpp"
 #include "model/world_model.hpp"
 
@@ -235,7 +236,7 @@ TEST_CASE("rigid-group skinning equals the plain sparse product over cage vertic
 }
 
 TEST_CASE("a rigid motion of the rod moves the skinned mesh rigidly (curved CT colon, localized weights)") {
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/anatomy-grasp.toml");
+  SceneDesc scene = test::scene_desc("anatomy-grasp");
   const detail::WorldModel m = detail::build_world_model(scene.world);
   const detail::SegmentMesh& mesh = m.meshes_of[0];
   // The mesh at rest, skinned with the rings at rest (one model build: the CT colon's cage and
@@ -265,7 +266,7 @@ TEST_CASE("a rigid motion of the rod moves the skinned mesh rigidly (curved CT c
 }
 
 TEST_CASE("the CT colon: cage built around its own mesh, embedded, bound with diagnostics") {
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/anatomy-grasp.toml");
+  SceneDesc scene = test::scene_desc("anatomy-grasp");
   const detail::WorldModel m = detail::build_world_model(scene.world);
   const MeshInfo& info = m.meshes_of[0].info;
   CHECK(info.vertices.count == 9958);
@@ -310,9 +311,7 @@ TEST_CASE("skinned meshes and their normals are bit-identical with 1 and 2 threa
   for (const char* name : {"demo", "anatomy-grasp"}) {
 #endif
     auto world = [&](int threads) {
-      SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml");
-      scene.world.threads = threads;
-      return create_world(scene);
+      return test::scene_world(name, threads);
     };
     auto one = world(1), two = world(2);
     REQUIRE(two->threads() == 2);
@@ -339,7 +338,7 @@ TEST_CASE("skinned meshes and their normals are bit-identical with 1 and 2 threa
 }
 
 TEST_CASE("vertex normals: unit, area-weighted, equal to a double-precision sum over each vertex's triangles") {
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/demo.toml");
+  SceneDesc scene = test::scene_desc("demo");
   std::unique_ptr<World> w = create_world(scene);
   for (int f = 0; f < 30; ++f) w->step();
   const auto p = w->mesh_positions();
@@ -447,7 +446,7 @@ TEST_CASE("mesh accessors name a bad segment index") {
 TEST_CASE("the CT colon's rest pose is its input mesh, measured against the file") {
   // Independent of the engine's own rest_error: the file read again here, scaled to metres, and
   // compared with what the world shows before its first step.
-  const SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/anatomy-grasp.toml");
+  const SceneDesc scene = test::scene_desc("anatomy-grasp");
   const OrganMeshDesc& desc = scene.world.segments[0].mesh;
   const TriangleMesh input = load_mesh(desc.file);
   auto w = create_world(scene);

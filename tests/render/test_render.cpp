@@ -5,6 +5,7 @@
 
 #include "haustra/render/render.hpp"
 #include "haustra/scene.hpp"
+#include "scene_fixtures.hpp"
 
 using namespace haustra;
 
@@ -35,7 +36,7 @@ Census census(const render::Picture& p, render::Shows what) {
 }  // namespace
 
 TEST_CASE("a rendered scene: the organ in frame, the floor below it, the strain overlay's range") {
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/demo.toml");
+  SceneDesc scene = test::scene_desc("demo");
   std::unique_ptr<World> w = create_world(scene);
   for (int f = 0; f < 90; ++f) w->step();  // lifted in the middle
   render::RenderOptions o;

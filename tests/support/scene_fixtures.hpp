@@ -10,18 +10,19 @@
 
 namespace haustra::test {
 
-// scenes/NAME.toml with `sets` applied, on one thread.
-inline SceneDesc scene_desc(const std::string& name, std::vector<std::string> sets = {}) {
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
-  scene.world.threads = 1;
+// The one way the tests build a world from a scene file: scenes/NAME.toml (or a path under the
+// source tree, "tests/scenes/NAME.toml") with `sets` applied, on `threads` threads (1 unless said).
+inline SceneDesc scene_desc(const std::string& name, std::vector<std::string> sets = {}, int threads = 1) {
+  const std::string file = name.find('/') != std::string::npos ? std::string(HAUSTRA_SOURCE_DIR) + "/" + name
+                                                                : std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml";
+  SceneDesc scene = load_scene(file, sets);
+  scene.world.threads = threads;
   return scene;
 }
 
 inline std::unique_ptr<World> scene_world(const std::string& name, int threads = 1,
                                           std::vector<std::string> sets = {}) {
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml", sets);
-  scene.world.threads = threads;
-  return create_world(scene);
+  return create_world(scene_desc(name, std::move(sets), threads));
 }
 
 inline std::vector<double> positions(const World& w) {
