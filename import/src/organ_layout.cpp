@@ -49,22 +49,6 @@ double fraction_inside(const TriangleMesh& outer, const TriangleMesh& inner) {
   return w.empty() ? 0.0 : w[w.size() / 2];
 }
 
-struct LoopShape {
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  double radius = 0.0, perimeter = 0.0;
-};
-
-LoopShape loop_shape(const TriangleMesh& mesh, const std::vector<std::uint32_t>& loop) {
-  LoopShape s;
-  for (std::uint32_t v : loop) s.centre += mesh.vertices[v];
-  s.centre /= static_cast<double>(loop.size());
-  for (std::size_t i = 0; i < loop.size(); ++i) {
-    s.radius += (mesh.vertices[loop[i]] - s.centre).norm() / static_cast<double>(loop.size());
-    s.perimeter += (mesh.vertices[loop[(i + 1) % loop.size()]] - mesh.vertices[loop[i]]).norm();
-  }
-  return s;
-}
-
 double triangle_area(const TriangleMesh& m) {
   double a = 0.0;
   for (const auto& t : m.triangles)
@@ -88,8 +72,7 @@ void find_lumens(std::vector<OrganPiece>& pieces) {
   for (std::size_t b = 0; b < n; ++b) {
     std::size_t best = n;
     for (std::size_t a = 0; a < n; ++a)
-      if (inside[b][a] >= 0.3 && inside[b][a] > inside[a][b] && (best == n || inside[b][a] > inside[b][best]))
-        best = a;
+      if (inside[b][a] >= 0.3 && inside[b][a] > inside[a][b] && (best == n || inside[b][a] > inside[b][best])) best = a;
     if (best < n) pieces[b].inside_of = static_cast<int>(best);
   }
   // A lumen of a lumen belongs to the outer wall around both.
@@ -145,8 +128,6 @@ double piece_length(const OrganPiece& p) {
 }  // namespace
 
 std::string OrganLayout::text() const {
-  std::size_t outer = 0;
-  for (const auto& p : pieces) outer += p.inside_of < 0 ? 1 : 0;
   std::string t = path.size() == 1 ? "one piece" : fmt::format("{} pieces joined end to end", path.size());
   if (!lumens.empty())
     t += fmt::format(", walled: {} lumen shell{} inside the outer wall", lumens.size(), lumens.size() == 1 ? "" : "s");

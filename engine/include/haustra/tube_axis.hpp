@@ -28,6 +28,13 @@ struct TubeEnd {
   }
 };
 
+// A boundary loop's mean point, mean distance of its vertices from it, and length.
+struct LoopShape {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  double radius = 0.0, perimeter = 0.0;
+};
+LoopShape loop_shape(const TriangleMesh& mesh, const std::vector<std::uint32_t>& loop);
+
 // Boundary loops grouped into ends: loops whose centres lie within half the larger one's radius
 // of each other (a walled tube's outer rim and lumen rim) are one end. Per loop, its group's number.
 std::vector<int> loop_groups(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops);
@@ -40,15 +47,14 @@ std::vector<double> edge_distances(const TriangleMesh& mesh, const std::vector<s
 
 // The two ends farthest apart along the surface: from `start` if given, else from the extremity
 // found by sweeping from vertex 0; the far end is the farthest vertex's loop, or that vertex.
-std::pair<TubeEnd, TubeEnd> farthest_ends(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops,
+std::pair<TubeEnd, TubeEnd> farthest_ends(const TriangleMesh& mesh,
+                                          const std::vector<std::vector<std::uint32_t>>& loops,
                                           const std::optional<TubeEnd>& start);
 
 struct CrossSection {
   double u = 0.0;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // area centroid of the level's contour
-  double area = 0.0;                                  // enclosed, projected on its best plane
-  double perimeter = 0.0;
-  int pieces = 1;  // closed contours at this level (1 along a simple tube)
+  double area = 0.0;                                 // enclosed, projected on its best plane
 };
 
 struct TubeAxis {
@@ -61,11 +67,15 @@ struct TubeAxis {
 
 // Throws Error{invalid_geometry} when the ends coincide or the surface is not connected between them.
 // `spacing`: the largest gap wanted between consecutive section centres (levels are refined until met).
-TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops,
-                   const TubeEnd& start, const TubeEnd& end, double spacing);
+TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops, const TubeEnd& start,
+                   const TubeEnd& end, double spacing);
 
-// Arc length along the section centres at each section (0 at the first).
-std::vector<double> section_arcs(const std::vector<CrossSection>& sections);
+// One contour per level, the levels by ascending u, each a level's closed contours (one along a
+// simple tube, several where loops are fused into handles): the longest line through their centres
+// that steps only from a contour to its continuation on the next level (one is the other's nearest,
+// within a few `spacing`s or the contours' own size), so it follows the tube round its loops rather
+// than across a fusion, and never zigzags between parallel contours.
+std::vector<CrossSection> section_path(const std::vector<std::vector<CrossSection>>& levels, double spacing);
 
 // The value of a monotone table (xs ascending) at x, linear between entries, clamped at its ends.
 double interpolate(const std::vector<double>& xs, const std::vector<double>& ys, double x);

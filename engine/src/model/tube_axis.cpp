@@ -1,5 +1,5 @@
 // A tube's axis from a harmonic function on its surface: the solve, its level contours, the
-// sections' centroids along the longest way through them.
+// sections' centroids along the longest way through them that follows one contour to the next.
 #include "haustra/tube_axis.hpp"
 
 #include <fmt/format.h>
@@ -109,7 +109,6 @@ CrossSection loop_section(const std::vector<Eigen::Vector3d>& loop, double u) {
     const Eigen::Vector3d& p = loop[i];
     const Eigen::Vector3d& q = loop[(i + 1) % loop.size()];
     vector_area += 0.5 * (p - mean).cross(q - mean);
-    s.perimeter += (q - p).norm();
   }
   s.area = vector_area.norm();
   s.centre = mean;
@@ -196,7 +195,6 @@ class Contours {
       }
       if (loop.size() >= 3) out.push_back(loop_section(loop, level));
     }
-    for (CrossSection& c : out) c.pieces = static_cast<int>(out.size());
     return out;
   }
 
@@ -227,45 +225,63 @@ CrossSection end_section(const TriangleMesh& mesh, const std::vector<std::vector
   return best;
 }
 
-// The sections along the tube: one contour per level, chosen so that the line through their
-// centres is the longest that steps only between nearby contours of neighbouring levels. Where the
-// tube's loops are fused into handles a level has several contours; the longest way follows the
-// tube round its loops rather than across the fusion.
-std::vector<CrossSection> longest_way(const std::vector<std::vector<CrossSection>>& levels, double spacing) {
+// For each contour of `here`, the index of the nearest contour of `there`.
+std::vector<std::size_t> nearest_contours(const std::vector<CrossSection>& here,
+                                          const std::vector<CrossSection>& there) {
+  std::vector<std::size_t> out(here.size(), 0);
+  for (std::size_t j = 0; j < here.size(); ++j) {
+    double best = kNoPath;
+    for (std::size_t i = 0; i < there.size(); ++i) {
+      const double d = (here[j].centre - there[i].centre).norm();
+      if (d < best) {
+        best = d;
+        out[j] = i;
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<CrossSection> section_path(const std::vector<std::vector<CrossSection>>& levels, double spacing) {
   const std::size_t n = levels.size();
+  if (n == 0) return {};
   std::vector<std::vector<double>> score(n);
   std::vector<std::vector<std::size_t>> from(n);
   score[0].assign(levels[0].size(), 0.0);
   from[0].assign(levels[0].size(), 0);
   for (std::size_t k = 1; k < n; ++k) {
+    const std::vector<CrossSection>& below = levels[k - 1];
+    const std::vector<std::size_t> down = nearest_contours(levels[k], below);
+    const std::vector<std::size_t> up = nearest_contours(below, levels[k]);
     score[k].assign(levels[k].size(), -kNoPath);
     from[k].assign(levels[k].size(), 0);
     for (std::size_t j = 0; j < levels[k].size(); ++j) {
       const CrossSection& c = levels[k][j];
-      double nearest = kNoPath;
-      std::size_t nearest_i = 0;
-      for (std::size_t i = 0; i < levels[k - 1].size(); ++i) {
-        const CrossSection& p = levels[k - 1][i];
+      for (std::size_t i = 0; i < below.size(); ++i) {
+        // A step continues a contour when one of the two is the other's nearest (where contours
+        // split or merge, every branch is someone's nearest) and it lies within a few spacings or
+        // the contours' own size; a step to a parallel contour is neither, however close.
+        const CrossSection& p = below[i];
         const double d = (c.centre - p.centre).norm();
-        if (d < nearest) {
-          nearest = d;
-          nearest_i = i;
-        }
-        // A step within a few spacings, or within the contours' own size, continues a contour.
         const double reach = std::max(4.0 * spacing, 0.5 * (std::sqrt(c.area) + std::sqrt(p.area)));
-        if (d <= reach && score[k - 1][i] + d > score[k][j]) {
+        const bool continues = down[j] == i || up[i] == j;
+        if (continues && d <= reach && score[k - 1][i] + d > score[k][j]) {
           score[k][j] = score[k - 1][i] + d;
           from[k][j] = i;
         }
       }
-      if (score[k][j] == -kNoPath) {  // nothing near: the nearest, so the way never breaks
-        score[k][j] = score[k - 1][nearest_i] + nearest;
-        from[k][j] = nearest_i;
+      if (score[k][j] == -kNoPath) {  // nothing continues it: the nearest, so the way never breaks
+        const std::size_t i = down[j];
+        score[k][j] = score[k - 1][i] + (c.centre - below[i].centre).norm();
+        from[k][j] = i;
       }
     }
   }
+  std::size_t j =
+      static_cast<std::size_t>(std::max_element(score[n - 1].begin(), score[n - 1].end()) - score[n - 1].begin());
   std::vector<CrossSection> way(n);
-  std::size_t j = 0;
   for (std::size_t k = n; k-- > 0;) {
     way[k] = levels[k][j];
     j = from[k][j];
@@ -273,10 +289,8 @@ std::vector<CrossSection> longest_way(const std::vector<std::vector<CrossSection
   return way;
 }
 
-}  // namespace
-
-TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops,
-                   const TubeEnd& start, const TubeEnd& end, double spacing) {
+TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops, const TubeEnd& start,
+                   const TubeEnd& end, double spacing) {
   TubeAxis axis;
   axis.start = start;
   axis.end = end;
@@ -297,7 +311,8 @@ TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::
   // `spacing` (u runs faster where the tube is narrow), a bounded number of times.
   const auto first_levels = static_cast<std::size_t>(std::clamp(axis.geodesic_length / spacing, 64.0, 20000.0));
   std::vector<double> level_u;
-  for (std::size_t k = 0; k <= first_levels; ++k) level_u.push_back(static_cast<double>(k) / static_cast<double>(first_levels));
+  for (std::size_t k = 0; k <= first_levels; ++k)
+    level_u.push_back(static_cast<double>(k) / static_cast<double>(first_levels));
   std::vector<std::vector<CrossSection>> levels(level_u.size());
   auto level_sections = [&](double l) {
     if (l <= 0.0) return std::vector<CrossSection>{end_section(mesh, loops, start, 0.0)};
@@ -338,18 +353,10 @@ TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::
   std::vector<std::vector<CrossSection>> found;
   for (auto& l : levels)
     if (!l.empty()) found.push_back(std::move(l));
-  std::vector<CrossSection> sections = longest_way(found, spacing);
-  axis.sections = std::move(sections);
+  axis.sections = section_path(found, spacing);
   u.resize(mesh.vertices.size());  // the caps' centres were the solve's alone
   axis.u = std::move(u);
   return axis;
-}
-
-std::vector<double> section_arcs(const std::vector<CrossSection>& sections) {
-  std::vector<double> arc(sections.size(), 0.0);
-  for (std::size_t k = 1; k < sections.size(); ++k)
-    arc[k] = arc[k - 1] + (sections[k].centre - sections[k - 1].centre).norm();
-  return arc;
 }
 
 double interpolate(const std::vector<double>& xs, const std::vector<double>& ys, double x) {
