@@ -24,7 +24,7 @@ enum class Stage : std::uint8_t {
   guard,           // finite values and bounds
   report,          // penetrations and instrument forces at the frame's end
   cage,            // cage rings follow the rod
-  skin,            // the organ meshes follow the rings (rigid-group MVC)
+  skin,            // the organ meshes follow the rings (rigid-group MVC); a chain's cuts welded
   normals,         // per-vertex normals of the skinned meshes
   count
 };

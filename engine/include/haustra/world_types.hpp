@@ -40,7 +40,7 @@ struct SegmentInfo {
 // How the cage around a segment's organ mesh came out (docs/decisions/0017-cage-builder.md).
 struct CageReport {
   std::size_t rings = 0, bead_rings = 0, middle_rings = 0;
-  std::size_t end_rings = 0;  // rings past an end, where the mesh runs on beyond the rod (decision 0050)
+  std::size_t end_rings = 0;      // rings past an end, where the mesh runs on beyond the rod (decision 0050)
   std::size_t dropped_rings = 0;  // middle rings taken out where longer quads were needed
   std::size_t ring_vertices = 0;  // m per ring
   std::size_t vertices = 0, triangles = 0;
@@ -50,9 +50,11 @@ struct CageReport {
   int iterations = 0;          // inflation passes
   double tightest_bend = 0.0;  // m: the smallest bend radius of the rest rod at a ring
   // The binding pose: "harmonic" or "closest" (decision 0049), the mesh's connected pieces, and
-  // how many of them had no two ends for the harmonic place and took each vertex's closest point.
+  // how many of them had no two ends for the harmonic place (or had every vertex astray of it) and
+  // took each vertex's closest point, and the vertices the harmonic function passed by, placed
+  // from their neighbours.
   std::string binding = "closest";
-  std::size_t binding_pieces = 0, binding_closest_pieces = 0;
+  std::size_t binding_pieces = 0, binding_closest_pieces = 0, binding_followed = 0;
   // Embree's final verification in the binding pose, where the weights are computed: all zero for
   // a cage that embeds the mesh.
   std::size_t mesh_vertices_outside = 0, crossing_edges = 0, self_intersections = 0;

@@ -97,7 +97,10 @@ std::size_t follow_dead_ends(const TriangleMesh& piece, std::span<const Eigen::V
       ++misplaced;
     }
   }
-  if (misplaced == 0 || misplaced == n) return 0;
+  if (misplaced == 0) return 0;
+  // Nothing well placed to follow from (the ends' order guessed wrong on a short piece): the
+  // caller places the piece by closest points.
+  if (misplaced == n) throw Error(ErrorCode::invalid_geometry, "every vertex astray of its harmonic place");
   std::vector<std::uint32_t> well_placed;
   for (std::uint32_t v = 0; v < n; ++v)
     if (placed[v] != 0) well_placed.push_back(v);
@@ -119,6 +122,16 @@ std::size_t follow_dead_ends(const TriangleMesh& piece, std::span<const Eigen::V
 }
 
 }  // namespace
+
+std::vector<Eigen::Vector3d> centreline_samples(const RodCurve& curve) {
+  constexpr double kSamplesPerMetre = 2000.0;
+  const double length = curve.length();
+  const auto samples = static_cast<std::size_t>(std::max(64.0, std::ceil(length * kSamplesPerMetre)));
+  std::vector<Eigen::Vector3d> point(samples + 1);
+  for (std::size_t i = 0; i <= samples; ++i)
+    point[i] = curve.pose_at(length * static_cast<double>(i) / static_cast<double>(samples)).position;
+  return point;
+}
 
 BindingArcs harmonic_binding_arcs(const TriangleMesh& mesh, std::span<const Eigen::Vector3d> samples, double length) {
   // Connected pieces (union–find over the triangles' corners), each in ascending vertex order.
@@ -150,7 +163,8 @@ BindingArcs harmonic_binding_arcs(const TriangleMesh& mesh, std::span<const Eige
     members[piece_of[v]].push_back(v);
     pieces[piece_of[v]].vertices.push_back(mesh.vertices[v]);
   }
-  for (const auto& t : mesh.triangles) pieces[piece_of[t[0]]].triangles.push_back({local[t[0]], local[t[1]], local[t[2]]});
+  for (const auto& t : mesh.triangles)
+    pieces[piece_of[t[0]]].triangles.push_back({local[t[0]], local[t[1]], local[t[2]]});
   BindingArcs out;
   out.arc.assign(n, 0.0);
   out.pieces = pieces.size();

@@ -9,15 +9,20 @@
 #include <vector>
 
 #include "haustra/mesh_io.hpp"
+#include "haustra/rod_curve.hpp"
 
 namespace haustra::detail {
 
 struct BindingArcs {
   std::vector<double> arc;         // per mesh vertex, m
   std::size_t pieces = 0;          // connected pieces of the mesh
-  std::size_t closest_pieces = 0;  // pieces placed by each vertex's closest point (no two ends found)
+  std::size_t closest_pieces = 0;  // pieces placed by each vertex's closest point (no two ends, or all astray)
   std::size_t followed = 0;        // vertices the harmonic function passed by, placed from their neighbours
 };
+// Points evenly spaced along a rod's rest centreline (one per half millimetre, 64 at least), the
+// first at arc 0, the last at its length: what the places below are measured on.
+std::vector<Eigen::Vector3d> centreline_samples(const RodCurve& curve);
+
 // `samples`: points evenly spaced along the centreline, the first at arc 0, the last at `length`.
 BindingArcs harmonic_binding_arcs(const TriangleMesh& mesh, std::span<const Eigen::Vector3d> samples, double length);
 

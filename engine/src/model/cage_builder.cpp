@@ -25,8 +25,6 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // No ring vertex goes beyond this many template (bead) radii: a cage that would need more does not
 // fit the mesh (and would bind far-away tissue).
 constexpr double kMaxGrowth = 3.0;
-// Centreline samples per metre for the closest-point search of the binding pose.
-constexpr double kSamplesPerMetre = 2000.0;
 
 constexpr int kMiddleRing = -1, kEndRing = -2;
 
@@ -126,10 +124,7 @@ std::vector<double> neighbour_medians(const TriangleMesh& mesh, std::vector<doub
 std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleMesh& mesh, double local, bool harmonic,
                                           CageReport& report) {
   const double length = curve.length();
-  const auto samples = static_cast<std::size_t>(std::max(64.0, std::ceil(length * kSamplesPerMetre)));
-  std::vector<Eigen::Vector3d> point(samples + 1);
-  for (std::size_t i = 0; i <= samples; ++i)
-    point[i] = curve.pose_at(length * static_cast<double>(i) / static_cast<double>(samples)).position;
+  const std::vector<Eigen::Vector3d> point = centreline_samples(curve);
   const std::size_t n = mesh.vertices.size();
   std::vector<double> s(n, 0.0);
   report.binding = harmonic ? "harmonic" : "closest";
@@ -137,6 +132,7 @@ std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleM
     BindingArcs arcs = harmonic_binding_arcs(mesh, point, length);
     report.binding_pieces = arcs.pieces;
     report.binding_closest_pieces = arcs.closest_pieces;
+    report.binding_followed = arcs.followed;
     s = std::move(arcs.arc);
   } else {
     parallel_each(n, [&](std::size_t v) { s[v] = closest_arc(point, length, mesh.vertices[v]); });
@@ -337,10 +333,7 @@ std::string ring_name(const Ring& r, std::size_t g) {
   return fmt::format("ring {} (middle ring at {}, {:.3f} m along the rod)", g, at, r.arc);
 }
 
-}  // namespace
-
-CageModel build_cage(const CageBuildInput& in, CageReport& report) {
-  const auto t0 = std::chrono::steady_clock::now();
+void check_cage_input(const CageBuildInput& in) {
   const CageDesc& d = in.desc;
   if (d.ring_vertices < 3 || d.ring_vertices > 64)
     throw FieldError(ErrorCode::invalid_argument, in.where + ".cage.ring_vertices",
@@ -351,24 +344,16 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
   if (in.bead_node.size() < 2)
     throw FieldError(ErrorCode::invalid_argument, in.where,
                      "a cage is built from the beads: give the segment at least two beads ([segment.beads])");
-  const TriangleMesh& mesh = *in.mesh;
-  if (mesh.triangles.empty()) throw FieldError(ErrorCode::invalid_geometry, in.where, "the mesh has no triangles");
-  const auto m = static_cast<std::size_t>(d.ring_vertices);
-  const std::vector<std::array<std::uint32_t, 2>> mesh_edges = unique_edges(mesh.triangles);
-  double largest_radius = 0.0;
-  for (double r : in.bead_radius) largest_radius = std::max(largest_radius, r);
-  const RodCurve curve(in.section_length, in.rest_strain,
-                       kernels::Pose{in.rest.node_rotation.get(0), in.rest.node_position.get(0)});
-  std::vector<double> arc(in.section_length.size() + 1, 0.0);
-  for (std::size_t k = 0; k < in.section_length.size(); ++k) arc[k + 1] = arc[k] + in.section_length[k];
+  if (in.mesh->triangles.empty()) throw FieldError(ErrorCode::invalid_geometry, in.where, "the mesh has no triangles");
+}
 
-  CageModel cage;
-  cage.mesh_binding = binding_pose(curve, mesh, 4.0 * largest_radius, in.harmonic_binding, report);
-  // Every mesh vertex should lie within a few radii of the rod: otherwise the mesh is somewhere
-  // else (other units, another pose) and no cage can be grown around it.
-  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-    const Eigen::Vector3d& b = cage.mesh_binding[v];
-    const double beyond = std::max({0.0, -b.z(), b.z() - curve.length()});
+// Every mesh vertex should lie within a few radii of the rod in the binding pose: otherwise the
+// mesh is somewhere else (other units, another pose) and no cage can be grown around it.
+void check_mesh_near_rod(const CageBuildInput& in, std::span<const Eigen::Vector3d> binding, double rod_length,
+                         double largest_radius) {
+  for (std::size_t v = 0; v < binding.size(); ++v) {
+    const Eigen::Vector3d& b = binding[v];
+    const double beyond = std::max({0.0, -b.z(), b.z() - rod_length});
     const double away = std::hypot(b.head<2>().norm(), beyond);
     if (away > (in.harmonic_binding ? 12.0 : 6.0) * largest_radius + 0.01)
       throw FieldError(
@@ -378,154 +363,137 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
                       "(translate)?",
                       v, away, in.harmonic_binding ? "twelve" : "six", largest_radius));
   }
+}
 
-  EmbreeScene wall;
-  wall.add_triangles(cage.mesh_binding, mesh.triangles);
-  wall.commit();
-  std::set<std::uint32_t> dropped;  // middle rings taken out of the cage
-  Problems final_check;
-  std::vector<double> template_radius;  // of the final cage's rings
-  for (;;) {
-    Shape shape;
-    shape.m = m;
-    shape.rings = place_rings(in, arc, dropped);
-    if (in.cross_section_rings) add_end_rings(shape.rings, cage.mesh_binding, in.clearance);
-    const std::size_t rings = shape.rings.size();
-    // Each ring vertex starts at the wall plus the clearance: the envelope of the cross-sections
-    // around it (cross_section_rings), or the paper's template, the first hit of the ray from the
-    // ring's centre; each cap just past the farthest mesh vertex beyond its end ring.
-    std::vector<double> limit(rings * m);
-    if (in.cross_section_rings) {
-      shape.radius = envelope_radii(shape.rings, m, cage.mesh_binding, in.clearance);
-      for (std::size_t j = 0; j < rings * m; ++j)
-        limit[j] = std::max(kMaxGrowth * shape.rings[j / m].template_radius, 3.0 * shape.radius[j]);
-    } else {
-      shape.radius.assign(rings * m, 0.0);
-      for (std::size_t g = 0; g < rings; ++g) {
-        const Ring& r = shape.rings[g];
-        for (std::size_t i = 0; i < m; ++i) {
-          const EmbreeScene::Hit h = wall.first_hit(Eigen::Vector3d(0.0, 0.0, r.arc), ring_direction(i, m), 0.0,
-                                                    kMaxGrowth * r.template_radius);
-          shape.radius[g * m + i] = h.found ? h.distance + in.clearance : r.template_radius;
-          limit[g * m + i] = kMaxGrowth * r.template_radius;
-        }
+// The cage's first shape, before inflation: each ring vertex at the wall plus the clearance — the
+// envelope of the cross-sections around it (cross_section_rings), or the paper's template, the
+// first hit of the ray from the ring's centre — and how far each may grow (`limit`); each cap just
+// past the farthest mesh vertex beyond its end ring.
+Shape first_shape(const CageBuildInput& in, const std::vector<double>& arc, const std::set<std::uint32_t>& dropped,
+                  std::span<const Eigen::Vector3d> binding, const EmbreeScene& wall, std::vector<double>& limit) {
+  Shape shape;
+  const auto m = static_cast<std::size_t>(in.desc.ring_vertices);
+  shape.m = m;
+  shape.rings = place_rings(in, arc, dropped);
+  if (in.cross_section_rings) add_end_rings(shape.rings, binding, in.clearance);
+  const std::size_t rings = shape.rings.size();
+  limit.assign(rings * m, 0.0);
+  if (in.cross_section_rings) {
+    shape.radius = envelope_radii(shape.rings, m, binding, in.clearance);
+    for (std::size_t j = 0; j < rings * m; ++j)
+      limit[j] = std::max(kMaxGrowth * shape.rings[j / m].template_radius, 3.0 * shape.radius[j]);
+  } else {
+    shape.radius.assign(rings * m, 0.0);
+    for (std::size_t g = 0; g < rings; ++g) {
+      const Ring& r = shape.rings[g];
+      for (std::size_t i = 0; i < m; ++i) {
+        const EmbreeScene::Hit h =
+            wall.first_hit(Eigen::Vector3d(0.0, 0.0, r.arc), ring_direction(i, m), 0.0, kMaxGrowth * r.template_radius);
+        shape.radius[g * m + i] = h.found ? h.distance + in.clearance : r.template_radius;
+        limit[g * m + i] = kMaxGrowth * r.template_radius;
       }
     }
-    double start_reach = 0.0, end_reach = 0.0;
-    for (const auto& b : cage.mesh_binding) {
-      start_reach = std::max(start_reach, shape.rings.front().z() - b.z());
-      end_reach = std::max(end_reach, b.z() - shape.rings.back().z());
-    }
-    shape.cap_start = start_reach + in.clearance;
-    shape.cap_end = end_reach + in.clearance;
-
-    // Inflation: each cage vertex moves along its own direction (radial, or axial for a cap) by
-    // what it takes to carry the triangle nearest a stray mesh vertex past it, in proportion to
-    // how much its direction points at the vertex.
-    Problems problems;
-    int pass = 0;
-    for (; pass < d.max_iterations; ++pass) {
-      assemble(shape, cage);
-      problems = find_problems(cage.binding_vertices, cage.triangles, cage.mesh_binding, mesh_edges, false);
-      if (problems.outside.empty() && problems.crossing.empty()) break;
-      EmbreeScene cage_scene;
-      cage_scene.add_triangles(cage.binding_vertices, cage.triangles);
-      cage_scene.commit();
-      std::vector<double> need(cage.offset.size(), 0.0);
-      auto push = [&](const Eigen::Vector3d& p, double extra) {
-        const EmbreeScene::Hit h = cage_scene.closest(p, kInf);
-        if (!h.found) return;
-        const auto& tri = cage.triangles[h.triangle];
-        const auto& cv = cage.binding_vertices;
-        const Eigen::Vector3d q = kernels::closest_point_on_triangle(p, cv[tri[0]], cv[tri[1]], cv[tri[2]]);
-        Eigen::Vector3d away = p - q;
-        if (!(away.norm() > 1e-12)) away = (cv[tri[1]] - cv[tri[0]]).cross(cv[tri[2]] - cv[tri[0]]);
-        away.normalize();
-        for (std::uint32_t j : tri) {
-          const Eigen::Vector3d dir = j < rings * m    ? ring_direction(j % m, m)
-                                      : j == rings * m ? Eigen::Vector3d(-Eigen::Vector3d::UnitZ())
-                                                       : Eigen::Vector3d(Eigen::Vector3d::UnitZ());
-          const double c = dir.dot(away);
-          const double cap = j < rings * m ? 0.5 * limit[j] : shape.rings[cage.vertex_ring[j]].template_radius;
-          if (c > 0.1) need[j] = std::max(need[j], std::min((h.distance + extra) / c, cap));
-        }
-      };
-      for (std::uint32_t v : problems.outside) push(cage.mesh_binding[v], in.clearance);
-      for (const auto& [v, tri] : problems.crossing)
-        for (std::uint32_t j : cage.triangles[tri]) need[j] = std::max(need[j], in.clearance);
-      bool moved = false;
-      for (std::size_t j = 0; j < rings * m; ++j) {
-        if (need[j] <= 0.0) continue;
-        const double grown = std::min(shape.radius[j] + need[j], limit[j]);
-        moved = moved || grown > shape.radius[j];
-        shape.radius[j] = grown;
-      }
-      shape.cap_start += need[rings * m];
-      shape.cap_end += need[rings * m + 1];
-      moved = moved || need[rings * m] > 0.0 || need[rings * m + 1] > 0.0;
-      if (!moved) break;  // every push is at its limit
-    }
-    assemble(shape, cage);
-    problems = find_problems(cage.binding_vertices, cage.triangles, cage.mesh_binding, mesh_edges, true);
-    report.iterations = pass + 1;
-
-    std::size_t blamed = rings;
-    std::string what;
-    if (!problems.self.empty()) {
-      const auto& [v, tri] = problems.self.front();
-      blamed = cage.vertex_ring[v];
-      what = fmt::format("its cage crosses the cage of ring {}", cage.vertex_ring[cage.triangles[tri][0]]);
-    } else if (!problems.outside.empty() || (!problems.crossing.empty() && !in.cross_section_rings)) {
-      // Every vertex inside is what the binding needs; a real surface's long edges that still
-      // cut a corner of a cross-section cage are counted, not refused (decision 0049).
-      EmbreeScene cage_scene;
-      cage_scene.add_triangles(cage.binding_vertices, cage.triangles);
-      cage_scene.commit();
-      const bool outside = !problems.outside.empty();
-      const Eigen::Vector3d p = outside ? cage.mesh_binding[problems.outside.front()]
-                                        : cage.mesh_binding[problems.crossing.front().first];
-      const EmbreeScene::Hit h = cage_scene.closest(p, kInf);
-      blamed = h.found ? cage.vertex_ring[cage.triangles[h.triangle][0]] : 0;
-      what = outside ? fmt::format("{} mesh vertices stay outside the cage (vertex {} among them)",
-                                   problems.outside.size(), problems.outside.front())
-                     : fmt::format("{} mesh edges cross the cage", problems.crossing.size());
-    }
-    if (blamed == rings) {
-      final_check = std::move(problems);
-      for (const Ring& r : shape.rings) template_radius.push_back(r.template_radius);
-      break;
-    }
-    // Repair: take the nearest middle ring out of the cage (longer quads can span a bulge).
-    std::size_t drop = rings;
-    for (std::size_t g : {blamed, blamed + 1, blamed > 0 ? blamed - 1 : rings})
-      if (g < rings && shape.rings[g].bead == kMiddleRing) {
-        drop = g;
-        break;
-      }
-    if (drop < rings) {
-      dropped.insert(shape.rings[drop].station);
-      continue;
-    }
-    const Ring& r = shape.rings[blamed];
-    double reach = 0.0;
-    for (std::size_t i = 0; i < m; ++i) reach = std::max(reach, shape.radius[blamed * m + i]);
-    throw FieldError(
-        ErrorCode::invalid_geometry, in.where,
-        fmt::format("the cage cannot embed the mesh at {}: {}, with the cage reaching {:.1f} mm from the "
-                    "rod (after {} inflation passes, {} middle rings taken out). Beads that fit the mesh "
-                    "there (radius = \"mesh\"), more ring vertices or a larger cage.max_iterations may help.",
-                    ring_name(r, blamed), what, 1e3 * reach, report.iterations, dropped.size()));
   }
+  double start_reach = 0.0, end_reach = 0.0;
+  for (const auto& b : binding) {
+    start_reach = std::max(start_reach, shape.rings.front().z() - b.z());
+    end_reach = std::max(end_reach, b.z() - shape.rings.back().z());
+  }
+  shape.cap_start = start_reach + in.clearance;
+  shape.cap_end = end_reach + in.clearance;
+  return shape;
+}
 
-  // The report.
+// Inflation: each cage vertex moves along its own direction (radial, or axial for a cap) by what it
+// takes to carry the triangle nearest a stray mesh vertex past it, in proportion to how much its
+// direction points at the vertex; until nothing is outside or crossing, nothing can move, or
+// max_iterations. Returns the passes made.
+int inflate(const CageBuildInput& in, const std::vector<std::array<std::uint32_t, 2>>& mesh_edges,
+            const std::vector<double>& limit, Shape& shape, CageModel& cage) {
+  const std::size_t m = shape.m, rings = shape.rings.size();
+  int pass = 0;
+  for (; pass < in.desc.max_iterations; ++pass) {
+    assemble(shape, cage);
+    const Problems problems =
+        find_problems(cage.binding_vertices, cage.triangles, cage.mesh_binding, mesh_edges, false);
+    if (problems.outside.empty() && problems.crossing.empty()) break;
+    EmbreeScene cage_scene;
+    cage_scene.add_triangles(cage.binding_vertices, cage.triangles);
+    cage_scene.commit();
+    std::vector<double> need(cage.offset.size(), 0.0);
+    auto push = [&](const Eigen::Vector3d& p, double extra) {
+      const EmbreeScene::Hit h = cage_scene.closest(p, kInf);
+      if (!h.found) return;
+      const auto& tri = cage.triangles[h.triangle];
+      const auto& cv = cage.binding_vertices;
+      const Eigen::Vector3d q = kernels::closest_point_on_triangle(p, cv[tri[0]], cv[tri[1]], cv[tri[2]]);
+      Eigen::Vector3d away = p - q;
+      if (!(away.norm() > 1e-12)) away = (cv[tri[1]] - cv[tri[0]]).cross(cv[tri[2]] - cv[tri[0]]);
+      away.normalize();
+      for (std::uint32_t j : tri) {
+        const Eigen::Vector3d dir = j < rings * m    ? ring_direction(j % m, m)
+                                    : j == rings * m ? Eigen::Vector3d(-Eigen::Vector3d::UnitZ())
+                                                     : Eigen::Vector3d(Eigen::Vector3d::UnitZ());
+        const double c = dir.dot(away);
+        const double cap = j < rings * m ? 0.5 * limit[j] : shape.rings[cage.vertex_ring[j]].template_radius;
+        if (c > 0.1) need[j] = std::max(need[j], std::min((h.distance + extra) / c, cap));
+      }
+    };
+    for (std::uint32_t v : problems.outside) push(cage.mesh_binding[v], in.clearance);
+    for (const auto& [v, tri] : problems.crossing)
+      for (std::uint32_t j : cage.triangles[tri]) need[j] = std::max(need[j], in.clearance);
+    bool moved = false;
+    for (std::size_t j = 0; j < rings * m; ++j) {
+      if (need[j] <= 0.0) continue;
+      const double grown = std::min(shape.radius[j] + need[j], limit[j]);
+      moved = moved || grown > shape.radius[j];
+      shape.radius[j] = grown;
+    }
+    shape.cap_start += need[rings * m];
+    shape.cap_end += need[rings * m + 1];
+    moved = moved || need[rings * m] > 0.0 || need[rings * m + 1] > 0.0;
+    if (!moved) break;  // every push is at its limit
+  }
+  return pass;
+}
+
+// The ring to blame for what the final check found, and what (rings when nothing is wrong): a
+// crossing of the cage itself; a mesh vertex outside; a mesh edge through it, unless the rings are
+// cross-sections of a real surface, whose long edges that still cut a corner are counted, not
+// refused (decision 0049).
+std::size_t blame(const CageBuildInput& in, const Problems& problems, const CageModel& cage, std::size_t rings,
+                  std::string& what) {
+  if (!problems.self.empty()) {
+    const auto& [v, tri] = problems.self.front();
+    what = fmt::format("its cage crosses the cage of ring {}", cage.vertex_ring[cage.triangles[tri][0]]);
+    return cage.vertex_ring[v];
+  }
+  if (problems.outside.empty() && (problems.crossing.empty() || in.cross_section_rings)) return rings;
+  EmbreeScene cage_scene;
+  cage_scene.add_triangles(cage.binding_vertices, cage.triangles);
+  cage_scene.commit();
+  const bool outside = !problems.outside.empty();
+  const Eigen::Vector3d p =
+      outside ? cage.mesh_binding[problems.outside.front()] : cage.mesh_binding[problems.crossing.front().first];
+  const EmbreeScene::Hit h = cage_scene.closest(p, kInf);
+  what = outside ? fmt::format("{} mesh vertices stay outside the cage (vertex {} among them)", problems.outside.size(),
+                               problems.outside.front())
+                 : fmt::format("{} mesh edges cross the cage", problems.crossing.size());
+  return h.found ? cage.vertex_ring[cage.triangles[h.triangle][0]] : 0;
+}
+
+// The report of the cage that embeds: its rings, how far they grew, the final check, the bends.
+void report_cage(const CageBuildInput& in, const CageModel& cage, const RodCurve& curve,
+                 const std::vector<double>& template_radius, const Problems& final_check,
+                 const std::vector<std::array<std::uint32_t, 2>>& mesh_edges, CageReport& report) {
   const std::size_t rings = cage.ring_station.size();
+  const auto m = static_cast<std::size_t>(in.desc.ring_vertices);
   report.rings = rings;
   report.bead_rings = static_cast<std::size_t>(
       std::count_if(cage.ring_bead.begin(), cage.ring_bead.end(), [](int b) { return b >= 0; }));
   report.end_rings = static_cast<std::size_t>(
       std::count_if(cage.ring_bead.begin(), cage.ring_bead.end(), [](int b) { return b == kEndRing; }));
   report.middle_rings = rings - report.bead_rings - report.end_rings;
-  report.dropped_rings = dropped.size();
   report.ring_vertices = m;
   report.vertices = cage.offset.size();
   report.triangles = cage.triangles.size();
@@ -551,10 +519,71 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
   report.self_intersections = final_check.self.size();
   // The same cage carried to the curved rest pose: where the organ bends more tightly than its
   // radius, or loops touch, it folds or overlaps there; counted for the record.
-  const Problems rest = find_problems(cage.rest_vertices, cage.triangles, mesh.vertices, mesh_edges, false);
+  const Problems rest = find_problems(cage.rest_vertices, cage.triangles, in.mesh->vertices, mesh_edges, false);
   report.rest_pose_outside = rest.outside.size();
-  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return cage;
+}
+
+}  // namespace
+
+CageModel build_cage(const CageBuildInput& in, CageReport& report) {
+  const auto t0 = std::chrono::steady_clock::now();
+  check_cage_input(in);
+  const TriangleMesh& mesh = *in.mesh;
+  const auto m = static_cast<std::size_t>(in.desc.ring_vertices);
+  const std::vector<std::array<std::uint32_t, 2>> mesh_edges = unique_edges(mesh.triangles);
+  double largest_radius = 0.0;
+  for (double r : in.bead_radius) largest_radius = std::max(largest_radius, r);
+  const RodCurve curve(in.section_length, in.rest_strain,
+                       kernels::Pose{in.rest.node_rotation.get(0), in.rest.node_position.get(0)});
+  std::vector<double> arc(in.section_length.size() + 1, 0.0);
+  for (std::size_t k = 0; k < in.section_length.size(); ++k) arc[k + 1] = arc[k] + in.section_length[k];
+
+  CageModel cage;
+  cage.mesh_binding = binding_pose(curve, mesh, 4.0 * largest_radius, in.harmonic_binding, report);
+  check_mesh_near_rod(in, cage.mesh_binding, curve.length(), largest_radius);
+  EmbreeScene wall;
+  wall.add_triangles(cage.mesh_binding, mesh.triangles);
+  wall.commit();
+
+  // Grown until it embeds the mesh; where it cannot, the middle ring nearest the trouble is taken
+  // out (longer quads can span a bulge) and the cage grown afresh.
+  std::set<std::uint32_t> dropped;
+  for (;;) {
+    std::vector<double> limit;
+    Shape shape = first_shape(in, arc, dropped, cage.mesh_binding, wall, limit);
+    const std::size_t rings = shape.rings.size();
+    report.iterations = inflate(in, mesh_edges, limit, shape, cage) + 1;
+    assemble(shape, cage);
+    const Problems problems = find_problems(cage.binding_vertices, cage.triangles, cage.mesh_binding, mesh_edges, true);
+    std::string what;
+    const std::size_t blamed = blame(in, problems, cage, rings, what);
+    if (blamed == rings) {
+      std::vector<double> template_radius;
+      for (const Ring& r : shape.rings) template_radius.push_back(r.template_radius);
+      report.dropped_rings = dropped.size();
+      report_cage(in, cage, curve, template_radius, problems, mesh_edges, report);
+      report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      return cage;
+    }
+    std::size_t drop = rings;
+    for (std::size_t g : {blamed, blamed + 1, blamed > 0 ? blamed - 1 : rings})
+      if (g < rings && shape.rings[g].bead == kMiddleRing) {
+        drop = g;
+        break;
+      }
+    if (drop < rings) {
+      dropped.insert(shape.rings[drop].station);
+      continue;
+    }
+    double reach = 0.0;
+    for (std::size_t i = 0; i < m; ++i) reach = std::max(reach, shape.radius[blamed * m + i]);
+    throw FieldError(
+        ErrorCode::invalid_geometry, in.where + ".cage",
+        fmt::format("the cage cannot embed the mesh at {}: {}, with the cage reaching {:.1f} mm from the "
+                    "rod (after {} inflation passes, {} middle rings taken out). Beads that fit the mesh "
+                    "there (radius = \"mesh\"), more ring vertices or a larger cage.max_iterations may help.",
+                    ring_name(shape.rings[blamed], blamed), what, 1e3 * reach, report.iterations, dropped.size()));
+  }
 }
 
 }  // namespace haustra::detail

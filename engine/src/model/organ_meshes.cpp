@@ -2,9 +2,13 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <map>
 #include <numbers>
+#include <numeric>
 #include <optional>
+#include <tuple>
 
 #include "haustra/error.hpp"
 #include "haustra/kernels/mesh_normals.hpp"
@@ -29,6 +33,65 @@ bool harmonic_binding(const OrganMeshDesc& d) {
          (d.cage.binding == CageBinding::automatic && d.source == MeshSource::file);
 }
 
+// The vertices a chain's cut copied into two pieces (or more): one point, bit for bit, at rest.
+class SeamFinder {
+ public:
+  void add(std::size_t rod, std::size_t vertex_offset, const std::vector<Eigen::Vector3d>& vertices) {
+    for (std::size_t v = 0; v < vertices.size(); ++v) {
+      const Key key{rod, std::bit_cast<std::uint64_t>(vertices[v].x()), std::bit_cast<std::uint64_t>(vertices[v].y()),
+                    std::bit_cast<std::uint64_t>(vertices[v].z())};
+      const auto world = static_cast<std::uint32_t>(vertex_offset + v);
+      const auto [at, first] = point_.try_emplace(key, world);
+      if (!first) copies_.emplace_back(at->second, world);
+    }
+  }
+  // Groups of a first vertex and its copies, by the first's index (CSR).
+  void groups(std::vector<std::uint32_t>& start, std::vector<std::uint32_t>& members) {
+    std::stable_sort(copies_.begin(), copies_.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    start.assign(1, 0);
+    members.clear();
+    for (std::size_t i = 0; i < copies_.size(); ++i) {
+      if (i == 0 || copies_[i].first != copies_[i - 1].first) {
+        if (i > 0) start.push_back(static_cast<std::uint32_t>(members.size()));
+        members.push_back(copies_[i].first);
+      }
+      members.push_back(copies_[i].second);
+    }
+    if (!copies_.empty()) start.push_back(static_cast<std::uint32_t>(members.size()));
+  }
+
+ private:
+  using Key = std::tuple<std::size_t, std::uint64_t, std::uint64_t, std::uint64_t>;
+  std::map<Key, std::uint32_t> point_;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> copies_;  // (first, copy)
+};
+
+// Each vertex's corner pairs (CSR), for its normal in one pass, summed in a fixed order. A seam's
+// copies are one vertex here: every copy lists the pairs of all triangles around the point, in
+// every piece, so the pieces' normals agree across the cut as the whole surface's would.
+void corner_pairs_across_seams(WorldModel& m) {
+  std::vector<std::uint32_t> first(m.mesh_vertex_total);
+  std::iota(first.begin(), first.end(), 0U);
+  for (std::size_t g = 0; g + 1 < m.seam_group_start.size(); ++g)
+    for (std::uint32_t k = m.seam_group_start[g] + 1; k < m.seam_group_start[g + 1]; ++k)
+      first[m.seam_group_members[k]] = m.seam_group_members[m.seam_group_start[g]];
+  std::vector<std::array<std::uint32_t, 3>> welded = m.mesh_triangles;
+  for (auto& t : welded)
+    for (std::uint32_t& v : t) v = first[v];
+  std::vector<std::uint32_t> start(m.mesh_vertex_total + 1, 0), pairs(6 * welded.size(), 0);
+  kernels::vertex_corner_pairs(welded, m.mesh_vertex_total, start, pairs);
+  // Copies take their first's list (theirs is empty: no welded triangle names them). `start`
+  // counts pairs, two entries each.
+  m.vertex_corner_start.assign(1, 0);
+  m.vertex_corner_pairs.clear();
+  for (std::size_t v = 0; v < m.mesh_vertex_total; ++v) {
+    const std::uint32_t f = first[v];
+    m.vertex_corner_pairs.insert(m.vertex_corner_pairs.end(), pairs.begin() + 2 * start[f],
+                                 pairs.begin() + 2 * start[f + 1]);
+    m.vertex_corner_start.push_back(static_cast<std::uint32_t>(m.vertex_corner_pairs.size() / 2));
+  }
+}
+
 }  // namespace
 
 std::optional<double> mesh_cross_section_radius(const EmbreeScene& wall, const kernels::Pose& station, double reach) {
@@ -47,8 +110,10 @@ std::optional<double> mesh_cross_section_radius(const EmbreeScene& wall, const k
 }
 
 // A chain's mesh from a file, cut into its pieces: each triangle goes to the piece whose stretch of
-// the rod holds its vertices' mean place along the rod (the binding's place: harmonic or closest,
-// as the cage will use), each piece with its own copy of the vertices it uses.
+// the rod holds its vertices' mean place along the rod (harmonic or closest, as the binding's kind,
+// over the whole mesh; each piece's cage then places its own part afresh, which near a cut may
+// differ by a little: the end rings past a piece's rim take that up), each piece with its own copy
+// of the vertices it uses (welded back together after skinning).
 void split_into_pieces(const TriangleMesh& mesh, const WorldModel& m, const SegmentModel& seg,
                        const kernels::RodPoses<const double>& rest, bool harmonic, const std::string& where,
                        std::vector<TriangleMesh>& meshes) {
@@ -57,10 +122,7 @@ void split_into_pieces(const TriangleMesh& mesh, const WorldModel& m, const Segm
                        std::span<const double>(m.rest_strain).subspan(4 * off, 4 * n),
                        {rest.node_rotation.get(0), rest.node_position.get(0)});
   const double length = curve.length();
-  const auto samples = static_cast<std::size_t>(std::max(64.0, std::ceil(length * 2000.0)));
-  std::vector<Eigen::Vector3d> points(samples + 1);
-  for (std::size_t i = 0; i <= samples; ++i)
-    points[i] = curve.pose_at(length * static_cast<double>(i) / static_cast<double>(samples)).position;
+  const std::vector<Eigen::Vector3d> points = centreline_samples(curve);
   std::vector<double> arc;
   if (harmonic) {
     arc = harmonic_binding_arcs(mesh, points, length).arc;
@@ -139,6 +201,7 @@ std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::ve
 void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
                        std::vector<TriangleMesh>& meshes, WorldModel& m) {
   m.meshes_of.assign(m.pieces.size(), SegmentMesh{});
+  SeamFinder seams;
   for (std::size_t pi = 0; pi < m.pieces.size(); ++pi) {
     const SegmentPiece& piece = m.pieces[pi];
     const std::size_t si = piece.rod;
@@ -222,12 +285,11 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
         m.normal_chunks.push_back({static_cast<std::uint32_t>(pi), out.vertex_offset + first,
                                    std::min(chunk_vertices, meshes[pi].vertices.size() - first)});
     m.any_mesh = true;
+    if (seg.piece_count > 1 && d.source == MeshSource::file) seams.add(si, out.vertex_offset, meshes[pi].vertices);
     meshes[pi] = TriangleMesh{};  // the binding keeps what stepping needs
   }
-  // Each vertex's corner pairs (CSR), for its normal in one pass, summed in a fixed order.
-  m.vertex_corner_start.assign(m.mesh_vertex_total + 1, 0);
-  m.vertex_corner_pairs.assign(6 * m.mesh_triangles.size(), 0);
-  kernels::vertex_corner_pairs(m.mesh_triangles, m.mesh_vertex_total, m.vertex_corner_start, m.vertex_corner_pairs);
+  seams.groups(m.seam_group_start, m.seam_group_members);
+  corner_pairs_across_seams(m);
   std::size_t blocks = 0;
   for (NormalChunk& c : m.normal_chunks) {
     c.first_block = blocks;

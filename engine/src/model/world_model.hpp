@@ -178,6 +178,10 @@ struct WorldModel {
   std::vector<kernels::NormalSlot> normal_slots;
   std::vector<SkinChunk> skin_chunks;
   std::vector<NormalChunk> normal_chunks;
+  // A chain's mesh from a file is cut into its pieces, each skinned on its own cage: the vertices
+  // its cut copied are one point (CSR groups of world vertex indices, welded after skinning), and
+  // each copy's normal sums the triangles of every piece around it.
+  std::vector<std::uint32_t> seam_group_start, seam_group_members;
   bool any_mesh = false;
 
   std::vector<Eigen::Vector3d> initial_attachment_target;

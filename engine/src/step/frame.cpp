@@ -162,6 +162,7 @@ void World::Impl::follow_rod() {
   timed(Stage::skin, [&] {
     scheduler.for_each(
         model.skin_chunks.size(), [&](std::size_t c) { detail::stage_skin(model, state, c); }, parallel);
+    detail::stage_weld_seams(model, state);  // a chain's pieces meet where its mesh was cut
   });
   if (!model.normal_chunks.empty())
     timed(Stage::normals, [&] {

@@ -1,10 +1,10 @@
-// Mesh stages: cage rings follow the rod, skinning, normals.
+// Mesh stages: cage rings follow the rod, skinning, seams welded, normals.
 #include "step/mesh_stages.hpp"
 
-#include "haustra/kernels/mesh_normals.hpp"
-
 #include "haustra/kernels/cage_rings.hpp"
+#include "haustra/kernels/mesh_normals.hpp"
 #include "haustra/kernels/skinning.hpp"
+#include "haustra/kernels/vertex_weld.hpp"
 
 namespace haustra::detail {
 
@@ -32,6 +32,12 @@ void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk) {
       std::span<const float>(state.mesh.ring_delta)
           .subspan(kernels::kRingDeltaFloats * mesh.ring_offset, kernels::kRingDeltaFloats * rings),
       c.first_block, c.blocks, {part(state.mesh.position.x), part(state.mesh.position.y), part(state.mesh.position.z)});
+}
+
+void stage_weld_seams(const WorldModel& model, WorldState& state) {
+  if (model.seam_group_members.empty()) return;
+  kernels::weld_vertex_groups(model.seam_group_start, model.seam_group_members, state.mesh.position.x,
+                              state.mesh.position.y, state.mesh.position.z);
 }
 
 void stage_normals(const WorldModel& model, WorldState& state, std::size_t chunk) {

@@ -22,22 +22,30 @@ namespace haustra::detail {
 // each task acquires what the dispatch released and releases on an address of its own, which the
 // join acquires — so two tasks of one call are never ordered with each other (one address for
 // all would order a task after any that happened to end before it began, hiding their races).
-// Other builds compile it away.
+// The addresses belong to the call (on its stack), so calls running at once — two worlds, or a
+// task that dispatches — never order each other's tasks either. Other builds compile it away.
 #if defined(__SANITIZE_THREAD__)
-inline constexpr std::size_t kTaskAddresses = 4096;
-inline char g_task_dispatch = 0;
-inline std::array<char, kTaskAddresses> g_task_done{};
-inline void task_dispatch() { __tsan_release(&g_task_dispatch); }
-inline void task_begin() { __tsan_acquire(&g_task_dispatch); }
-inline void task_end(std::size_t task) { __tsan_release(&g_task_done[task % kTaskAddresses]); }
-inline void tasks_joined(std::size_t tasks) {
-  for (std::size_t t = 0; t < std::min(tasks, kTaskAddresses); ++t) __tsan_acquire(&g_task_done[t]);
-}
+class TaskOrder {
+ public:
+  void dispatched() { __tsan_release(&dispatch_); }
+  void begin() { __tsan_acquire(&dispatch_); }
+  void end(std::size_t task) { __tsan_release(&done_[task % kAddresses]); }
+  void joined(std::size_t tasks) {
+    for (std::size_t t = 0; t < std::min(tasks, kAddresses); ++t) __tsan_acquire(&done_[t]);
+  }
+
+ private:
+  static constexpr std::size_t kAddresses = 4096;
+  char dispatch_ = 0;
+  std::array<char, kAddresses> done_{};
+};
 #else
-inline void task_dispatch() {}
-inline void task_begin() {}
-inline void task_end(std::size_t) {}
-inline void tasks_joined(std::size_t) {}
+struct TaskOrder {
+  void dispatched() {}
+  void begin() {}
+  void end(std::size_t) {}
+  void joined(std::size_t) {}
+};
 #endif
 
 // Model building's parallel loops (cages, weights): fn(first, last) over [0, count) in blocks of
@@ -48,14 +56,15 @@ void parallel_blocks(std::size_t count, std::size_t grain, F&& fn) {
   // One task per block, by index, like Scheduler::for_each: the body never reads oneTBB's range
   // objects, and the simple partitioner does no work balancing that TSan could not follow.
   const std::size_t blocks = (count + grain - 1) / grain;
-  const auto body = [&fn, count, grain](std::size_t b) {
-    task_begin();
+  TaskOrder order;
+  const auto body = [&fn, &order, count, grain](std::size_t b) {
+    order.begin();
     fn(b * grain, std::min(count, (b + 1) * grain));
-    task_end(b);
+    order.end(b);
   };
-  task_dispatch();
+  order.dispatched();
   tbb::parallel_for(std::size_t{0}, blocks, body, tbb::simple_partitioner{});
-  tasks_joined(blocks);
+  order.joined(blocks);
 }
 
 template <class F>
@@ -84,19 +93,20 @@ class Scheduler {
       for (std::size_t i = 0; i < count; ++i) fn(i);
       return;
     }
-    // One task per segment, by index: the body never touches oneTBB's own range objects.
-    const auto body = [&fn](std::size_t i) {
-      task_begin();
-      fn(i);
-      task_end(i);
-    };
     if (jobs_.enabled()) {
       run_on_host(count, fn);
       return;
     }
-    task_dispatch();
+    // One task per segment, by index: the body never touches oneTBB's own range objects.
+    TaskOrder order;
+    const auto body = [&fn, &order](std::size_t i) {
+      order.begin();
+      fn(i);
+      order.end(i);
+    };
+    order.dispatched();
     arena_.execute([&] { tbb::parallel_for(std::size_t{0}, count, body, tbb::simple_partitioner{}); });
-    tasks_joined(count);
+    order.joined(count);
   }
 
  private:
@@ -105,19 +115,20 @@ class Scheduler {
   void run_on_host(std::size_t count, F& fn) {
     struct Batch {
       F* fn;
-    } batch{&fn};
+      TaskOrder order;
+    } batch{&fn, {}};
     const JobSystemDesc::Task task = [](void* data, std::size_t first, std::size_t last) {
-      task_begin();
-      F& f = *static_cast<Batch*>(data)->fn;
-      for (std::size_t i = first; i < last; ++i) f(i);
-      task_end(first);  // ranges start at distinct indices
+      Batch& b = *static_cast<Batch*>(data);
+      b.order.begin();
+      for (std::size_t i = first; i < last; ++i) (*b.fn)(i);
+      b.order.end(first);  // ranges start at distinct indices
     };
     const std::size_t ranges = std::min(count, static_cast<std::size_t>(threads_));
-    task_dispatch();
+    batch.order.dispatched();
     for (std::size_t r = 0; r < ranges; ++r)
       jobs_.enqueue(jobs_.host, task, &batch, r * count / ranges, (r + 1) * count / ranges);
     jobs_.wait(jobs_.host);
-    tasks_joined(count);
+    batch.order.joined(count);
   }
 
   int threads_;
