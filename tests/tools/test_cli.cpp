@@ -194,13 +194,23 @@ TEST_CASE("haustra validate --json reports every case, all passing") {
 
 TEST_CASE("haustra run SURFACE imports it with the defaults first, a line per phase, and runs it") {
   const fs::path dir = out_dir("surface");
-  const Result r = run("run " + std::string(HAUSTRA_SOURCE_DIR) +
-                       "/tests/data/anatomy/HuBMAPVHM-00070-large-intestine-Appendix.obj --frames 5 --out " + dir.string());
+  const Result r =
+      run("run " + std::string(HAUSTRA_SOURCE_DIR) +
+          "/tests/data/anatomy/HuBMAPVHM-00070-large-intestine-Appendix.obj --frames 5 --out " + dir.string());
   INFO(r.out << r.err);
   REQUIRE(r.code == 0);
-  for (const char* phase : {"import: read ", "import: repair: ", "import: organ: ", "import: centreline: ", "import: built"})
+  for (const char* phase :
+       {"import: read ", "import: repair: ", "import: organ: ", "import: centreline: ", "import: built"})
     CHECK(r.err.find(phase) != std::string::npos);
   CHECK(fs::exists(dir / "summary.json"));
+  // Imported into a folder of its own, gone when the run ends.
+  const std::size_t said = r.err.find("is now the scene ");
+  REQUIRE(said != std::string::npos);
+  const std::size_t from = said + std::string("is now the scene ").size();
+  const fs::path scene = r.err.substr(from, r.err.find(" (", from) - from);
+  CHECK(
+      scene.parent_path().filename().string().starts_with("haustra-import-HuBMAPVHM-00070-large-intestine-Appendix-"));
+  CHECK_FALSE(fs::exists(scene.parent_path()));
   // A surface that is not there: the usual bad-input exit.
   const Result missing = run("run " + (dir / "missing.obj").string());
   CHECK(missing.code == 2);

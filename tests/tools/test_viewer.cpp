@@ -194,13 +194,19 @@ TEST_CASE(
 TEST_CASE("haustra view SURFACE: a surface where a scene is expected is imported with the defaults and shown") {
   const fs::path dir = scratch("surface");
   const fs::path script = write(dir / "look.txt", "wait 10\nscreenshot " + (dir / "organ.png").string() + "\nquit\n");
-  const Result r = run(kXvfb + kCli + " view " + kSource +
+  // Options before the surface too: the viewer's own parser tells the surface from their values.
+  const Result r = run(kXvfb + kCli + " view --threads 1 --checkpoint " + (dir / "saved.bin").string() + " " + kSource +
                            "/tests/data/anatomy/HuBMAPVHM-00070-large-intestine-Rectum.obj --script " +
                            script.string() + " --record " + (dir / "record.json").string(),
                        dir);
   INFO(r.err);
   REQUIRE(r.code == 0);
   CHECK(r.err.find("import: built") != std::string::npos);  // a line per phase
+  const std::size_t said = r.err.find("is now the scene ");
+  REQUIRE(said != std::string::npos);
+  const std::size_t from = said + std::string("is now the scene ").size();
+  CHECK_FALSE(
+      fs::exists(fs::path(r.err.substr(from, r.err.find(" (", from) - from)).parent_path()));  // removed at exit
   const nlohmann::json rec = nlohmann::json::parse(slurp(dir / "record.json"));
   CHECK(rec["unstable"] == false);
   const Coverage organ = coverage(dir / "organ.png");

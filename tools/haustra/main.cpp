@@ -15,9 +15,10 @@
 
 #include "haustra/error.hpp"
 #include "haustra/import/import.hpp"
+#include "haustra/import/scratch_import.hpp"
+#include "haustra/mesh_io.hpp"
 #include "haustra/render/render.hpp"
 #include "haustra/scene.hpp"
-#include "haustra/mesh_io.hpp"
 #include "haustra/studies/anatomy_cohort.hpp"
 #include "haustra/studies/anatomy_study.hpp"
 #include "haustra/studies/skinning_study.hpp"
@@ -73,28 +74,23 @@ struct RunOptions {
   std::string mesh_format = "ply";
 };
 
-bool is_surface(const fs::path& file) {
-  std::string ext = file.extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return std::find(kMeshFormats.begin(), kMeshFormats.end(), ext) != kMeshFormats.end();
-}
-
-// A surface given where a scene is expected is imported with the defaults first, into the system's
-// temporary folder under the surface's name: a surface to a running organ is one command.
-fs::path scene_or_import(const fs::path& given) {
-  if (!is_surface(given)) return given;
-  import::ImportOptions io;
-  io.mesh = given;
-  io.out = fs::temp_directory_path() / "haustra-import" / given.stem() / "scene.toml";
-  io.progress = [](std::string_view line) { fmt::print(stderr, "import: {}\n", line); };
-  const import::ImportReport r = import::import_surface(io);
-  fmt::print(stderr, "import: {} is now the scene {} ({:.2f} m of centreline, {} nodes, {} beads)\n",
+// Where a scene is expected, a surface is imported first with the defaults (a surface to a running
+// organ is one command), into a temporary folder that goes when the run ends.
+std::unique_ptr<import::ScratchImport> import_if_surface(const fs::path& given) {
+  if (!import::is_surface(given)) return nullptr;
+  auto imported = std::make_unique<import::ScratchImport>(
+      given, [](std::string_view line) { fmt::print(stderr, "import: {}\n", line); });
+  const import::ImportReport& r = imported->report();
+  fmt::print(stderr,
+             "import: {} is now the scene {} ({:.2f} m of centreline, {} nodes, {} beads; removed at exit, "
+             "`haustra import` keeps one)\n",
              given.string(), r.scene.string(), r.length, r.nodes, r.beads);
-  return r.scene;
+  return imported;
 }
 
 int run(const RunOptions& o) {
-  SceneDesc scene = load_scene(scene_or_import(o.scene), o.sets);
+  const std::unique_ptr<import::ScratchImport> imported = import_if_surface(o.scene);
+  SceneDesc scene = load_scene(imported ? imported->scene() : fs::path(o.scene), o.sets);
   if (o.frames) scene.frames = *o.frames;
   if (o.dt) scene.world.dt = *o.dt;
   if (o.threads) scene.world.threads = *o.threads;
@@ -522,7 +518,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"auto", "mm", "m"}));
   import_cmd->add_option("--ends", io.ends, "held (default: both ends), base (the first) or free")
       ->check(CLI::IsMember({"held", "base", "free"}));
-  import_cmd->add_option("--nodes", io.nodes, "rod nodes (default: one per 5 mm, 9 to 401)")
+  import_cmd->add_option("--nodes", io.nodes, "rod nodes (default: one per 5 mm, 9 to 1,201)")
       ->check(CLI::Range(3, 20000));
   import_cmd->add_option("--beads", io.beads, "beads (default: a third of the nodes)")->check(CLI::Range(2, 20000));
   import_cmd->add_flag("--reverse", io.reverse, "run the rod from the other end");
@@ -530,7 +526,9 @@ int main(int argc, char** argv) {
   fs::path anatomy_folder, anatomy_out = fs::temp_directory_path() / "haustra-anatomy";
   CLI::App* anatomy_cmd = app.add_subcommand(
       "anatomy", "import every surface of a folder with the defaults, grasp and lift each: docs/anatomy.md's table");
-  anatomy_cmd->add_option("folder", anatomy_folder, "folder of surfaces (.obj)")->required()->check(CLI::ExistingDirectory);
+  anatomy_cmd->add_option("folder", anatomy_folder, "folder of surfaces (.obj)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
   anatomy_cmd->add_option("--out", anatomy_out, "where the imported scenes go");
 
   CLI::App* view_cmd = app.add_subcommand("view", "open a scene in the interactive viewer (haustra-view; `make view`)");
@@ -545,21 +543,8 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : kExitBadInput;
   }
   if (*view_cmd) {
-    std::vector<std::string> args = view_cmd->remaining();
-    try {
-      for (std::size_t i = 0; i < args.size(); ++i) {
-        const bool names_a_file_option =
-            i > 0 && (args[i - 1] == "--script" || args[i - 1] == "--screenshot" || args[i - 1] == "--record" ||
-                      args[i - 1] == "--checkpoint");
-        if (!names_a_file_option && args[i].rfind("-", 0) != 0 && is_surface(args[i])) {
-          args[i] = scene_or_import(args[i]).string();
-          break;
-        }
-      }
-    } catch (const haustra::Error& e) {
-      fmt::print(stderr, "error: {}\n", e.what());
-      return kExitBadInput;
-    }
+    // The viewer reads its own options (a surface for a scene included).
+    const std::vector<std::string> args = view_cmd->remaining();
     return open_viewer(argv[0], args);
   }
   try {

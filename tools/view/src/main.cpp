@@ -4,14 +4,18 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <optional>
 
 #include "haustra/error.hpp"
+#include "haustra/import/scratch_import.hpp"
 #include "viewer_app.hpp"
 
 int main(int argc, char** argv) {
   haustra::view::ViewerOptions o;
   CLI::App app{"haustra view: grasp the organ with the mouse and watch every stage"};
-  app.add_option("scene", o.scene, "scene file (TOML)")->required()->check(CLI::ExistingFile);
+  app.add_option("scene", o.scene, "scene file (TOML), or a surface to import first with the defaults")
+      ->required()
+      ->check(CLI::ExistingFile);
   app.add_option("--set", o.sets, "override a scene value, e.g. --set segment.nodes=333")->take_all();
   app.add_option("--threads", o.threads, "physics worker threads (0: all)");
   app.add_option("--script", o.script, "scripted input (press, move, release, toggle, knob, screenshot, ...)")
@@ -31,6 +35,14 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
   try {
+    // A surface is imported first, into a temporary folder removed when the viewer closes.
+    std::optional<haustra::import::ScratchImport> imported;
+    if (haustra::import::is_surface(o.scene)) {
+      imported.emplace(o.scene, [](std::string_view line) { fmt::print(stderr, "import: {}\n", line); });
+      fmt::print(stderr, "import: {} is now the scene {} (removed at exit, `haustra import` keeps one)\n", o.scene,
+                 imported->scene().string());
+      o.scene = imported->scene().string();
+    }
     return haustra::view::run_viewer(o);
   } catch (const haustra::Error& e) {
     fmt::print(stderr, "error: {}\n", e.what());
