@@ -141,11 +141,16 @@ study: build
 	@echo "wrote $(abspath docs/tradeoff.md) and $(abspath docs/figures/tradeoff.png)"
 
 # docs/anatomy.md: every surface of ANATOMY imported with the defaults, grasped at the middle and
-# lifted (decision 0049). The surfaces: ../shared/data/anatomy (25 real intestines, its README).
+# lifted (decision 0052). The surfaces: ../shared/data/anatomy (25 real intestines, its README).
+# The table replaces the old one only when it is whole (its closing "Columns:" note written and no
+# crash): a surface that fails is a row; a crash keeps the old table.
 ANATOMY ?= ../shared/data/anatomy
 anatomy: build
 	@$(BIN)/haustra anatomy $(ANATOMY) --out build/anatomy > docs/anatomy.md.new; status=$$?; \
-	  mv docs/anatomy.md.new docs/anatomy.md; echo "wrote $(abspath docs/anatomy.md)"; exit $$status
+	  if [ $$status -lt 128 ] && grep -q '^Columns:' docs/anatomy.md.new; then \
+	    mv docs/anatomy.md.new docs/anatomy.md; echo "wrote $(abspath docs/anatomy.md)"; \
+	  else echo "haustra anatomy stopped (status $$status): docs/anatomy.md kept, the partial table is docs/anatomy.md.new"; \
+	    exit 1; fi; exit $$status
 
 # Regenerates docs/skinning.md's tables (the localization study and real anatomy).
 skinning-doc: build

@@ -16,6 +16,7 @@
 #include "haustra/error.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/scene.hpp"
+#include "haustra/tube_axis.hpp"
 #include "organ_centreline.hpp"
 #include "organ_layout.hpp"
 #include "scene_files.hpp"
@@ -24,7 +25,7 @@
 namespace haustra::import {
 namespace {
 
-constexpr double kSpacing = 0.001;          // m between resampled centreline points
+constexpr double kSpacing = 0.001;            // m between resampled centreline points
 constexpr double kBuildBudgetSeconds = 45.0;  // tries at building the scene stop after this
 
 using Clock = std::chrono::steady_clock;
@@ -41,7 +42,8 @@ std::pair<double, std::string> decide_units(const TriangleMesh& mesh, const std:
   const double size = (hi - lo).norm();
   if (asked == "mm") return {1e-3, fmt::format("millimetres (--units mm; the box is {:.4g} mm across)", size)};
   if (asked == "m") return {1.0, fmt::format("metres (--units m; the box is {:.4g} m across)", size)};
-  // An organ segment spans 2 cm to 3 m: in millimetres that is 20 to 3,000, in metres 0.02 to 3.
+  // An organ's box spans 5 mm (a short flexure) to 5 m (a whole bowel, coiled): in millimetres
+  // 20 to 5,000 (below 20 mm it would be metres: 20 m), in metres 0.005 to 5.
   if (size >= 20.0 && size <= 5000.0)
     return {1e-3, fmt::format("millimetres (the box is {:.4g} across: in metres no organ is that large)", size)};
   if (size >= 0.005 && size <= 5.0)
@@ -72,8 +74,9 @@ Polyline trimmed_midline(const EmbreeScene& wall, Polyline line, const std::stri
   const std::size_t end =
       cov.covered.size() -
       static_cast<std::size_t>(std::find(cov.covered.rbegin(), cov.covered.rend(), true) - cov.covered.rbegin());
-  const auto inside = static_cast<std::size_t>(std::count(cov.covered.begin() + static_cast<std::ptrdiff_t>(begin),
-                                                          cov.covered.begin() + static_cast<std::ptrdiff_t>(end), true));
+  const auto inside =
+      static_cast<std::size_t>(std::count(cov.covered.begin() + static_cast<std::ptrdiff_t>(begin),
+                                          cov.covered.begin() + static_cast<std::ptrdiff_t>(end), true));
   if (static_cast<double>(inside) < 0.8 * static_cast<double>(end - begin))
     throw Error(
         ErrorCode::invalid_geometry,
@@ -100,12 +103,14 @@ std::vector<std::pair<double, double>> radius_profile(const EmbreeScene& wall, c
   for (std::size_t i = 0; i < line.size(); ++i)
     if (cov.covered[i]) {
       for (auto j = static_cast<std::size_t>(last + 1); j < i; ++j)
-        r[j] = last < 0 ? cov.radius[i] : (j - static_cast<std::size_t>(last) < i - j ? r[static_cast<std::size_t>(last)] : cov.radius[i]);
+        r[j] = last < 0
+                   ? cov.radius[i]
+                   : (j - static_cast<std::size_t>(last) < i - j ? r[static_cast<std::size_t>(last)] : cov.radius[i]);
       r[i] = cov.radius[i];
       last = static_cast<std::ptrdiff_t>(i);
     }
   for (auto j = static_cast<std::size_t>(last + 1); j < line.size(); ++j) r[j] = r[static_cast<std::size_t>(last)];
-  // Smoothed (a moving median then mean over a radius: a haustral fold or a ray through a side
+  // Smoothed (a moving median over a radius: a haustral fold or a ray through a side
   // opening is not the organ's width), sampled at up to 65 places.
   const auto half = static_cast<std::ptrdiff_t>(std::max(1.0, std::round(median_r / kSpacing)));
   const auto n = static_cast<std::ptrdiff_t>(line.size());
@@ -130,7 +135,8 @@ std::vector<std::pair<double, double>> radius_profile(const EmbreeScene& wall, c
 double wall_thickness(const OrganLayout& layout) {
   if (layout.lumens.empty()) return 0.0;
   EmbreeScene outer;
-  for (std::size_t p : layout.path) outer.add_triangles(layout.pieces[p].mesh.vertices, layout.pieces[p].mesh.triangles);
+  for (std::size_t p : layout.path)
+    outer.add_triangles(layout.pieces[p].mesh.vertices, layout.pieces[p].mesh.triangles);
   outer.commit();
   std::vector<double> d;
   for (std::size_t p : layout.lumens) {
@@ -149,10 +155,10 @@ double wall_thickness(const OrganLayout& layout) {
 std::string ImportReport::text() const {
   std::string t = fmt::format("surface: {} vertices, {} triangles; units: {}\n", vertices, triangles, units_reason);
   t += fmt::format("repair: {}\n", repairs);
-  t += fmt::format("organ: {}; {} open end{}, {} boundary loop{} in all{}\n", layout, open_ends,
-                   open_ends == 1 ? "" : "s", holes, holes == 1 ? "" : "s",
-                   wall_thickness > 0.0 ? fmt::format("; wall {:.1f} mm thick (between the shells)", 1e3 * wall_thickness)
-                                        : "");
+  t += fmt::format(
+      "organ: {}; {} open end{}, {} boundary loop{} in all{}\n", layout, open_ends, open_ends == 1 ? "" : "s", holes,
+      holes == 1 ? "" : "s",
+      wall_thickness > 0.0 ? fmt::format("; wall {:.1f} mm thick (between the shells)", 1e3 * wall_thickness) : "");
   t += fmt::format("centreline: {}\n", centreline_source);
   if (off_path_vertices > 0)
     t += fmt::format("left out: {} vertices of the surface farther than eight radii from the centreline\n",
@@ -161,10 +167,14 @@ std::string ImportReport::text() const {
   if (trimmed_start > 0.0 || trimmed_end > 0.0)
     t += fmt::format(" (trimmed {:.1f} mm at the start and {:.1f} mm at the end, where it ran past the mesh)",
                      1e3 * trimmed_start, 1e3 * trimmed_end);
-  t += fmt::format(
-      "\nradius: {:.1f} mm (median); tightest bend: radius {:.1f} mm at {:.0f} mm ({:.2f}x the organ's radius)\n",
-      1e3 * median_radius, 1e3 * tightest_bend, 1e3 * tightest_bend_at,
-      median_radius > 0 ? tightest_bend / median_radius : 0.0);
+  // A bend wider than a hundred radii is no bend: the line is straight.
+  t += median_radius > 0.0 && tightest_bend < 100.0 * median_radius
+           ? fmt::format(
+                 "\nradius: {:.1f} mm (median); tightest bend: radius {:.1f} mm at {:.0f} mm ({:.2f}x the "
+                 "organ's radius)\n",
+                 1e3 * median_radius, 1e3 * tightest_bend, 1e3 * tightest_bend_at, tightest_bend / median_radius)
+           : fmt::format("\nradius: {:.1f} mm (median); straight (no bend tighter than a hundred radii)\n",
+                         1e3 * median_radius);
   if (touching.empty()) t += "loops: no part of the organ touches another\n";
   const std::size_t shown = std::min<std::size_t>(touching.size(), 6);
   for (std::size_t i = 0; i < shown; ++i)
@@ -199,10 +209,33 @@ TriangleMesh read_in_metres(const ImportOptions& o, ImportReport& r) {
   r.triangles = raw.triangles.size();
   if (raw.triangles.empty())
     throw Error(ErrorCode::invalid_geometry, fmt::format("{}: the mesh holds no triangles", o.mesh.string()));
+  for (std::size_t v = 0; v < raw.vertices.size(); ++v)
+    if (!raw.vertices[v].allFinite())
+      // (No index: the reader renumbers the file's vertices.)
+      throw Error(ErrorCode::parse,
+                  fmt::format("{}: a vertex is not a finite point: ({}, {}, {}); every vertex "
+                              "must be three finite numbers",
+                              o.mesh.string(), raw.vertices[v].x(), raw.vertices[v].y(), raw.vertices[v].z()));
   std::tie(r.scale, r.units_reason) = decide_units(raw, o.units, o.mesh.string());
   r.units = r.scale == 1.0 ? "m" : "mm";
   for (auto& v : raw.vertices) v *= r.scale;
   return raw;
+}
+
+// How many of a given centreline's two ends lie at an open end: within the radius of a rim's
+// centre (side holes and the rims where a whole organ's pieces meet lie elsewhere along it).
+int open_ends_of(const OrganLayout& layout, const Polyline& line) {
+  int open = 0;
+  for (const Eigen::Vector3d& end : {line.front(), line.back()}) {
+    bool at_rim = false;
+    for (std::size_t p : layout.path)
+      for (const auto& loop : layout.pieces[p].loops) {
+        const LoopShape rim = loop_shape(layout.pieces[p].mesh, loop);
+        at_rim = at_rim || (rim.centre - end).norm() < rim.radius;
+      }
+    open += at_rim ? 1 : 0;
+  }
+  return open;
 }
 
 // The centreline (given or computed), measured: length, radius, bends, touching parts; and the
@@ -216,7 +249,7 @@ Polyline centreline_of(const ImportOptions& o, const OrganLayout& layout, const 
     if (o.reverse) std::reverse(given.begin(), given.end());
     r.centreline_source = o.centreline.string();
     line = trimmed_midline(wall, resample(given, kSpacing), file, r.centreline_source, r);
-    r.open_ends = std::min(2, r.holes);
+    r.open_ends = open_ends_of(layout, line);
   } else {
     OrganCentreline c;
     try {
@@ -245,6 +278,12 @@ Polyline centreline_of(const ImportOptions& o, const OrganLayout& layout, const 
     throw Error(ErrorCode::invalid_geometry,
                 fmt::format("{}: no tube in this mesh: the centreline inside it is {:.1f} mm long for a radius of "
                             "{:.1f} mm (a tube is at least as long as its radius)",
+                            file, 1e3 * r.length, 1e3 * r.median_radius));
+  if (r.open_ends == 0 && r.length < 2.0 * r.median_radius)
+    throw Error(ErrorCode::invalid_geometry,
+                fmt::format("{}: no tube in this mesh: it is closed and its centreline is {:.1f} mm long for a radius "
+                            "of {:.1f} mm, a blob rather than a tube (a closed organ is longer than it is wide; give "
+                            "its midline with --centreline if it is one)",
                             file, 1e3 * r.length, 1e3 * r.median_radius));
   // Bends of the centreline smoothed over half a radius: a midline's voxel steps are not bends.
   const std::vector<double> bends =
@@ -310,22 +349,27 @@ void off_the_path(TriangleMesh& surface, const Polyline& line, ImportReport& r, 
   surface = std::move(kept);
 }
 
-// The repaired surface (the outer pieces on the organ's path and their lumens) and the centreline,
-// beside the scene.
-void write_surface_and_centreline(const ImportOptions& o, const OrganLayout& layout, const Polyline& line,
+// The surface the scene uses: the outer pieces on the organ's path and their lumens, as one mesh,
+// less what the centreline does not reach.
+TriangleMesh surface_along(const OrganLayout& layout, const Polyline& line, ImportReport& r, const std::string& file) {
+  std::vector<const TriangleMesh*> kept;
+  for (std::size_t p : layout.path) kept.push_back(&layout.pieces[p].mesh);
+  for (std::size_t p : layout.lumens) kept.push_back(&layout.pieces[p].mesh);
+  TriangleMesh surface = joined_apart(kept);
+  off_the_path(surface, line, r, file);
+  r.repaired_vertices = surface.vertices.size();
+  r.repaired_triangles = surface.triangles.size();
+  return surface;
+}
+
+// The surface and the centreline, beside the scene.
+void write_surface_and_centreline(const ImportOptions& o, const TriangleMesh& surface, const Polyline& line,
                                   ImportReport& r) {
   r.scene = o.out.empty() ? std::filesystem::path(o.mesh.stem().string() + ".toml") : o.out;
   if (r.scene.has_parent_path()) std::filesystem::create_directories(r.scene.parent_path());
   const std::string stem = (r.scene.parent_path() / r.scene.stem()).string();
   r.centreline_file = stem + "-centreline.json";
   r.surface_file = stem + "-surface.obj";
-  std::vector<const TriangleMesh*> kept;
-  for (std::size_t p : layout.path) kept.push_back(&layout.pieces[p].mesh);
-  for (std::size_t p : layout.lumens) kept.push_back(&layout.pieces[p].mesh);
-  TriangleMesh surface = joined_apart(kept);
-  off_the_path(surface, line, r, o.mesh.string());
-  r.repaired_vertices = surface.vertices.size();
-  r.repaired_triangles = surface.triangles.size();
   write_obj(r.surface_file, surface, fmt::format("repaired by haustra import from {}", o.mesh.filename().string()));
   write_centreline(r.centreline_file, line, r.centreline_source);
 }
@@ -349,10 +393,16 @@ void build_once(const ImportOptions& o, const SceneFileInputs& scene, ImportRepo
       }
       break;
     } catch (const Error& e) {
+      const auto* field = dynamic_cast<const FieldError*>(&e);
+      if (field != nullptr && field->field().ends_with(".mesh.file"))
+        throw Error(ErrorCode::internal,
+                    fmt::format("{}: the repaired surface {} does not pass the engine's checks: {}\nThat is a defect "
+                                "the repair left, not one of the flags: please report it with the surface.",
+                                o.mesh.string(), r.surface_file.string(), field->detail()));
       const int fewer = r.beads * 3 / 4;
       const bool more_vertices = r.ring_vertices < 16;
       const bool can_thin = o.beads == 0 && fewer >= std::max(2 * r.chain_pieces, r.nodes / 8);
-      const bool cage = std::string_view(e.what()).find("the cage cannot embed") != std::string_view::npos;
+      const bool cage = field != nullptr && field->field().ends_with(".mesh.cage");
       if (cage && (more_vertices || can_thin) && seconds_since(t) < kBuildBudgetSeconds) {
         r.retries.push_back(fmt::format("{} beads, rings of {}: {}", r.beads, r.ring_vertices, e.what()));
         if (more_vertices)
@@ -420,7 +470,7 @@ ImportReport import_surface(const ImportOptions& o) {
   phase(fmt::format("centreline: {:.0f} mm, radius {:.1f} mm", 1e3 * r.length, 1e3 * r.median_radius), t);
 
   size_the_rod(o, r);
-  write_surface_and_centreline(o, layout, line, r);
+  write_surface_and_centreline(o, surface_along(layout, line, r, o.mesh.string()), line, r);
   const SceneFileInputs scene{.options = o, .report = r, .radius_profile = profile};
   write_scene(scene);
   build_once(o, scene, r, phase);

@@ -78,7 +78,8 @@ void write_obj(const std::filesystem::path& file, const TriangleMesh& mesh, cons
   for (const auto& v : mesh.vertices) fmt::print(f, "v {:.9g} {:.9g} {:.9g}\n", v.x(), v.y(), v.z());
   for (const auto& t : mesh.triangles) fmt::print(f, "f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
   const bool ok = std::ferror(f) == 0;
-  if (std::fclose(f) != 0 || !ok) throw Error(ErrorCode::io, fmt::format("{}: cannot write the surface", file.string()));
+  if (std::fclose(f) != 0 || !ok)
+    throw Error(ErrorCode::io, fmt::format("{}: cannot write the surface", file.string()));
 }
 
 void write_centreline(const std::filesystem::path& file, const Polyline& p, const std::string& source) {
@@ -97,7 +98,9 @@ void write_scene(const SceneFileInputs& in) {
   const std::string name = o.mesh.stem().string();
   const int pieces = r.chain_pieces;
   const std::filesystem::path dir = r.scene.parent_path();
-  const double wall = r.wall_thickness > 0.0 ? std::clamp(r.wall_thickness, 2e-4, 0.5 * r.median_radius)
+  // Measured (at least 0.2 mm, at most half the radius: the half wins on a tube under 0.4 mm), or
+  // 3 mm on an organ wide enough.
+  const double wall = r.wall_thickness > 0.0 ? std::min(std::max(r.wall_thickness, 2e-4), 0.5 * r.median_radius)
                                              : std::min(0.003, 0.25 * r.median_radius);
   std::string profile;
   for (std::size_t i = 0; i < in.radius_profile.size(); ++i)
@@ -119,10 +122,10 @@ void write_scene(const SceneFileInputs& in) {
       toml_string(name), pieces > 1 ? (r.nodes - 1) / pieces + 1 : r.nodes,
       pieces > 1 ? fmt::format("   # per piece: {} in all", r.nodes) : "", r.median_radius, wall,
       r.wall_thickness > 0.0 ? "   # measured between the shells" : "", o.ends == "free" ? "free" : "clamped",
-      pieces > 1 ? fmt::format("[segment.chain]\npieces = {}   # one rod; each piece its own mesh and cage\n", pieces) : "",
+      pieces > 1 ? fmt::format("[segment.chain]\npieces = {}   # one rod; each piece its own mesh and cage\n", pieces)
+                 : "",
       toml_string(toml_path(r.centreline_file, dir)), pieces > 1 ? (r.beads + pieces - 1) / pieces : r.beads,
-      pieces > 1 ? "   # per piece" : "", profile,
-      toml_string(toml_path(r.surface_file, dir)), r.ring_vertices);
+      pieces > 1 ? "   # per piece" : "", profile, toml_string(toml_path(r.surface_file, dir)), r.ring_vertices);
   if (o.ends == "held") text += "[[segment.attachment]]\nnode = -1                   # the far end stays where it is\n";
   std::ofstream out(r.scene);
   out << text;

@@ -19,8 +19,8 @@ struct RepairReport {
   std::size_t reversed_triangles = 0;     // turned to face the way their neighbours do
   std::size_t small_pieces = 0;           // floating pieces removed (under 2 % of the largest's area)
   std::size_t small_piece_triangles = 0;
-  std::size_t self_intersections = 0;  // pairs of triangles that cross (counted, not changed)
-  [[nodiscard]] bool any() const;
+  std::size_t self_intersections = 0;      // pairs of triangles that cross (counted, not changed)
+  std::size_t degenerate_left = 0;         // triangles with no area the collapse could not remove
   [[nodiscard]] std::string text() const;  // one line: what was repaired, or "nothing to repair"
 };
 

@@ -8,6 +8,7 @@
 
 #include "haustra/error.hpp"
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#include <cstddef>
 // GCC ships the sanitizer runtimes but not their headers: the one entry point, declared here.
 extern "C" std::size_t __sanitizer_get_current_allocated_bytes();
 #endif

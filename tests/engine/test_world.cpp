@@ -28,7 +28,8 @@ std::vector<double> run_scene(const std::string& name, int threads, int frames, 
   // The meshes too, where the scene has them (their skinning and normals run on the scheduler).
   const auto m = w->mesh_positions();
   const auto n = w->mesh_normals();
-  for (std::size_t v = 0; v < w->mesh_buffer_size(); ++v) out.insert(out.end(), {m.x[v], m.y[v], m.z[v], n.x[v]});
+  for (std::size_t v = 0; v < w->mesh_buffer_size(); ++v)
+    out.insert(out.end(), {m.x[v], m.y[v], m.z[v], n.x[v], n.y[v], n.z[v]});
   return out;
 }
 
@@ -117,9 +118,9 @@ TEST_CASE("the whole state, byte for byte at every frame, with 1 thread, 2 threa
   const std::string coarse = "segment.mesh.procedural.vertices=2000";  // the scene's own
   const std::string pieces = "segment.chain.pieces=32";
 #endif
-  for (const Case& c : {Case{"bowel", grasp_frames, {coarse, pieces}},
-                        Case{"bowel", fast_frames, {coarse, pieces, "solver.mode=fast"}},
-                        Case{"two-segments", pair_frames, {}}}) {
+  for (const Case& c :
+       {Case{"bowel", grasp_frames, {coarse, pieces}}, Case{"bowel", fast_frames, {coarse, pieces, "solver.mode=fast"}},
+        Case{"two-segments", pair_frames, {}}}) {
     auto make = [&](int threads, HostJobPool* pool) {
       SceneDesc scene = test::scene_desc(c.scene, c.sets, threads);
       if (pool != nullptr) scene.world.jobs = {&HostJobPool::enqueue, &HostJobPool::wait, pool, threads};
@@ -133,7 +134,8 @@ TEST_CASE("the whole state, byte for byte at every frame, with 1 thread, 2 threa
       std::vector<float> out;
       const auto m = w.mesh_positions();
       const auto n = w.mesh_normals();
-      for (std::size_t v = 0; v < w.mesh_buffer_size(); ++v) out.insert(out.end(), {m.x[v], m.y[v], m.z[v], n.x[v]});
+      for (std::size_t v = 0; v < w.mesh_buffer_size(); ++v)
+        out.insert(out.end(), {m.x[v], m.y[v], m.z[v], n.x[v], n.y[v], n.z[v]});
       return out;
     };
     for (int f = 0; f < c.frames; ++f) {

@@ -35,13 +35,13 @@ fs::path scratch(const std::string& name) {
   return dir;
 }
 
-import::ImportOptions options(const fs::path& mesh, const fs::path& centreline, const fs::path& out) {
-  import::ImportOptions o;
-  o.mesh = mesh;
-  o.centreline = centreline;
-  o.out = out;
-  return o;
-}
+import::ImportOptions options(const fs::path& mesh, const fs::path& centreline,
+                              const fs::path& out){import::ImportOptions o;
+o.mesh = mesh;
+o.centreline = centreline;
+o.out = out;
+return o;
+}  // namespace
 
 struct Imported {
   import::ImportReport report;
@@ -78,22 +78,21 @@ Imported import_and_run(const import::ImportOptions& o) {
 }
 
 // docs/anatomy.md's test: imported with the defaults, the middle grasped and lifted for 120 frames.
-import::CohortRow grasp_and_lift(const std::string& surface, double skin_bound) {
-  const import::CohortRow row = import::run_cohort_surface(kAnatomy / (surface + ".obj"), scratch(surface));
-  MESSAGE(row.name << ": " << (row.imported ? row.report.text() : row.error) << "lift " << row.lift
-                   << " m, skin error " << row.skin_error << " m, " << row.recovered << " frames redone; "
-                   << row.error);
-  REQUIRE(row.imported);
-  CHECK(row.ran);
-  CHECK(row.finite);
-  CHECK(row.unstable == 0);
-  CHECK(row.recovered == 0);
-  CHECK(row.frames == 120);
-  CHECK(row.outside == 0);
-  CHECK(row.grasped);
-  CHECK(row.lift > 0.5 * std::min(0.02, 0.15 * row.report.length));  // the grasped node rose with the grasper
-  CHECK(row.skin_error < skin_bound);
-  return row;
+import::CohortRow grasp_and_lift(const std::string& surface, double skin_bound){
+    const import::CohortRow row = import::run_cohort_surface(kAnatomy / (surface + ".obj"), scratch(surface));
+MESSAGE(row.name << ": " << (row.imported ? row.report.text() : row.error) << "lift " << row.lift << " m, skin error "
+                 << row.skin_error << " m, " << row.recovered << " frames redone; " << row.error);
+REQUIRE(row.imported);
+CHECK(row.ran);
+CHECK(row.finite);
+CHECK(row.unstable == 0);
+CHECK(row.recovered == 0);
+CHECK(row.frames == 120);
+CHECK(row.outside == 0);
+CHECK(row.grasped);
+CHECK(row.lift > 0.5 * std::min(0.02, 0.15 * row.report.length));  // the grasped node rose with the grasper
+CHECK(row.skin_error < skin_bound);
+return row;
 }
 
 fs::path organ_file(const fs::path& file, const std::vector<std::pair<double, Eigen::Vector3d>>& pieces, double scale) {
@@ -146,11 +145,11 @@ TEST_CASE("haustra import: the CT colon without its midline: the computed centre
     for (const auto& q : ct) best = std::min(best, (p - q).norm());
     along = std::max(along, best);
   }
-  MESSAGE(r.report.text() << "Hausdorff to the CT midline " << d << " m, computed to CT " << along
-                          << " m; skin error " << r.skin_error << " m");
+  MESSAGE(r.report.text() << "Hausdorff to the CT midline " << d << " m, computed to CT " << along << " m; skin error "
+                          << r.skin_error << " m");
   CHECK(r.report.open_ends == 1);  // the anal end is closed
-  // Measured 13.3 mm (the CT midline runs on into the anal cap, which the rod stops a radius short
-  // of) and 6.2 mm along its length (the midline's own voxel wiggles).
+  // Measured 19.1 mm (the CT midline runs on into the anal cap, which the rod stops a radius short
+  // of) and 7.0 mm along its length (the midline's own voxel wiggles).
   CHECK(d < 0.03);
   CHECK(along < 0.015);
   CHECK(r.skin_error < 1e-3);
@@ -204,8 +203,10 @@ TEST_CASE("haustra import: a procedural organ bent at 1.2 times its radius, clos
   CHECK(r.report.units == "m");
   CHECK(r.report.holes == 0);
   CHECK(r.report.open_ends == 0);
-  CHECK(r.report.tightest_bend < 0.04);
-  CHECK(r.skin_error < 1e-3);
+  // Designed at 24 mm; measured 19.8 mm: the sections' centroids, smoothed over half a radius, cut
+  // the corner's inside by a sixth.
+  CHECK(r.report.tightest_bend == doctest::Approx(1.0 / kappa).epsilon(0.25));
+  CHECK(r.skin_error < 3e-4);  // measured 3.7e-5
 }
 
 TEST_CASE("haustra import: a procedural organ whose loop touches itself, in millimetres") {
@@ -237,7 +238,7 @@ TEST_CASE("haustra import: a short wide flexure, as long as it is wide, becomes 
 }
 
 TEST_CASE("haustra import: a blind end (the appendix) stops a radius short of its tip") {
-  const import::CohortRow row = grasp_and_lift("HuBMAPVHM-00070-large-intestine-Appendix", 1e-4);
+  const import::CohortRow row = grasp_and_lift("HuBMAPVHM-00070-large-intestine-Appendix", 5e-5);  // measured 7.6e-6
   CHECK(row.report.open_ends == 1);
   CHECK(row.report.centreline_source.find("short of the closed end") != std::string::npos);
 }
@@ -293,13 +294,13 @@ TEST_CASE("haustra import: a wall of two nested shells: the rod from the outer o
   CHECK(row.report.wall_thickness == doctest::Approx(reference).epsilon(1e-4));
   // And with the atlas's midline: the same surface runs from it.
   const fs::path dir = scratch("rectum-midline");
-  const Imported r =
-      import_and_run(options(surface, kAnatomy / "HuBMAPVHM-00070-large-intestine-Rectum-centreline.json", dir / "r.toml"));
+  const Imported r = import_and_run(
+      options(surface, kAnatomy / "HuBMAPVHM-00070-large-intestine-Rectum-centreline.json", dir / "r.toml"));
   CHECK(r.skin_error < 1e-3);
 }
 
 TEST_CASE("haustra import: a wall whose two shells are joined into one folded surface runs") {
-  const import::CohortRow row = grasp_and_lift("HuBMAPVHM-00070-small-intestine-Ileum", 1e-2);
+  const import::CohortRow row = grasp_and_lift("HuBMAPVHM-00070-small-intestine-Ileum", 5e-3);  // measured 5.1e-4
   CHECK(row.report.pieces == 1);
 }
 
@@ -336,7 +337,9 @@ TEST_CASE("haustra import: the same surface gives the same files, byte for byte,
   CHECK(phases.back().find("built") == 0);
 }
 
-TEST_CASE("haustra import: an imported whole organ (a chain of pieces, each its own mesh) steps to the same bits on 1 and 2 threads") {
+TEST_CASE(
+    "haustra import: an imported whole organ (a chain of pieces, each its own mesh) steps to the same bits on 1 and 2 "
+    "threads") {
   const import::ImportReport r = import::import_surface(
       options(kAnatomy / "HuBMAPVHM-00070-large-intestine.obj", {}, scratch("threads") / "s.toml"));
   REQUIRE(r.chain_pieces > 1);
@@ -354,7 +357,8 @@ TEST_CASE("haustra import: an imported whole organ (a chain of pieces, each its 
   for (std::size_t v = 0; v < pa.size(); ++v)
     differ += (pa.x[v] != pb.x[v] || pa.y[v] != pb.y[v] || pa.z[v] != pb.z[v]) ? 1 : 0;
   const auto na = a->node_positions(), nb = b->node_positions();
-  for (std::size_t k = 0; k < na.size(); ++k) differ += (na.x[k] != nb.x[k] || na.z[k] != nb.z[k]) ? 1 : 0;
+  for (std::size_t k = 0; k < na.size(); ++k)
+    differ += (na.x[k] != nb.x[k] || na.y[k] != nb.y[k] || na.z[k] != nb.z[k]) ? 1 : 0;
   CHECK(differ == 0);
 }
 
@@ -366,8 +370,8 @@ TEST_CASE("haustra import: bad input fails with a clear message") {
   TriangleMesh disc;
   disc.vertices.emplace_back(0.0, 0.0, 0.0);
   for (int i = 0; i < 24; ++i)
-    disc.vertices.emplace_back(50.0 * std::cos(2.0 * std::numbers::pi * i / 24), 50.0 * std::sin(2.0 * std::numbers::pi * i / 24),
-                               0.0);
+    disc.vertices.emplace_back(50.0 * std::cos(2.0 * std::numbers::pi * i / 24),
+                               50.0 * std::sin(2.0 * std::numbers::pi * i / 24), 0.0);
   for (std::uint32_t i = 0; i < 24; ++i) disc.triangles.push_back({0, 1 + i, 1 + (i + 1) % 24});
   save_mesh(dir / "disc.obj", disc);
   CHECK_THROWS_WITH_AS(import::import_surface(options(dir / "disc.obj", {}, dir / "disc.toml")),
@@ -383,4 +387,32 @@ TEST_CASE("haustra import: bad input fails with a clear message") {
       << R"({"units": "m", "points": [[0.5, 0.5, 0.5], [0.6, 0.5, 0.5], [0.7, 0.5, 0.5]]})";
   CHECK_THROWS_WITH_AS(import::import_surface(options(kColon, dir / "away.json", dir / "away.toml")),
                        doctest::Contains("is outside the mesh"), Error);
+  // A vertex that is no number: refused before anything looks at the surface.
+  std::ofstream(dir / "nan.obj") << "v 0 0 0\nv 10 0 0\nv nan nan nan\nv 0 10 0\nv 5 5 5\nf 1 2 3\nf 1 3 4\nf 1 4 5\n";
+  CHECK_THROWS_WITH_AS(import::import_surface(options(dir / "nan.obj", {}, dir / "nan.toml")),
+                       doctest::Contains("nan.obj: a vertex is not a finite point"), Error);
+  // A closed ball 60 mm across: as long as it is wide, no tube.
+  TriangleMesh ball;
+  constexpr int kRows = 24, kAround = 48;
+  ball.vertices.emplace_back(0.0, 0.0, 30.0);
+  for (int i = 1; i < kRows; ++i)
+    for (int j = 0; j < kAround; ++j) {
+      const double polar = std::numbers::pi * i / kRows, around = 2.0 * std::numbers::pi * j / kAround;
+      ball.vertices.emplace_back(30.0 * std::sin(polar) * std::cos(around), 30.0 * std::sin(polar) * std::sin(around),
+                                 30.0 * std::cos(polar));
+    }
+  ball.vertices.emplace_back(0.0, 0.0, -30.0);
+  auto ring = [](int i, int j) { return static_cast<std::uint32_t>(1 + i * kAround + (j % kAround)); };
+  const auto south = static_cast<std::uint32_t>(ball.vertices.size() - 1);
+  for (int j = 0; j < kAround; ++j) {
+    ball.triangles.push_back({0, ring(0, j), ring(0, j + 1)});
+    for (int i = 0; i + 1 < kRows - 1; ++i) {
+      ball.triangles.push_back({ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)});
+      ball.triangles.push_back({ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)});
+    }
+    ball.triangles.push_back({south, ring(kRows - 2, j + 1), ring(kRows - 2, j)});
+  }
+  save_mesh(dir / "ball.obj", ball);
+  CHECK_THROWS_WITH_AS(import::import_surface(options(dir / "ball.obj", {}, dir / "ball.toml")),
+                       doctest::Contains("ball.obj: no tube in this mesh: it is closed"), Error);
 }

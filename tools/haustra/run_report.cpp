@@ -271,16 +271,19 @@ void print_mesh_info(std::FILE* out, const World& world, std::size_t segment) {
              std::filesystem::path(m.source).filename().string(), m.vertices.count, m.triangles.count);
   fmt::print(
       out,
-      "    cage: {} rings ({} bead, {} middle, {} past an end, {} taken out) x {} vertices = {} vertices, {} triangles; "
+      "    cage: {} rings ({} bead, {} middle, {} past an end, {} taken out) x {} vertices = {} vertices, {} "
+      "triangles; "
       "clearance {:.2f} mm; rings grown {:+.1f} to {:+.1f} mm beyond the beads (mean {:+.1f}); {} passes, {:.2f} s; "
       "binding {}\n",
       c.rings, c.bead_rings, c.middle_rings, c.end_rings, c.dropped_rings, c.ring_vertices, c.vertices, c.triangles,
       1e3 * c.clearance, 1e3 * c.inflation_min, 1e3 * c.inflation_max, 1e3 * c.inflation_mean, c.iterations, c.seconds,
       c.binding == "harmonic"
-          ? fmt::format("from a harmonic function on the mesh ({} piece{}{})", c.binding_pieces,
-                        c.binding_pieces == 1 ? "" : "s",
-                        c.binding_closest_pieces > 0 ? fmt::format(", {} by closest points", c.binding_closest_pieces)
-                                                     : "")
+          ? fmt::format(
+                "from a harmonic function on the mesh ({} piece{}{}{})", c.binding_pieces,
+                c.binding_pieces == 1 ? "" : "s",
+                c.binding_closest_pieces > 0 ? fmt::format(", {} by closest points", c.binding_closest_pieces) : "",
+                c.binding_followed > 0 ? fmt::format(", {} vertices placed from their neighbours", c.binding_followed)
+                                       : "")
           : "by closest points on the rod");
   fmt::print(out,
              "    embedding (Embree, binding pose): {} mesh vertices outside, {} mesh edges crossing, {} cage "

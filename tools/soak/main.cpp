@@ -13,6 +13,7 @@
 // to 4; the first is the fall from hanging), and the mean over the last tenth of the samples within
 // ±25 % of the mean over the first tenth after warm-up.
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#include <cstddef>
 // GCC ships the sanitizer runtimes but not their headers: the one entry point, declared here.
 extern "C" std::size_t __sanitizer_get_current_allocated_bytes();
 #endif
