@@ -88,12 +88,9 @@ py::dict memory_of(const py::object& scene, const py::dict& overrides) {
                              : load_scene(py::str(scene).cast<std::string>(), o);
   const MemoryEstimate e = estimate_memory(desc.world);
   py::dict d;
-  d["total"] = e.total;
-  d["nodes"] = e.nodes;
-  d["rod_bytes"] = e.rod_bytes;
-  d["solver_bytes"] = e.solver_bytes;
-  d["bead_bytes"] = e.bead_bytes;
-  d["mesh_bytes"] = e.mesh_bytes;
+#define HAUSTRA_PUT_FIELD(type, name, initial, meaning) d[#name] = e.name;
+  HAUSTRA_MEMORY_FIELDS(HAUSTRA_PUT_FIELD)
+#undef HAUSTRA_PUT_FIELD
   d["available"] = available_memory();
   return d;
 }

@@ -82,13 +82,9 @@ py::dict profile_dict(const FrameProfile& p) {
   d["seconds"] = seconds;
   d["calls"] = calls;
   d["frame_seconds"] = p.frame_seconds;
-  d["substeps"] = p.substeps;
-  d["iterations"] = p.iterations;
-  d["retries"] = p.retries;
-  d["fallbacks"] = p.fallbacks;
-  d["backtracks"] = p.backtracks;
-  d["stiffenings"] = p.stiffenings;
-  d["chords"] = p.chords;
+#define HAUSTRA_PUT_FIELD(type, name, initial, meaning) d[#name] = p.name;
+  HAUSTRA_PROFILE_COUNTERS(HAUSTRA_PUT_FIELD)
+#undef HAUSTRA_PUT_FIELD
   d["newton"] = p.newton;
   return d;
 }
@@ -111,12 +107,9 @@ py::list events_list(std::span<const Event> events) {
 
 py::dict contacts_dict(const ContactReport& r) {
   py::dict d;
-  d["candidates"] = r.candidates;
-  d["touching"] = r.touching;
-  d["max_environment_depth"] = r.max_environment_depth;
-  d["max_environment_depth_ratio"] = r.max_environment_depth_ratio;
-  d["max_bead_overlap"] = r.max_bead_overlap;
-  d["max_bead_overlap_ratio"] = r.max_bead_overlap_ratio;
+#define HAUSTRA_PUT_FIELD(type, name, initial, meaning) d[#name] = r.name;
+  HAUSTRA_CONTACT_FIELDS(HAUSTRA_PUT_FIELD)
+#undef HAUSTRA_PUT_FIELD
   return d;
 }
 

@@ -38,6 +38,13 @@ void RunRecord::add(const FrameProfile& p, const World& world) {
   substeps_.push_back(p.substeps);
   retries_.push_back(p.retries);
   newton_.push_back(p.newton ? 1 : 0);
+  std::size_t c = 0;
+#define HAUSTRA_ADD_FIELD(type, name, initial, meaning) \
+  counter_total_[c] += p.name;                          \
+  counter_max_[c] = std::max(counter_max_[c], p.name);  \
+  ++c;
+  HAUSTRA_PROFILE_COUNTERS(HAUSTRA_ADD_FIELD)
+#undef HAUSTRA_ADD_FIELD
 }
 
 void RunRecord::print_contacts(std::FILE* out, const World& world) const {
@@ -137,6 +144,14 @@ void RunRecord::write_summary(const std::filesystem::path& file, const SceneDesc
       {"max", frame_seconds_.empty() ? 0.0 : *std::max_element(frame_seconds_.begin(), frame_seconds_.end()) * 1e6}};
   int retried = 0;
   for (int r : retries_) retried += r > 0 ? 1 : 0;
+  json counters = json::object();
+  std::size_t counter = 0;
+#define HAUSTRA_PUT_FIELD(type, name, initial, meaning)                                                       \
+  counters[#name] = {{"total", counter_total_[counter]}, {"max_per_frame", counter_max_[counter]}, {"meaning", meaning}}; \
+  ++counter;
+  HAUSTRA_PROFILE_COUNTERS(HAUSTRA_PUT_FIELD)
+#undef HAUSTRA_PUT_FIELD
+  j["counters"] = counters;
   j["robust_mode"] = {{"frames_redone", retried},
                       {"frames_with_newton", std::count(newton_.begin(), newton_.end(), 1)},
                       {"max_substeps", substeps_.empty() ? 0 : *std::max_element(substeps_.begin(), substeps_.end())}};

@@ -1,6 +1,7 @@
 #pragma once
 // What `haustra run` measures while it steps a world, and how it reports it: the per-stage timing
 // table on the terminal, summary.json and the CSV files in --out.
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -37,6 +38,12 @@ class RunRecord {
   std::vector<float> frame_seconds_;
   std::vector<int> substeps_, retries_;
   std::vector<char> newton_;
+  // Each profile counter (report_fields.h) summed and at its largest over the frames.
+#define HAUSTRA_COUNT_FIELD(type, name, initial, meaning) +1
+  static constexpr std::size_t kCounters = 0 HAUSTRA_PROFILE_COUNTERS(HAUSTRA_COUNT_FIELD);
+#undef HAUSTRA_COUNT_FIELD
+  std::array<long long, kCounters> counter_total_{};
+  std::array<int, kCounters> counter_max_{};
   std::vector<ContactReport> contacts_;
   std::vector<Energy> energy_;
   std::vector<std::vector<InstrumentReading>> instruments_;

@@ -4,6 +4,8 @@
 #include <cstdint>
 #include <string_view>
 
+#include "haustra/report_fields.h"
+
 namespace haustra {
 
 enum class Stage : std::uint8_t {
@@ -37,14 +39,8 @@ struct FrameProfile {
   std::array<double, kStageCount> seconds{};  // wall time per stage in this frame
   std::array<std::uint32_t, kStageCount> calls{};
   double frame_seconds = 0.0;
-  int substeps = 1;
-  int iterations = 0;   // fixed-point iterations run, summed over substeps
-  int retries = 0;      // frames redone by the robust mode
-  int fallbacks = 0;    // Newton iterations solved by the banded LU (the condensed sweep's pivots unsafe)
-  int backtracks = 0;   // line-search halvings
-  int stiffenings = 0;  // Newton steps solved again with stiffened law rows (the plain step was not a descent)
-  int chords = 0;       // fast mode: Newton iterations that reused the last factorization
-  bool newton = false;  // the frame that was kept ran Newton iterations
+  HAUSTRA_PROFILE_COUNTERS(HAUSTRA_DECLARE_FIELD)  // substeps, iterations, retries, ... (report_fields.h)
+  bool newton = false;                             // the frame that was kept ran Newton iterations
 };
 
 }  // namespace haustra

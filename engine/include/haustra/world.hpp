@@ -16,6 +16,7 @@
 #include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/spans.hpp"
 #include "haustra/profile.hpp"
+#include "haustra/report_fields.h"
 #include "haustra/world_desc.hpp"
 #include "haustra/world_types.hpp"
 
@@ -150,12 +151,7 @@ class World {
 // 0038). World::create refuses one whose total exceeds the memory available (world.memory_limit
 // when set, else what the machine has free), naming what it would need.
 struct MemoryEstimate {
-  std::size_t total = 0;  // bytes
-  std::size_t nodes = 0;
-  std::size_t rod_bytes = 0;     // the rods' model and state (and what building them takes)
-  std::size_t solver_bytes = 0;  // the Newton solves' workspace
-  std::size_t bead_bytes = 0;
-  std::size_t mesh_bytes = 0;  // procedural organ meshes (a mesh file's size is checked as it loads)
+  HAUSTRA_MEMORY_FIELDS(HAUSTRA_DECLARE_FIELD)  // total and its parts, bytes (report_fields.h)
 };
 [[nodiscard]] MemoryEstimate estimate_memory(const WorldDesc& desc);
 // Bytes the machine can give without swapping (Linux: MemAvailable).

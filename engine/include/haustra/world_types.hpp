@@ -115,12 +115,7 @@ struct Contact {
 
 // Contacts of the last frame, measured at its final positions.
 struct ContactReport {
-  std::size_t candidates = 0;                // pairs and bead–shape pairs within the margin at the frame's start
-  std::size_t touching = 0;                  // of those, overlapping at its end
-  double max_environment_depth = 0.0;        // m: deepest bead into a plane, obstacle, mesh or instrument
-  double max_environment_depth_ratio = 0.0;  // the same over that bead's radius
-  double max_bead_overlap = 0.0;             // m: deepest overlap of two beads that may collide
-  double max_bead_overlap_ratio = 0.0;       // the same over the smaller radius
+  HAUSTRA_CONTACT_FIELDS(HAUSTRA_DECLARE_FIELD)  // candidates, touching, depths and overlaps (report_fields.h)
 };
 
 // An instrument's state after the last frame. Force and torque are what the tissue exerts on the

@@ -515,13 +515,10 @@ haustra_status haustra_world_profile(const haustra_world* world, haustra_profile
     haustra_profile o{};
     for (std::size_t s = 0; s < haustra::kStageCount; ++s) o.stage_seconds[s] = p.seconds[s];
     o.frame_seconds = p.frame_seconds;
-    o.substeps = p.substeps;
-    o.retries = p.retries;
     o.newton = p.newton ? 1 : 0;
-    o.fallbacks = p.fallbacks;
-    o.backtracks = p.backtracks;
-    o.stiffenings = p.stiffenings;
-    o.chords = p.chords;
+#define HAUSTRA_COPY_FIELD(type, name, initial, meaning) o.name = p.name;
+    HAUSTRA_PROFILE_COUNTERS(HAUSTRA_COPY_FIELD)
+#undef HAUSTRA_COPY_FIELD
     required(out, "out") = o;
   });
 }

@@ -86,8 +86,9 @@ void visit_members(Io& io, I& in) {
 }
 template <class Io, StateOf<ContactReport> R>
 void visit_members(Io& io, R& r) {
-  io(r.candidates), io(r.touching), io(r.max_environment_depth), io(r.max_environment_depth_ratio),
-      io(r.max_bead_overlap), io(r.max_bead_overlap_ratio);
+#define HAUSTRA_VISIT_FIELD(type, name, initial, meaning) io(r.name);
+  HAUSTRA_CONTACT_FIELDS(HAUSTRA_VISIT_FIELD)
+#undef HAUSTRA_VISIT_FIELD
 }
 // Fast mode's chord state (decision 0037): whether a recorded factorization may serve again (its
 // frame, step length and contact pattern: at most an entry per attachment and bead), the record,

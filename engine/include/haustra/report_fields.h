@@ -1,0 +1,43 @@
+/* The fields of the engine's reports, each listed once (MuJoCo's mjxmacro.h): X(type, name, initial,
+ * meaning). The C++ structs declare their fields from these lists (FrameProfile in profile.hpp,
+ * ContactReport in world_types.hpp, MemoryEstimate in world.hpp), and every copy of them — the C
+ * API, the Python module, the run's summary, checkpoints — is written from them, so a new field is
+ * one line here (and, for the profile, its line in haustra.h's haustra_profile, which the C API's
+ * copy will not compile without). Plain C: haustra.h's users may read it too. */
+#ifndef HAUSTRA_REPORT_FIELDS_H
+#define HAUSTRA_REPORT_FIELDS_H
+
+#include <stddef.h>
+
+/* FrameProfile's counters (beside its per-stage times and calls, its frame time and `newton`). */
+#define HAUSTRA_PROFILE_COUNTERS(X)                                                                 \
+  X(int, substeps, 1, "substeps the frame was split into")                                          \
+  X(int, iterations, 0, "fixed-point iterations run, summed over substeps")                         \
+  X(int, retries, 0, "frames redone by the robust mode")                                            \
+  X(int, fallbacks, 0, "Newton iterations solved by the banded LU (the condensed sweep's pivots unsafe)") \
+  X(int, backtracks, 0, "line-search halvings")                                                     \
+  X(int, stiffenings, 0, "Newton steps solved again with stiffened law rows (the plain step went uphill)") \
+  X(int, chords, 0, "fast mode: Newton iterations that reused the last factorization")
+
+/* ContactReport: the contacts at the end of the last frame. */
+#define HAUSTRA_CONTACT_FIELDS(X)                                                                   \
+  X(size_t, candidates, 0, "pairs and bead-shape pairs within the margin at the frame's start")    \
+  X(size_t, touching, 0, "of those, overlapping at its end")                                       \
+  X(double, max_environment_depth, 0.0, "m: deepest bead into a plane, obstacle, mesh or instrument") \
+  X(double, max_environment_depth_ratio, 0.0, "the same over that bead's radius")                  \
+  X(double, max_bead_overlap, 0.0, "m: deepest overlap of two beads that may collide")             \
+  X(double, max_bead_overlap_ratio, 0.0, "the same over the smaller radius")
+
+/* MemoryEstimate: what a world of a description will take, before it is built. */
+#define HAUSTRA_MEMORY_FIELDS(X)                                                                    \
+  X(size_t, total, 0, "bytes")                                                                      \
+  X(size_t, nodes, 0, "rod nodes")                                                                  \
+  X(size_t, rod_bytes, 0, "the rods' model and state (and what building them takes)")               \
+  X(size_t, solver_bytes, 0, "the Newton solves' workspace")                                        \
+  X(size_t, bead_bytes, 0, "beads and their contacts")                                              \
+  X(size_t, mesh_bytes, 0, "procedural organ meshes (a mesh file's size is checked as it loads)")
+
+/* A struct's member declaration from a list's line. */
+#define HAUSTRA_DECLARE_FIELD(type, name, initial, meaning) type name = initial;
+
+#endif
