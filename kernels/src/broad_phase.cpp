@@ -1,3 +1,4 @@
+// The broad phase over beads: a uniform grid of spheres and the pairs whose grown spheres overlap.
 #include "haustra/kernels/broad_phase.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// Cage rings carried by the rod's stations: their poses, their motion since rest, the cage vertices.
 #include "haustra/kernels/cage_rings.hpp"
 
 namespace haustra::kernels {

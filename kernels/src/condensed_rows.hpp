@@ -335,6 +335,12 @@ inline void fused_rhs_pass(const SectionFrame& g, const double (&a)[10][4], cons
   }
 }
 
+// One function of ~290 lines on purpose: it is one recurrence from the tip to the base whose state
+// (the rows of Π, the interface's w and c, the distal wrench and its derivatives) passes from node
+// to node; each step of it is marked below (the tip, a joint, the wrench, the interface, section
+// k's force, node k+1's strain rows, U_k, the base). Split into functions, every call would carry
+// that state, and rod_condense_lanes must stay step for step the same (decision 0041: the same
+// bits for a rod alone and in a lane).
 template <int W>
 CondenseReport sweep(const RodLinearization& rod, StrainView<const double> residual, std::span<const UnitLoad> loads,
                      CondensedSystem sys, const CondensedRange& range) {

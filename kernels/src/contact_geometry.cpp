@@ -1,3 +1,4 @@
+// Closest points, sphere contacts with spheres, planes and capsules, and the contact penalty.
 #include "haustra/kernels/contact_geometry.hpp"
 
 #include <algorithm>

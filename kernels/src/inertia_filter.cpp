@@ -1,3 +1,4 @@
+// The paper's inertia filter (eq. 11-12) over a span of node positions.
 #include "haustra/kernels/inertia_filter.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// The rod's linear-element mass matrix: its factor, solve and product, and a dense reference.
 #include "haustra/kernels/mass_matrix.hpp"
 
 #include <Eigen/Dense>

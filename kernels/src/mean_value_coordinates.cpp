@@ -1,3 +1,4 @@
+// Mean value coordinates of points with respect to a closed triangle cage.
 #include "haustra/kernels/mean_value_coordinates.hpp"
 
 #include <Eigen/Geometry>

@@ -1,3 +1,4 @@
+// Rigid poses and the SE(3) exponential of a constant-strain section.
 #include "haustra/kernels/pose.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// The backward sweep: generalized forces conjugate to the node strains, from tip to base.
 #include "haustra/kernels/rod_backward_sweep.hpp"
 
 #include <algorithm>

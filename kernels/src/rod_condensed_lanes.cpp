@@ -79,6 +79,9 @@ using Row = L[kZ];
 
 }  // namespace
 
+// One function of ~260 lines on purpose: condensed::sweep's recurrence (condensed_rows.hpp), four
+// rods to a register, step for step the same as it (decision 0041) so that a rod gives the same
+// bits alone or in a lane; the steps are marked as they are there.
 void rod_condense_lanes(const std::array<const RodLinearization*, kCondensedLanes>& rods,
                         const std::array<StrainView<const double>, kCondensedLanes>& residuals,
                         const std::array<CondensedSystem, kCondensedLanes>& systems,

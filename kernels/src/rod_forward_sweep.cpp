@@ -1,3 +1,4 @@
+// The forward sweep: node and midpoint poses from the base pose and the strains.
 #include "haustra/kernels/rod_forward_sweep.hpp"
 
 #include <unsupported/Eigen/MatrixFunctions>

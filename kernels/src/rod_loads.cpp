@@ -1,3 +1,4 @@
+// Node loads (gravity and point loads), the total wrench, and the drag of a free base.
 #include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/pose.hpp"
 

@@ -1,3 +1,4 @@
+// One rod's Newton system of the implicit strain law: residual, Jacobian and their assembly.
 #include "haustra/kernels/rod_newton.hpp"
 #include "haustra/kernels/pose.hpp"
 

@@ -1,3 +1,4 @@
+// Skinning the organ mesh from the cage rings: rigid groups (SIMD and scalar reference) and sparse rows.
 #include "haustra/kernels/skinning.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// The strain law per component (paper eq. 9-10 and their Kelvin-Voigt blend).
 #include "haustra/kernels/strain_update.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// The EXP2 tissue law (paper eq. 1): stress, its slope and their integrals over the tube wall.
 #include "haustra/kernels/tissue_law.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// RGB images: PNG output through libpng and contact sheets.
 #include "haustra/render/image.hpp"
 
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// The software renderer: the world as triangle soups by kind, traced with Embree, shaded in layers.
 #include "haustra/render/render.hpp"
 
 #include <oneapi/tbb/parallel_for.h>
@@ -106,36 +107,47 @@ std::vector<std::uint32_t> nearest_nodes(const World& w) {
   return out;
 }
 
-Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o) {
-  Picture pic;
-  const double aspect = static_cast<double>(o.width) / o.height;
-  pic.camera = o.camera ? *o.camera : fit_camera(world, o.view_from, 35.0, aspect);
-  const Bounds b = subject_bounds(world);
-  const double size = std::max((b.hi - b.lo).norm(), 0.05);
+namespace {
 
+// What the picture shows, one Geometry per kind: built from the world and its description.
+struct SceneParts {
+  const World& world;
+  const WorldDesc& desc;
+  const RenderOptions& o;
+  double size;   // of the subject, m: overlays are drawn in proportion
+  bool overlay;  // something drawn inside the organ: the organ is see-through
+  Picture& pic;  // its colour scale
   std::vector<Geometry> geoms;
-  const bool overlay = o.overlays.beads || o.overlays.cage || o.overlays.centreline || !o.wires.empty();
-  const Rgb tissue{0.80f, 0.42f, 0.40f};
-  const auto nodes = world.node_positions();
 
-  // Organ meshes (see-through when an overlay must show inside them).
-  {
+  void keep(Geometry&& g) {
+    if (!g.triangles.empty()) geoms.push_back(std::move(g));
+  }
+  [[nodiscard]] std::vector<Eigen::Vector3d> rod_points(std::size_t s) const {
+    const auto nodes = world.node_positions();
+    const Range r = world.segment(s).nodes;
+    std::vector<Eigen::Vector3d> pts;
+    for (std::size_t k = r.offset; k < r.offset + r.count; ++k) pts.push_back(nodes.get(k));
+    return pts;
+  }
+  static constexpr Rgb kTissue{0.80f, 0.42f, 0.40f};
+
+  // Organ meshes (see-through when an overlay must show inside them), coloured by strain if asked.
+  void organs() {
     Geometry g;
-    g.material = {Shows::organ, tissue, overlay ? 0.35f : 1.0f, 0.25f, false};
+    g.material = {Shows::organ, kTissue, overlay ? 0.35f : 1.0f, 0.25f, false};
     const auto p = world.mesh_positions();
     const auto n = world.mesh_normals();
     std::vector<double> value;
-    const std::vector<std::uint32_t> nearest =
-        o.overlays.colour == Colouring::strain ? nearest_nodes(world) : std::vector<std::uint32_t>{};
+    const bool strain = o.overlays.colour == Colouring::strain;
+    const std::vector<std::uint32_t> nearest = strain ? nearest_nodes(world) : std::vector<std::uint32_t>{};
     for (std::size_t s = 0; s < world.segment_count(); ++s) {
       const MeshInfo& m = world.mesh(s);
       if (!m.enabled) continue;
       const auto base = static_cast<std::uint32_t>(g.vertices.size());
       for (std::size_t v = m.vertices.offset; v < m.vertices.offset + m.vertices.count; ++v) {
-        const Eigen::Vector3d x(p.x[v], p.y[v], p.z[v]);
-        g.vertices.push_back(x);
-        g.normals.push_back(Eigen::Vector3d(n.x[v], n.y[v], n.z[v]));
-        if (o.overlays.colour == Colouring::strain) {
+        g.vertices.emplace_back(p.x[v], p.y[v], p.z[v]);
+        g.normals.emplace_back(n.x[v], n.y[v], n.z[v]);
+        if (strain) {
           const std::size_t best = nearest[v];
           const Eigen::Vector4d q = world.strains().get(best) - world.rest_strains().get(best);
           value.push_back(q.head<2>().norm());
@@ -156,35 +168,30 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
     bool any_normal = false;
     for (const auto& nn : g.normals) any_normal = any_normal || nn.squaredNorm() > 0.5;
     if (!any_normal) g.normals.clear();  // the world computes no normals: use face normals
-    if (!g.triangles.empty()) geoms.push_back(std::move(g));
+    keep(std::move(g));
   }
+
   // The rod as a tube where a segment has no mesh.
-  {
+  void rods() {
     Geometry g;
-    g.material = {Shows::rod, tissue, overlay ? 0.35f : 1.0f, 0.25f, false};
-    for (std::size_t s = 0; s < world.segment_count(); ++s) {
-      if (world.mesh(s).enabled) continue;
-      const Range r = world.segment(s).nodes;
-      std::vector<Eigen::Vector3d> pts;
-      for (std::size_t k = r.offset; k < r.offset + r.count; ++k) pts.push_back(nodes.get(k));
-      add_tube(g, pts, desc.segments[s].cross_section.radius, 16);
-    }
-    if (!g.triangles.empty()) geoms.push_back(std::move(g));
+    g.material = {Shows::rod, kTissue, overlay ? 0.35f : 1.0f, 0.25f, false};
+    for (std::size_t s = 0; s < world.segment_count(); ++s)
+      if (!world.mesh(s).enabled) add_tube(g, rod_points(s), desc.segments[s].cross_section.radius, 16);
+    keep(std::move(g));
   }
-  if (o.overlays.centreline) {
+
+  void centrelines() {
     Geometry g;
     g.material = {Shows::centreline, {0.95f, 0.80f, 0.10f}, 1.0f, 0.2f, false};
-    for (std::size_t s = 0; s < world.segment_count(); ++s) {
-      const Range r = world.segment(s).nodes;
-      std::vector<Eigen::Vector3d> pts;
-      for (std::size_t k = r.offset; k < r.offset + r.count; ++k) pts.push_back(nodes.get(k));
-      add_tube(g, pts, 0.0025 * size / 0.5, 8);
-    }
+    for (std::size_t s = 0; s < world.segment_count(); ++s) add_tube(g, rod_points(s), 0.0025 * size / 0.5, 8);
     geoms.push_back(std::move(g));
   }
-  if (o.overlays.beads || o.overlays.colour == Colouring::penetration) {
+
+  // The beads, coloured by how deep their deepest contact goes if asked.
+  void beads() {
     Geometry g;
     g.material = {Shows::bead, {0.55f, 0.62f, 0.85f}, 1.0f, 0.3f, false};
+    const bool penetration = o.overlays.colour == Colouring::penetration;
     std::vector<double> depth(world.bead_count(), 0.0);
     for (const Contact& c : world.contact_list())
       if (c.depth > 0.0) {
@@ -192,18 +199,20 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
         if (c.kind == ContactKind::bead)
           depth[c.other] = std::max(depth[c.other], c.depth / world.bead_radii()[c.other]);
       }
+    const auto nodes = world.node_positions();
     for (std::size_t i = 0; i < world.bead_count(); ++i) {
       add_sphere(g, nodes.get(world.bead_nodes()[i]), world.bead_radii()[i], 10);
-      if (o.overlays.colour == Colouring::penetration)
-        g.colours.resize(g.vertices.size(), colormap(depth[i] / 0.05));  // 0 … 5 % of the radius
+      if (penetration) g.colours.resize(g.vertices.size(), colormap(depth[i] / 0.05));  // 0 … 5 % of the radius
     }
-    if (o.overlays.colour == Colouring::penetration && !depth.empty()) {
+    if (penetration && !depth.empty()) {
       pic.colour_min = *std::min_element(depth.begin(), depth.end());
       pic.colour_max = *std::max_element(depth.begin(), depth.end());
     }
-    if (!g.triangles.empty()) geoms.push_back(std::move(g));
+    keep(std::move(g));
   }
-  if (o.overlays.cage) {
+
+  // Each cage's edges as thin tubes.
+  void cages() {
     Geometry g;
     g.material = {Shows::cage, {0.15f, 0.35f, 0.95f}, 1.0f, 0.2f, false};
     for (std::size_t s = 0; s < world.segment_count(); ++s) {
@@ -219,32 +228,36 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
       edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
       for (const auto& [a, c] : edges) add_tube(g, {cv[a], cv[c]}, 0.0012 * size / 0.5, 6);
     }
-    if (!g.triangles.empty()) geoms.push_back(std::move(g));
+    keep(std::move(g));
   }
-  if (!o.wires.empty()) {
+
+  void wires() {
     Geometry g;
     g.material = {Shows::cage, {0.15f, 0.35f, 0.95f}, 1.0f, 0.2f, false};
     for (const auto& w : o.wires)
       for (std::size_t i = 0; i + 1 < w.size(); ++i) add_tube(g, {w[i], w[i + 1]}, 0.0012 * size / 0.5, 6);
-    if (!g.triangles.empty()) geoms.push_back(std::move(g));
+    keep(std::move(g));
   }
-  if (o.overlays.contacts) {
+
+  void contacts() {
     Geometry g;
     g.material = {Shows::contact, {0.95f, 0.10f, 0.08f}, 1.0f, 0.3f, false};
     for (const Contact& c : world.contact_list())
       if (c.depth > 0.0) add_sphere(g, c.point, 0.004 * size / 0.5, 5);
-    if (!g.triangles.empty()) geoms.push_back(std::move(g));
+    keep(std::move(g));
   }
-  {
+
+  void instruments() {
     Geometry g;
     g.material = {Shows::instrument, {0.55f, 0.57f, 0.60f}, 1.0f, 0.8f, false};
     for (std::size_t i = 0; i < world.instrument_count(); ++i) {
       const InstrumentReading r = world.instrument(i);
       add_capsule(g, r.tip, r.tip + desc.instruments[i].length * r.axis, desc.instruments[i].radius);
     }
-    if (!g.triangles.empty()) geoms.push_back(std::move(g));
+    keep(std::move(g));
   }
-  {
+
+  void obstacles() {
     Geometry g;
     g.material = {Shows::obstacle, {0.60f, 0.63f, 0.55f}, 1.0f, 0.15f, false};
     for (const auto& s : desc.environment.spheres) add_sphere(g, s.center, s.radius, 24);
@@ -255,39 +268,41 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
       for (auto t : m.triangles) g.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
     }
     if (!g.normals.empty() && g.normals.size() != g.vertices.size()) g.normals.clear();
-    if (!g.triangles.empty()) geoms.push_back(std::move(g));
-  }
-  for (const auto& plane : desc.environment.planes) {
-    // A plane seen from behind (the camera outside a box's wall) would hide the subject: left out,
-    // as in a cut-away drawing.
-    if ((pic.camera.eye - plane.point).dot(plane.normal) < 0.0) continue;
-    // A square of the plane under the subject, four subject sizes wide.
-    Geometry g;
-    g.material = {Shows::floor, {0.82f, 0.82f, 0.80f}, 1.0f, 0.0f, true};
-    const Eigen::Vector3d n = plane.normal.normalized();
-    const Eigen::Vector3d centre = 0.5 * (b.lo + b.hi);
-    const Eigen::Vector3d foot = centre - (centre - plane.point).dot(n) * n;
-    const auto [u, v] = across(n);
-    const double half = 2.0 * size;
-    const std::uint32_t a = g.vertex(foot - half * u - half * v), c = g.vertex(foot + half * u - half * v),
-                        d = g.vertex(foot + half * u + half * v), e = g.vertex(foot - half * u + half * v);
-    g.triangles = {{a, c, d}, {a, d, e}};
-    geoms.push_back(std::move(g));
+    keep(std::move(g));
   }
 
-  EmbreeScene scene;
-  for (const Geometry& g : geoms) scene.add_triangles(g.vertices, g.triangles);
-  scene.commit();
+  // Each plane as a tiled square under the subject, four subject sizes wide; a plane seen from
+  // behind (the camera outside a box's wall) would hide the subject: left out, as in a cut-away.
+  void floors(const Bounds& b) {
+    for (const auto& plane : desc.environment.planes) {
+      if ((pic.camera.eye - plane.point).dot(plane.normal) < 0.0) continue;
+      Geometry g;
+      g.material = {Shows::floor, {0.82f, 0.82f, 0.80f}, 1.0f, 0.0f, true};
+      const Eigen::Vector3d n = plane.normal.normalized();
+      const Eigen::Vector3d centre = 0.5 * (b.lo + b.hi);
+      const Eigen::Vector3d foot = centre - (centre - plane.point).dot(n) * n;
+      const auto [u, v] = across(n);
+      const double half = 2.0 * size;
+      const std::uint32_t a = g.vertex(foot - half * u - half * v), c = g.vertex(foot + half * u - half * v),
+                          d = g.vertex(foot + half * u + half * v), e = g.vertex(foot - half * u + half * v);
+      g.triangles = {{a, c, d}, {a, d, e}};
+      geoms.push_back(std::move(g));
+    }
+  }
+};
 
-  const Camera& cam = pic.camera;
-  const Eigen::Vector3d forward = (cam.target - cam.eye).normalized();
-  const Eigen::Vector3d right = forward.cross(cam.up).normalized();
-  const Eigen::Vector3d up = right.cross(forward);
-  const double tan_half = std::tan(0.5 * cam.fov_degrees * std::numbers::pi / 180.0);
-  const Eigen::Vector3d sun = Eigen::Vector3d(-0.35, -0.5, 1.0).normalized();
-  const double eps = 1e-5 * size;
+// A ray's colour: up to six layers of see-through surfaces, each lit by a sun (with its shadow), a
+// fill light and a highlight, over a sky gradient; `shows` (if given) takes the first opaque kind.
+struct Shader {
+  const EmbreeScene& scene;
+  const std::vector<Geometry>& geoms;
+  const Camera& cam;
+  bool shadows;
+  double size;
 
-  auto shade = [&](const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, Shows* shows) -> Rgb {
+  [[nodiscard]] Rgb operator()(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, Shows* shows) const {
+    const Eigen::Vector3d sun = Eigen::Vector3d(-0.35, -0.5, 1.0).normalized();
+    const double eps = 1e-5 * size;
     Rgb accumulated{0, 0, 0};
     float remaining = 1.0f;
     double t0 = 0.0;
@@ -314,7 +329,7 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
         if (((ix + iy) & 1L) != 0) base = scale(base, 0.86f);
       }
       double light = std::max(0.0, n.dot(sun));
-      if (o.shadows && light > 0.0 && scene.first_hit(p + eps * n, sun, 0.0, 10.0 * size).found) light *= 0.25;
+      if (shadows && light > 0.0 && scene.first_hit(p + eps * n, sun, 0.0, 10.0 * size).found) light *= 0.25;
       const double fill = 0.35 * std::max(0.0, n.dot(-dir));
       const Eigen::Vector3d half = (sun - dir).normalized();
       const double spec = g.material.shine * std::pow(std::max(0.0, n.dot(half)), 40.0) * (light > 0.0 ? 1.0 : 0.0);
@@ -330,8 +345,17 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
     const Rgb sky =
         mix(Rgb{0.93f, 0.94f, 0.96f}, Rgb{0.70f, 0.76f, 0.86f}, static_cast<float>(0.5 + 0.5 * dir.dot(cam.up)));
     return add(accumulated, scale(sky, remaining));
-  };
+  }
+};
 
+// Every pixel: s × s rays through it, averaged; the middle ray says what the pixel shows.
+void trace(const Shader& shade, const RenderOptions& o, Picture& pic) {
+  const Camera& cam = pic.camera;
+  const double aspect = static_cast<double>(o.width) / o.height;
+  const Eigen::Vector3d forward = (cam.target - cam.eye).normalized();
+  const Eigen::Vector3d right = forward.cross(cam.up).normalized();
+  const Eigen::Vector3d up = right.cross(forward);
+  const double tan_half = std::tan(0.5 * cam.fov_degrees * std::numbers::pi / 180.0);
   pic.image = Image(o.width, o.height);
   pic.shows.assign(static_cast<std::size_t>(o.width * o.height), Shows::background);
   const int s = std::max(1, o.samples);
@@ -349,6 +373,32 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
       pic.image.set(x, y, scale(sum, 1.0f / static_cast<float>(s * s)));
     }
   });
+}
+
+}  // namespace
+
+Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o) {
+  Picture pic;
+  const double aspect = static_cast<double>(o.width) / o.height;
+  pic.camera = o.camera ? *o.camera : fit_camera(world, o.view_from, 35.0, aspect);
+  const Bounds b = subject_bounds(world);
+  const bool overlay = o.overlays.beads || o.overlays.cage || o.overlays.centreline || !o.wires.empty();
+  SceneParts parts{world, desc, o, std::max((b.hi - b.lo).norm(), 0.05), overlay, pic, {}};
+  parts.organs();
+  parts.rods();
+  if (o.overlays.centreline) parts.centrelines();
+  if (o.overlays.beads || o.overlays.colour == Colouring::penetration) parts.beads();
+  if (o.overlays.cage) parts.cages();
+  if (!o.wires.empty()) parts.wires();
+  if (o.overlays.contacts) parts.contacts();
+  parts.instruments();
+  parts.obstacles();
+  parts.floors(b);
+
+  EmbreeScene scene;
+  for (const Geometry& g : parts.geoms) scene.add_triangles(g.vertices, g.triangles);
+  scene.commit();
+  trace(Shader{scene, parts.geoms, pic.camera, o.shadows, parts.size}, o, pic);
   return pic;
 }
 

@@ -1,3 +1,4 @@
+// Reference solutions for the validation cases, computed without the engine.
 #include "haustra/studies/references.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The localization study of docs/skinning.md: rings kept per vertex against cost and error.
 #include "haustra/studies/skinning_study.hpp"
 
 #include <fmt/format.h>

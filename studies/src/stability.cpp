@@ -1,3 +1,4 @@
+// The stability map of docs/stability.md: outcome of each cell of E, dt, N, load and law.
 #include "haustra/studies/stability.hpp"
 
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// The validation cases: each builds a world, runs it and compares with its reference.
 #include "haustra/studies/validation.hpp"
 
 #include <fmt/format.h>

@@ -88,6 +88,50 @@ std::unique_ptr<import::ScratchImport> import_if_surface(const fs::path& given) 
   return imported;
 }
 
+// What `run` says before the first frame: the scene, the world's size, each segment's rest shape and mesh.
+void print_run_header(const SceneDesc& scene, const World& world) {
+  fmt::print("haustra run: {} ({})\n", scene.name, scene.file.string());
+  if (!scene.description.empty()) fmt::print("  {}\n", scene.description);
+  fmt::print("  {} segment{}, {} nodes; dt = {:.6g} s; {} frames; solver {}; {} thread{}\n", world.segment_count(),
+             world.segment_count() == 1 ? "" : "s", world.node_count(), world.dt(), scene.frames,
+             solver_mode_name(scene.world.solver.mode), world.threads(), world.threads() == 1 ? "" : "s");
+  for (std::size_t s = 0; s < world.segment_count(); ++s) {
+    const SegmentInfo& info = world.segment(s);
+    if (info.rest_polyline_deviation > 0.0)
+      fmt::print(
+          "  segment '{}': rest shape from a centreline, {:.4g} m long; interpolation nodes within {:.2g} m, "
+          "source polyline within {:.3g} mm of the rod\n",
+          info.name, info.length, info.rest_node_deviation, info.rest_polyline_deviation * 1e3);
+  }
+
+  for (std::size_t s = 0; s < world.segment_count(); ++s) cli::print_mesh_info(stdout, world, s);
+}
+
+// The files of `run --out`: the summary, the per-frame table, the final nodes, and the recorders' files.
+void write_run_outputs(const RunOptions& o, const SceneDesc& scene, const World& world, cli::RunRecord& record,
+                       const cli::TrackRecorder* tracks, cli::MeshRecorder* meshes, const std::string& status,
+                       const std::string& error) {
+  const std::filesystem::path dir(o.out);
+  std::filesystem::create_directories(dir);
+  record.write_summary(dir / "summary.json", scene, world, scene.frames, status, error);
+  record.write_frames_csv(dir / "frames.csv");
+  cli::write_nodes_csv(dir / "nodes.csv", world);
+  fmt::print(
+      "\noutputs in {}/: summary.json (counts, per-stage times, final node positions, per-frame "
+      "penetrations and instrument forces), frames.csv (per-frame times, contacts, forces), nodes.csv "
+      "(final nodes and strains)\n",
+      std::filesystem::absolute(dir).lexically_normal().string());
+  if (tracks != nullptr)
+    fmt::print("centreline and beads every {} frames: {}, {}\n", o.mesh_every, (dir / "centreline.csv").string(),
+               (dir / "beads.csv").string());
+  if (meshes != nullptr) {
+    meshes->finish(dir / "mesh.glb");
+    fmt::print("deformed meshes: {} frames in {}/ ({}), all of them animated in {}\n", meshes->frames(),
+               std::filesystem::absolute(dir / "mesh").lexically_normal().string(), o.mesh_format,
+               std::filesystem::absolute(dir / "mesh.glb").lexically_normal().string());
+  }
+}
+
 int run(const RunOptions& o) {
   const std::unique_ptr<import::ScratchImport> imported = import_if_surface(o.scene);
   SceneDesc scene = load_scene(imported ? imported->scene() : fs::path(o.scene), o.sets);
@@ -96,22 +140,7 @@ int run(const RunOptions& o) {
   if (o.threads) scene.world.threads = *o.threads;
   if (scene.frames < 0) throw Error(ErrorCode::invalid_argument, "--frames: expected a non-negative count");
   std::unique_ptr<World> world = create_world(scene);
-
-  fmt::print("haustra run: {} ({})\n", scene.name, scene.file.string());
-  if (!scene.description.empty()) fmt::print("  {}\n", scene.description);
-  fmt::print("  {} segment{}, {} nodes; dt = {:.6g} s; {} frames; solver {}; {} thread{}\n", world->segment_count(),
-             world->segment_count() == 1 ? "" : "s", world->node_count(), world->dt(), scene.frames,
-             solver_mode_name(scene.world.solver.mode), world->threads(), world->threads() == 1 ? "" : "s");
-  for (std::size_t s = 0; s < world->segment_count(); ++s) {
-    const SegmentInfo& info = world->segment(s);
-    if (info.rest_polyline_deviation > 0.0)
-      fmt::print(
-          "  segment '{}': rest shape from a centreline, {:.4g} m long; interpolation nodes within {:.2g} m, "
-          "source polyline within {:.3g} mm of the rod\n",
-          info.name, info.length, info.rest_node_deviation, info.rest_polyline_deviation * 1e3);
-  }
-
-  for (std::size_t s = 0; s < world->segment_count(); ++s) cli::print_mesh_info(stdout, *world, s);
+  print_run_header(scene, *world);
 
   cli::RunRecord record;
   // Deformed organ meshes: every mesh_every frames (and the first and last) as files, and all of
@@ -152,27 +181,7 @@ int run(const RunOptions& o) {
   }
   for (const Event& e : world->events())
     if (e.kind == Event::Kind::recovered) fmt::print("  event: {}\n", e.message());
-  if (!o.out.empty()) {
-    const std::filesystem::path dir(o.out);
-    std::filesystem::create_directories(dir);
-    record.write_summary(dir / "summary.json", scene, *world, scene.frames, status, error);
-    record.write_frames_csv(dir / "frames.csv");
-    cli::write_nodes_csv(dir / "nodes.csv", *world);
-    fmt::print(
-        "\noutputs in {}/: summary.json (counts, per-stage times, final node positions, per-frame "
-        "penetrations and instrument forces), frames.csv (per-frame times, contacts, forces), nodes.csv "
-        "(final nodes and strains)\n",
-        std::filesystem::absolute(dir).lexically_normal().string());
-    if (tracks)
-      fmt::print("centreline and beads every {} frames: {}, {}\n", o.mesh_every, (dir / "centreline.csv").string(),
-                 (dir / "beads.csv").string());
-    if (meshes) {
-      meshes->finish(dir / "mesh.glb");
-      fmt::print("deformed meshes: {} frames in {}/ ({}), all of them animated in {}\n", meshes->frames(),
-                 std::filesystem::absolute(dir / "mesh").lexically_normal().string(), o.mesh_format,
-                 std::filesystem::absolute(dir / "mesh.glb").lexically_normal().string());
-    }
-  }
+  if (!o.out.empty()) write_run_outputs(o, scene, *world, record, tracks.get(), meshes.get(), status, error);
   if (status != "ok") {
     fmt::print(stderr, "error: {}\n", error);
     return kExitUnstable;
@@ -427,113 +436,173 @@ int open_viewer(const char* self, const std::vector<std::string>& args) {
   return kExitBadInput;
 }
 
+// Every subcommand's options, filled by CLI11 from the command line (declare_* below) and read by
+// dispatch().
+struct Commands {
+  CLI::App *run_cmd = nullptr, *validate_cmd = nullptr, *stability_cmd = nullptr, *skinning_cmd = nullptr,
+           *study_cmd = nullptr, *render_cmd = nullptr, *figure_cmd = nullptr, *import_cmd = nullptr,
+           *anatomy_cmd = nullptr, *view_cmd = nullptr;
+  RunOptions run;
+  bool json = false, validate_markdown = false;
+  std::string assets;
+  bool markdown = false;
+  std::string stability_csv;
+  bool skinning_markdown = false, skinning_anatomy = false;
+  std::string skinning_assets = HAUSTRA_DEFAULT_ASSETS;
+  bool study_markdown = false;
+  std::string study_csv;
+  RenderCommand render;
+  std::string figure_out = "fig6-cage.png";
+  import::ImportOptions import_options;
+  fs::path anatomy_folder, anatomy_out = fs::temp_directory_path() / "haustra-anatomy";
+};
+
+void declare_run(CLI::App& app, Commands& c) {
+  c.run_cmd = app.add_subcommand("run", "step a scene and report per-stage timings");
+  c.run_cmd->add_option("scene", c.run.scene, "scene file (TOML), or a surface to import first with the defaults")
+      ->required()
+      ->check(CLI::ExistingFile);
+  c.run_cmd->add_option("--frames", c.run.frames, "number of frames (default: the scene's)");
+  c.run_cmd->add_option("--dt", c.run.dt, "time step in seconds (default: the scene's)");
+  c.run_cmd->add_option("--threads", c.run.threads, "worker threads (0: all)");
+  c.run_cmd->add_option("--set", c.run.sets, "override a scene value, e.g. --set segment.nodes=333")->take_all();
+  c.run_cmd->add_option("--out", c.run.out, "directory for summary.json, frames.csv and nodes.csv");
+  c.run_cmd->add_flag("--quiet", c.run.quiet, "no progress bar or timing table");
+  c.run_cmd
+      ->add_option("--mesh-every", c.run.mesh_every,
+                   "with --out: write the deformed organ mesh, the centreline and the beads every N frames (0: never)")
+      ->check(CLI::NonNegativeNumber);
+  c.run_cmd->add_option("--mesh-format", c.run.mesh_format, "ply, obj or stl")
+      ->check(CLI::IsMember({"ply", "obj", "stl"}));
+}
+
+// The reference cases and the studies: validate, stability, skinning, study.
+void declare_studies(CLI::App& app, Commands& c) {
+  c.validate_cmd = app.add_subcommand("validate", "run the reference cases against analytic solutions");
+  c.validate_cmd->add_flag("--json", c.json, "print the results as JSON");
+  c.validate_cmd->add_flag("--markdown", c.validate_markdown,
+                           "print the results as a Markdown table (docs/results.md)");
+  c.validate_cmd->add_option("--assets", c.assets, "directory holding large-intestine-A-DSJ-centreline.json");
+
+  c.stability_cmd =
+      app.add_subcommand("stability", "sweep E, dt, N and load: where the lagged scheme holds, recovers or stops");
+  c.stability_cmd->add_flag("--markdown", c.markdown, "print the tables of docs/stability.md");
+  c.stability_cmd->add_option("--csv", c.stability_csv, "also write every cell to this CSV file (for the heat map)");
+
+  c.skinning_cmd = app.add_subcommand(
+      "skinning", "localization study: rings kept per mesh vertex against cost and error, and linear-blend skinning");
+  c.skinning_cmd->add_flag("--markdown", c.skinning_markdown, "print the table of docs/skinning.md");
+  c.skinning_cmd->add_flag(
+      "--anatomy", c.skinning_anatomy,
+      "the real-anatomy table instead: the CT colon and procedural organs imported, deformed, K = 4 "
+      "against the per-vertex localization");
+  c.skinning_cmd->add_option("--assets", c.skinning_assets,
+                             "directory holding large-intestine-A-DSJ.obj and its centreline");
+
+  c.study_cmd = app.add_subcommand(
+      "study", "speed against accuracy: each simplification as a knob, error against a reference and cost per frame");
+  c.study_cmd->add_flag("--markdown", c.study_markdown, "print docs/tradeoff.md (progress goes to stderr otherwise)");
+  c.study_cmd->add_option("--csv", c.study_csv, "also write every row to this CSV file (for the plots)");
+}
+
+void declare_pictures(CLI::App& app, Commands& c) {
+  c.render_cmd =
+      app.add_subcommand("render", "run a scene and ray-cast chosen frames to a PNG (a contact sheet for several)");
+  c.render_cmd->add_option("scene", c.render.scene, "scene file (TOML)")->required()->check(CLI::ExistingFile);
+  c.render_cmd->add_option("--frames", c.render.frames, "frames to render, e.g. --frames 0 60 270")->expected(1, -1);
+  c.render_cmd->add_option("--set", c.render.sets, "override a scene value")->take_all();
+  c.render_cmd->add_option("--overlay", c.render.overlays, "beads, cage, centreline, contacts")->expected(1, -1);
+  c.render_cmd->add_option("--colour", c.render.colour, "tissue, strain (bending, 1/m) or penetration (beads)")
+      ->check(CLI::IsMember({"tissue", "strain", "penetration"}));
+  c.render_cmd->add_option("--width", c.render.width, "pixels")->check(CLI::Range(16, 8192));
+  c.render_cmd->add_option("--height", c.render.height, "pixels")->check(CLI::Range(16, 8192));
+  c.render_cmd->add_option("--columns", c.render.columns, "contact sheet columns");
+  c.render_cmd->add_option("--view", c.render.view, "direction from the subject to the camera, x y z")->expected(3);
+  c.render_cmd->add_option("--out", c.render.out, "PNG file");
+
+  c.figure_cmd =
+      app.add_subcommand("figure-cage", "the paper's Fig. 6: beads, cage, linear blend and MVC under a sharp bend");
+  c.figure_cmd->add_option("--out", c.figure_out, "PNG file");
+}
+
+// Surfaces to scenes: import one, or a folder of them (anatomy).
+void declare_import(CLI::App& app, Commands& c) {
+  c.import_cmd = app.add_subcommand(
+      "import",
+      "a segmented organ surface to a scene that runs: centreline read or computed, trimmed, rod, beads, cage");
+  c.import_cmd->add_option("mesh", c.import_options.mesh, "surface (OBJ, STL, OFF, glTF), open or closed ends, mm or m")
+      ->required()
+      ->check(CLI::ExistingFile);
+  c.import_cmd
+      ->add_option("--centreline", c.import_options.centreline,
+                   "its midline (JSON with units and points); default: computed")
+      ->check(CLI::ExistingFile);
+  c.import_cmd->add_option("--out", c.import_options.out, "the scene file to write (default: MESH's name .toml here)");
+  c.import_cmd->add_option("--units", c.import_options.units, "auto (default: from the size), mm or m")
+      ->check(CLI::IsMember({"auto", "mm", "m"}));
+  c.import_cmd->add_option("--ends", c.import_options.ends, "held (default: both ends), base (the first) or free")
+      ->check(CLI::IsMember({"held", "base", "free"}));
+  c.import_cmd->add_option("--nodes", c.import_options.nodes, "rod nodes (default: one per 5 mm, 9 to 1,201)")
+      ->check(CLI::Range(3, 20000));
+  c.import_cmd->add_option("--beads", c.import_options.beads, "beads (default: a third of the nodes)")
+      ->check(CLI::Range(2, 20000));
+  c.import_cmd->add_flag("--reverse", c.import_options.reverse, "run the rod from the other end");
+
+  c.anatomy_cmd = app.add_subcommand(
+      "anatomy", "import every surface of a folder with the defaults, grasp and lift each: docs/anatomy.md's table");
+  c.anatomy_cmd->add_option("folder", c.anatomy_folder, "folder of surfaces (.obj)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  c.anatomy_cmd->add_option("--out", c.anatomy_out, "where the imported scenes go");
+}
+
+int dispatch(Commands& c) {
+  if (*c.run_cmd) return run(c.run);
+  if (*c.import_cmd) {
+    // A line per phase on a terminal (a whole organ takes a minute): what was done and how long.
+    if (isatty(fileno(stderr)) != 0)
+      c.import_options.progress = [](std::string_view line) { fmt::print(stderr, "import: {}\n", line); };
+    const import::ImportReport report = import::import_surface(c.import_options);
+    fmt::print("{}scene: {} (centreline: {})\nrun it: haustra run {}\n", report.text(), report.scene.string(),
+               report.centreline_file.string(), report.scene.string());
+    return 0;
+  }
+  if (*c.anatomy_cmd) {
+    const auto rows = import::run_cohort(c.anatomy_folder, c.anatomy_out);
+    fmt::print("{}", import::cohort_markdown(rows, c.anatomy_folder));
+    std::size_t ok = 0;
+    for (const auto& r : rows) ok += r.ran ? 1 : 0;
+    return ok == rows.size() ? 0 : kExitFailedCase;
+  }
+  if (*c.validate_cmd) return validate(c.json, c.validate_markdown, c.assets);
+  if (*c.stability_cmd) return stability(c.markdown, c.stability_csv);
+  if (*c.skinning_cmd && c.skinning_anatomy) {
+    const auto organs =
+        import::import_study_organs(c.skinning_assets, fs::temp_directory_path() / "haustra-anatomy-study");
+    fmt::print("{}", import::anatomy_markdown(import::run_anatomy_study(organs)));
+    return 0;
+  }
+  if (*c.skinning_cmd) return skinning(c.skinning_markdown);
+  if (*c.study_cmd) return study(c.study_markdown, c.study_csv);
+  if (*c.render_cmd) return render_frames(c.render);
+  if (*c.figure_cmd) return figure_cage(c.figure_out, 720, 480);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"haustra: beads-on-string soft organ engine (Chang et al., The Visual Computer 2011)"};
   app.set_version_flag("--version", std::string("haustra 0.1.0"));
   app.require_subcommand(1);
-
-  RunOptions ro;
-  CLI::App* run_cmd = app.add_subcommand("run", "step a scene and report per-stage timings");
-  run_cmd->add_option("scene", ro.scene, "scene file (TOML), or a surface to import first with the defaults")
-      ->required()
-      ->check(CLI::ExistingFile);
-  run_cmd->add_option("--frames", ro.frames, "number of frames (default: the scene's)");
-  run_cmd->add_option("--dt", ro.dt, "time step in seconds (default: the scene's)");
-  run_cmd->add_option("--threads", ro.threads, "worker threads (0: all)");
-  run_cmd->add_option("--set", ro.sets, "override a scene value, e.g. --set segment.nodes=333")->take_all();
-  run_cmd->add_option("--out", ro.out, "directory for summary.json, frames.csv and nodes.csv");
-  run_cmd->add_flag("--quiet", ro.quiet, "no progress bar or timing table");
-  run_cmd
-      ->add_option("--mesh-every", ro.mesh_every,
-                   "with --out: write the deformed organ mesh, the centreline and the beads every N frames (0: never)")
-      ->check(CLI::NonNegativeNumber);
-  run_cmd->add_option("--mesh-format", ro.mesh_format, "ply, obj or stl")->check(CLI::IsMember({"ply", "obj", "stl"}));
-
-  bool json = false, validate_markdown = false;
-  std::string assets;
-  CLI::App* validate_cmd = app.add_subcommand("validate", "run the reference cases against analytic solutions");
-  validate_cmd->add_flag("--json", json, "print the results as JSON");
-  validate_cmd->add_flag("--markdown", validate_markdown, "print the results as a Markdown table (docs/results.md)");
-  validate_cmd->add_option("--assets", assets, "directory holding large-intestine-A-DSJ-centreline.json");
-
-  bool markdown = false;
-  CLI::App* stability_cmd =
-      app.add_subcommand("stability", "sweep E, dt, N and load: where the lagged scheme holds, recovers or stops");
-  stability_cmd->add_flag("--markdown", markdown, "print the tables of docs/stability.md");
-  std::string stability_csv;
-  stability_cmd->add_option("--csv", stability_csv, "also write every cell to this CSV file (for the heat map)");
-
-  bool skinning_markdown = false;
-  CLI::App* skinning_cmd = app.add_subcommand(
-      "skinning", "localization study: rings kept per mesh vertex against cost and error, and linear-blend skinning");
-  skinning_cmd->add_flag("--markdown", skinning_markdown, "print the table of docs/skinning.md");
-  bool skinning_anatomy = false;
-  skinning_cmd->add_flag("--anatomy", skinning_anatomy,
-                         "the real-anatomy table instead: the CT colon and procedural organs imported, deformed, K = 4 "
-                         "against the per-vertex localization");
-  std::string skinning_assets = HAUSTRA_DEFAULT_ASSETS;
-  skinning_cmd->add_option("--assets", skinning_assets,
-                           "directory holding large-intestine-A-DSJ.obj and its centreline");
-
-  bool study_markdown = false;
-  std::string study_csv;
-  CLI::App* study_cmd = app.add_subcommand(
-      "study", "speed against accuracy: each simplification as a knob, error against a reference and cost per frame");
-  study_cmd->add_flag("--markdown", study_markdown, "print docs/tradeoff.md (progress goes to stderr otherwise)");
-  study_cmd->add_option("--csv", study_csv, "also write every row to this CSV file (for the plots)");
-
-  RenderCommand rc;
-  CLI::App* render_cmd =
-      app.add_subcommand("render", "run a scene and ray-cast chosen frames to a PNG (a contact sheet for several)");
-  render_cmd->add_option("scene", rc.scene, "scene file (TOML)")->required()->check(CLI::ExistingFile);
-  render_cmd->add_option("--frames", rc.frames, "frames to render, e.g. --frames 0 60 270")->expected(1, -1);
-  render_cmd->add_option("--set", rc.sets, "override a scene value")->take_all();
-  render_cmd->add_option("--overlay", rc.overlays, "beads, cage, centreline, contacts")->expected(1, -1);
-  render_cmd->add_option("--colour", rc.colour, "tissue, strain (bending, 1/m) or penetration (beads)")
-      ->check(CLI::IsMember({"tissue", "strain", "penetration"}));
-  render_cmd->add_option("--width", rc.width, "pixels")->check(CLI::Range(16, 8192));
-  render_cmd->add_option("--height", rc.height, "pixels")->check(CLI::Range(16, 8192));
-  render_cmd->add_option("--columns", rc.columns, "contact sheet columns");
-  render_cmd->add_option("--view", rc.view, "direction from the subject to the camera, x y z")->expected(3);
-  render_cmd->add_option("--out", rc.out, "PNG file");
-
-  std::string figure_out = "fig6-cage.png";
-  CLI::App* figure_cmd =
-      app.add_subcommand("figure-cage", "the paper's Fig. 6: beads, cage, linear blend and MVC under a sharp bend");
-  figure_cmd->add_option("--out", figure_out, "PNG file");
-
-  import::ImportOptions io;
-  CLI::App* import_cmd = app.add_subcommand(
-      "import",
-      "a segmented organ surface to a scene that runs: centreline read or computed, trimmed, rod, beads, cage");
-  import_cmd->add_option("mesh", io.mesh, "surface (OBJ, STL, OFF, glTF), open or closed ends, mm or m")
-      ->required()
-      ->check(CLI::ExistingFile);
-  import_cmd->add_option("--centreline", io.centreline, "its midline (JSON with units and points); default: computed")
-      ->check(CLI::ExistingFile);
-  import_cmd->add_option("--out", io.out, "the scene file to write (default: MESH's name .toml here)");
-  import_cmd->add_option("--units", io.units, "auto (default: from the size), mm or m")
-      ->check(CLI::IsMember({"auto", "mm", "m"}));
-  import_cmd->add_option("--ends", io.ends, "held (default: both ends), base (the first) or free")
-      ->check(CLI::IsMember({"held", "base", "free"}));
-  import_cmd->add_option("--nodes", io.nodes, "rod nodes (default: one per 5 mm, 9 to 1,201)")
-      ->check(CLI::Range(3, 20000));
-  import_cmd->add_option("--beads", io.beads, "beads (default: a third of the nodes)")->check(CLI::Range(2, 20000));
-  import_cmd->add_flag("--reverse", io.reverse, "run the rod from the other end");
-
-  fs::path anatomy_folder, anatomy_out = fs::temp_directory_path() / "haustra-anatomy";
-  CLI::App* anatomy_cmd = app.add_subcommand(
-      "anatomy", "import every surface of a folder with the defaults, grasp and lift each: docs/anatomy.md's table");
-  anatomy_cmd->add_option("folder", anatomy_folder, "folder of surfaces (.obj)")
-      ->required()
-      ->check(CLI::ExistingDirectory);
-  anatomy_cmd->add_option("--out", anatomy_out, "where the imported scenes go");
-
-  CLI::App* view_cmd = app.add_subcommand("view", "open a scene in the interactive viewer (haustra-view; `make view`)");
-  view_cmd->prefix_command();
-  view_cmd->set_help_flag();  // --help goes to the viewer
+  Commands c;
+  declare_run(app, c);
+  declare_studies(app, c);
+  declare_pictures(app, c);
+  declare_import(app, c);
+  c.view_cmd = app.add_subcommand("view", "open a scene in the interactive viewer (haustra-view; `make view`)");
+  c.view_cmd->prefix_command();
+  c.view_cmd->set_help_flag();  // --help goes to the viewer
 
   try {
     app.parse(argc, argv);
@@ -542,41 +611,10 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : kExitBadInput;
   }
-  if (*view_cmd) {
-    // The viewer reads its own options (a surface for a scene included).
-    const std::vector<std::string> args = view_cmd->remaining();
-    return open_viewer(argv[0], args);
-  }
+  // The viewer reads its own options (a surface for a scene included).
+  if (*c.view_cmd) return open_viewer(argv[0], c.view_cmd->remaining());
   try {
-    if (*run_cmd) return run(ro);
-    if (*import_cmd) {
-      // A line per phase on a terminal (a whole organ takes a minute): what was done and how long.
-      if (isatty(fileno(stderr)) != 0)
-        io.progress = [](std::string_view line) { fmt::print(stderr, "import: {}\n", line); };
-      const import::ImportReport report = import::import_surface(io);
-      fmt::print("{}scene: {} (centreline: {})\nrun it: haustra run {}\n", report.text(), report.scene.string(),
-                 report.centreline_file.string(), report.scene.string());
-      return 0;
-    }
-    if (*anatomy_cmd) {
-      const auto rows = import::run_cohort(anatomy_folder, anatomy_out);
-      fmt::print("{}", import::cohort_markdown(rows, anatomy_folder));
-      std::size_t ok = 0;
-      for (const auto& r : rows) ok += r.ran ? 1 : 0;
-      return ok == rows.size() ? 0 : kExitFailedCase;
-    }
-    if (*validate_cmd) return validate(json, validate_markdown, assets);
-    if (*stability_cmd) return stability(markdown, stability_csv);
-    if (*skinning_cmd && skinning_anatomy) {
-      const auto organs =
-          import::import_study_organs(skinning_assets, fs::temp_directory_path() / "haustra-anatomy-study");
-      fmt::print("{}", import::anatomy_markdown(import::run_anatomy_study(organs)));
-      return 0;
-    }
-    if (*skinning_cmd) return skinning(skinning_markdown);
-    if (*study_cmd) return study(study_markdown, study_csv);
-    if (*render_cmd) return render_frames(rc);
-    if (*figure_cmd) return figure_cage(figure_out, 720, 480);
+    return dispatch(c);
   } catch (const haustra::Error& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return e.code() == haustra::ErrorCode::unstable ? kExitUnstable : kExitBadInput;
@@ -584,5 +622,4 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "error: {}\n", e.what());
     return kExitBadInput;
   }
-  return 0;
 }

@@ -1,3 +1,4 @@
+// What `haustra run` reports: the stage table, summary.json and the CSV files.
 #include "run_report.hpp"
 
 #include "haustra/error.hpp"
@@ -20,6 +21,96 @@ double quantile(std::vector<float> v, double q) {
 }
 
 const char* solver_name(SolverMode m) { return solver_mode_name(m); }
+
+// Each segment's counts, stiffnesses, rest-shape fit and final node positions.
+nlohmann::json segments_json(const World& world) {
+  using nlohmann::json;
+  json segments = json::array();
+  const auto pos = world.node_positions();
+  for (std::size_t s = 0; s < world.segment_count(); ++s) {
+    const SegmentInfo& info = world.segment(s);
+    json nodes = json::array();
+    for (std::size_t k = info.nodes.offset; k < info.nodes.offset + info.nodes.count; ++k)
+      nodes.push_back({pos.x[k], pos.y[k], pos.z[k]});
+    segments.push_back({{"name", info.name},
+                        {"nodes", info.nodes.count},
+                        {"rest_length_m", info.length},
+                        {"bending_stiffness_Nm2", info.bending_stiffness},
+                        {"torsion_stiffness_Nm2", info.torsion_stiffness},
+                        {"axial_stiffness_N", info.axial_stiffness},
+                        {"linear_density_kg_per_m", info.linear_density},
+                        {"rest_node_deviation_m", info.rest_node_deviation},
+                        {"rest_polyline_deviation_m", info.rest_polyline_deviation},
+                        {"final_node_positions_m", nodes}});
+  }
+  return segments;
+}
+
+// The deepest penetrations over the run and, per frame, at each frame's final positions.
+nlohmann::json contacts_json(const std::vector<ContactReport>& contacts, std::size_t beads) {
+  using nlohmann::json;
+  json env = json::array(), env_ratio = json::array(), bead = json::array(), bead_ratio = json::array(),
+       touching = json::array();
+  double worst_env = 0.0, worst_bead = 0.0, worst_env_ratio = 0.0, worst_bead_ratio = 0.0;
+  for (const ContactReport& c : contacts) {
+    env.push_back(c.max_environment_depth);
+    env_ratio.push_back(c.max_environment_depth_ratio);
+    bead.push_back(c.max_bead_overlap);
+    bead_ratio.push_back(c.max_bead_overlap_ratio);
+    touching.push_back(c.touching);
+    worst_env = std::max(worst_env, c.max_environment_depth);
+    worst_bead = std::max(worst_bead, c.max_bead_overlap);
+    worst_env_ratio = std::max(worst_env_ratio, c.max_environment_depth_ratio);
+    worst_bead_ratio = std::max(worst_bead_ratio, c.max_bead_overlap_ratio);
+  }
+  return {{"beads", beads},
+          {"max_environment_depth_m", worst_env},
+          {"max_environment_depth_over_radius", worst_env_ratio},
+          {"max_bead_overlap_m", worst_bead},
+          {"max_bead_overlap_over_radius", worst_bead_ratio},
+          {"per_frame",
+           {{"max_environment_depth_m", env},
+            {"max_environment_depth_over_radius", env_ratio},
+            {"max_bead_overlap_m", bead},
+            {"max_bead_overlap_over_radius", bead_ratio},
+            {"touching", touching}}}};
+}
+
+// Each instrument's force, filtered force, torque and grasp, per frame.
+nlohmann::json instruments_json(const std::vector<std::vector<InstrumentReading>>& readings, std::size_t count) {
+  using nlohmann::json;
+  json instruments = json::array();
+  for (std::size_t i = 0; i < count; ++i) {
+    json force = json::array(), filtered = json::array(), torque = json::array(), grasping = json::array();
+    for (const auto& frame : readings) {
+      const InstrumentReading& r = frame[i];
+      force.push_back({r.force.x(), r.force.y(), r.force.z()});
+      filtered.push_back({r.filtered_force.x(), r.filtered_force.y(), r.filtered_force.z()});
+      torque.push_back({r.torque.x(), r.torque.y(), r.torque.z()});
+      grasping.push_back(r.grasping);
+    }
+    instruments.push_back({{"index", i},
+                           {"force_N_per_frame", force},
+                           {"filtered_force_N_per_frame", filtered},
+                           {"torque_Nm_per_frame", torque},
+                           {"grasping_per_frame", grasping}});
+  }
+  return instruments;
+}
+
+nlohmann::json events_json(const World& world) {
+  using nlohmann::json;
+  json events = json::array();
+  for (const Event& e : world.events())
+    events.push_back({{"kind", e.kind == Event::Kind::recovered ? "recovered" : "unstable"},
+                      {"frame", e.frame},
+                      {"segment", e.segment},
+                      {"node", e.node},
+                      {"stage", stage_name(e.stage)},
+                      {"substeps", e.substeps},
+                      {"message", std::string(e.message())}});
+  return events;
+}
 
 }  // namespace
 
@@ -146,8 +237,9 @@ void RunRecord::write_summary(const std::filesystem::path& file, const SceneDesc
   for (int r : retries_) retried += r > 0 ? 1 : 0;
   json counters = json::object();
   std::size_t counter = 0;
-#define HAUSTRA_PUT_FIELD(type, name, initial, meaning)                                                       \
-  counters[#name] = {{"total", counter_total_[counter]}, {"max_per_frame", counter_max_[counter]}, {"meaning", meaning}}; \
+#define HAUSTRA_PUT_FIELD(type, name, initial, meaning)                                                    \
+  counters[#name] = {                                                                                      \
+      {"total", counter_total_[counter]}, {"max_per_frame", counter_max_[counter]}, {"meaning", meaning}}; \
   ++counter;
   HAUSTRA_PROFILE_COUNTERS(HAUSTRA_PUT_FIELD)
 #undef HAUSTRA_PUT_FIELD
@@ -155,82 +247,10 @@ void RunRecord::write_summary(const std::filesystem::path& file, const SceneDesc
   j["robust_mode"] = {{"frames_redone", retried},
                       {"frames_with_newton", std::count(newton_.begin(), newton_.end(), 1)},
                       {"max_substeps", substeps_.empty() ? 0 : *std::max_element(substeps_.begin(), substeps_.end())}};
-  json segments = json::array();
-  const auto pos = world.node_positions();
-  for (std::size_t s = 0; s < world.segment_count(); ++s) {
-    const SegmentInfo& info = world.segment(s);
-    json nodes = json::array();
-    for (std::size_t k = info.nodes.offset; k < info.nodes.offset + info.nodes.count; ++k)
-      nodes.push_back({pos.x[k], pos.y[k], pos.z[k]});
-    segments.push_back({{"name", info.name},
-                        {"nodes", info.nodes.count},
-                        {"rest_length_m", info.length},
-                        {"bending_stiffness_Nm2", info.bending_stiffness},
-                        {"torsion_stiffness_Nm2", info.torsion_stiffness},
-                        {"axial_stiffness_N", info.axial_stiffness},
-                        {"linear_density_kg_per_m", info.linear_density},
-                        {"rest_node_deviation_m", info.rest_node_deviation},
-                        {"rest_polyline_deviation_m", info.rest_polyline_deviation},
-                        {"final_node_positions_m", nodes}});
-  }
-  j["segments"] = segments;
-  if (has_beads_) {
-    // Per frame, measured at each frame's final positions.
-    json env = json::array(), env_ratio = json::array(), bead = json::array(), bead_ratio = json::array(),
-         touching = json::array();
-    double worst_env = 0.0, worst_bead = 0.0, worst_env_ratio = 0.0, worst_bead_ratio = 0.0;
-    for (const ContactReport& c : contacts_) {
-      env.push_back(c.max_environment_depth);
-      env_ratio.push_back(c.max_environment_depth_ratio);
-      bead.push_back(c.max_bead_overlap);
-      bead_ratio.push_back(c.max_bead_overlap_ratio);
-      touching.push_back(c.touching);
-      worst_env = std::max(worst_env, c.max_environment_depth);
-      worst_bead = std::max(worst_bead, c.max_bead_overlap);
-      worst_env_ratio = std::max(worst_env_ratio, c.max_environment_depth_ratio);
-      worst_bead_ratio = std::max(worst_bead_ratio, c.max_bead_overlap_ratio);
-    }
-    j["contacts"] = {{"beads", world.bead_count()},
-                     {"max_environment_depth_m", worst_env},
-                     {"max_environment_depth_over_radius", worst_env_ratio},
-                     {"max_bead_overlap_m", worst_bead},
-                     {"max_bead_overlap_over_radius", worst_bead_ratio},
-                     {"per_frame",
-                      {{"max_environment_depth_m", env},
-                       {"max_environment_depth_over_radius", env_ratio},
-                       {"max_bead_overlap_m", bead},
-                       {"max_bead_overlap_over_radius", bead_ratio},
-                       {"touching", touching}}}};
-  }
-  if (world.instrument_count() > 0) {
-    json instruments = json::array();
-    for (std::size_t i = 0; i < world.instrument_count(); ++i) {
-      json force = json::array(), filtered = json::array(), torque = json::array(), grasping = json::array();
-      for (const auto& frame : instruments_) {
-        const InstrumentReading& r = frame[i];
-        force.push_back({r.force.x(), r.force.y(), r.force.z()});
-        filtered.push_back({r.filtered_force.x(), r.filtered_force.y(), r.filtered_force.z()});
-        torque.push_back({r.torque.x(), r.torque.y(), r.torque.z()});
-        grasping.push_back(r.grasping);
-      }
-      instruments.push_back({{"index", i},
-                             {"force_N_per_frame", force},
-                             {"filtered_force_N_per_frame", filtered},
-                             {"torque_Nm_per_frame", torque},
-                             {"grasping_per_frame", grasping}});
-    }
-    j["instruments"] = instruments;
-  }
-  json events = json::array();
-  for (const Event& e : world.events())
-    events.push_back({{"kind", e.kind == Event::Kind::recovered ? "recovered" : "unstable"},
-                      {"frame", e.frame},
-                      {"segment", e.segment},
-                      {"node", e.node},
-                      {"stage", stage_name(e.stage)},
-                      {"substeps", e.substeps},
-                      {"message", std::string(e.message())}});
-  j["events"] = events;
+  j["segments"] = segments_json(world);
+  if (has_beads_) j["contacts"] = contacts_json(contacts_, world.bead_count());
+  if (world.instrument_count() > 0) j["instruments"] = instruments_json(instruments_, world.instrument_count());
+  j["events"] = events_json(world);
   std::ofstream out(file);
   if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write", file.string()));
   out << j.dump(2) << '\n';

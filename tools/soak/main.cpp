@@ -27,6 +27,7 @@ extern "C" std::size_t __sanitizer_get_current_allocated_bytes();
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "haustra/error.hpp"
@@ -57,8 +58,8 @@ long resident_kib() {
   return pages_resident * (sysconf(_SC_PAGESIZE) / 1024);
 }
 
-// Bytes the allocator has handed out and not taken back (glibc; 0 under a sanitizer's allocator).
-// glibc's count, or the sanitizer's allocator's where one replaces glibc's (mallinfo2 reads 0 there).
+// Bytes the allocator has handed out and not taken back: glibc's count, or the sanitizer's
+// allocator's where one replaces glibc's (mallinfo2 reads 0 there).
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 std::size_t heap_in_use() { return __sanitizer_get_current_allocated_bytes(); }
 #else
@@ -220,7 +221,8 @@ HostState load_host(const std::string& path) {
   return h;
 }
 
-int soak(const Options& o) {
+// The world the soak steps: the scene with the host's grasper added.
+std::unique_ptr<World> soak_world(const Options& o) {
   SceneDesc scene = load_scene(o.scene);
   scene.world.threads = o.threads;
   InstrumentDesc grasper;
@@ -228,57 +230,136 @@ int soak(const Options& o) {
   grasper.grasp_reach = 0.015;
   grasper.tip = Grasper{}.park;
   scene.world.instruments.push_back(grasper);
-  auto w = create_world(scene);
+  return create_world(scene);
+}
+
+// What the checks compare against: the warm-up's energy band and heap, the samples after it.
+struct Tally {
+  HostState host;  // the energy band is host.low .. host.high
+  std::size_t heap_at_warmup = 0;
+  long resident_at_warmup = 0;
+  std::vector<double> sampled;  // energy at the samples after warm-up, for the drift check
+};
+
+// Every `checkpoint_every` frames: the world and the host's state, the last two kept.
+void checkpoint_if_due(const Options& o, const World& w, const Tally& t, std::uint64_t f, std::uint64_t first_frame,
+                       std::vector<std::string>& kept) {
+  if (o.checkpoint_every == 0 || o.checkpoint_dir.empty() || f == first_frame || f % o.checkpoint_every != 0) return;
+  const std::string path = fmt::format("{}/soak-{:07}.ckpt", o.checkpoint_dir, f);
+  w.save_checkpoint_file(path);
+  save_host(path + ".host", t.host);
+  kept.push_back(path);
+  if (kept.size() > 2) {
+    std::filesystem::remove(kept.front());
+    std::filesystem::remove(kept.front() + ".host");
+    kept.erase(kept.begin());
+  }
+}
+
+std::ofstream open_samples(const Options& o) {
+  std::ofstream csv;
+  if (o.out.empty()) return csv;
+  std::filesystem::create_directories(std::filesystem::absolute(o.out).parent_path());
+  csv.open(o.out);
+  if (!csv) throw Error(ErrorCode::io, fmt::format("{}: cannot write the samples", o.out));
+  csv << "frame,resident_kib,heap_bytes,elastic_J,gravity_J,total_J,energy_low_J,energy_high_J,"
+         "max_bead_overlap_ratio,max_environment_depth_ratio,grasps,mean_frame_us\n";
+  return csv;
+}
+
+// One sample: a CSV row and a line on stdout; false when the heap grew after warm-up.
+bool take_sample(const Options& o, const World& w, Tally& t, std::uint64_t f, double mean_us, std::ofstream& csv) {
+  const std::uint64_t warmup = o.warmup_cycles * kCycle;
+  const std::size_t heap = heap_in_use();
+  const long resident = resident_kib();
+  const Energy en = w.energy();
+  const ContactReport& c = w.contacts();
+  if (csv.is_open())
+    csv << fmt::format("{},{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.6g},{:.6g},{},{:.2f}\n", f + 1, resident, heap,
+                       en.elastic, en.gravity, en.total(), t.host.low / o.energy_factor,
+                       t.host.high * o.energy_factor, c.max_bead_overlap_ratio, c.max_environment_depth_ratio,
+                       t.host.grasps, mean_us);
+  if (f >= warmup) t.sampled.push_back(en.total());
+  if (f >= warmup && heap > t.heap_at_warmup + o.heap_slack) {
+    fmt::print(stderr, "soak: frame {}: the heap grew from {} to {} bytes after warm-up\n", f + 1, t.heap_at_warmup,
+               heap);
+    return false;
+  }
+  fmt::print("frame {:>8}  resident {:>7} KiB  heap {:>10} B  energy {:+.5f} J  grasps {:>5}  {:7.1f} µs/frame\n",
+             f + 1, resident, heap, en.total(), t.host.grasps, mean_us);
+  std::fflush(stdout);
+  return true;
+}
+
+// Drift: the mean of the last tenth of the samples against the first tenth after warm-up.
+bool drift_within(const Options& o, const std::vector<double>& sampled) {
+  const std::size_t tenth = sampled.size() / 10;
+  double start = 0.0, end = 0.0;
+  for (std::size_t i = 0; i < tenth; ++i) {
+    start += sampled[i] / static_cast<double>(tenth);
+    end += sampled[sampled.size() - tenth + i] / static_cast<double>(tenth);
+  }
+  fmt::print("energy drift: mean {:.5f} J over the first tenth of the samples, {:.5f} J over the last ({:+.1f} %)\n",
+             start, end, 100.0 * (end / start - 1.0));
+  if (std::abs(end / start - 1.0) <= o.energy_drift) return true;
+  fmt::print(stderr, "soak: the mean energy drifted by more than {:.0f} %\n", 100.0 * o.energy_drift);
+  return false;
+}
+
+// The checks at the end of the run: enough samples, no drift, a grasp taken in every cycle.
+int final_checks(const Options& o, const Tally& t, std::uint64_t first_frame) {
+  const std::uint64_t warmup = o.warmup_cycles * kCycle;
+  const long resident_growth = resident_kib() - t.resident_at_warmup;
+  // A check with nothing to check is a soak that says more than it did: the energy band, the heap
+  // and the drift need samples after the warm-up (the drift a tenth at each end, two at least).
+  if (t.sampled.size() < kLeastSamples) {
+    fmt::print(stderr,
+               "soak: {} samples after the warm-up (frames {} to {}, one every {}): the energy, heap and drift checks "
+               "need at least {}; run more frames (--frames), sample more often (--sample) or warm up for fewer "
+               "cycles (--warmup-cycles)\n",
+               t.sampled.size(), std::max(warmup, first_frame), o.frames, o.sample, kLeastSamples);
+    return kExitBroken;
+  }
+  if (!drift_within(o, t.sampled)) return kExitBroken;
+  fmt::print(
+      "soak passed: {} frames, {} grasp-and-release cycles, {} grasps taken; energy within [{:.5f}, {:.5f}] J; "
+      "heap {:+} bytes and resident memory {:+} KiB since warm-up\n",
+      o.frames, o.frames / kCycle, t.host.grasps, t.host.low, t.host.high,
+      static_cast<long long>(heap_in_use()) - static_cast<long long>(t.heap_at_warmup), resident_growth);
+  // Every cycle should take its grasp: a soak that never lifts the rod tests less than it says.
+  if (o.frames >= 2 * kCycle && t.host.grasps < o.frames / kCycle * 9 / 10) {
+    fmt::print(stderr, "soak: only {} grasps in {} cycles: the grasper missed the rod\n", t.host.grasps,
+               o.frames / kCycle);
+    return kExitBroken;
+  }
+  return 0;
+}
+
+int soak(const Options& o) {
+  auto w = soak_world(o);
   const std::size_t target = w->segment(0).nodes.offset + w->segment(0).nodes.count / 2;
-  Grasper g;
+  Tally t;
+  t.host.low = std::numeric_limits<double>::infinity(), t.host.high = -t.host.low;  // the warm-up fills the band
   std::uint64_t first_frame = 0;
-  HostState resumed;
   if (!o.resume.empty()) {
     w->restore_checkpoint_file(o.resume);
-    resumed = load_host(o.resume + ".host");
-    g = resumed.grasper;
+    t.host = load_host(o.resume + ".host");
     first_frame = w->frame();
+    t.heap_at_warmup = heap_in_use();  // a resumed run measures the heap from its own start
+    t.resident_at_warmup = resident_kib();
     fmt::print("resumed from {} at frame {}\n", o.resume, first_frame);
   }
+  Grasper& g = t.host.grasper;
   std::vector<TraceRow> ring(std::max<std::size_t>(o.trace, 1));
   std::vector<std::string> checkpoints;
   if (!o.checkpoint_dir.empty()) std::filesystem::create_directories(o.checkpoint_dir);
   const std::string trace_path = (o.out.empty() ? std::string("soak") : o.out) + ".trace.csv";
-
-  std::ofstream csv;
-  if (!o.out.empty()) {
-    std::filesystem::create_directories(std::filesystem::absolute(o.out).parent_path());
-    csv.open(o.out);
-    if (!csv) throw Error(ErrorCode::io, fmt::format("{}: cannot write the samples", o.out));
-    csv << "frame,resident_kib,heap_bytes,elastic_J,gravity_J,total_J,energy_low_J,energy_high_J,"
-           "max_bead_overlap_ratio,max_environment_depth_ratio,grasps,mean_frame_us\n";
-  }
+  std::ofstream csv = open_samples(o);
   const std::uint64_t warmup = o.warmup_cycles * kCycle;
-  double low = std::numeric_limits<double>::infinity(), high = -low;  // warm-up energy band
-  std::size_t heap_at_warmup = 0;
-  long resident_at_warmup = 0;
-  std::uint64_t grasps = 0;
-  bool was_grasping = false;
-  if (!o.resume.empty()) {
-    low = resumed.low, high = resumed.high, grasps = resumed.grasps, was_grasping = resumed.was_grasping;
-    heap_at_warmup = heap_in_use();  // a resumed run measures the heap from its own start
-    resident_at_warmup = resident_kib();
-  }
-  std::vector<double> sampled;  // energy at the samples after warm-up, for the drift check
-  sampled.reserve(static_cast<std::size_t>(o.frames / o.sample) + 2);
+  t.sampled.reserve(static_cast<std::size_t>(o.frames / o.sample) + 2);
   auto window_start = std::chrono::steady_clock::now();
   for (std::uint64_t f = first_frame; f < o.frames; ++f) {
-    if (o.checkpoint_every > 0 && !o.checkpoint_dir.empty() && f > first_frame && f % o.checkpoint_every == 0) {
-      const std::string path = fmt::format("{}/soak-{:07}.ckpt", o.checkpoint_dir, f);
-      w->save_checkpoint_file(path);
-      save_host(path + ".host", {g, low, high, grasps, was_grasping});
-      checkpoints.push_back(path);
-      if (checkpoints.size() > 2) {
-        std::filesystem::remove(checkpoints.front());
-        std::filesystem::remove(checkpoints.front() + ".host");
-        checkpoints.erase(checkpoints.begin());
-      }
-    }
+    checkpoint_if_due(o, *w, t, f, first_frame, checkpoints);
     drive(*w, g, f, target);
     w->step();
     if (!state_finite(*w)) {
@@ -287,24 +368,24 @@ int soak(const Options& o) {
       return kExitBroken;
     }
     const bool grasping = w->instrument(0).grasping;
-    grasps += (grasping && !was_grasping) ? 1 : 0;
-    was_grasping = grasping;
+    t.host.grasps += (grasping && !t.host.was_grasping) ? 1 : 0;
+    t.host.was_grasping = grasping;
     if (o.trace > 0) ring[f % ring.size()] = trace_row(*w, f, g);
     const double e = w->energy().total();
     if (f >= kCycle && f < warmup) {  // the first cycle is the release from hanging: not the steady cycle
-      low = std::min(low, e);
-      high = std::max(high, e);
+      t.host.low = std::min(t.host.low, e);
+      t.host.high = std::max(t.host.high, e);
     }
     if (f + 1 == warmup) {
-      heap_at_warmup = heap_in_use();
-      resident_at_warmup = resident_kib();
+      t.heap_at_warmup = heap_in_use();
+      t.resident_at_warmup = resident_kib();
     }
-    const double floor_energy = low / o.energy_factor, ceiling_energy = high * o.energy_factor;
+    const double floor_energy = t.host.low / o.energy_factor, ceiling_energy = t.host.high * o.energy_factor;
     if (f >= warmup && (e < floor_energy || e > ceiling_energy)) {
       fmt::print(stderr,
                  "soak: frame {}: energy {:.6g} J left [{:.6g}, {:.6g}] J ({} times the warm-up's [{:.6g}, "
                  "{:.6g}] J)\n",
-                 f, e, floor_energy, ceiling_energy, o.energy_factor, low, high);
+                 f, e, floor_energy, ceiling_energy, o.energy_factor, t.host.low, t.host.high);
       if (o.trace > 0) {
         write_trace(trace_path, ring, f);
         fmt::print(stderr, "soak: the last {} frames in {}\n", o.trace, trace_path);
@@ -316,62 +397,10 @@ int soak(const Options& o) {
       const double mean_us = std::chrono::duration<double, std::micro>(now - window_start).count() /
                              static_cast<double>((f % o.sample) + 1);
       window_start = now;
-      const std::size_t heap = heap_in_use();
-      const long resident = resident_kib();
-      const Energy en = w->energy();
-      const ContactReport& c = w->contacts();
-      if (csv.is_open())
-        csv << fmt::format("{},{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.6g},{:.6g},{},{:.2f}\n", f + 1, resident,
-                           heap, en.elastic, en.gravity, en.total(), floor_energy, ceiling_energy,
-                           c.max_bead_overlap_ratio, c.max_environment_depth_ratio, grasps, mean_us);
-      if (f >= warmup) sampled.push_back(en.total());
-      if (f >= warmup && heap > heap_at_warmup + o.heap_slack) {
-        fmt::print(stderr, "soak: frame {}: the heap grew from {} to {} bytes after warm-up\n", f + 1, heap_at_warmup,
-                   heap);
-        return kExitBroken;
-      }
-      fmt::print("frame {:>8}  resident {:>7} KiB  heap {:>10} B  energy {:+.5f} J  grasps {:>5}  {:7.1f} µs/frame\n",
-                 f + 1, resident, heap, en.total(), grasps, mean_us);
-      std::fflush(stdout);
+      if (!take_sample(o, *w, t, f, mean_us, csv)) return kExitBroken;
     }
   }
-  const long resident_growth = resident_kib() - resident_at_warmup;
-  // A check with nothing to check is a soak that says more than it did: the energy band, the heap
-  // and the drift need samples after the warm-up (the drift a tenth at each end, two at least).
-  if (sampled.size() < kLeastSamples) {
-    fmt::print(stderr,
-               "soak: {} samples after the warm-up (frames {} to {}, one every {}): the energy, heap and drift checks "
-               "need at least {}; run more frames (--frames), sample more often (--sample) or warm up for fewer "
-               "cycles (--warmup-cycles)\n",
-               sampled.size(), std::max(warmup, first_frame), o.frames, o.sample, kLeastSamples);
-    return kExitBroken;
-  }
-  // Drift: the last tenth of the samples against the first tenth after warm-up.
-  {
-    const std::size_t tenth = sampled.size() / 10;
-    double start = 0.0, end = 0.0;
-    for (std::size_t i = 0; i < tenth; ++i) {
-      start += sampled[i] / static_cast<double>(tenth);
-      end += sampled[sampled.size() - tenth + i] / static_cast<double>(tenth);
-    }
-    fmt::print("energy drift: mean {:.5f} J over the first tenth of the samples, {:.5f} J over the last ({:+.1f} %)\n",
-               start, end, 100.0 * (end / start - 1.0));
-    if (std::abs(end / start - 1.0) > o.energy_drift) {
-      fmt::print(stderr, "soak: the mean energy drifted by more than {:.0f} %\n", 100.0 * o.energy_drift);
-      return kExitBroken;
-    }
-  }
-  fmt::print(
-      "soak passed: {} frames, {} grasp-and-release cycles, {} grasps taken; energy within [{:.5f}, {:.5f}] J; "
-      "heap {:+} bytes and resident memory {:+} KiB since warm-up\n",
-      o.frames, o.frames / kCycle, grasps, low, high,
-      static_cast<long long>(heap_in_use()) - static_cast<long long>(heap_at_warmup), resident_growth);
-  // Every cycle should take its grasp: a soak that never lifts the rod tests less than it says.
-  if (o.frames >= 2 * kCycle && grasps < o.frames / kCycle * 9 / 10) {
-    fmt::print(stderr, "soak: only {} grasps in {} cycles: the grasper missed the rod\n", grasps, o.frames / kCycle);
-    return kExitBroken;
-  }
-  return 0;
+  return final_checks(o, t, first_frame);
 }
 
 }  // namespace

@@ -10,6 +10,8 @@
 #include "haustra/centreline.hpp"
 #include "haustra/error.hpp"
 #include "haustra/mesh_io.hpp"
+#include "io/scene_overrides.hpp"
+#include "io/scene_reader.hpp"
 
 namespace haustra {
 
@@ -20,198 +22,8 @@ struct SceneSource {
 
 namespace {
 
-// Where something came from, for messages: "file:line:col", or "file (from --set)".
-std::string where(const std::string& file, const toml::source_region& source) {
-  if (source.begin.line > 0) return fmt::format("{}:{}:{}", file, source.begin.line, source.begin.column);
-  return file + " (from --set)";
-}
-
-std::string where(const std::string& file, const toml::node* node) {
-  return node != nullptr ? where(file, node->source()) : file + " (from --set)";
-}
-
-std::string describe_value(const toml::node& n) {
-  std::ostringstream s;
-  if (n.is_string()) return fmt::format("the string \"{}\"", *n.value<std::string>());
-  if (n.is_table()) return "a table";
-  if (n.is_array()) return "an array";
-  n.visit([&](const auto& v) { s << v; });
-  std::ostringstream type;
-  type << n.type();
-  return fmt::format("{} ({})", s.str(), type.str());
-}
-
-// Reads one scene document into a SceneDesc, checking every field.
-class Reader {
- public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-
-  // code: parse for what the scene file itself gets wrong; a file it names keeps its own error's code.
-  [[noreturn]] void fail(const toml::node* node, const std::string& path, const std::string& detail,
-                         ErrorCode code = ErrorCode::parse) const {
-    throw FieldError(code, path, detail, fmt::format("{}: {}: {}", where(file_, node), path, detail));
-  }
-
-  [[noreturn]] void fail_at(const toml::source_region& source, const std::string& path,
-                            const std::string& detail) const {
-    throw FieldError(ErrorCode::parse, path, detail, fmt::format("{}: {}: {}", where(file_, source), path, detail));
-  }
-
-  // Rejects keys a table does not know, naming the ones it does.
-  void check_keys(const toml::table& t, const std::string& path, std::initializer_list<std::string_view> known) const {
-    for (const auto& [key, node] : t) {
-      if (std::find(known.begin(), known.end(), key.str()) != known.end()) continue;
-      std::string list;
-      for (auto k : known) list += fmt::format("{}{}", list.empty() ? "" : ", ", k);
-      const std::string full = path.empty() ? std::string(key.str()) : path + "." + std::string(key.str());
-      fail_at(key.source().begin.line > 0 ? key.source() : node.source(), full,
-              fmt::format("unknown key; expected one of: {}", list));
-    }
-  }
-
-  const toml::table* table(const toml::table& parent, std::string_view key, const std::string& path) const {
-    const toml::node* n = parent.get(key);
-    if (n == nullptr) return nullptr;
-    if (!n->is_table()) fail(n, path, fmt::format("expected a table, got {}", describe_value(*n)));
-    return n->as_table();
-  }
-
-  double number(const toml::table& t, std::string_view key, const std::string& path, double fallback) const {
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return fallback;
-    if (auto v = n->value<double>(); v && (n->is_floating_point() || n->is_integer())) {
-      if (!std::isfinite(*v)) fail(n, path, "expected a finite number");
-      return *v;
-    }
-    fail(n, path, fmt::format("expected a number, got {}", describe_value(*n)));
-  }
-
-  std::optional<double> optional_number(const toml::table& t, std::string_view key, const std::string& path) const {
-    if (t.get(key) == nullptr) return std::nullopt;
-    return number(t, key, path, 0.0);
-  }
-
-  int integer(const toml::table& t, std::string_view key, const std::string& path, int fallback) const {
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return fallback;
-    if (!n->is_integer()) fail(n, path, fmt::format("expected an integer, got {}", describe_value(*n)));
-    const std::int64_t v = *n->value<std::int64_t>();
-    if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
-      fail(n, path, fmt::format("{} is out of range", v));
-    return static_cast<int>(v);
-  }
-
-  bool boolean(const toml::table& t, std::string_view key, const std::string& path, bool fallback) const {
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return fallback;
-    if (!n->is_boolean()) fail(n, path, fmt::format("expected true or false, got {}", describe_value(*n)));
-    return *n->value<bool>();
-  }
-
-  std::string string(const toml::table& t, std::string_view key, const std::string& path,
-                     const std::string& fallback) const {
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return fallback;
-    if (!n->is_string()) fail(n, path, fmt::format("expected a string, got {}", describe_value(*n)));
-    return *n->value<std::string>();
-  }
-
-  template <class Enum>
-  Enum choice(const toml::table& t, std::string_view key, const std::string& path, Enum fallback,
-              std::initializer_list<std::pair<std::string_view, Enum>> options) const {
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return fallback;
-    const std::string v = string(t, key, path, "");
-    std::string list;
-    for (const auto& [name, value] : options) {
-      if (name == v) return value;
-      list += fmt::format("{}\"{}\"", list.empty() ? "" : ", ", name);
-    }
-    fail(n, path, fmt::format("expected one of {}, got \"{}\"", list, v));
-  }
-
-  // A fixed-length array of finite numbers: [x, y, z] or [a, b].
-  template <int N>
-  Eigen::Matrix<double, N, 1> numbers(const toml::table& t, std::string_view key, const std::string& path,
-                                      const Eigen::Matrix<double, N, 1>& fallback) const {
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return fallback;
-    const char* shape = N == 3 ? "[x, y, z]" : "[a, b]";
-    const toml::array* a = n->as_array();
-    if (a == nullptr || a->size() != static_cast<std::size_t>(N))
-      fail(n, path, fmt::format("expected {}, got {}", shape, describe_value(*n)));
-    Eigen::Matrix<double, N, 1> v;
-    for (int i = 0; i < N; ++i) {
-      const toml::node& e = *a->get(static_cast<std::size_t>(i));
-      if (!(e.is_floating_point() || e.is_integer())) fail(n, path, fmt::format("expected {} numbers", N));
-      v[i] = *e.value<double>();
-    }
-    if (!v.allFinite()) fail(n, path, fmt::format("expected {} finite numbers", N));
-    return v;
-  }
-
-  Eigen::Vector3d vec3(const toml::table& t, std::string_view key, const std::string& path,
-                       const Eigen::Vector3d& fallback) const {
-    return numbers<3>(t, key, path, fallback);
-  }
-
-  Eigen::Vector2d vec2(const toml::table& t, std::string_view key, const std::string& path,
-                       const Eigen::Vector2d& fallback) const {
-    return numbers<2>(t, key, path, fallback);
-  }
-
-  std::vector<int> integers(const toml::table& t, std::string_view key, const std::string& path) const {
-    std::vector<int> out;
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return out;
-    const toml::array* a = n->as_array();
-    if (a == nullptr) fail(n, path, fmt::format("expected an array of integers, got {}", describe_value(*n)));
-    for (std::size_t i = 0; i < a->size(); ++i) {
-      const toml::node& e = *a->get(i);
-      if (!e.is_integer())
-        fail(n, fmt::format("{}[{}]", path, i), fmt::format("expected an integer, got {}", describe_value(e)));
-      out.push_back(static_cast<int>(*e.value<std::int64_t>()));
-    }
-    return out;
-  }
-
-  // [[a, b], ...]: pairs of numbers.
-  std::vector<std::pair<double, double>> pairs(const toml::table& t, std::string_view key,
-                                               const std::string& path) const {
-    std::vector<std::pair<double, double>> out;
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return out;
-    const toml::array* a = n->as_array();
-    if (a == nullptr) fail(n, path, fmt::format("expected [[a, b], ...], got {}", describe_value(*n)));
-    for (std::size_t i = 0; i < a->size(); ++i) {
-      const toml::array* p = a->get(i)->as_array();
-      if (p == nullptr || p->size() != 2 || !(p->get(0)->is_number()) || !(p->get(1)->is_number()))
-        fail(a->get(i), fmt::format("{}[{}]", path, i), "expected [a, b] of two numbers");
-      out.emplace_back(*p->get(0)->value<double>(), *p->get(1)->value<double>());
-    }
-    return out;
-  }
-
-  // An array of tables (TOML [[name]]); absent is empty.
-  std::vector<const toml::table*> tables(const toml::table& t, std::string_view key, const std::string& path) const {
-    std::vector<const toml::table*> out;
-    const toml::node* n = t.get(key);
-    if (n == nullptr) return out;
-    const toml::array* a = n->as_array();
-    if (a == nullptr) fail(n, path, fmt::format("expected [[{}]] tables, got {}", key, describe_value(*n)));
-    for (std::size_t i = 0; i < a->size(); ++i) {
-      const toml::node* e = a->get(i);
-      if (!e->is_table()) fail(e, fmt::format("{}[{}]", path, i), "expected a table");
-      out.push_back(e->as_table());
-    }
-    return out;
-  }
-
-  const std::string& file() const { return file_; }
-
- private:
-  std::string file_;
-};
+using scene_io::Reader;
+using scene_io::where;
 
 StrainLaw read_law(const Reader& r, const toml::table& t, std::string_view key, const std::string& path,
                    StrainLaw fallback) {
@@ -272,6 +84,109 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
   return d;
 }
 
+// [segment.rest]: straight, an arc, or a centreline read from a file beside the scene.
+void read_rest(const Reader& r, const toml::table& t, const std::string& path, const std::filesystem::path& scene_dir,
+               SegmentDesc& s) {
+  if (const toml::table* rest = r.table(t, "rest", path + ".rest")) {
+    const std::string rp = path + ".rest";
+    r.check_keys(*rest, rp, {"shape", "length", "curvature", "torsion", "file"});
+    s.rest.kind = r.choice<RestShapeKind>(*rest, "shape", rp + ".shape", s.rest.kind,
+                                          {{"straight", RestShapeKind::straight},
+                                           {"arc", RestShapeKind::constant_strain},
+                                           {"centreline", RestShapeKind::centreline}});
+    s.rest.length = r.number(*rest, "length", rp + ".length", s.rest.length);
+    const Eigen::Vector2d k = r.vec2(*rest, "curvature", rp + ".curvature", Eigen::Vector2d::Zero());
+    s.rest.curvature_torsion = {k.x(), k.y(), r.number(*rest, "torsion", rp + ".torsion", 0.0)};
+    const toml::node* file_node = rest->get("file");
+    if (s.rest.kind == RestShapeKind::centreline) {
+      if (file_node == nullptr) r.fail(rest, rp + ".file", "a centreline rest shape needs file = \"path.json\"");
+      const std::filesystem::path f = scene_dir / r.string(*rest, "file", rp + ".file", "");
+      try {
+        Centreline c = read_centreline(f);
+        s.rest.centreline = std::move(c.points);
+        s.rest.centreline_source = f.string();
+      } catch (const Error& e) {
+        r.fail(file_node, rp + ".file", e.what(), e.code());
+      }
+    } else if (file_node != nullptr) {
+      r.fail(file_node, rp + ".file", "only a rest shape with shape = \"centreline\" reads a file");
+    }
+  }
+}
+
+// [segment.tissue] (Hooke or EXP2) and [segment.law] (elastic, viscous or viscoelastic per strain).
+void read_tissue_and_law(const Reader& r, const toml::table& t, const std::string& path, SegmentDesc& s) {
+  if (const toml::table* tissue = r.table(t, "tissue", path + ".tissue")) {
+    const std::string tp = path + ".tissue";
+    r.check_keys(*tissue, tp, {"response", "alpha", "beta", "gamma"});
+    s.material.response = r.choice<TissueResponse>(*tissue, "response", tp + ".response", s.material.response,
+                                                   {{"hooke", TissueResponse::hooke}, {"exp2", TissueResponse::exp2}});
+    s.material.exp2_alpha = r.number(*tissue, "alpha", tp + ".alpha", s.material.exp2_alpha);
+    s.material.exp2_beta = r.number(*tissue, "beta", tp + ".beta", s.material.exp2_beta);
+    s.material.exp2_gamma = r.number(*tissue, "gamma", tp + ".gamma", s.material.exp2_gamma);
+  }
+  if (const toml::table* law = r.table(t, "law", path + ".law")) {
+    const std::string lp = path + ".law";
+    r.check_keys(*law, lp, {"bending", "torsion", "axial"});
+    const StrainLaw bending = read_law(r, *law, "bending", lp + ".bending", s.law[kappa1]);
+    s.law[kappa1] = bending;
+    s.law[kappa2] = bending;
+    s.law[torsion] = read_law(r, *law, "torsion", lp + ".torsion", s.law[torsion]);
+    s.law[axial] = read_law(r, *law, "axial", lp + ".axial", s.law[axial]);
+  }
+}
+
+// [segment.beads]: a count, a spacing or nodes; a radius, "mesh" or a profile along the rod.
+void read_beads(const Reader& r, const toml::table& t, const std::string& path, SegmentDesc& s) {
+  if (const toml::table* beads = r.table(t, "beads", path + ".beads")) {
+    const std::string bp = path + ".beads";
+    r.check_keys(*beads, bp, {"count", "spacing", "nodes", "radius", "radius_profile"});
+    s.beads.enabled = true;
+    s.beads.count = r.integer(*beads, "count", bp + ".count", 0);
+    s.beads.spacing = r.number(*beads, "spacing", bp + ".spacing", 0.0);
+    s.beads.nodes = r.integers(*beads, "nodes", bp + ".nodes");
+    if (const toml::node* radius = beads->get("radius"); radius != nullptr && radius->is_string()) {
+      if (*radius->value<std::string>() != "mesh")
+        r.fail(radius, bp + ".radius",
+               fmt::format("expected a radius in m or \"mesh\" (from the organ mesh's cross-sections), got \"{}\"",
+                           *radius->value<std::string>()));
+      s.beads.radius_from_mesh = true;
+    } else {
+      s.beads.radius = r.number(*beads, "radius", bp + ".radius", 0.0);
+    }
+    s.beads.radius_profile = r.pairs(*beads, "radius_profile", bp + ".radius_profile");
+  }
+}
+
+// [[segment.attachment]] and [[segment.load]].
+void read_attachments_and_loads(const Reader& r, const toml::table& t, const std::string& path, SegmentDesc& s) {
+  const auto attachments = r.tables(t, "attachment", path + ".attachment");
+  for (std::size_t i = 0; i < attachments.size(); ++i) {
+    const toml::table& a = *attachments[i];
+    const std::string ap = fmt::format("{}.attachment[{}]", path, i);
+    r.check_keys(a, ap, {"node", "hold_frame", "target", "active"});
+    if (a.get("node") == nullptr) r.fail(&a, ap + ".node", "an attachment needs node = <index> (−1 is the tip)");
+    AttachmentDesc d;
+    d.node = r.integer(a, "node", ap + ".node", -1);
+    d.hold_frame = r.boolean(a, "hold_frame", ap + ".hold_frame", false);
+    if (a.get("target") != nullptr) d.target = r.vec3(a, "target", ap + ".target", Eigen::Vector3d::Zero());
+    d.active = r.boolean(a, "active", ap + ".active", true);
+    s.attachments.push_back(d);
+  }
+  const auto loads = r.tables(t, "load", path + ".load");
+  for (std::size_t i = 0; i < loads.size(); ++i) {
+    const toml::table& l = *loads[i];
+    const std::string lp = fmt::format("{}.load[{}]", path, i);
+    r.check_keys(l, lp, {"node", "force", "moment"});
+    if (l.get("node") == nullptr) r.fail(&l, lp + ".node", "a load needs node = <index> (−1 is the tip)");
+    PointLoadDesc d;
+    d.node = r.integer(l, "node", lp + ".node", -1);
+    d.force = r.vec3(l, "force", lp + ".force", Eigen::Vector3d::Zero());
+    d.moment = r.vec3(l, "moment", lp + ".moment", Eigen::Vector3d::Zero());
+    s.loads.push_back(d);
+  }
+}
+
 SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::string& path,
                          const std::filesystem::path& scene_dir) {
   r.check_keys(t, path, {"name",          "nodes",         "rest",           "law",
@@ -298,98 +213,16 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
   s.linear_density = r.optional_number(t, "linear_density", path + ".linear_density");
   s.relaxation_time = r.number(t, "relaxation_time", path + ".relaxation_time", s.relaxation_time);
 
-  if (const toml::table* rest = r.table(t, "rest", path + ".rest")) {
-    const std::string rp = path + ".rest";
-    r.check_keys(*rest, rp, {"shape", "length", "curvature", "torsion", "file"});
-    s.rest.kind = r.choice<RestShapeKind>(*rest, "shape", rp + ".shape", s.rest.kind,
-                                          {{"straight", RestShapeKind::straight},
-                                           {"arc", RestShapeKind::constant_strain},
-                                           {"centreline", RestShapeKind::centreline}});
-    s.rest.length = r.number(*rest, "length", rp + ".length", s.rest.length);
-    const Eigen::Vector2d k = r.vec2(*rest, "curvature", rp + ".curvature", Eigen::Vector2d::Zero());
-    s.rest.curvature_torsion = {k.x(), k.y(), r.number(*rest, "torsion", rp + ".torsion", 0.0)};
-    const toml::node* file_node = rest->get("file");
-    if (s.rest.kind == RestShapeKind::centreline) {
-      if (file_node == nullptr) r.fail(rest, rp + ".file", "a centreline rest shape needs file = \"path.json\"");
-      const std::filesystem::path f = scene_dir / r.string(*rest, "file", rp + ".file", "");
-      try {
-        Centreline c = read_centreline(f);
-        s.rest.centreline = std::move(c.points);
-        s.rest.centreline_source = f.string();
-      } catch (const Error& e) {
-        r.fail(file_node, rp + ".file", e.what(), e.code());
-      }
-    } else if (file_node != nullptr) {
-      r.fail(file_node, rp + ".file", "only a rest shape with shape = \"centreline\" reads a file");
-    }
-  }
-  if (const toml::table* tissue = r.table(t, "tissue", path + ".tissue")) {
-    const std::string tp = path + ".tissue";
-    r.check_keys(*tissue, tp, {"response", "alpha", "beta", "gamma"});
-    s.material.response = r.choice<TissueResponse>(*tissue, "response", tp + ".response", s.material.response,
-                                                   {{"hooke", TissueResponse::hooke}, {"exp2", TissueResponse::exp2}});
-    s.material.exp2_alpha = r.number(*tissue, "alpha", tp + ".alpha", s.material.exp2_alpha);
-    s.material.exp2_beta = r.number(*tissue, "beta", tp + ".beta", s.material.exp2_beta);
-    s.material.exp2_gamma = r.number(*tissue, "gamma", tp + ".gamma", s.material.exp2_gamma);
-  }
-  if (const toml::table* law = r.table(t, "law", path + ".law")) {
-    const std::string lp = path + ".law";
-    r.check_keys(*law, lp, {"bending", "torsion", "axial"});
-    const StrainLaw bending = read_law(r, *law, "bending", lp + ".bending", s.law[kappa1]);
-    s.law[kappa1] = bending;
-    s.law[kappa2] = bending;
-    s.law[torsion] = read_law(r, *law, "torsion", lp + ".torsion", s.law[torsion]);
-    s.law[axial] = read_law(r, *law, "axial", lp + ".axial", s.law[axial]);
-  }
-  if (const toml::table* beads = r.table(t, "beads", path + ".beads")) {
-    const std::string bp = path + ".beads";
-    r.check_keys(*beads, bp, {"count", "spacing", "nodes", "radius", "radius_profile"});
-    s.beads.enabled = true;
-    s.beads.count = r.integer(*beads, "count", bp + ".count", 0);
-    s.beads.spacing = r.number(*beads, "spacing", bp + ".spacing", 0.0);
-    s.beads.nodes = r.integers(*beads, "nodes", bp + ".nodes");
-    if (const toml::node* radius = beads->get("radius"); radius != nullptr && radius->is_string()) {
-      if (*radius->value<std::string>() != "mesh")
-        r.fail(radius, bp + ".radius",
-               fmt::format("expected a radius in m or \"mesh\" (from the organ mesh's cross-sections), got \"{}\"",
-                           *radius->value<std::string>()));
-      s.beads.radius_from_mesh = true;
-    } else {
-      s.beads.radius = r.number(*beads, "radius", bp + ".radius", 0.0);
-    }
-    s.beads.radius_profile = r.pairs(*beads, "radius_profile", bp + ".radius_profile");
-  }
+  read_rest(r, t, path, scene_dir, s);
+  read_tissue_and_law(r, t, path, s);
+  read_beads(r, t, path, s);
   if (const toml::table* mesh = r.table(t, "mesh", path + ".mesh"))
     s.mesh = read_organ_mesh(r, *mesh, path + ".mesh", scene_dir);
   if (const toml::table* chain = r.table(t, "chain", path + ".chain")) {
     r.check_keys(*chain, path + ".chain", {"pieces"});
     s.chain_pieces = r.integer(*chain, "pieces", path + ".chain.pieces", s.chain_pieces);
   }
-  const auto attachments = r.tables(t, "attachment", path + ".attachment");
-  for (std::size_t i = 0; i < attachments.size(); ++i) {
-    const toml::table& a = *attachments[i];
-    const std::string ap = fmt::format("{}.attachment[{}]", path, i);
-    r.check_keys(a, ap, {"node", "hold_frame", "target", "active"});
-    if (a.get("node") == nullptr) r.fail(&a, ap + ".node", "an attachment needs node = <index> (−1 is the tip)");
-    AttachmentDesc d;
-    d.node = r.integer(a, "node", ap + ".node", -1);
-    d.hold_frame = r.boolean(a, "hold_frame", ap + ".hold_frame", false);
-    if (a.get("target") != nullptr) d.target = r.vec3(a, "target", ap + ".target", Eigen::Vector3d::Zero());
-    d.active = r.boolean(a, "active", ap + ".active", true);
-    s.attachments.push_back(d);
-  }
-  const auto loads = r.tables(t, "load", path + ".load");
-  for (std::size_t i = 0; i < loads.size(); ++i) {
-    const toml::table& l = *loads[i];
-    const std::string lp = fmt::format("{}.load[{}]", path, i);
-    r.check_keys(l, lp, {"node", "force", "moment"});
-    if (l.get("node") == nullptr) r.fail(&l, lp + ".node", "a load needs node = <index> (−1 is the tip)");
-    PointLoadDesc d;
-    d.node = r.integer(l, "node", lp + ".node", -1);
-    d.force = r.vec3(l, "force", lp + ".force", Eigen::Vector3d::Zero());
-    d.moment = r.vec3(l, "moment", lp + ".moment", Eigen::Vector3d::Zero());
-    s.loads.push_back(d);
-  }
+  read_attachments_and_loads(r, t, path, s);
   return s;
 }
 
@@ -555,86 +388,6 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
   return scene;
 }
 
-// "segment[1].nodes" → {"segment", 1}, {"nodes", none}
-struct PathPart {
-  std::string key;
-  std::optional<std::size_t> index;
-};
-
-std::vector<PathPart> split_path(const std::string& path, const std::string& file) {
-  std::vector<PathPart> parts;
-  std::size_t start = 0;
-  while (start <= path.size()) {
-    const std::size_t dot = path.find('.', start);
-    std::string piece = path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
-    PathPart part;
-    if (const std::size_t lb = piece.find('['); lb != std::string::npos) {
-      const std::size_t rb = piece.find(']', lb);
-      if (rb == std::string::npos || rb + 1 != piece.size())
-        throw Error(ErrorCode::invalid_argument, fmt::format("{}: --set {}: expected key[index]", file, path));
-      try {
-        part.index = static_cast<std::size_t>(std::stoul(piece.substr(lb + 1, rb - lb - 1)));
-      } catch (const std::exception&) {
-        throw Error(ErrorCode::invalid_argument, fmt::format("{}: --set {}: the index must be a number", file, path));
-      }
-      piece = piece.substr(0, lb);
-    }
-    if (piece.empty()) throw Error(ErrorCode::invalid_argument, fmt::format("{}: --set {}: empty key", file, path));
-    part.key = piece;
-    parts.push_back(part);
-    if (dot == std::string::npos) break;
-    start = dot + 1;
-  }
-  return parts;
-}
-
-void set_path(toml::table& table, std::span<const PathPart> parts, const toml::node& value, const std::string& what) {
-  const PathPart& p = parts.front();
-  if (parts.size() == 1) {
-    if (p.index) throw Error(ErrorCode::invalid_argument, what + ": cannot index the last key");
-    const toml::node* existing = table.get(p.key);
-    if (existing != nullptr && (existing->is_table() || existing->is_array_of_tables()))
-      throw Error(ErrorCode::invalid_argument, what + ": that key is a table, not a value");
-    table.insert_or_assign(p.key, value);
-    return;
-  }
-  toml::node* n = table.get(p.key);
-  if (n == nullptr) {
-    if (p.index) throw Error(ErrorCode::invalid_argument, fmt::format("{}: there is no {}[{}]", what, p.key, *p.index));
-    table.insert(p.key, toml::table{});
-    n = table.get(p.key);
-  }
-  if (toml::array* a = n->as_array(); a != nullptr && a->is_array_of_tables()) {
-    if (p.index) {
-      if (*p.index >= a->size())
-        throw Error(ErrorCode::invalid_argument,
-                    fmt::format("{}: {}[{}] does not exist (there are {})", what, p.key, *p.index, a->size()));
-      set_path(*a->get(*p.index)->as_table(), parts.subspan(1), value, what);
-    } else {
-      for (auto& e : *a) set_path(*e.as_table(), parts.subspan(1), value, what);
-    }
-    return;
-  }
-  if (!n->is_table() || p.index)
-    throw Error(ErrorCode::invalid_argument, fmt::format("{}: {} is not a table", what, p.key));
-  set_path(*n->as_table(), parts.subspan(1), value, what);
-}
-
-void apply_override(toml::table& root, const std::string& assignment, const std::string& file) {
-  const std::size_t eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0)
-    throw Error(ErrorCode::invalid_argument, fmt::format("{}: --set {}: expected key=value", file, assignment));
-  const std::string key = assignment.substr(0, eq);
-  const std::string text = assignment.substr(eq + 1);
-  toml::table parsed;
-  try {
-    parsed = toml::parse("v = " + text);
-  } catch (const toml::parse_error&) {
-    parsed = toml::table{{"v", text}};  // a bare word is a string
-  }
-  set_path(root, split_path(key, file), *parsed.get("v"), fmt::format("{}: --set {}", file, assignment));
-}
-
 }  // namespace
 
 SceneDesc parse_scene(const std::string& text, const std::filesystem::path& file,
@@ -647,7 +400,7 @@ SceneDesc parse_scene(const std::string& text, const std::filesystem::path& file
     throw Error(ErrorCode::parse, fmt::format("{}:{}:{}: not valid TOML: {}", file.string(), e.source().begin.line,
                                               e.source().begin.column, e.description()));
   }
-  for (const std::string& o : overrides) apply_override(source->root, o, file.string());
+  for (const std::string& o : overrides) scene_io::apply_override(source->root, o, file.string());
   const Reader reader(file.string());
   SceneDesc scene = read_scene(reader, source->root, file);
   scene.source = source;

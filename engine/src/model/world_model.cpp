@@ -44,32 +44,9 @@ RestShape build_rest_shape(const SegmentDesc& d, const std::string& where) {
   fail(where + ".rest.shape", "unknown rest shape");
 }
 
-// One segment (a chain is one rod of its pieces): its rest shape, stiffnesses, masses, loads,
-// attachments, pieces and solve parts appended to the model, and its nodes' initial positions and
-// rest poses to the lists the beads and meshes are built from.
-void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector<Eigen::Vector3d>& initial_positions,
-               std::vector<RodPoseBuffer>& rest_poses) {
-  const SegmentDesc& d = desc.segments[si];
-  const std::string where = fmt::format("segment[{}]", si);
-  const auto pieces = static_cast<std::size_t>(d.chain_pieces);
-  const double drag = d.drag.value_or(d.base == BaseMode::free ? 4.0 : 0.0);
-
-  // A chain is one rod of K·(nodes − 1) + 1 nodes.
-  SegmentDesc whole = d;
-  whole.nodes = static_cast<int>(pieces) * (d.nodes - 1) + 1;
-  RestShape rest = build_rest_shape(whole, where);
-
-  SegmentModel seg;
-  seg.info.name = d.name;
-  seg.node_offset = m.node_total;
-  seg.node_count = static_cast<std::size_t>(whole.nodes);
-  seg.info.nodes = {seg.node_offset, seg.node_count};
-  seg.info.length = rest.length;
-  seg.mean_section = rest.length / static_cast<double>(seg.sections());
-  seg.info.rest_node_deviation = rest.node_deviation;
-  seg.info.rest_polyline_deviation = rest.polyline_deviation;
-
-  // Paper §4.2: thin-walled tube of radius R and wall h_w.
+// Paper §4.2: a thin-walled tube of radius R and wall h_w — its stiffnesses, density, the law's
+// elastic and viscous parts and the inertia filter's ζ.
+void set_material(const WorldDesc& desc, const SegmentDesc& d, SegmentModel& seg) {
   const double e = d.material.youngs_modulus;
   const double r = d.cross_section.radius;
   const double hw = d.cross_section.wall_thickness;
@@ -91,11 +68,11 @@ void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector
   seg.exp2 = d.material.response == TissueResponse::exp2;
   seg.tissue = {d.material.exp2_alpha, d.material.exp2_beta, d.material.exp2_gamma};
   seg.tube = {r, hw};
-  seg.base_mode = d.base;
-  seg.has_drag = drag > 0.0;
-  seg.initial_base = rest.base;
+}
 
-  // Per-node arrays.
+// The rod's per-node arrays: sections, rest strains, lumped masses and drags, the mass matrix's
+// factors.
+void append_node_arrays(const RestShape& rest, const SegmentModel& seg, double drag, double radius, WorldModel& m) {
   const std::size_t n = seg.node_count;
   m.section_length.resize(m.node_total + n, 0.0);
   m.rest_strain.insert(m.rest_strain.end(), rest.strain.begin(), rest.strain.end());
@@ -108,19 +85,15 @@ void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector
     m.node_drag.push_back(drag * share);
     // Spinning a tube of radius R through the medium: drag × R² per length, which also keeps the
     // rigid resistance invertible for a straight rod.
-    m.node_spin_drag.push_back(drag * r * r * share);
+    m.node_spin_drag.push_back(drag * radius * radius * share);
   }
   m.mass_inv_pivot.resize(m.node_total + n);
   m.mass_lower.resize(m.node_total + n);
   kernels::mass_matrix_factor(rest.section_length, std::span(m.mass_inv_pivot).subspan(m.node_total, n),
                               std::span(m.mass_lower).subspan(m.node_total, n));
+}
 
-  // Initial poses, for default attachment targets.
-  rest_poses.emplace_back(n);
-  const kernels::RodPoses<double> poses = rest_poses.back().view();
-  kernels::rod_forward_sweep(rest.base, rest.section_length, kernels::StrainView<const double>{rest.strain}, poses);
-  for (std::size_t i = 0; i < n; ++i) initial_positions.push_back(poses.node_position.get(i));
-
+void append_loads(const SegmentDesc& d, const std::string& where, std::size_t n, WorldModel& m) {
   m.initial_load.resize(6 * (m.node_total + n), 0.0);
   for (std::size_t li = 0; li < d.loads.size(); ++li) {
     const std::string lw = fmt::format("{}.load[{}]", where, li);
@@ -132,7 +105,14 @@ void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector
       m.initial_load[6 * (m.node_total + node) + 3 + static_cast<std::size_t>(j)] += d.loads[li].moment[j];
     }
   }
+}
 
+// The segment's attachments (targets by default where their nodes rest), then one grasp slot per
+// instrument on a segment with beads (closing an instrument attaches the node of the bead it closes
+// on); the constraint rows they take and the scratch their solves need.
+void append_attachments(const WorldDesc& desc, const SegmentDesc& d, const std::string& where,
+                        const kernels::RodPoses<double>& poses, SegmentModel& seg, WorldModel& m) {
+  const std::size_t n = seg.node_count;
   std::set<std::size_t> held;
   seg.attachment_offset = m.attachment_total;
   for (std::size_t ai = 0; ai < d.attachments.size(); ++ai) {
@@ -159,8 +139,6 @@ void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector
     m.initial_attachment_active.push_back(a.active ? 1 : 0);
     seg.attachments.push_back(am);
   }
-  // One grasp slot per instrument on every segment with beads: closing an instrument attaches
-  // the node of the bead it closes on.
   if (d.beads.enabled)
     for (std::size_t i = 0; i < desc.instruments.size(); ++i) {
       AttachmentModel am;
@@ -184,6 +162,12 @@ void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector
     seg.constraint_scratch_offset = m.constraint_scratch_total;
     m.constraint_scratch_total += 4 * n * (2 * seg.constraint_rows + (d.base == BaseMode::free ? 6 : 0));
   }
+}
+
+// The API's segments on the rod: the rod itself, or a chain's pieces, each `nodes` long and
+// sharing its joint nodes with its neighbours (decision 0030).
+void append_pieces(const SegmentDesc& d, std::size_t si, const RestShape& rest, SegmentModel& seg, WorldModel& m) {
+  const auto pieces = static_cast<std::size_t>(d.chain_pieces);
   seg.first_piece = m.pieces.size();
   seg.piece_count = pieces;
   const auto piece_nodes = static_cast<std::size_t>(d.nodes);
@@ -201,6 +185,47 @@ void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector
     }
     m.pieces.push_back(std::move(piece));
   }
+}
+
+// One segment (a chain is one rod of its pieces): its rest shape, stiffnesses, masses, loads,
+// attachments, pieces and solve parts appended to the model, and its nodes' initial positions and
+// rest poses to the lists the beads and meshes are built from.
+void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector<Eigen::Vector3d>& initial_positions,
+               std::vector<RodPoseBuffer>& rest_poses) {
+  const SegmentDesc& d = desc.segments[si];
+  const std::string where = fmt::format("segment[{}]", si);
+  const double drag = d.drag.value_or(d.base == BaseMode::free ? 4.0 : 0.0);
+
+  // A chain is one rod of K·(nodes − 1) + 1 nodes.
+  SegmentDesc whole = d;
+  whole.nodes = d.chain_pieces * (d.nodes - 1) + 1;
+  const RestShape rest = build_rest_shape(whole, where);
+
+  SegmentModel seg;
+  seg.info.name = d.name;
+  seg.node_offset = m.node_total;
+  seg.node_count = static_cast<std::size_t>(whole.nodes);
+  seg.info.nodes = {seg.node_offset, seg.node_count};
+  seg.info.length = rest.length;
+  seg.mean_section = rest.length / static_cast<double>(seg.sections());
+  seg.info.rest_node_deviation = rest.node_deviation;
+  seg.info.rest_polyline_deviation = rest.polyline_deviation;
+  set_material(desc, d, seg);
+  seg.base_mode = d.base;
+  seg.has_drag = drag > 0.0;
+  seg.initial_base = rest.base;
+  append_node_arrays(rest, seg, drag, d.cross_section.radius, m);
+
+  // Initial poses, for default attachment targets.
+  const std::size_t n = seg.node_count;
+  rest_poses.emplace_back(n);
+  const kernels::RodPoses<double> poses = rest_poses.back().view();
+  kernels::rod_forward_sweep(rest.base, rest.section_length, kernels::StrainView<const double>{rest.strain}, poses);
+  for (std::size_t i = 0; i < n; ++i) initial_positions.push_back(poses.node_position.get(i));
+
+  append_loads(d, where, n, m);
+  append_attachments(desc, d, where, poses, seg, m);
+  append_pieces(d, si, rest, seg, m);
   m.node_total += n;
   const auto rod = static_cast<std::uint32_t>(m.segments.size());
   if (n >= kSplitMinNodes) {

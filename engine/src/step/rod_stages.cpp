@@ -376,14 +376,9 @@ double outside_work_bound(const WorldModel& model, const WorldState& state, std:
   return work;
 }
 
-}  // namespace
-
-GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
-  const SegmentModel& seg = model.segments[segment];
-  const SolverDesc& lim = model.solver;
-  const std::size_t off = seg.node_offset;
-  const std::size_t n = seg.node_count;
-  const double* q = state.now.strain.data() + 4 * off;
+// A Newton frame whose condensed sweep met a singular pivot on a rod too long for the fallback.
+GuardResult guard_solvable(const WorldModel& /*model*/, const WorldState& state, std::size_t segment,
+                           const SubstepParameters& p) {
   if (p.newton && state.segment_solvable[segment] == 0)
     return {false,
             state.newton[segment].singular_node,
@@ -392,6 +387,17 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
             "rod longer than the banded fallback holds (4096 nodes)",
             0.0,
             0.0};
+  return {};
+}
+
+// Every strain finite; axial strain, compression and the angle of each section within limits.
+GuardResult guard_strains(const WorldModel& model, const WorldState& state, std::size_t segment,
+                          const SubstepParameters& /*p*/) {
+  const SegmentModel& seg = model.segments[segment];
+  const SolverDesc& lim = model.solver;
+  const std::size_t off = seg.node_offset;
+  const std::size_t n = seg.node_count;
+  const double* q = state.now.strain.data() + 4 * off;
   for (std::size_t k = 0; k < n; ++k) {
     for (std::size_t c = 0; c < 4; ++c)
       if (!std::isfinite(q[4 * k + c])) return {false, k, Stage::solve, "strain (not finite)", q[4 * k + c], 0.0};
@@ -413,6 +419,16 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
     if (u.norm() * h > lim.max_section_angle)
       return {false, k, Stage::solve, "bend and twist angle of one section (rad)", u.norm() * h, lim.max_section_angle};
   }
+  return {};
+}
+
+// Every node finite and moved less than the limit in the frame.
+GuardResult guard_positions(const WorldModel& model, const WorldState& state, std::size_t segment,
+                            const SubstepParameters& /*p*/) {
+  const SegmentModel& seg = model.segments[segment];
+  const SolverDesc& lim = model.solver;
+  const std::size_t off = seg.node_offset;
+  const std::size_t n = seg.node_count;
   const auto pos = state.now.position.view().subview(off, n);
   const auto prev = state.frame_start.position.view().subview(off, n);
   for (std::size_t k = 0; k < n; ++k) {
@@ -423,6 +439,13 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
       return {
           false, k, Stage::forward_sweep, "displacement in one frame (segment lengths)", moved, lim.max_displacement};
   }
+  return {};
+}
+
+GuardResult guard_bead_depths(const WorldModel& model, const WorldState& state, std::size_t segment,
+                              const SubstepParameters& /*p*/) {
+  const SegmentModel& seg = model.segments[segment];
+  const std::size_t off = seg.node_offset;
   // A bead deeper into the environment than its own radius has passed through, not touched.
   // (Through the segment's own beads' lists: every candidate of the world per segment would be
   // quadratic in segments.)
@@ -437,6 +460,13 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
                 Stage::contacts, "bead's depth into the environment (bead radii)",
                 ratio,           1.0};
     }
+  return {};
+}
+
+GuardResult guard_attachments(const WorldModel& model, const WorldState& state, std::size_t segment,
+                              const SubstepParameters& /*p*/) {
+  const SegmentModel& seg = model.segments[segment];
+  const SolverDesc& lim = model.solver;
   std::size_t k = 0;
   const double miss = attachment_miss(model, state, segment, k) / seg.info.length;
   if (miss > lim.max_attachment_error)
@@ -446,6 +476,14 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
             "attachment's distance from its target (segment lengths)",
             miss,
             lim.max_attachment_error};
+  return {};
+}
+
+GuardResult guard_energy(const WorldModel& model, const WorldState& state, std::size_t segment,
+                         const SubstepParameters& /*p*/) {
+  const SegmentModel& seg = model.segments[segment];
+  const std::size_t off = seg.node_offset;
+  const std::size_t n = seg.node_count;
   // A segment that flows (a viscous or Kelvin–Voigt component) cannot gain more energy in a frame
   // than the outside worked on it: its flow, the medium and the filter (first order: it stores no
   // momentum) only take energy out. One that does has jumped to a spurious equilibrium — a soft
@@ -470,6 +508,12 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
                 after - before, allowance};
     }
   }
+  return {};
+}
+
+// The lagged iteration contracting: its next step smaller than this one, its flow not growing.
+GuardResult guard_lagged_iteration(const WorldModel& /*model*/, const WorldState& state, std::size_t segment,
+                                   const SubstepParameters& p) {
   if (!p.newton) {
     const LaggedRatios& r = state.lagged_ratios[segment];
     if (r.elastic > kMaxElasticContraction)
@@ -480,6 +524,17 @@ GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t 
       return {false,        0,
               Stage::solve, "growth of the lagged viscous flow's step from one frame to the next",
               r.viscous,    kMaxViscousGrowth};
+  }
+  return {};
+}
+
+}  // namespace
+
+GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
+  for (const auto check : {guard_solvable, guard_strains, guard_positions, guard_bead_depths, guard_attachments,
+                           guard_energy, guard_lagged_iteration}) {
+    const GuardResult r = check(model, state, segment, p);
+    if (!r.ok) return r;
   }
   return {};
 }
