@@ -1,3 +1,4 @@
+// The allocation counter's hooks: operator new and malloc counted while a scope is armed.
 #include "allocation_counter.hpp"
 
 #include <cstdlib>
