@@ -85,6 +85,25 @@ std::size_t SphereGrid::bucket(std::int64_t ix, std::int64_t iy, std::int64_t iz
   return static_cast<std::size_t>(mix(key(ix, iy, iz))) & bucket_mask_;
 }
 
+namespace {
+
+// The box around the spheres' centres.
+void centre_bounds(const SphereSet& s, double (&lo)[3], double (&hi)[3]) {
+  for (int d = 0; d < 3; ++d) {
+    lo[d] = std::numeric_limits<double>::max();
+    hi[d] = std::numeric_limits<double>::lowest();
+  }
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const double c[3] = {s.x[i], s.y[i], s.z[i]};
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], c[d]);
+      hi[d] = std::max(hi[d], c[d]);
+    }
+  }
+}
+
+}  // namespace
+
 std::int64_t SphereGrid::cell_of(double coordinate, int axis) const {
   return std::clamp(static_cast<std::int64_t>(std::floor((coordinate - origin_[axis]) * inverse_cell_)),
                     std::int64_t{0}, kMaxCell);
@@ -106,17 +125,8 @@ void SphereGrid::build(const SphereSet& s, double margin, double cell) {
     dense_ = false;
     return;
   }
-  double lo[3] = {std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
-                  std::numeric_limits<double>::max()};
-  double hi[3] = {std::numeric_limits<double>::lowest(), std::numeric_limits<double>::lowest(),
-                  std::numeric_limits<double>::lowest()};
-  for (std::size_t i = 0; i < n; ++i) {
-    const double c[3] = {s.x[i], s.y[i], s.z[i]};
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], c[d]);
-      hi[d] = std::max(hi[d], c[d]);
-    }
-  }
+  double lo[3], hi[3];
+  centre_bounds(s, lo, hi);
   auto reach = [&](std::size_t i) { return 2.0 * s.radius[i] + margin; };
   if (cell <= 0.0) {
     // The widest reach short of the outliers: any two such spheres in reach sit in adjacent cells.

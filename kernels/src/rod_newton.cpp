@@ -39,23 +39,16 @@ SectionLinearization linearize_section(const Eigen::Matrix3d& rm, const Eigen::V
   return s;
 }
 
-}  // namespace
+constexpr int Q = kNewtonStrain;
+constexpr int PHI = kNewtonRotation;
+constexpr int R = kNewtonPosition;
+constexpr int M = kNewtonMoment;
+constexpr int F = kNewtonForce;
 
-Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, std::span<const double> section_length,
-                                                Vec3View<const double> node_force, Vec3View<const double> node_moment,
-                                                const std::array<double, 4>& law_total, NewtonLoadStiffness stiffness,
-                                                bool free_base, Vec3View<double> distal_force,
-                                                Vec3View<double> distal_moment, NewtonSystem system,
-                                                NodalLawTangent nodal) {
-  constexpr int Q = kNewtonStrain;
-  constexpr int PHI = kNewtonRotation;
-  constexpr int R = kNewtonPosition;
-  constexpr int M = kNewtonMoment;
-  constexpr int F = kNewtonForce;
-  const bool has_stiffness = !stiffness.force.empty();
+void accumulate_distal_loads(RodPoses<const double> poses, Vec3View<const double> node_force,
+                             Vec3View<const double> node_moment, Vec3View<double> distal_force,
+                             Vec3View<double> distal_moment) {
   const std::size_t n = poses.node_count();
-  const std::size_t sections = n - 1;
-
   // Loads beyond each node: F_k, and M_k about r_k.
   Eigen::Vector3d f = Eigen::Vector3d::Zero();
   Eigen::Vector3d m = Eigen::Vector3d::Zero();
@@ -68,6 +61,116 @@ Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, st
     distal_force.set(k, f);
     distal_moment.set(k, m);
   }
+}
+
+// Rows 0–3 of node k, the law's part: −M A (a linear law) or −M T (the nodal tangent of a nonlinear one).
+void add_law_rows(std::size_t k, std::size_t sections, double h_prev, double h_next,
+                  const std::array<double, 4>& law_total, const NodalLawTangent& nodal, NewtonBlock& lo,
+                  NewtonBlock& di, NewtonBlock& up) {
+  if (nodal.tangent.data.empty()) {
+    for (int c = 0; c < 4; ++c) {
+      const double a = law_total[static_cast<std::size_t>(c)];
+      di(Q + c, Q + c) -= a * (h_prev + h_next) / 3.0;
+      if (k > 0) lo(Q + c, Q + c) -= a * h_prev / 6.0;
+      if (k < sections) up(Q + c, Q + c) -= a * h_next / 6.0;
+    }
+  } else {
+    // −M T: column node j carries its own tangent T_j (a nonlinear law).
+    for (int c = 0; c < 4; ++c) {
+      const auto cc = static_cast<std::size_t>(c);
+      di(Q + c, Q + c) -= nodal.tangent.at(k, cc) * (h_prev + h_next) / 3.0;
+      if (k > 0) lo(Q + c, Q + c) -= nodal.tangent.at(k - 1, cc) * h_prev / 6.0;
+      if (k < sections) up(Q + c, Q + c) -= nodal.tangent.at(k + 1, cc) * h_next / 6.0;
+    }
+    const double bd = nodal.bend_coupling[k] * (h_prev + h_next) / 3.0;
+    di(Q, Q + 1) -= bd;
+    di(Q + 1, Q) -= bd;
+    if (k > 0) {
+      const double bl = nodal.bend_coupling[k - 1] * h_prev / 6.0;
+      lo(Q, Q + 1) -= bl;
+      lo(Q + 1, Q) -= bl;
+    }
+    if (k < sections) {
+      const double bu = nodal.bend_coupling[k + 1] * h_next / 6.0;
+      up(Q, Q + 1) -= bu;
+      up(Q + 1, Q) -= bu;
+    }
+  }
+}
+
+void add_kinematics_rows(std::size_t k, RodPoses<const double> poses, double h_prev, bool free_base,
+                         const NewtonLoadStiffness& stiffness, NewtonBlock& lo, NewtonBlock& di) {
+  const bool has_stiffness = !stiffness.force.empty();
+  const Eigen::Vector3d rk = poses.node_position.get(k);
+  // Rows 4–9: kinematics of section k−1, or the base.
+  if (k == 0 && free_base) {
+    // Total wrench about node 0 vanishes: M_0 + m_0 = 0, F_0 + f_0 = 0, with node 0's drag
+    // depending on its own motion (the drag of node 0 has no lever arm about itself).
+    di.block<3, 3>(PHI, M).setIdentity();
+    di.block<3, 3>(R, F).setIdentity();
+    if (has_stiffness) {
+      di.block<3, 3>(PHI, PHI) = -stiffness.moment[0] * Eigen::Matrix3d::Identity();
+      di.block<3, 3>(R, R) = -stiffness.force[0];
+    }
+  } else {
+    di.block<3, 3>(PHI, PHI).setIdentity();
+    di.block<3, 3>(R, R).setIdentity();
+  }
+  if (k > 0) {
+    const Eigen::Matrix3d rm = poses.mid_rotation.get(k - 1).toRotationMatrix();
+    const Eigen::Vector3d d3 = rm.col(2);
+    const Eigen::Vector3d dr = rk - poses.node_position.get(k - 1);
+    const Eigen::Vector3d lever = rk - poses.mid_position.get(k - 1);
+    const Eigen::Matrix3d rot_q = 0.5 * h_prev * rm;    // δφ per δq_u of either node
+    const Eigen::Matrix3d pos_q = skew(lever) * rot_q;  // δr per δq_u
+    const Eigen::Vector3d pos_e = -0.5 * h_prev * d3;   // δr per δq_ε (row sign)
+    lo.block<3, 3>(PHI, PHI) = -Eigen::Matrix3d::Identity();
+    lo.block<3, 3>(PHI, Q) = -rot_q;
+    di.block<3, 3>(PHI, Q) = -rot_q;
+    lo.block<3, 3>(R, R) = -Eigen::Matrix3d::Identity();
+    lo.block<3, 3>(R, PHI) = skew(dr);
+    lo.block<3, 3>(R, Q) = pos_q;
+    di.block<3, 3>(R, Q) = pos_q;
+    lo.block<3, 1>(R, Q + 3) = pos_e;
+    di.block<3, 1>(R, Q + 3) = pos_e;
+  }
+}
+
+void add_transport_rows(std::size_t k, std::size_t sections, RodPoses<const double> poses,
+                        Vec3View<const double> distal_force, const NewtonLoadStiffness& stiffness, NewtonBlock& di,
+                        NewtonBlock& up) {
+  const bool has_stiffness = !stiffness.force.empty();
+  const Eigen::Vector3d rk = poses.node_position.get(k);
+  // Rows 10–15: moment and force transport to the next node, or δM_N = δF_N = 0.
+  di.block<3, 3>(M, M).setIdentity();
+  di.block<3, 3>(F, F).setIdentity();
+  if (k < sections) {
+    const Eigen::Matrix3d sf = skew(distal_force.get(k));
+    di.block<3, 3>(M, R) = -sf;
+    di.block<3, 3>(M, F) = -skew(poses.node_position.get(k + 1) - rk);
+    up.block<3, 3>(M, M) = -Eigen::Matrix3d::Identity();
+    up.block<3, 3>(M, R) = sf;
+    up.block<3, 3>(F, F) = -Eigen::Matrix3d::Identity();
+    if (has_stiffness) {
+      // δm_{k+1} = −s δφ_{k+1} and δf_{k+1} = −K δr_{k+1} enter the distal sums.
+      up.block<3, 3>(M, PHI) = stiffness.moment[k + 1] * Eigen::Matrix3d::Identity();
+      up.block<3, 3>(F, R) = stiffness.force[k + 1];
+    }
+  }
+}
+
+}  // namespace
+
+Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, std::span<const double> section_length,
+                                                Vec3View<const double> node_force, Vec3View<const double> node_moment,
+                                                const std::array<double, 4>& law_total, NewtonLoadStiffness stiffness,
+                                                bool free_base, Vec3View<double> distal_force,
+                                                Vec3View<double> distal_moment, NewtonSystem system,
+                                                NodalLawTangent nodal) {
+  const std::size_t n = poses.node_count();
+  const std::size_t sections = n - 1;
+
+  accumulate_distal_loads(poses, node_force, node_moment, distal_force, distal_moment);
 
   for (std::size_t k = 0; k < n; ++k) {
     system.lower[k].setZero();
@@ -88,36 +191,7 @@ Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, st
     const double h_prev = k > 0 ? section_length[k - 1] : 0.0;
     const double h_next = k < sections ? section_length[k] : 0.0;
 
-    // Rows 0–3: node residual.
-    if (nodal.tangent.data.empty()) {
-      for (int c = 0; c < 4; ++c) {
-        const double a = law_total[static_cast<std::size_t>(c)];
-        di(Q + c, Q + c) -= a * (h_prev + h_next) / 3.0;
-        if (k > 0) lo(Q + c, Q + c) -= a * h_prev / 6.0;
-        if (k < sections) up(Q + c, Q + c) -= a * h_next / 6.0;
-      }
-    } else {
-      // −M T: column node j carries its own tangent T_j (a nonlinear law).
-      for (int c = 0; c < 4; ++c) {
-        const auto cc = static_cast<std::size_t>(c);
-        di(Q + c, Q + c) -= nodal.tangent.at(k, cc) * (h_prev + h_next) / 3.0;
-        if (k > 0) lo(Q + c, Q + c) -= nodal.tangent.at(k - 1, cc) * h_prev / 6.0;
-        if (k < sections) up(Q + c, Q + c) -= nodal.tangent.at(k + 1, cc) * h_next / 6.0;
-      }
-      const double bd = nodal.bend_coupling[k] * (h_prev + h_next) / 3.0;
-      di(Q, Q + 1) -= bd;
-      di(Q + 1, Q) -= bd;
-      if (k > 0) {
-        const double bl = nodal.bend_coupling[k - 1] * h_prev / 6.0;
-        lo(Q, Q + 1) -= bl;
-        lo(Q + 1, Q) -= bl;
-      }
-      if (k < sections) {
-        const double bu = nodal.bend_coupling[k + 1] * h_next / 6.0;
-        up(Q, Q + 1) -= bu;
-        up(Q + 1, Q) -= bu;
-      }
-    }
+    add_law_rows(k, sections, h_prev, h_next, law_total, nodal, lo, di, up);
     if (k > 0) {
       lo.block<4, 4>(Q, Q) += 0.5 * lin[0].x;
       lo.block<4, 3>(Q, PHI) += 0.5 * lin[0].p;
@@ -133,55 +207,8 @@ Eigen::Matrix<double, 6, 1> rod_newton_assemble(RodPoses<const double> poses, st
       up.block<4, 4>(Q, Q) += 0.5 * lin[1].x;
     }
 
-    // Rows 4–9: kinematics of section k−1, or the base.
-    if (k == 0 && free_base) {
-      // Total wrench about node 0 vanishes: M_0 + m_0 = 0, F_0 + f_0 = 0, with node 0's drag
-      // depending on its own motion (the drag of node 0 has no lever arm about itself).
-      di.block<3, 3>(PHI, M).setIdentity();
-      di.block<3, 3>(R, F).setIdentity();
-      if (has_stiffness) {
-        di.block<3, 3>(PHI, PHI) = -stiffness.moment[0] * Eigen::Matrix3d::Identity();
-        di.block<3, 3>(R, R) = -stiffness.force[0];
-      }
-    } else {
-      di.block<3, 3>(PHI, PHI).setIdentity();
-      di.block<3, 3>(R, R).setIdentity();
-    }
-    if (k > 0) {
-      const Eigen::Matrix3d rm = poses.mid_rotation.get(k - 1).toRotationMatrix();
-      const Eigen::Vector3d d3 = rm.col(2);
-      const Eigen::Vector3d dr = rk - poses.node_position.get(k - 1);
-      const Eigen::Vector3d lever = rk - poses.mid_position.get(k - 1);
-      const Eigen::Matrix3d rot_q = 0.5 * h_prev * rm;    // δφ per δq_u of either node
-      const Eigen::Matrix3d pos_q = skew(lever) * rot_q;  // δr per δq_u
-      const Eigen::Vector3d pos_e = -0.5 * h_prev * d3;   // δr per δq_ε (row sign)
-      lo.block<3, 3>(PHI, PHI) = -Eigen::Matrix3d::Identity();
-      lo.block<3, 3>(PHI, Q) = -rot_q;
-      di.block<3, 3>(PHI, Q) = -rot_q;
-      lo.block<3, 3>(R, R) = -Eigen::Matrix3d::Identity();
-      lo.block<3, 3>(R, PHI) = skew(dr);
-      lo.block<3, 3>(R, Q) = pos_q;
-      di.block<3, 3>(R, Q) = pos_q;
-      lo.block<3, 1>(R, Q + 3) = pos_e;
-      di.block<3, 1>(R, Q + 3) = pos_e;
-    }
-
-    // Rows 10–15: moment and force transport to the next node, or δM_N = δF_N = 0.
-    di.block<3, 3>(M, M).setIdentity();
-    di.block<3, 3>(F, F).setIdentity();
-    if (k < sections) {
-      const Eigen::Matrix3d sf = skew(distal_force.get(k));
-      di.block<3, 3>(M, R) = -sf;
-      di.block<3, 3>(M, F) = -skew(poses.node_position.get(k + 1) - rk);
-      up.block<3, 3>(M, M) = -Eigen::Matrix3d::Identity();
-      up.block<3, 3>(M, R) = sf;
-      up.block<3, 3>(F, F) = -Eigen::Matrix3d::Identity();
-      if (has_stiffness) {
-        // δm_{k+1} = −s δφ_{k+1} and δf_{k+1} = −K δr_{k+1} enter the distal sums.
-        up.block<3, 3>(M, PHI) = stiffness.moment[k + 1] * Eigen::Matrix3d::Identity();
-        up.block<3, 3>(F, R) = stiffness.force[k + 1];
-      }
-    }
+    add_kinematics_rows(k, poses, h_prev, free_base, stiffness, lo, di);
+    add_transport_rows(k, sections, poses, distal_force, stiffness, di, up);
     lin[0] = lin[1];
   }
   Eigen::Matrix<double, 6, 1> total;

@@ -142,6 +142,36 @@ TradeoffKnob knob_beads() {
 
 // --- iterations per frame --------------------------------------------------------------------
 
+// The 0.2 m rod released under gravity with one solver setting: its error after one frame against
+// the converged static tip, and how often its tip reverses (by more than 1 mm both ways) in 1 s.
+std::pair<std::string, int> released_rod(SolverMode mode, int iterations, bool converged,
+                                         const Eigen::Vector3d& static_tip) {
+  WorldDesc c = cantilever(167);
+  c.solver.mode = mode;
+  c.solver.iterations = iterations;
+  c.solver.max_displacement = 1e6;
+  if (converged) converge_each_frame(c);
+  std::string static_error;
+  int flips = 0;  // the tip reversing its motion by more than 1 mm both ways, over 1 s
+  try {
+    auto cw = World::create(c);
+    cw->step();
+    static_error = fmt::format("{:.1f} mm{}", 1e3 * (node(*cw, 166) - static_tip).norm(),
+                               cw->events().empty() ? "" : " (the guard refused the lagged frame; Newton redid it)");
+    Eigen::Vector3d last = node(*cw, 166), last_move = Eigen::Vector3d::Zero();
+    for (int f = 1; f < 60; ++f) {
+      cw->step();
+      const Eigen::Vector3d move = node(*cw, 166) - last;
+      if (move.norm() > 1e-3 && last_move.norm() > 1e-3 && move.dot(last_move) < 0.0) ++flips;
+      last = node(*cw, 166);
+      last_move = move;
+    }
+  } catch (const Error& e) {
+    static_error = fmt::format("stopped ({})", error_code_name(e.code()));
+  }
+  return {static_error, flips};
+}
+
 TradeoffKnob knob_iterations() {
   TradeoffKnob k{"iterations per frame",
                  "`drop` without its mesh: the error at 1 s (falling and bending, before the coils pile up "
@@ -200,29 +230,7 @@ TradeoffKnob knob_iterations() {
     }
     std::size_t recovered = 0;
     for (const Event& e : w->events()) recovered += e.kind == Event::Kind::recovered ? 1 : 0;
-    WorldDesc c = cantilever(167);
-    c.solver.mode = s.mode;
-    c.solver.iterations = s.iterations;
-    c.solver.max_displacement = 1e6;
-    if (s.converged) converge_each_frame(c);
-    std::string static_error;
-    int flips = 0;  // the tip reversing its motion by more than 1 mm both ways, over 1 s
-    try {
-      auto cw = World::create(c);
-      cw->step();
-      static_error = fmt::format("{:.1f} mm{}", 1e3 * (node(*cw, 166) - static_tip).norm(),
-                                 cw->events().empty() ? "" : " (the guard refused the lagged frame; Newton redid it)");
-      Eigen::Vector3d last = node(*cw, 166), last_move = Eigen::Vector3d::Zero();
-      for (int f = 1; f < 60; ++f) {
-        cw->step();
-        const Eigen::Vector3d move = node(*cw, 166) - last;
-        if (move.norm() > 1e-3 && last_move.norm() > 1e-3 && move.dot(last_move) < 0.0) ++flips;
-        last = node(*cw, 166);
-        last_move = move;
-      }
-    } catch (const Error& e) {
-      static_error = fmt::format("stopped ({})", error_code_name(e.code()));
-    }
+    const auto [static_error, flips] = released_rod(s.mode, s.iterations, s.converged, static_tip);
     TradeoffRow r;
     r.setting = s.name;
     r.error = 1e3 * error;
@@ -303,6 +311,39 @@ TradeoffKnob knob_filter() {
 
 // --- Hooke against EXP2 ----------------------------------------------------------------------
 
+constexpr double kExp2RodLength = 0.2;  // m
+
+// A clamped rod of the paper's tube, no gravity, with a force and a moment at its tip.
+WorldDesc loaded_rod(TissueResponse law, int n, const Eigen::Vector3d& force, const Eigen::Vector3d& moment) {
+  WorldDesc d;
+  d.threads = 1;
+  d.gravity = Eigen::Vector3d::Zero();
+  SegmentDesc s;
+  s.nodes = n;
+  s.rest.length = kExp2RodLength;
+  s.law = {StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic};
+  s.material.response = law;
+  s.loads.push_back({-1, force, moment});
+  d.segments.push_back(s);
+  return d;
+}
+
+// Cost of a frame at rest under a pull, default solver, N = 167, Hooke and EXP2: the two worlds
+// step in turn, so that the machine's load falls on both alike.
+std::array<double, 2> frame_cost_per_law(double pull) {
+  auto hooke = World::create(loaded_rod(TissueResponse::hooke, 167, {pull, 0, 0}, {0, 0, 0}));
+  auto exp2 = World::create(loaded_rod(TissueResponse::exp2, 167, {pull, 0, 0}, {0, 0, 0}));
+  std::array<std::vector<double>, 2> t;
+  for (int f = 0; f < 230; ++f) {
+    hooke->step();
+    exp2->step();
+    if (f < 30) continue;
+    t[0].push_back(hooke->last_profile().frame_seconds * 1e6);
+    t[1].push_back(exp2->last_profile().frame_seconds * 1e6);
+  }
+  return {median(t[0]), median(t[1])};
+}
+
 TradeoffKnob knob_exp2() {
   TradeoffKnob k{"tissue law: Hooke against EXP2",
                  "a clamped 0.2 m rod of the paper's tube (N = 41, no gravity) pulled at its tip, or bent by an end "
@@ -315,20 +356,7 @@ TradeoffKnob knob_exp2() {
                  false};
   const kernels::Exp2Tissue tissue{8.0, 6.7e3, 20.0e3};
   const kernels::TubeSection tube{0.02, 0.003};
-  const double length = 0.2;
-  auto world = [&](TissueResponse law, int n, const Eigen::Vector3d& force, const Eigen::Vector3d& moment) {
-    WorldDesc d;
-    d.threads = 1;
-    d.gravity = Eigen::Vector3d::Zero();
-    SegmentDesc s;
-    s.nodes = n;
-    s.rest.length = length;
-    s.law = {StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic, StrainLaw::elastic};
-    s.material.response = law;
-    s.loads.push_back({-1, force, moment});
-    d.segments.push_back(s);
-    return d;
-  };
+  const double length = kExp2RodLength;
   auto solve_tip = [&](const WorldDesc& d0) {
     WorldDesc d = d0;
     converge_each_frame(d);
@@ -336,23 +364,7 @@ TradeoffKnob knob_exp2() {
     for (int f = 0; f < 6; ++f) w->step();
     return node(*w, w->node_count() - 1);
   };
-  // Cost of a frame at rest under a 25 % pull, default solver, N = 167, per law: the two worlds
-  // step in turn, so that the machine's load falls on both alike.
-  std::array<double, 2> cost{};
-  const double f25 = kernels::exp2_tube_axial_force(tissue, tube, 0.25).value;
-  {
-    auto hooke = World::create(world(TissueResponse::hooke, 167, {f25, 0, 0}, {0, 0, 0}));
-    auto exp2 = World::create(world(TissueResponse::exp2, 167, {f25, 0, 0}, {0, 0, 0}));
-    std::array<std::vector<double>, 2> t;
-    for (int f = 0; f < 230; ++f) {
-      hooke->step();
-      exp2->step();
-      if (f < 30) continue;
-      t[0].push_back(hooke->last_profile().frame_seconds * 1e6);
-      t[1].push_back(exp2->last_profile().frame_seconds * 1e6);
-    }
-    cost = {median(t[0]), median(t[1])};
-  }
+  const std::array<double, 2> cost = frame_cost_per_law(kernels::exp2_tube_axial_force(tissue, tube, 0.25).value);
   for (double strain : {0.1, 0.25, 0.4, 0.6}) {
     const double force = kernels::exp2_tube_axial_force(tissue, tube, strain).value;
     const Eigen::Vector3d exact(length * (1.0 + strain), 0.0, 0.0);
@@ -360,7 +372,7 @@ TradeoffKnob knob_exp2() {
       const TissueResponse response = law == 0 ? TissueResponse::hooke : TissueResponse::exp2;
       TradeoffRow r;
       r.setting = fmt::format("{}, pull to {:.0f} %", law == 0 ? "Hooke" : "EXP2", 100 * strain);
-      const Eigen::Vector3d tip = solve_tip(world(response, 41, {force, 0, 0}, {0, 0, 0}));
+      const Eigen::Vector3d tip = solve_tip(loaded_rod(response, 41, {force, 0, 0}, {0, 0, 0}));
       r.error = 1e3 * (tip - exact).norm();
       r.cost_us = cost[static_cast<std::size_t>(law)];
       r.details = fmt::format("F = {:.2f} N; tip stretch {:.1f} % (EXP2: {:.0f} %)", force,
@@ -377,7 +389,7 @@ TradeoffKnob knob_exp2() {
       const TissueResponse response = law == 0 ? TissueResponse::hooke : TissueResponse::exp2;
       TradeoffRow r;
       r.setting = fmt::format("{}, bend to {:.0f} % at the wall", law == 0 ? "Hooke" : "EXP2", 100 * outer);
-      const Eigen::Vector3d tip = solve_tip(world(response, 41, {0, 0, 0}, {0.0, -m0, 0.0}));
+      const Eigen::Vector3d tip = solve_tip(loaded_rod(response, 41, {0, 0, 0}, {0.0, -m0, 0.0}));
       r.error = 1e3 * (tip - arc).norm();
       r.cost_us = cost[static_cast<std::size_t>(law)];
       r.details = fmt::format("M₀ = {:.2g} N·m; EXP2 tip turns {:.0f}°", m0, kappa * length * 180.0 / std::numbers::pi);

@@ -123,6 +123,8 @@ BadInput call(const std::string& label, std::function<void(World&)> f, std::vect
           code, std::move(words)};
 }
 
+// One function of ~190 lines on purpose: a table, one bad input per entry with the words its error
+// must contain; split, the catalogue could not be read down in one pass.
 std::vector<BadInput> catalogue(const Scratch& s) {
   const std::string m = kMinimal;
   std::vector<BadInput> cases = {

@@ -60,6 +60,8 @@ TEST_CASE("C API: version and ABI check") {
   CHECK(haustra_stage_name(-1) == nullptr);
 }
 
+// One case of ~90 lines on purpose: a host's whole session through the C API, in the order a host
+// writes it.
 TEST_CASE("C API: a world from a scene, stepped, read without copies, driven by the host") {
   const TestScene scene("c-api-colon");
   haustra_world* w = nullptr;
@@ -148,6 +150,8 @@ TEST_CASE("C API: a world from a scene, stepped, read without copies, driven by 
   CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
 }
 
+// One case of ~140 lines on purpose: a catalogue of refused calls against one world, each a line
+// with the code it must return, ending with the calls after destroy.
 TEST_CASE("C API: wrong handles, NULL pointers, bad values and calls after destroy are refused") {
   const TestScene scene("c-api-colon");
   haustra_world* w = nullptr;
@@ -348,6 +352,8 @@ std::uint64_t frame_hash(const haustra_vec3_view& n, const haustra_vec3f_view& m
 
 }  // namespace
 
+// One case of ~90 lines on purpose: a host's whole session (define, create, step, read, destroy) in
+// the order a host writes it.
 TEST_CASE("C API: a world from definitions alone, no scene file") {
   haustra_world_def def;
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
@@ -574,6 +580,8 @@ TEST_CASE("C API: checkpoint to a file, restore, step on: the same bits") {
   std::filesystem::remove(file);
 }
 
+// One case of ~90 lines on purpose: one world whose segments are added and removed in turn, each
+// step checked against the state the previous one left.
 TEST_CASE("C API: chained segments, each one's info, segments added and removed between frames") {
   haustra_world_def def;
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);

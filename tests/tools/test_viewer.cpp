@@ -107,6 +107,8 @@ Coverage coverage(const fs::path& png) {
 
 }  // namespace
 
+// One case of ~85 lines on purpose: one viewer session driven by one script, and what each of its
+// steps left in the log and on screen, in the script's order.
 TEST_CASE(
     "haustra view: a mouse grasp moves the grasped node by the dragged distance, the plot shows the pull, beads toggle "
     "on screen") {

@@ -34,6 +34,23 @@ void MeshAnimation::add_frame(double time, std::span<const float> x, std::span<c
   positions_.push_back(std::move(p));
 }
 
+namespace {
+
+// glTF's min and max of a position accessor (required for POSITION and its morph targets).
+nlohmann::json position_bounds(const std::vector<float>& p) {
+  std::array<float, 3> lo{}, hi{};
+  lo.fill(std::numeric_limits<float>::max());
+  hi.fill(std::numeric_limits<float>::lowest());
+  for (std::size_t v = 0; v < p.size() / 3; ++v)
+    for (std::size_t c = 0; c < 3; ++c) {
+      lo[c] = std::min(lo[c], p[3 * v + c]);
+      hi[c] = std::max(hi[c], p[3 * v + c]);
+    }
+  return nlohmann::json{{"min", lo}, {"max", hi}};
+}
+
+}  // namespace
+
 void MeshAnimation::write_glb(const std::filesystem::path& file) const {
   using nlohmann::json;
   if (positions_.empty())
@@ -54,28 +71,18 @@ void MeshAnimation::write_glb(const std::filesystem::path& file) const {
     accessors.push_back(a);
     return accessors.size() - 1;
   };
-  auto bounds = [&](const std::vector<float>& p) {
-    std::array<float, 3> lo{}, hi{};
-    lo.fill(std::numeric_limits<float>::max());
-    hi.fill(std::numeric_limits<float>::lowest());
-    for (std::size_t v = 0; v < p.size() / 3; ++v)
-      for (std::size_t c = 0; c < 3; ++c) {
-        lo[c] = std::min(lo[c], p[3 * v + c]);
-        hi[c] = std::max(hi[c], p[3 * v + c]);
-      }
-    return json{{"min", lo}, {"max", hi}};
-  };
   constexpr int kFloat = 5126, kUint = 5125;
   const std::vector<float>& base = positions_.front();
-  const std::size_t position = add(base.data(), base.size() * sizeof(float), kFloat, vertices, "VEC3", bounds(base));
+  const std::size_t position =
+      add(base.data(), base.size() * sizeof(float), kFloat, vertices, "VEC3", position_bounds(base));
   const std::size_t index =
       add(indices_.data(), indices_.size() * sizeof(std::uint32_t), kUint, indices_.size(), "SCALAR", json::object());
   json targets = json::array();
   std::vector<float> delta(base.size());
   for (const auto& p : positions_) {
     for (std::size_t i = 0; i < p.size(); ++i) delta[i] = p[i] - base[i];
-    targets.push_back(
-        {{"POSITION", add(delta.data(), delta.size() * sizeof(float), kFloat, vertices, "VEC3", bounds(delta))}});
+    targets.push_back({{"POSITION", add(delta.data(), delta.size() * sizeof(float), kFloat, vertices, "VEC3",
+                                        position_bounds(delta))}});
   }
   std::vector<float> weights(frames * frames, 0.0f);
   for (std::size_t f = 0; f < frames; ++f) weights[f * frames + f] = 1.0f;

@@ -186,91 +186,99 @@ void fill_uncovered_radii(std::vector<std::optional<double>>& radii, const std::
   }
 }
 
-void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& initial_positions,
-                 const std::vector<RodPoseBuffer>& rest_poses, const std::vector<TriangleMesh>& meshes, WorldModel& m) {
-  BeadModel& beads = m.beads;
-  for (std::size_t si = 0; si < m.segments.size(); ++si) {
-    SegmentModel& seg = m.segments[si];
-    const BeadsDesc& b = desc.segments[si].beads;
-    seg.bead_offset = beads.size();
-    for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p)
-      m.pieces[p].bead_offset = beads.size();
-    if (!b.enabled) continue;
-    const std::string where = fmt::format("segment[{}].beads", si);
-    const std::span<const double> h =
-        std::span<const double>(m.section_length).subspan(seg.node_offset, seg.node_count - 1);
-    if (b.radius != 0.0) check_radius(where + ".radius", b.radius);
-    for (std::size_t i = 0; i < b.radius_profile.size(); ++i) {
-      const auto& [f, r] = b.radius_profile[i];
-      if (!std::isfinite(f) || f < 0.0 || f > 1.0 || (i > 0 && f < b.radius_profile[i - 1].first))
-        fail(fmt::format("{}.radius_profile[{}]", where, i), "fractions of the length must rise from 0 to 1");
-      check_radius(fmt::format("{}.radius_profile[{}]", where, i), r);
-    }
-    if ((b.radius != 0.0 ? 1 : 0) + (b.radius_profile.empty() ? 0 : 1) + (b.radius_from_mesh ? 1 : 0) > 1)
-      fail(where, "give one of radius, radius_profile or radius = \"mesh\"");
-    const TriangleMesh& own_mesh = meshes[seg.first_piece];  // only a single piece may take radii from it
-    if (b.radius_from_mesh && own_mesh.triangles.empty())
-      fail(where + ".radius", "radius = \"mesh\" needs the segment's organ mesh ([segment.mesh])");
-    std::unique_ptr<EmbreeScene> wall;
-    if (b.radius_from_mesh) {
-      wall = std::make_unique<EmbreeScene>();
-      wall->add_triangles(own_mesh.vertices, own_mesh.triangles);
-      wall->commit();
-    }
-    // A chain places its beads piece by piece (a joint node gets one bead).
-    std::vector<std::size_t> rod_nodes;
-    for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p) {
-      const SegmentPiece& piece = m.pieces[p];
-      SegmentModel span_of_piece;
-      span_of_piece.node_count = piece.info.nodes.count;
-      for (std::size_t k : bead_nodes(b, span_of_piece, h.subspan(piece.first_node, piece.info.nodes.count - 1), where))
-        rod_nodes.push_back(piece.first_node + k);
-    }
-    std::sort(rod_nodes.begin(), rod_nodes.end());
-    rod_nodes.erase(std::unique(rod_nodes.begin(), rod_nodes.end()), rod_nodes.end());
-    double arc = 0.0;
-    std::size_t last = 0;
-    std::vector<double> arcs;
-    std::vector<std::optional<double>> radii;
-    for (std::size_t k : rod_nodes) {
-      for (; last < k; ++last) arc += h[last];
-      const double fraction = arc / seg.info.length;
-      std::optional<double> r = !b.radius_profile.empty() ? profile_radius(b.radius_profile, fraction)
-                                : b.radius != 0.0         ? b.radius
-                                                          : desc.segments[si].cross_section.radius;
-      if (b.radius_from_mesh) {
-        const kernels::RodPoses<const double> rest = rest_poses[si].view();
-        r = mesh_cross_section_radius(*wall, {rest.node_rotation.get(k), rest.node_position.get(k)},
-                                      10.0 * desc.segments[si].cross_section.radius);
-      }
-      arcs.push_back(arc);
-      radii.push_back(r);
-    }
-    fill_uncovered_radii(radii, arcs, where, 10.0 * desc.segments[si].cross_section.radius);
-    for (std::size_t i = 0; i < rod_nodes.size(); ++i) {
-      beads.node.push_back(static_cast<std::uint32_t>(seg.node_offset + rod_nodes[i]));
-      beads.segment.push_back(static_cast<std::uint32_t>(si));
-      beads.radius.push_back(*radii[i]);
-      beads.modulus.push_back(desc.segments[si].material.youngs_modulus);
-    }
-    seg.bead_count = beads.size() - seg.bead_offset;
-    // Each piece's beads: those on its nodes, a joint's going to the later piece.
-    for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p) {
-      SegmentPiece& piece = m.pieces[p];
-      const bool last_piece = p + 1 == seg.first_piece + seg.piece_count;
-      const std::size_t end = piece.first_node + piece.info.nodes.count - (last_piece ? 0 : 1);
-      piece.bead_offset = beads.size();
-      for (std::size_t bead = seg.bead_offset; bead < seg.bead_offset + seg.bead_count; ++bead) {
-        const std::size_t k = beads.node[bead] - seg.node_offset;
-        if (k < piece.first_node) continue;
-        if (k >= end) break;
-        piece.bead_offset = std::min(piece.bead_offset, bead);
-        ++piece.bead_count;
-      }
-      if (piece.bead_count == 0) piece.bead_offset = seg.bead_offset + seg.bead_count;
-    }
+namespace {
+
+// The bead fields of one segment, checked: one way of giving radii, each within bounds.
+void check_bead_radii(const BeadsDesc& b, const TriangleMesh& own_mesh, const std::string& where) {
+  if (b.radius != 0.0) check_radius(where + ".radius", b.radius);
+  for (std::size_t i = 0; i < b.radius_profile.size(); ++i) {
+    const auto& [f, r] = b.radius_profile[i];
+    if (!std::isfinite(f) || f < 0.0 || f > 1.0 || (i > 0 && f < b.radius_profile[i - 1].first))
+      fail(fmt::format("{}.radius_profile[{}]", where, i), "fractions of the length must rise from 0 to 1");
+    check_radius(fmt::format("{}.radius_profile[{}]", where, i), r);
   }
-  // Rest-pose exclusions: pairs of one segment whose spheres overlap or touch at rest.
+  if ((b.radius != 0.0 ? 1 : 0) + (b.radius_profile.empty() ? 0 : 1) + (b.radius_from_mesh ? 1 : 0) > 1)
+    fail(where, "give one of radius, radius_profile or radius = \"mesh\"");
+  if (b.radius_from_mesh && own_mesh.triangles.empty())
+    fail(where + ".radius", "radius = \"mesh\" needs the segment's organ mesh ([segment.mesh])");
+}
+
+// The segment's nodes that carry a bead, ascending: a chain places them piece by piece (a joint
+// node gets one bead).
+std::vector<std::size_t> segment_bead_nodes(const WorldModel& m, const SegmentModel& seg, const BeadsDesc& b,
+                                            std::span<const double> h, const std::string& where) {
+  std::vector<std::size_t> rod_nodes;
+  for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p) {
+    const SegmentPiece& piece = m.pieces[p];
+    SegmentModel span_of_piece;
+    span_of_piece.node_count = piece.info.nodes.count;
+    for (std::size_t k : bead_nodes(b, span_of_piece, h.subspan(piece.first_node, piece.info.nodes.count - 1), where))
+      rod_nodes.push_back(piece.first_node + k);
+  }
+  std::sort(rod_nodes.begin(), rod_nodes.end());
+  rod_nodes.erase(std::unique(rod_nodes.begin(), rod_nodes.end()), rod_nodes.end());
+  return rod_nodes;
+}
+
+// Each bead's radius: the profile at its arc length, the one radius, the cross-section's, or
+// measured from the organ mesh at its rest pose (gaps filled from the nearest measured bead).
+std::vector<double> bead_radii(const SegmentDesc& sd, const SegmentModel& seg,
+                               const std::vector<std::size_t>& rod_nodes, std::span<const double> h,
+                               const RodPoseBuffer& rest_poses, const TriangleMesh& own_mesh,
+                               const std::string& where) {
+  const BeadsDesc& b = sd.beads;
+  std::unique_ptr<EmbreeScene> wall;
+  if (b.radius_from_mesh) {
+    wall = std::make_unique<EmbreeScene>();
+    wall->add_triangles(own_mesh.vertices, own_mesh.triangles);
+    wall->commit();
+  }
+  double arc = 0.0;
+  std::size_t last = 0;
+  std::vector<double> arcs;
+  std::vector<std::optional<double>> radii;
+  for (std::size_t k : rod_nodes) {
+    for (; last < k; ++last) arc += h[last];
+    const double fraction = arc / seg.info.length;
+    std::optional<double> r = !b.radius_profile.empty() ? profile_radius(b.radius_profile, fraction)
+                              : b.radius != 0.0         ? b.radius
+                                                        : sd.cross_section.radius;
+    if (b.radius_from_mesh) {
+      const kernels::RodPoses<const double> rest = rest_poses.view();
+      r = mesh_cross_section_radius(*wall, {rest.node_rotation.get(k), rest.node_position.get(k)},
+                                    10.0 * sd.cross_section.radius);
+    }
+    arcs.push_back(arc);
+    radii.push_back(r);
+  }
+  fill_uncovered_radii(radii, arcs, where, 10.0 * sd.cross_section.radius);
+  std::vector<double> out;
+  for (const std::optional<double>& r : radii) out.push_back(*r);
+  return out;
+}
+
+// Each piece's beads: those on its nodes, a joint's going to the later piece.
+void assign_piece_beads(const BeadModel& beads, const SegmentModel& seg, std::vector<SegmentPiece>& pieces) {
+  for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p) {
+    SegmentPiece& piece = pieces[p];
+    const bool last_piece = p + 1 == seg.first_piece + seg.piece_count;
+    const std::size_t end = piece.first_node + piece.info.nodes.count - (last_piece ? 0 : 1);
+    piece.bead_offset = beads.size();
+    for (std::size_t bead = seg.bead_offset; bead < seg.bead_offset + seg.bead_count; ++bead) {
+      const std::size_t k = beads.node[bead] - seg.node_offset;
+      if (k < piece.first_node) continue;
+      if (k >= end) break;
+      piece.bead_offset = std::min(piece.bead_offset, bead);
+      ++piece.bead_count;
+    }
+    if (piece.bead_count == 0) piece.bead_offset = seg.bead_offset + seg.bead_count;
+  }
+}
+
+// Rest-pose exclusions: pairs of one segment whose spheres overlap or touch at rest; and the
+// contact margin (half the smallest bead unless given).
+void build_rest_exclusions(const std::vector<Eigen::Vector3d>& initial_positions, WorldModel& m) {
+  BeadModel& beads = m.beads;
   const std::size_t nb = beads.size();
   std::vector<double> x(nb), y(nb), z(nb);
   for (std::size_t i = 0; i < nb; ++i) {
@@ -300,6 +308,37 @@ void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& init
   for (std::size_t p = 0; p < count; ++p)  // pairs come in ascending (a, b): lists come sorted
     if (beads.segment[pairs[p].a] == beads.segment[pairs[p].b]) beads.exclusion[fill[pairs[p].a]++] = pairs[p].b;
   m.contact_margin = m.contact.margin >= 0.0 ? m.contact.margin : (nb > 0 ? 0.5 * smallest : 0.0);
+}
+
+}  // namespace
+
+void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& initial_positions,
+                 const std::vector<RodPoseBuffer>& rest_poses, const std::vector<TriangleMesh>& meshes, WorldModel& m) {
+  BeadModel& beads = m.beads;
+  for (std::size_t si = 0; si < m.segments.size(); ++si) {
+    SegmentModel& seg = m.segments[si];
+    const BeadsDesc& b = desc.segments[si].beads;
+    seg.bead_offset = beads.size();
+    for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p)
+      m.pieces[p].bead_offset = beads.size();
+    if (!b.enabled) continue;
+    const std::string where = fmt::format("segment[{}].beads", si);
+    const std::span<const double> h =
+        std::span<const double>(m.section_length).subspan(seg.node_offset, seg.node_count - 1);
+    const TriangleMesh& own_mesh = meshes[seg.first_piece];  // only a single piece may take radii from it
+    check_bead_radii(b, own_mesh, where);
+    const std::vector<std::size_t> rod_nodes = segment_bead_nodes(m, seg, b, h, where);
+    const std::vector<double> radii = bead_radii(desc.segments[si], seg, rod_nodes, h, rest_poses[si], own_mesh, where);
+    for (std::size_t i = 0; i < rod_nodes.size(); ++i) {
+      beads.node.push_back(static_cast<std::uint32_t>(seg.node_offset + rod_nodes[i]));
+      beads.segment.push_back(static_cast<std::uint32_t>(si));
+      beads.radius.push_back(radii[i]);
+      beads.modulus.push_back(desc.segments[si].material.youngs_modulus);
+    }
+    seg.bead_count = beads.size() - seg.bead_offset;
+    assign_piece_beads(beads, seg, m.pieces);
+  }
+  build_rest_exclusions(initial_positions, m);
 }
 
 }  // namespace haustra::detail

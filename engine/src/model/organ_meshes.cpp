@@ -198,6 +198,67 @@ std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::ve
   return meshes;
 }
 
+namespace {
+
+// The beads of a piece's cage: the rod's beads on its nodes, its joints' included.
+std::pair<std::size_t, std::size_t> piece_beads(const WorldModel& m, const SegmentModel& seg, std::size_t off,
+                                                std::size_t n) {
+  std::size_t first_bead = seg.bead_offset, end_bead = seg.bead_offset;
+  for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
+    const std::size_t node = m.beads.node[b];
+    if (node < off) first_bead = b + 1;
+    if (node < off + n) end_bead = b + 1;
+  }
+  return {first_bead, end_bead};
+}
+
+void check_mesh_fields(const SegmentDesc& sd, const SegmentModel& seg, std::size_t first_bead, std::size_t end_bead,
+                       const std::string& where) {
+  const OrganMeshDesc& d = sd.mesh;
+  if (!std::isfinite(d.weight_left_out) || d.weight_left_out < 0.0 || d.weight_left_out >= 1.0)
+    fail(ErrorCode::invalid_argument, where + ".weight_left_out",
+         fmt::format("expected a fraction in [0, 1) of each vertex's weight, got {}", d.weight_left_out));
+  if (d.rings_per_vertex < 0 || d.rings_per_vertex > 4096)
+    fail(ErrorCode::invalid_argument, where + ".rings_per_vertex",
+         fmt::format("expected 0 (all rings) or a count up to 4096, got {}", d.rings_per_vertex));
+  if (!std::isfinite(d.cage.clearance) || d.cage.clearance < 0.0 || d.cage.clearance > sd.cross_section.radius)
+    fail(ErrorCode::invalid_argument, where + ".cage.clearance",
+         fmt::format("expected a clearance in [0, {}] m (0: 5 % of the radius), got {}", sd.cross_section.radius,
+                     d.cage.clearance));
+  if (end_bead < first_bead + 2)
+    fail(ErrorCode::invalid_argument, where,
+         seg.piece_count > 1
+             ? "the cage is built from the beads: give each piece of the chain at least two beads "
+               "([segment.beads])"
+             : "the cage is built from the beads: give the segment at least two beads ([segment.beads])");
+}
+
+// The piece's mesh in the world's buffers: its rings, vertices and triangles at their offsets, its
+// skinning chunks and, with normals, its normal chunks.
+void append_mesh_buffers(std::size_t pi, const TriangleMesh& mesh, bool normals, SegmentMesh& out, WorldModel& m) {
+  out.ring_offset = m.ring_total;
+  m.ring_total += out.cage.ring_station.size();
+  out.vertex_offset = m.mesh_vertex_total;
+  m.mesh_vertex_total += mesh.vertices.size();
+  out.triangle_offset = m.mesh_triangles.size();
+  for (const auto& t : mesh.triangles)
+    m.mesh_triangles.push_back({static_cast<std::uint32_t>(out.vertex_offset + t[0]),
+                                static_cast<std::uint32_t>(out.vertex_offset + t[1]),
+                                static_cast<std::uint32_t>(out.vertex_offset + t[2])});
+  out.info.vertices = {out.vertex_offset, mesh.vertices.size()};
+  out.info.triangles = {out.triangle_offset, mesh.triangles.size()};
+  for (std::size_t first = 0; first < out.binding.blocks(); first += kChunkBlocks)
+    m.skin_chunks.push_back(
+        {static_cast<std::uint32_t>(pi), first, std::min(kChunkBlocks, out.binding.blocks() - first)});
+  const std::size_t chunk_vertices = kChunkBlocks * kernels::kSkinLanes;
+  if (normals)
+    for (std::size_t first = 0; first < mesh.vertices.size(); first += chunk_vertices)
+      m.normal_chunks.push_back({static_cast<std::uint32_t>(pi), out.vertex_offset + first,
+                                 std::min(chunk_vertices, mesh.vertices.size() - first)});
+}
+
+}  // namespace
+
 void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
                        std::vector<TriangleMesh>& meshes, WorldModel& m) {
   m.meshes_of.assign(m.pieces.size(), SegmentMesh{});
@@ -211,29 +272,8 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
     const std::string where = fmt::format("segment[{}].mesh", si);
     const SegmentModel& seg = m.segments[si];
     const std::size_t off = piece.info.nodes.offset, n = piece.info.nodes.count;
-    // A piece's cage takes the rod's beads on its nodes, its joints' included.
-    std::size_t first_bead = seg.bead_offset, end_bead = seg.bead_offset;
-    for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {
-      const std::size_t node = m.beads.node[b];
-      if (node < off) first_bead = b + 1;
-      if (node < off + n) end_bead = b + 1;
-    }
-    if (!std::isfinite(d.weight_left_out) || d.weight_left_out < 0.0 || d.weight_left_out >= 1.0)
-      fail(ErrorCode::invalid_argument, where + ".weight_left_out",
-           fmt::format("expected a fraction in [0, 1) of each vertex's weight, got {}", d.weight_left_out));
-    if (d.rings_per_vertex < 0 || d.rings_per_vertex > 4096)
-      fail(ErrorCode::invalid_argument, where + ".rings_per_vertex",
-           fmt::format("expected 0 (all rings) or a count up to 4096, got {}", d.rings_per_vertex));
-    if (!std::isfinite(d.cage.clearance) || d.cage.clearance < 0.0 || d.cage.clearance > sd.cross_section.radius)
-      fail(ErrorCode::invalid_argument, where + ".cage.clearance",
-           fmt::format("expected a clearance in [0, {}] m (0: 5 % of the radius), got {}", sd.cross_section.radius,
-                       d.cage.clearance));
-    if (end_bead < first_bead + 2)
-      fail(ErrorCode::invalid_argument, where,
-           seg.piece_count > 1
-               ? "the cage is built from the beads: give each piece of the chain at least two beads "
-                 "([segment.beads])"
-               : "the cage is built from the beads: give the segment at least two beads ([segment.beads])");
+    const auto [first_bead, end_bead] = piece_beads(m, seg, off, n);
+    check_mesh_fields(sd, seg, first_bead, end_bead, where);
 
     SegmentMesh& out = m.meshes_of[pi];
     out.enabled = true;
@@ -265,25 +305,7 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
                       ? bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, d.weight_left_out, out.info.skin)
                       : bind_linear_blend(out.cage, meshes[pi], out.info.skin);
 
-    out.ring_offset = m.ring_total;
-    m.ring_total += out.cage.ring_station.size();
-    out.vertex_offset = m.mesh_vertex_total;
-    m.mesh_vertex_total += meshes[pi].vertices.size();
-    out.triangle_offset = m.mesh_triangles.size();
-    for (const auto& t : meshes[pi].triangles)
-      m.mesh_triangles.push_back({static_cast<std::uint32_t>(out.vertex_offset + t[0]),
-                                  static_cast<std::uint32_t>(out.vertex_offset + t[1]),
-                                  static_cast<std::uint32_t>(out.vertex_offset + t[2])});
-    out.info.vertices = {out.vertex_offset, meshes[pi].vertices.size()};
-    out.info.triangles = {out.triangle_offset, meshes[pi].triangles.size()};
-    for (std::size_t first = 0; first < out.binding.blocks(); first += kChunkBlocks)
-      m.skin_chunks.push_back(
-          {static_cast<std::uint32_t>(pi), first, std::min(kChunkBlocks, out.binding.blocks() - first)});
-    const std::size_t chunk_vertices = kChunkBlocks * kernels::kSkinLanes;
-    if (d.normals)
-      for (std::size_t first = 0; first < meshes[pi].vertices.size(); first += chunk_vertices)
-        m.normal_chunks.push_back({static_cast<std::uint32_t>(pi), out.vertex_offset + first,
-                                   std::min(chunk_vertices, meshes[pi].vertices.size() - first)});
+    append_mesh_buffers(pi, meshes[pi], d.normals, out, m);
     m.any_mesh = true;
     if (seg.piece_count > 1 && d.source == MeshSource::file) seams.add(si, out.vertex_offset, meshes[pi].vertices);
     meshes[pi] = TriangleMesh{};  // the binding keeps what stepping needs

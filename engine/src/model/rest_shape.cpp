@@ -161,6 +161,27 @@ double max_distance_to_rod(std::span<const Eigen::Vector3d> points, std::span<co
   return worst;
 }
 
+namespace {
+
+// The junction of a biarc from `pose` to `end` (arriving along t1) with equal tangent lengths a:
+// J = (P0 + P1)/2 + a (t0 − t1)/2.
+Eigen::Vector3d biarc_junction(const Pose& pose, const Eigen::Vector3d& end, const Eigen::Vector3d& t1,
+                               const std::string& where) {
+  const Eigen::Vector3d t0 = pose.rotation * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d v = end - pose.position;
+  const double vt = v.dot(t0 + t1);
+  const double denom = vt + std::sqrt(vt * vt + 2.0 * (1.0 - t0.dot(t1)) * v.squaredNorm());
+  if (!(denom > 1e-12 * v.norm()))
+    throw Error(ErrorCode::invalid_geometry,
+                where +
+                    ": the tangents point away from the chord; the centreline has a cusp or "
+                    "a bend tighter than the node spacing");
+  const double a = v.squaredNorm() / denom;
+  return 0.5 * (pose.position + end) + 0.5 * a * (t0 - t1);
+}
+
+}  // namespace
+
 RestShape rest_shape_from_centreline(std::span<const Eigen::Vector3d> points, int nodes,
                                      const Eigen::Vector3d& normal_hint, const std::string& source) {
   if (nodes < 2)
@@ -215,19 +236,7 @@ RestShape rest_shape_from_centreline(std::span<const Eigen::Vector3d> points, in
       emit(arc_to(pose, end, where));
       continue;
     }
-    // Biarc with equal tangent lengths a: junction J = (P0+P1)/2 + a (t0 − t1)/2.
-    const Eigen::Vector3d t0 = pose.rotation * Eigen::Vector3d::UnitZ();
-    const Eigen::Vector3d t1 = tangent[j + 1];
-    const Eigen::Vector3d v = end - pose.position;
-    const double vt = v.dot(t0 + t1);
-    const double denom = vt + std::sqrt(vt * vt + 2.0 * (1.0 - t0.dot(t1)) * v.squaredNorm());
-    if (!(denom > 1e-12 * v.norm()))
-      throw Error(ErrorCode::invalid_geometry,
-                  where +
-                      ": the tangents point away from the chord; the centreline has a cusp or "
-                      "a bend tighter than the node spacing");
-    const double a = v.squaredNorm() / denom;
-    const Eigen::Vector3d junction = 0.5 * (pose.position + end) + 0.5 * a * (t0 - t1);
+    const Eigen::Vector3d junction = biarc_junction(pose, end, tangent[j + 1], where);
     emit(arc_to(pose, junction, where));
     emit(arc_to(pose, end, where));
   }

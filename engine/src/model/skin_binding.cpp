@@ -91,6 +91,69 @@ double rest_error(const SkinBinding& b, const TriangleMesh& mesh) {
   return worst;
 }
 
+struct VertexStats {
+  double min_weight = 0.0, negative_mass = 0.0, dropped_mass = 0.0, correction = 0.0;
+  std::size_t kept = 0;
+  kernels::MvcLocation location = kernels::MvcLocation::general;
+};
+
+// The rings of largest weight mass (ties: lower ring first): at least `at_least`, and more
+// while the mass left out exceeds `weight_left_out` of the total; then in ring order.
+// Returns how many rings `order` starts with and the weight mass the others carry.
+std::pair<std::size_t, double> choose_rings(const std::vector<double>& mass, std::size_t at_least,
+                                            double weight_left_out, std::vector<std::uint32_t>& order) {
+  const std::size_t rings = mass.size();
+  std::iota(order.begin(), order.end(), 0U);
+  std::sort(order.begin(), order.end(),
+            [&](std::uint32_t a, std::uint32_t c) { return mass[a] != mass[c] ? mass[a] > mass[c] : a < c; });
+  double total_mass = 0.0, dropped = 0.0;
+  for (std::size_t g = 0; g < rings; ++g) total_mass += mass[g];
+  for (std::size_t k = at_least; k < rings; ++k) dropped += mass[order[k]];
+  std::size_t keep = at_least;
+  while (weight_left_out > 0.0 && keep < rings && dropped > weight_left_out * total_mass)
+    dropped -= mass[order[keep++]];
+  std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep));
+  return {keep, dropped};
+}
+
+// The binding's report from each vertex's statistics: the worst and the mean.
+SkinReport skin_report_of(const std::vector<VertexStats>& stats) {
+  SkinReport report;
+  report.method = SkinningMethod::mean_value;
+  double negative_sum = 0.0, dropped_sum = 0.0, kept_sum = 0.0;
+  for (const VertexStats& s : stats) {
+    report.rings_per_vertex = std::max(report.rings_per_vertex, s.kept);
+    kept_sum += static_cast<double>(s.kept);
+    report.min_weight = std::min(report.min_weight, s.min_weight);
+    report.max_negative_mass = std::max(report.max_negative_mass, s.negative_mass);
+    report.max_dropped_mass = std::max(report.max_dropped_mass, s.dropped_mass);
+    report.max_rest_correction = std::max(report.max_rest_correction, s.correction);
+    negative_sum += s.negative_mass;
+    dropped_sum += s.dropped_mass;
+    report.negative_vertices += s.negative_mass > 0.0 ? 1 : 0;
+    report.on_face += s.location == kernels::MvcLocation::on_face ? 1 : 0;
+    report.on_vertex += s.location == kernels::MvcLocation::on_vertex ? 1 : 0;
+  }
+  const auto count = static_cast<double>(std::max<std::size_t>(stats.size(), 1));
+  report.mean_negative_mass = negative_sum / count;
+  report.mean_dropped_mass = dropped_sum / count;
+  report.mean_rings_per_vertex = kept_sum / count;
+  return report;
+}
+
+void pack_rows(const std::vector<std::vector<std::pair<std::uint32_t, double>>>& rows, CageWeights& csr) {
+  csr.start.assign(1, 0);
+  csr.column.clear();
+  csr.weight.clear();
+  for (const auto& row : rows) {
+    for (const auto& [j, w] : row) {
+      csr.column.push_back(j);
+      csr.weight.push_back(w);
+    }
+    csr.start.push_back(static_cast<std::uint32_t>(csr.column.size()));
+  }
+}
+
 }  // namespace
 
 SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int rings_per_vertex,
@@ -106,11 +169,6 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
   const kernels::CageView view{cage.binding_vertices, cage.triangles};
   const kernels::CageFrame frame = kernels::cage_frame(cage.binding_vertices);
 
-  struct VertexStats {
-    double min_weight = 0.0, negative_mass = 0.0, dropped_mass = 0.0, correction = 0.0;
-    std::size_t kept = 0;
-    kernels::MvcLocation location = kernels::MvcLocation::general;
-  };
   std::vector<VertexStats> stats(mesh.vertices.size());
   std::vector<std::vector<std::pair<std::uint32_t, double>>> rows(csr != nullptr ? mesh.vertices.size() : 0);
 
@@ -129,18 +187,7 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
         weight[g] += w[j];
         moment[g] += w[j] * cage.offset[j];
       }
-      // The rings of largest weight mass (ties: lower ring first): at least `at_least`, and more
-      // while the mass left out exceeds `weight_left_out` of the total; then in ring order.
-      std::iota(order.begin(), order.end(), 0U);
-      std::sort(order.begin(), order.end(),
-                [&](std::uint32_t a, std::uint32_t c) { return mass[a] != mass[c] ? mass[a] > mass[c] : a < c; });
-      double total_mass = 0.0, dropped = 0.0;
-      for (std::size_t g = 0; g < rings; ++g) total_mass += mass[g];
-      for (std::size_t k = at_least; k < rings; ++k) dropped += mass[order[k]];
-      std::size_t keep = at_least;
-      while (weight_left_out > 0.0 && keep < rings && dropped > weight_left_out * total_mass)
-        dropped -= mass[order[keep++]];
-      std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep));
+      const auto [keep, dropped] = choose_rings(mass, at_least, weight_left_out, order);
       double kept = 0.0;
       for (std::size_t k = 0; k < keep; ++k) kept += weight[order[k]];
       // Renormalized to a partition of unity, so a rigid translation of the rod stays exact.
@@ -173,40 +220,10 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
     }
   });
 
-  report = SkinReport{};
-  report.method = SkinningMethod::mean_value;
-  double negative_sum = 0.0, dropped_sum = 0.0, kept_sum = 0.0;
-  for (const VertexStats& s : stats) {
-    report.rings_per_vertex = std::max(report.rings_per_vertex, s.kept);
-    kept_sum += static_cast<double>(s.kept);
-    report.min_weight = std::min(report.min_weight, s.min_weight);
-    report.max_negative_mass = std::max(report.max_negative_mass, s.negative_mass);
-    report.max_dropped_mass = std::max(report.max_dropped_mass, s.dropped_mass);
-    report.max_rest_correction = std::max(report.max_rest_correction, s.correction);
-    negative_sum += s.negative_mass;
-    dropped_sum += s.dropped_mass;
-    report.negative_vertices += s.negative_mass > 0.0 ? 1 : 0;
-    report.on_face += s.location == kernels::MvcLocation::on_face ? 1 : 0;
-    report.on_vertex += s.location == kernels::MvcLocation::on_vertex ? 1 : 0;
-  }
-  const auto count = static_cast<double>(std::max<std::size_t>(stats.size(), 1));
-  report.mean_negative_mass = negative_sum / count;
-  report.mean_dropped_mass = dropped_sum / count;
-  report.mean_rings_per_vertex = kept_sum / count;
+  report = skin_report_of(stats);
   SkinBinding b = pack(mesh, slots);
   report.rest_error = rest_error(b, mesh);
-  if (csr != nullptr) {
-    csr->start.assign(1, 0);
-    csr->column.clear();
-    csr->weight.clear();
-    for (const auto& row : rows) {
-      for (const auto& [j, w] : row) {
-        csr->column.push_back(j);
-        csr->weight.push_back(w);
-      }
-      csr->start.push_back(static_cast<std::uint32_t>(csr->column.size()));
-    }
-  }
+  if (csr != nullptr) pack_rows(rows, *csr);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return b;
 }

@@ -131,20 +131,14 @@ void init_collision_state(const WorldModel& model, WorldState& state) {
   cs.sweep_order.resize(nb);
 }
 
-void stage_collide(const WorldModel& model, WorldState& state, Scheduler& scheduler) {
-  CollisionState& cs = state.collision;
-  const BeadModel& beads = model.beads;
-  const std::size_t nb = beads.size();
-  for (std::size_t b = 0; b < nb; ++b) {
-    cs.bead_center.view().set(b, node_position(state, beads.node[b]));
-    cs.reach_radius[b] = beads.radius[b] + 0.5 * model.contact_margin + kSpeculation * cs.bead_motion[b];
-  }
-  // Pairs within reach: each bead's radius grown by its share of the margin and its speculation.
-  const kernels::SphereSet set{cs.bead_center.x, cs.bead_center.y, cs.bead_center.z, cs.reach_radius};
-  const double margin = 0.0;
-  const std::size_t chunks = chunks_of(nb);
+namespace {
 
-  // Bead pairs, ascending (a, b).
+// Bead pairs within reach, ascending (a, b), into cs.pairs: a grid in chunks over the scheduler,
+// or one sweep or brute-force pass; returns their count.
+std::size_t bead_pairs(const WorldModel& model, const kernels::SphereSet& set, double margin, CollisionState& cs,
+                       Scheduler& scheduler) {
+  const std::size_t nb = model.beads.size();
+  const std::size_t chunks = chunks_of(nb);
   BroadPhase method = model.contact.broad_phase;
   if (method == BroadPhase::automatic) method = nb < kBruteBelow ? BroadPhase::brute : BroadPhase::grid;
   std::size_t pair_count = 0;
@@ -175,6 +169,45 @@ void stage_collide(const WorldModel& model, WorldState& state, Scheduler& schedu
       cs.pairs.resize(2 * pair_count);
     }
   }
+  return pair_count;
+}
+
+// Per bead, the candidates it takes part in, in candidate order (CSR: bead_contact_start, and
+// each entry the candidate's index times two, plus one when the bead is the pair's second).
+void index_bead_contacts(CollisionState& cs, std::size_t nb) {
+  std::fill(cs.bead_contact_start.begin(), cs.bead_contact_start.end(), 0u);
+  for (const ContactCandidate& k : cs.candidates) {
+    ++cs.bead_contact_start[k.bead + 1];
+    if (k.kind == ContactKind::bead) ++cs.bead_contact_start[k.other + 1];
+  }
+  for (std::size_t b = 0; b < nb; ++b) cs.bead_contact_start[b + 1] += cs.bead_contact_start[b];
+  cs.bead_contact.resize(cs.bead_contact_start[nb]);
+  for (std::size_t i = 0; i < cs.candidates.size(); ++i) {
+    const ContactCandidate& k = cs.candidates[i];
+    cs.bead_contact[cs.bead_contact_start[k.bead]++] = static_cast<std::uint32_t>(i << 1);
+    if (k.kind == ContactKind::bead)
+      cs.bead_contact[cs.bead_contact_start[k.other]++] = static_cast<std::uint32_t>((i << 1) | 1);
+  }
+  for (std::size_t b = nb; b > 0; --b) cs.bead_contact_start[b] = cs.bead_contact_start[b - 1];
+  cs.bead_contact_start[0] = 0;
+}
+
+}  // namespace
+
+void stage_collide(const WorldModel& model, WorldState& state, Scheduler& scheduler) {
+  CollisionState& cs = state.collision;
+  const BeadModel& beads = model.beads;
+  const std::size_t nb = beads.size();
+  for (std::size_t b = 0; b < nb; ++b) {
+    cs.bead_center.view().set(b, node_position(state, beads.node[b]));
+    cs.reach_radius[b] = beads.radius[b] + 0.5 * model.contact_margin + kSpeculation * cs.bead_motion[b];
+  }
+  // Pairs within reach: each bead's radius grown by its share of the margin and its speculation.
+  const kernels::SphereSet set{cs.bead_center.x, cs.bead_center.y, cs.bead_center.z, cs.reach_radius};
+  const double margin = 0.0;
+  const std::size_t chunks = chunks_of(nb);
+
+  const std::size_t pair_count = bead_pairs(model, set, margin, cs, scheduler);
 
   cs.candidates.clear();
   for (std::size_t p = 0; p < pair_count; ++p) {
@@ -196,22 +229,7 @@ void stage_collide(const WorldModel& model, WorldState& state, Scheduler& schedu
   for (std::size_t c = 0; c < chunks; ++c)
     cs.candidates.insert(cs.candidates.end(), cs.chunk_candidates[c].begin(), cs.chunk_candidates[c].end());
 
-  // Per bead, the candidates it takes part in, in candidate order.
-  std::fill(cs.bead_contact_start.begin(), cs.bead_contact_start.end(), 0u);
-  for (const ContactCandidate& k : cs.candidates) {
-    ++cs.bead_contact_start[k.bead + 1];
-    if (k.kind == ContactKind::bead) ++cs.bead_contact_start[k.other + 1];
-  }
-  for (std::size_t b = 0; b < nb; ++b) cs.bead_contact_start[b + 1] += cs.bead_contact_start[b];
-  cs.bead_contact.resize(cs.bead_contact_start[nb]);
-  for (std::size_t i = 0; i < cs.candidates.size(); ++i) {
-    const ContactCandidate& k = cs.candidates[i];
-    cs.bead_contact[cs.bead_contact_start[k.bead]++] = static_cast<std::uint32_t>(i << 1);
-    if (k.kind == ContactKind::bead)
-      cs.bead_contact[cs.bead_contact_start[k.other]++] = static_cast<std::uint32_t>((i << 1) | 1);
-  }
-  for (std::size_t b = nb; b > 0; --b) cs.bead_contact_start[b] = cs.bead_contact_start[b - 1];
-  cs.bead_contact_start[0] = 0;
+  index_bead_contacts(cs, nb);
   cs.report.candidates = cs.candidates.size();
 }
 

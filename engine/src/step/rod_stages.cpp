@@ -121,6 +121,9 @@ void stage_forward_sweep(const WorldModel& model, WorldState& state, std::size_t
   kernels::rod_forward_sweep(state.now.base[segment], v.section_length, v.strain, v.poses);
 }
 
+// One function of ~100 lines on purpose: one Schur-complement solve whose steps (J's rows, the free
+// base's mobility, the responses Y, S = J Y, the error, λ, and the update) share the rows and the
+// scratch blocks; each step is marked below.
 void stage_constraints(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
   const SegmentModel& seg = model.segments[segment];
   if (seg.constraint_rows == 0) return;
