@@ -13,7 +13,7 @@
 namespace haustra::import {
 namespace {
 
-constexpr double kLineSpacing = 0.001;       // m between the written points
+constexpr double kLineSpacing = 0.001;    // m between the written points
 constexpr double kLevelSpacing = 0.0005;  // m, the largest gap between section centres
 constexpr double kInf_gap = 1e300;
 
@@ -65,7 +65,8 @@ std::size_t fold_back(const Stretch& s) {
         break;
       }
       const double d = (s.centre[static_cast<std::size_t>(before - arc.begin())] -
-                        s.centre[static_cast<std::size_t>(after - arc.begin())]).norm();
+                        s.centre[static_cast<std::size_t>(after - arc.begin())])
+                           .norm();
       gap = std::max(gap, d / r);
       folded = folded && d < 0.5 * r;
     }
@@ -167,7 +168,8 @@ Polyline straight_ends(const Polyline& p, double spacing, double radius) {
   const auto k = static_cast<std::size_t>(std::round(radius / spacing));
   if (k == 0 || p.size() < 4 * k + 2) return p;
   Polyline out = p;
-  const Eigen::Vector3d t0 = (p[2 * k] - p[k]).normalized(), t1 = (p[p.size() - 1 - k] - p[p.size() - 1 - 2 * k]).normalized();
+  const Eigen::Vector3d t0 = (p[2 * k] - p[k]).normalized(),
+                        t1 = (p[p.size() - 1 - k] - p[p.size() - 1 - 2 * k]).normalized();
   for (std::size_t i = 0; i < k; ++i) {
     out[i] = p[k] - static_cast<double>(k - i) * spacing * t0;
     out[p.size() - 1 - i] = p[p.size() - 1 - k] + static_cast<double>(k - i) * spacing * t1;
@@ -189,21 +191,21 @@ OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
   const Polyline kept = cut_tips(line, radius, looped);
   out.looped = looped;
   out.pulled_back = std::max(0.0, before - polyline_length(kept) - looped);
-  out.points = resample(
-      straight_ends(
-          remove_backtracks(smooth(resample(kept, kLineSpacing), kLineSpacing, 0.5 * radius), 0.5 * radius, 2.0 * radius),
-          kLineSpacing, radius),
-      kLineSpacing);
+  out.points =
+      resample(straight_ends(remove_backtracks(smooth(resample(kept, kLineSpacing), kLineSpacing, 0.5 * radius),
+                                               0.5 * radius, 2.0 * radius),
+                             kLineSpacing, radius),
+               kLineSpacing);
   out.text = fmt::format(
       "computed: the area centroids of a harmonic function's level sets on the outer wall ({} piece{}, {} open "
       "end{}{}{}{}{}), smoothed over {:.1f} mm",
       layout.path.size(), layout.path.size() == 1 ? "" : "s", out.open_ends, out.open_ends == 1 ? "" : "s",
-      out.capped_loops > 0 ? fmt::format(", {} side opening{} capped for the solve", out.capped_loops,
-                                         out.capped_loops == 1 ? "" : "s")
-                           : "",
-      out.pulled_back > 0.0 ? fmt::format(", {:.0f} mm short of the closed end{}", 1e3 * out.pulled_back,
-                                          out.open_ends == 0 ? "s" : "")
-                            : "",
+      out.capped_loops > 0
+          ? fmt::format(", {} side opening{} capped for the solve", out.capped_loops, out.capped_loops == 1 ? "" : "s")
+          : "",
+      out.pulled_back > 0.0
+          ? fmt::format(", {:.0f} mm short of the closed end{}", 1e3 * out.pulled_back, out.open_ends == 0 ? "s" : "")
+          : "",
       out.folded > 0.0 ? fmt::format(", {:.0f} mm where the wall folds back inside itself (its other shell) left out",
                                      1e3 * out.folded)
                        : "",

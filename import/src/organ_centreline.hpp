@@ -12,14 +12,14 @@
 namespace haustra::import {
 
 struct OrganCentreline {
-  Polyline points;                    // from the start to the end, about 1 mm apart
-  int open_ends = 0;                  // of the organ's two ends (0, 1 or 2)
-  int capped_loops = 0;               // side openings and holes capped for the solves
-  double pulled_back = 0.0;           // m taken off at closed ends
-  double folded = 0.0;                // m left out where the wall folds back inside itself
-  double looped = 0.0;                // m of loops no tube makes, erased
-  bool reversed = false;              // the wider end was at the far end: the line runs from it
-  std::string text;                   // for the report
+  Polyline points;           // from the start to the end, about 1 mm apart
+  int open_ends = 0;         // of the organ's two ends (0, 1 or 2)
+  int capped_loops = 0;      // side openings and holes capped for the solves
+  double pulled_back = 0.0;  // m taken off at closed ends
+  double folded = 0.0;       // m left out where the wall folds back inside itself
+  double looped = 0.0;       // m of loops no tube makes, erased
+  bool reversed = false;     // the wider end was at the far end: the line runs from it
+  std::string text;          // for the report
 };
 
 // `reverse` runs the line the other way round after choosing (the base is the wider open end).

@@ -10,8 +10,8 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
-#include <numbers>
 #include <fstream>
+#include <numbers>
 
 #include "haustra/error.hpp"
 #include "haustra/kernels/pose.hpp"
@@ -42,8 +42,7 @@ SceneDesc with_grasp(SceneDesc scene, const World& rest, double lift) {
   const std::size_t k = bead_nodes[nearest];
   const auto nodes = rest.node_positions();
   const auto node = [&](std::size_t i) { return Eigen::Vector3d(nodes.x[i], nodes.y[i], nodes.z[i]); };
-  const Eigen::Vector3d tangent =
-      (node(std::min(k + 1, rest.node_count() - 1)) - node(k > 0 ? k - 1 : 0)).normalized();
+  const Eigen::Vector3d tangent = (node(std::min(k + 1, rest.node_count() - 1)) - node(k > 0 ? k - 1 : 0)).normalized();
   // Of 16 directions square to the organ, the one facing up most whose shaft stays 2 mm clear of
   // every other bead (an organ that curls round the grasp point would have the shaft in it); if
   // none does, the clearest.
@@ -175,8 +174,7 @@ std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std
   std::vector<std::filesystem::path> surfaces;
   for (const auto& entry : std::filesystem::directory_iterator(folder))
     if (entry.path().extension() == ".obj") surfaces.push_back(entry.path());
-  if (surfaces.empty())
-    throw Error(ErrorCode::io, fmt::format("{}: no .obj surfaces in this folder", folder.string()));
+  if (surfaces.empty()) throw Error(ErrorCode::io, fmt::format("{}: no .obj surfaces in this folder", folder.string()));
   std::sort(surfaces.begin(), surfaces.end());
   std::vector<CohortRow> rows;
   for (const auto& s : surfaces) {
@@ -210,15 +208,15 @@ std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::files
       continue;
     }
     const ImportReport& i = r.report;
-    t += fmt::format("| {} | {} | {} | {} | {} | {:.0f} | {} | {} | {} | {:.1f} | {} | {} | {:.1f} | {:.2f} | "
-                     "{:.2f} ({:.2f}) | {} |\n",
-                     r.name, i.repairs, i.layout, i.units, i.open_ends, 1e3 * i.length, i.nodes, i.beads,
-                     i.cage_rings, i.seconds, r.outside, r.crossing, 1e3 * r.lift, 1e3 * r.skin_error,
-                     1e3 * r.frame_median, 1e3 * r.frame_p99,
-                     !r.ran            ? "fails: " + r.error
-                     : r.recovered > 0 ? fmt::format("runs ({} frame{} redone by the robust mode)", r.recovered,
-                                                     r.recovered == 1 ? "" : "s")
-                                       : std::string("runs"));
+    t += fmt::format(
+        "| {} | {} | {} | {} | {} | {:.0f} | {} | {} | {} | {:.1f} | {} | {} | {:.1f} | {:.2f} | "
+        "{:.2f} ({:.2f}) | {} |\n",
+        r.name, i.repairs, i.layout, i.units, i.open_ends, 1e3 * i.length, i.nodes, i.beads, i.cage_rings, i.seconds,
+        r.outside, r.crossing, 1e3 * r.lift, 1e3 * r.skin_error, 1e3 * r.frame_median, 1e3 * r.frame_p99,
+        !r.ran ? "fails: " + r.error
+        : r.recovered > 0
+            ? fmt::format("runs ({} frame{} redone by the robust mode)", r.recovered, r.recovered == 1 ? "" : "s")
+            : std::string("runs"));
   }
   t += "\nColumns: **repairs** what CGAL's repair changed; **organ** pieces, shells and left-out parts; "
        "**open ends** of the organ's two; **length** of the computed centreline; **rings** of the cage; "

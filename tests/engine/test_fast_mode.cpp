@@ -89,12 +89,11 @@ TEST_CASE("fast mode on drop: the fall as converged Newton's, factorizations reu
     }
   }
 
-  MESSAGE("drop in fast mode, frames 10–150: " << chords << " of " << iterations
-                                               << " iterations reused a factorization; from converged Newton "
-                                               << before_contact << " m at frame 10, up to " << after_contact
-                                               << " m at a node once touching, the centre of mass within "
-                                               << centroid_gap << " m; first touch at frames " << first_touch_a
-                                               << " and " << first_touch_b);
+  MESSAGE("drop in fast mode, frames 10–150: "
+          << chords << " of " << iterations << " iterations reused a factorization; from converged Newton "
+          << before_contact << " m at frame 10, up to " << after_contact
+          << " m at a node once touching, the centre of mass within " << centroid_gap << " m; first touch at frames "
+          << first_touch_a << " and " << first_touch_b);
   CHECK(before_contact < 5e-12);  // measured 5.3e-13 m: one iteration a frame, converged while falling
   // Once beads touch, a pile-up is chaotic: a micrometre at the first touch grows to centimetres at
   // a node (measured 77 mm), so the comparison is of what the pile does as a whole — the centre of

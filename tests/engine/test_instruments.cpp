@@ -7,16 +7,14 @@
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
-#include "scene_fixtures.hpp"
 #include "measured.hpp"
+#include "scene_fixtures.hpp"
 
 using namespace haustra;
 
 namespace {
 
-std::unique_ptr<World> grasp_pull(int threads = 1) {
-  return test::scene_world("grasp-pull", threads);
-}
+std::unique_ptr<World> grasp_pull(int threads = 1) { return test::scene_world("grasp-pull", threads); }
 
 // Σ of what the floor exerts on the rod.
 Eigen::Vector3d floor_force(const World& w) {

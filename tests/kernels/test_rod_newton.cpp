@@ -282,9 +282,10 @@ TEST_CASE("Newton Jacobian with the EXP2 law's nodal tangent matches finite diff
     Eigen::MatrixXd fd = central_differences(er.rod.strain, [&] { return er.residual(); });
     // Each 4×4 block against its own scale, as for the linear law (a global scale, the law's stiff
     // rows, would not see an error in the loads' small blocks: it measured 1.5e-7 to 3.5e-7 of it).
-    test::measured("Newton Jacobian with the EXP2 law vs finite differences, worst 4×4 block over its own scale, seed " +
-                       std::to_string(seed),
-                   worst_block_error(reduced, fd), 0.02);  // measured 0.0026, 0.0076
+    test::measured(
+        "Newton Jacobian with the EXP2 law vs finite differences, worst 4×4 block over its own scale, seed " +
+            std::to_string(seed),
+        worst_block_error(reduced, fd), 0.02);  // measured 0.0026, 0.0076
     // With the loads removed the residual is −M s(q) alone: its Jacobian −M T must match to FD accuracy.
     er.rod.clear_loads();
     (void)er.residual();

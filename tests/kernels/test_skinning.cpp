@@ -21,9 +21,9 @@
 #include "haustra/studies/skinning_study.hpp"
 #include "haustra/world.hpp"
 #include "measured.hpp"
-#include "scene_fixtures.hpp"
 #include "model/skin_binding.hpp"
 #include "model/world_model.hpp"
+#include "scene_fixtures.hpp"
 
 using namespace haustra;
 
@@ -310,9 +310,7 @@ TEST_CASE("skinned meshes and their normals are bit-identical with 1 and 2 threa
 #else
   for (const char* name : {"demo", "anatomy-grasp"}) {
 #endif
-    auto world = [&](int threads) {
-      return test::scene_world(name, threads);
-    };
+    auto world = [&](int threads) { return test::scene_world(name, threads); };
     auto one = world(1), two = world(2);
     REQUIRE(two->threads() == 2);
     for (int f = 0; f < 45; ++f) {

@@ -54,7 +54,8 @@ const std::vector<CommittedCell>& committed_map() {
 const CommittedCell* committed(const StabilityCell& c) {
   for (const CommittedCell& m : committed_map())
     if (m.nodes == c.nodes && m.load == c.load && m.law == c.law &&
-        std::abs(m.youngs_modulus - c.youngs_modulus) <= 1e-5 * c.youngs_modulus && std::abs(m.dt - c.dt) <= 1e-5 * c.dt)
+        std::abs(m.youngs_modulus - c.youngs_modulus) <= 1e-5 * c.youngs_modulus &&
+        std::abs(m.dt - c.dt) <= 1e-5 * c.dt)
       return &m;
   return nullptr;
 }
@@ -105,9 +106,9 @@ void check_cells(const std::vector<StabilityCell>& cells) {
     fast_robust += c.fast_outcome == "robust";
   }
   MESSAGE(cells.size() << " cells: " << lagged << " stable with the lagged scheme, " << robust
-                       << " recovered by the robust mode, " << error << " stopped with a named cause; fast mode: "
-                       << fast << " held, " << fast_robust << " recovered; " << drifted
-                       << " outcomes other than the release build's map");
+                       << " recovered by the robust mode, " << error
+                       << " stopped with a named cause; fast mode: " << fast << " held, " << fast_robust
+                       << " recovered; " << drifted << " outcomes other than the release build's map");
   CHECK(drifted <= kSanitizedDriftLimit);
 }
 

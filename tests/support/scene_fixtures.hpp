@@ -13,8 +13,9 @@ namespace haustra::test {
 // The one way the tests build a world from a scene file: scenes/NAME.toml (or a path under the
 // source tree, "tests/scenes/NAME.toml") with `sets` applied, on `threads` threads (1 unless said).
 inline SceneDesc scene_desc(const std::string& name, std::vector<std::string> sets = {}, int threads = 1) {
-  const std::string file = name.find('/') != std::string::npos ? std::string(HAUSTRA_SOURCE_DIR) + "/" + name
-                                                                : std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml";
+  const std::string file = name.find('/') != std::string::npos
+                               ? std::string(HAUSTRA_SOURCE_DIR) + "/" + name
+                               : std::string(HAUSTRA_SOURCE_DIR) + "/scenes/" + name + ".toml";
   SceneDesc scene = load_scene(file, sets);
   scene.world.threads = threads;
   return scene;

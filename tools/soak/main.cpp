@@ -276,9 +276,8 @@ bool take_sample(const Options& o, const World& w, Tally& t, std::uint64_t f, do
   const ContactReport& c = w.contacts();
   if (csv.is_open())
     csv << fmt::format("{},{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.6g},{:.6g},{},{:.2f}\n", f + 1, resident, heap,
-                       en.elastic, en.gravity, en.total(), t.host.low / o.energy_factor,
-                       t.host.high * o.energy_factor, c.max_bead_overlap_ratio, c.max_environment_depth_ratio,
-                       t.host.grasps, mean_us);
+                       en.elastic, en.gravity, en.total(), t.host.low / o.energy_factor, t.host.high * o.energy_factor,
+                       c.max_bead_overlap_ratio, c.max_environment_depth_ratio, t.host.grasps, mean_us);
   if (f >= warmup) t.sampled.push_back(en.total());
   if (f >= warmup && heap > t.heap_at_warmup + o.heap_slack) {
     fmt::print(stderr, "soak: frame {}: the heap grew from {} to {} bytes after warm-up\n", f + 1, t.heap_at_warmup,

@@ -9,6 +9,8 @@
 
 #include <stddef.h>
 
+/* The tables keep one field per line. */
+/* clang-format off */
 /* FrameProfile's counters (beside its per-stage times and calls, its frame time and `newton`). */
 #define HAUSTRA_PROFILE_COUNTERS(X)                                                                 \
   X(int, substeps, 1, "substeps the frame was split into")                                          \
@@ -39,5 +41,7 @@
 
 /* A struct's member declaration from a list's line. */
 #define HAUSTRA_DECLARE_FIELD(type, name, initial, meaning) type name = initial;
+
+/* clang-format on */
 
 #endif

@@ -5,9 +5,9 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
-#include <limits>
 #include <cctype>
 #include <fstream>
+#include <limits>
 #include <new>
 #include <sstream>
 #include <vector>

@@ -49,12 +49,12 @@ struct CageBuildInput {
   std::vector<double> bead_radius;
   const TriangleMesh* mesh = nullptr;  // at rest, metres
   CageDesc desc;
-  double clearance = 0.0;  // m, resolved
+  double clearance = 0.0;         // m, resolved
   bool harmonic_binding = false;  // resolved from desc.binding (decision 0049)
   // Rings from the mesh's cross-sections around them, and rings past the ends where the mesh runs
   // on (decision 0049); otherwise the paper's templates, as for the procedural organs.
   bool cross_section_rings = false;
-  std::string where;       // e.g. "segment[0].mesh", for messages
+  std::string where;  // e.g. "segment[0].mesh", for messages
 };
 
 // Throws FieldError{invalid_geometry} naming the ring when no embedding cage exists.

@@ -29,24 +29,24 @@ struct ImportOptions {
 struct ImportReport {
   std::string units;  // "mm" or "m", and how it was decided
   std::string units_reason;
-  double scale = 1.0;  // file units to metres
-  std::size_t vertices = 0, triangles = 0;  // as read
-  std::string repairs;                      // what the repair did, one line
+  double scale = 1.0;                                         // file units to metres
+  std::size_t vertices = 0, triangles = 0;                    // as read
+  std::string repairs;                                        // what the repair did, one line
   std::size_t repaired_vertices = 0, repaired_triangles = 0;  // as written
-  std::string layout;                       // pieces, shells, left-out parts
-  std::size_t pieces = 0, shells = 0;       // outer pieces on the organ's path; lumen shells inside them
-  double wall_thickness = 0.0;              // m, measured between the shells (0: one shell)
-  int holes = 0;                            // boundary loops of the kept surface
-  int open_ends = 0;                        // of the organ's two ends
-  std::string centreline_source;            // the file, or "computed: ..."
-  std::size_t off_path_vertices = 0;        // of the surface, beyond the centreline's reach: left out
-  double length = 0.0;                      // m, as written
+  std::string layout;                                         // pieces, shells, left-out parts
+  std::size_t pieces = 0, shells = 0;               // outer pieces on the organ's path; lumen shells inside them
+  double wall_thickness = 0.0;                      // m, measured between the shells (0: one shell)
+  int holes = 0;                                    // boundary loops of the kept surface
+  int open_ends = 0;                                // of the organ's two ends
+  std::string centreline_source;                    // the file, or "computed: ..."
+  std::size_t off_path_vertices = 0;                // of the surface, beyond the centreline's reach: left out
+  double length = 0.0;                              // m, as written
   double trimmed_start = 0.0, trimmed_end = 0.0;    // m cut where a given centreline ran past the mesh
   double median_radius = 0.0;                       // m, centreline to the outer wall
   double tightest_bend = 0.0;                       // m, smallest radius of curvature (smoothed)
   double tightest_bend_at = 0.0;                    // m along the centreline
   std::vector<std::pair<double, double>> touching;  // arc positions (m) of parts whose walls touch
-  int nodes = 0, beads = 0, ring_vertices = 8;  // in all, along the whole rod
+  int nodes = 0, beads = 0, ring_vertices = 8;      // in all, along the whole rod
   int chain_pieces = 1;  // a long organ runs as a chain of pieces (decision 0030), each with its mesh and cage
   std::filesystem::path scene, centreline_file, surface_file;
   // From building the written scene once.

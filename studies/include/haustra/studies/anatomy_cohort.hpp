@@ -13,15 +13,15 @@ namespace haustra::import {
 struct CohortRow {
   std::string name;
   bool imported = false, ran = false;
-  std::string error;    // the import's or the run's message, first line
-  ImportReport report;  // what the import found (valid when imported)
+  std::string error;                                         // the import's or the run's message, first line
+  ImportReport report;                                       // what the import found (valid when imported)
   std::size_t mesh_vertices = 0, outside = 0, crossing = 0;  // binding pose: vertices outside the cage, edges across it
   int frames = 0;
   bool finite = false;
   std::size_t recovered = 0, unstable = 0;  // events: frames redone by the robust mode, frames that failed
-  bool grasped = false;             // the grasper still held a node at the end
-  double lift = 0.0;                // m the grasped node rose
-  double skin_error = 0.0;          // m: localized skinning against full MVC of the same cage, after the lift
+  bool grasped = false;                     // the grasper still held a node at the end
+  double lift = 0.0;                        // m the grasped node rose
+  double skin_error = 0.0;                  // m: localized skinning against full MVC of the same cage, after the lift
   double frame_median = 0.0, frame_p99 = 0.0;  // s per frame, the mesh included, 2 threads
 };
 
@@ -30,7 +30,8 @@ struct CohortRow {
 CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::filesystem::path& out, int frames = 120);
 
 // Every .obj of `folder`, in name order.
-std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std::filesystem::path& out, int frames = 120);
+std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std::filesystem::path& out,
+                                  int frames = 120);
 
 // docs/anatomy.md: generated, dated, the machine named.
 std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::filesystem::path& folder);
