@@ -13,6 +13,16 @@ def test_missing_scene_file(tmp_path):
     assert info.value.code == "io"
 
 
+def test_a_folder_or_an_empty_file_is_no_scene(tmp_path):
+    # Both once built an empty world that stepped; the command line refused the folder.
+    with pytest.raises(haustra.FileError, match="a folder, not a scene file"):
+        haustra.World.from_scene(str(tmp_path))
+    empty = tmp_path / "empty.toml"
+    empty.write_text("  \n")
+    with pytest.raises(haustra.FileError, match="empty.toml: the scene file is empty"):
+        haustra.World.from_scene(str(empty))
+
+
 def test_a_bad_field_names_file_line_and_field(tmp_path):
     scene = tmp_path / "bad.toml"
     scene.write_text('[world]\ndt = 0.01\n\n[[segment]]\nname = "rod"\nnodes = 20\nyoungs_modulus = -5.0\n')

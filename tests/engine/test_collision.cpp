@@ -101,6 +101,34 @@ TEST_CASE("drop: the rectum falls, piles on itself and settles on the floor with
   CHECK(lowest < 0.02 * 1.05);
 }
 
+TEST_CASE("a contact's point is where the other surface comes nearest its bead: on the floor, the foot below it") {
+  // The viewer's contact overlay draws these points; a plane's contact once sat at the plane's
+  // reference point (the origin) whatever bead touched it.
+  const SceneDesc scene = test::scene_desc("drop");
+  REQUIRE(scene.world.environment.planes.size() == 1);
+  const double floor = scene.world.environment.planes[0].point.z();
+  auto w = create_world(scene);
+  for (int f = 0; f < 150; ++f) w->step();
+  std::size_t on_floor = 0, on_beads = 0;
+  double worst = 0.0;
+  const auto radii = w->bead_radii();
+  for (const Contact& c : w->contact_list()) {
+    const Eigen::Vector3d centre = bead_centre(*w, c.bead);
+    if (c.kind == ContactKind::plane) {
+      ++on_floor;
+      worst = std::max({worst, std::abs(c.point.z() - floor), std::abs(c.point.x() - centre.x()),
+                        std::abs(c.point.y() - centre.y())});
+    } else if (c.kind == ContactKind::bead) {
+      ++on_beads;
+      worst = std::max(worst, std::abs((c.point - bead_centre(*w, c.other)).norm() - radii[c.other]));
+    }
+  }
+  CHECK(on_floor > 10);
+  CHECK(on_beads > 0);
+  // Round-off: measured 1.0e-17 m.
+  CHECK(worst < 1e-16);
+}
+
 TEST_CASE("no contact between beads that overlap or touch in the rest pose") {
   auto w = scene_world("drop");
   const auto radii = w->bead_radii();

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <string>
 
+#include "haustra/error.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/studies/references.hpp"
 #include "haustra/world.hpp"
@@ -87,4 +88,35 @@ TEST_CASE("every Newton iterate under a large load lowers the potential, and the
     CHECK(frames_to_converge <= 6);
     CHECK(w->events().empty());
   }
+}
+
+TEST_CASE("a load no step can carry is reported, never taken as a converged frame") {
+  // scenes/cantilever.toml with 6 kN and 20 kN at its tip (the issue's silent stall: every frame
+  // returned OK, the rod never moved). Measured: at frame 0 the refused Newton step would turn a
+  // section by 14.9 rad and stretch a node by 2.05, far past the stall threshold of 0.05; every rung
+  // of the robust mode stalls the same way, so the frame stops with the cause.
+  for (const double newtons : {6e3, 2e4}) {
+    SceneDesc sc = test::scene_desc("cantilever");
+    sc.world.segments[0].loads[0].force = Eigen::Vector3d(0.0, 0.0, -newtons);
+    auto w = create_world(sc);
+    CAPTURE(newtons);
+    std::string message;
+    try {
+      w->step();
+    } catch (const Error& e) {
+      CHECK(e.code() == ErrorCode::unstable);
+      message = e.what();
+    }
+    CHECK(message.find("no progress") != std::string::npos);
+    CHECK(message.find("line_search") != std::string::npos);
+    CHECK(w->frame() == 0);  // the last good frame kept
+    CHECK(w->last_profile().stalls >= 1);
+    REQUIRE(!w->events().empty());
+    CHECK(w->events().back().kind == Event::Kind::unstable);
+  }
+  // The scene's own load (PL²/B = 3) is carried: no stall, no event.
+  auto w = create_world(test::scene_desc("cantilever"));
+  for (int f = 0; f < 5; ++f) w->step();
+  CHECK(w->events().empty());
+  CHECK(w->last_profile().stalls == 0);
 }

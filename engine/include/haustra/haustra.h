@@ -38,7 +38,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 7
+#define HAUSTRA_ABI_VERSION 8
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -105,6 +105,7 @@ typedef struct haustra_profile {
   int backtracks;  /* line-search halvings of Newton steps */
   int stiffenings; /* Newton steps solved again with the law stiffened (the plain step went uphill) */
   int chords;      /* fast mode: Newton iterations that reused the last factorization */
+  int stalls;      /* Newton iterations whose line search took none of a step that was not small */
   int iterations;  /* fixed-point iterations run, summed over substeps */
   /* One field per counter of report_fields.h's HAUSTRA_PROFILE_COUNTERS (new ones at the end). */
 } haustra_profile;

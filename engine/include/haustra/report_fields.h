@@ -19,7 +19,8 @@
   X(int, fallbacks, 0, "Newton iterations solved by the banded LU (the condensed sweep's pivots unsafe)") \
   X(int, backtracks, 0, "line-search halvings")                                                     \
   X(int, stiffenings, 0, "Newton steps solved again with stiffened law rows (the plain step went uphill)") \
-  X(int, chords, 0, "fast mode: Newton iterations that reused the last factorization")
+  X(int, chords, 0, "fast mode: Newton iterations that reused the last factorization")                   \
+  X(int, stalls, 0, "Newton iterations whose line search took no part of a step that was not small (a guard failure)")
 
 /* ContactReport: the contacts at the end of the last frame. */
 #define HAUSTRA_CONTACT_FIELDS(X)                                                                   \

@@ -104,7 +104,8 @@ struct Contact {
   std::uint32_t bead = 0;
   std::uint32_t other = 0;
   ContactKind kind = ContactKind::bead;
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();       // mesh: on the plane
+  // Where the other surface comes nearest the bead's centre (at the frame's end; a plane: the foot).
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();     // mesh: the plane's free side
   Eigen::Vector3d force = Eigen::Vector3d::Zero();       // N, on `bead`; a second bead gets the opposite
   Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();  // separating direction

@@ -408,10 +408,18 @@ SceneDesc parse_scene(const std::string& text, const std::filesystem::path& file
 }
 
 SceneDesc load_scene(const std::filesystem::path& file, std::span<const std::string> overrides) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec))
+    throw Error(ErrorCode::io, fmt::format("{}: a folder, not a scene file (expected a .toml file)", file.string()));
   std::ifstream in(file, std::ios::binary);
   if (!in) throw Error(ErrorCode::io, fmt::format("{}: cannot open the scene file", file.string()));
   std::ostringstream text;
   text << in.rdbuf();
+  // An empty file would read as a scene of no segments that steps: most likely a wrong path or a
+  // write that did not finish, so it is refused as a file problem.
+  if (text.str().find_first_not_of(" \t\r\n") == std::string::npos)
+    throw Error(ErrorCode::io,
+                fmt::format("{}: the scene file is empty (expected TOML with a [[segment]])", file.string()));
   return parse_scene(text.str(), file, overrides);
 }
 

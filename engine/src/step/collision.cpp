@@ -352,8 +352,12 @@ void stage_contact_report(const WorldModel& model, WorldState& state) {
   r.touching = 0;
   r.max_environment_depth = r.max_environment_depth_ratio = 0.0;
   r.max_bead_overlap = r.max_bead_overlap_ratio = 0.0;
-  for (const ContactCandidate& k : cs.candidates) {
-    const kernels::SphereContact m = measure(model, state, k, node_position(state, model.beads.node[k.bead]));
+  for (ContactCandidate& k : cs.candidates) {
+    const Eigen::Vector3d centre = node_position(state, model.beads.node[k.bead]);
+    const kernels::SphereContact m = measure(model, state, k, centre);
+    // For the host (the frame's solve is done with it): where the other surface comes nearest the
+    // bead's centre — on a plane, the foot of the centre — instead of the plane's reference point.
+    k.point = centre - (model.beads.radius[k.bead] - m.depth) * m.normal;
     if (m.depth <= 0.0) continue;
     ++r.touching;
     if (k.kind == ContactKind::bead) {

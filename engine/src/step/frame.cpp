@@ -234,14 +234,20 @@ void World::Impl::report() {
     });
 }
 
-void World::Impl::finish_frame(const Rung& kept, Clock::time_point t0) {
+// The Newton workspaces' counts of this frame (every attempt at it) into the profile.
+void World::Impl::collect_newton_counts() {
   for (detail::NewtonWorkspace& ws : state.newton) {
     profile.fallbacks += ws.fallbacks;
     profile.backtracks += ws.backtracks;
     profile.stiffenings += ws.stiffenings;
     profile.chords += ws.chords;
-    ws.fallbacks = ws.backtracks = ws.stiffenings = ws.chords = 0;
+    profile.stalls += ws.stalls;
+    ws.fallbacks = ws.backtracks = ws.stiffenings = ws.chords = ws.stalls = 0;
   }
+}
+
+void World::Impl::finish_frame(const Rung& kept, Clock::time_point t0) {
+  collect_newton_counts();
   profile.substeps = kept.substeps;
   profile.newton = kept.newton;
   state.frame += 1;
@@ -254,6 +260,7 @@ void World::Impl::finish_frame(const Rung& kept, Clock::time_point t0) {
 void World::Impl::stop_unstable(std::size_t failed, const Rung& rung, Clock::time_point t0) {
   const Event e = unstable_event(failed, guard[failed], rung);
   record(e);
+  collect_newton_counts();  // the failed frame's own: what the host reads after the error
   profile.substeps = rung.substeps;
   profile.newton = rung.newton;
   profile.frame_seconds = seconds_since(t0);

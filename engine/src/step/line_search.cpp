@@ -3,6 +3,8 @@
 // begin (per rod), then per trial: sweep (per part), measure (per part), decide (per rod).
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "step/collision.hpp"
@@ -32,6 +34,9 @@ constexpr int kMaxStiffenings = 6;
 // magnitude are rounding, and the O(h²) difference between the backward sweep's generalized forces
 // and the exact gradient: such a step is taken as not raising the potential.
 constexpr double kPotentialRounding = 1e-10;
+// A Newton step none of which the search took is a stall when it would turn a section or stretch a
+// node by more than this (rad, strain): the frame was meant to move and did not.
+constexpr double kStallStep = 0.05;
 
 // A part's nodes [first, end): the whole rod, or a split rod's base part [0, m) and tip part
 // [m, N]; its sections are those that start at its nodes. slot: where its measures go.
@@ -249,6 +254,18 @@ bool stiffen(const WorldModel& model, WorldState& state, std::size_t rod, const 
   return true;
 }
 
+// Whether the whole Newton step would move the rod by more than the solver's tolerance (the
+// measure iteration_converged uses): a step that small may be refused without harm.
+bool step_moves(const WorldModel& model, std::size_t rod, const NewtonWorkspace& ws) {
+  const SegmentModel& seg = model.segments[rod];
+  double turn = 0.0, stretch = 0.0;
+  for (std::size_t k = 0; k < seg.node_count; ++k) {
+    for (std::size_t comp = 0; comp < 3; ++comp) turn = std::max(turn, std::abs(ws.step_q[4 * k + comp]));
+    stretch = std::max(stretch, std::abs(ws.step_q[4 * k + 3]));
+  }
+  return std::max(turn * seg.mean_section, stretch) > kStallStep;
+}
+
 // The search is over: the fraction taken (0: none lowered the merit), the strain change, the
 // attachments' forces.
 void finish(const WorldModel& model, WorldState& state, std::size_t rod, const Coupled& c, bool accepted) {
@@ -258,8 +275,12 @@ void finish(const WorldModel& model, WorldState& state, std::size_t rod, const C
   ls.active = false;
   ws.potential_cached = accepted;
   double alpha = ls.alpha;
-  if (!accepted) {  // stay (the next iteration relinearizes)
+  if (!accepted) {  // stay: with no change the segment counts as converged, so the guard is told
     alpha = 0.0;
+    if (step_moves(model, rod, ws)) {
+      ws.stalled = true;
+      ++ws.stalls;
+    }
     set_trial(model, state, rod, 0.0);
     const SegmentViews v = segment_views(model, state, rod);
     kernels::rod_forward_sweep(state.now.base[rod], v.section_length, v.strain, v.poses);

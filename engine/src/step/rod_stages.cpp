@@ -514,6 +514,20 @@ GuardResult guard_energy(const WorldModel& model, const WorldState& state, std::
   return {};
 }
 
+// Newton's line search took nothing of a step that was not small: the frame made no progress
+// towards its solution, though with no change it looks converged (a load the solve cannot carry).
+GuardResult guard_newton_progress(const WorldModel& /*model*/, const WorldState& state, std::size_t segment,
+                                  const SubstepParameters& p) {
+  if (p.newton && state.newton[segment].stalled)
+    return {false,
+            0,
+            Stage::line_search,
+            "no progress: no fraction of the Newton step lowered the frame's potential, even with the law stiffened",
+            0.0,
+            0.0};
+  return {};
+}
+
 // The lagged iteration contracting: its next step smaller than this one, its flow not growing.
 GuardResult guard_lagged_iteration(const WorldModel& /*model*/, const WorldState& state, std::size_t segment,
                                    const SubstepParameters& p) {
@@ -535,7 +549,7 @@ GuardResult guard_lagged_iteration(const WorldModel& /*model*/, const WorldState
 
 GuardResult stage_guard(const WorldModel& model, WorldState& state, std::size_t segment, const SubstepParameters& p) {
   for (const auto check : {guard_solvable, guard_strains, guard_positions, guard_bead_depths, guard_attachments,
-                           guard_energy, guard_lagged_iteration}) {
+                           guard_energy, guard_newton_progress, guard_lagged_iteration}) {
     const GuardResult r = check(model, state, segment, p);
     if (!r.ok) return r;
   }
@@ -561,6 +575,7 @@ void stage_snapshot(const WorldModel& model, WorldState& state, std::size_t segm
   }
   state.base_substep_start[segment] = state.now.base[segment];
   state.segment_converged[segment] = 0;
+  if (newton) state.newton[segment].stalled = false;
   state.segment_solvable[segment] = 1;
 }
 

@@ -99,6 +99,7 @@ struct World::Impl {
   [[nodiscard]] std::size_t guard_segments(const detail::SubstepParameters& p);
   void report();
   void finish_frame(const Rung& kept, Clock::time_point t0);
+  void collect_newton_counts();
   [[noreturn]] void stop_unstable(std::size_t failed, const Rung& rung, Clock::time_point t0);
   [[nodiscard]] bool can_escalate(const Rung& r) const;
   [[nodiscard]] Rung escalate(const Rung& r) const;

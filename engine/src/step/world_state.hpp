@@ -194,6 +194,8 @@ struct NewtonWorkspace {
   double law_scale = 1.0;         // the law's rows as condensed (stiffened where Newton's step is not a descent)
   int fallbacks = 0;              // iterations solved by the banded LU this frame
   int backtracks = 0;             // line-search halvings this frame
+  int stalls = 0;                 // line searches that took none of a step that was not small, this frame
+  bool stalled = false;           // this substep ended on such a line search (the guard's to report)
   int stiffenings = 0;            // re-solves with stiffened law rows this frame
   int chords = 0;                 // iterations that reused the factorization this frame
 
