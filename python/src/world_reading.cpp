@@ -93,7 +93,7 @@ py::list events_list(std::span<const Event> events) {
   py::list out;
   for (const Event& e : events) {
     py::dict d;
-    d["kind"] = e.kind == Event::Kind::recovered ? "recovered" : "unstable";
+    d["kind"] = std::string(event_kind_name(e.kind));
     d["frame"] = e.frame;
     d["segment"] = e.segment;
     d["node"] = e.node;

@@ -144,7 +144,11 @@ def test_grasp_drag_release(scenes):
         w.set_instrument_pose(0, start + [0.0, 0.0, 0.025 + lift * k / 30], axis)
         w.step(1)
     moved = w.node_positions[node] - start
-    assert moved[2] == pytest.approx(lift, abs=4e-7)  # the grasped node follows the jaws (measured 3.9e-8 m)
+    # The grasp is a spring of 1 kN/m (decision 0057): the node trails the jaws by the force over
+    # the stiffness (measured: 1.9 mm of stretch, the node within 2.0e-6 m of it).
+    stretch = np.linalg.norm(w.instrument(0)["force"]) / 1000.0
+    assert 1e-3 < stretch < 8e-3
+    assert moved[2] == pytest.approx(lift - stretch, abs=2e-5)
     # Lifted by its middle, the organ hangs about half its weight on the grasper (measured 0.49).
     s = w.segments[0]
     weight = s["linear_density"] * s["length"] * 9.81

@@ -50,7 +50,7 @@ class Scratch {
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 constexpr double inf = std::numeric_limits<double>::infinity();
 
-const char* const kMinimal = test::kMinimalScene;
+using test::kMinimalScene;
 
 BadInput scene(const std::string& text, std::vector<std::string> words, ErrorCode code = ErrorCode::parse) {
   return {"scene:\n" + text, [text] { create_world(parse_scene(text, kScenes / "test.toml")); }, code,
@@ -106,7 +106,7 @@ BadInput organ_mesh(const Scratch& s, const std::string& name, const std::string
 // A call on a world built from the `demo` scene's shape, small: one segment with beads, a mesh,
 // an attachment and an instrument.
 std::unique_ptr<World> small_world() {
-  const std::string text = std::string(kMinimal) +
+  const std::string text = std::string(kMinimalScene) +
                            "[segment.beads]\ncount = 6\n[segment.mesh]\nsource = \"procedural\"\n"
                            "[segment.mesh.procedural]\nvertices = 2000\n[[segment.attachment]]\nnode = -1\n"
                            "[[instrument]]\nname = \"grasper\"\n";
@@ -126,7 +126,7 @@ BadInput call(const std::string& label, std::function<void(World&)> f, std::vect
 // One function of ~190 lines on purpose: a table, one bad input per entry with the words its error
 // must contain; split, the catalogue could not be read down in one pass.
 std::vector<BadInput> catalogue(const Scratch& s) {
-  const std::string m = kMinimal;
+  const std::string m = kMinimalScene;
   std::vector<BadInput> cases = {
       // Scene files: syntax, unknown keys, types, ranges, units, missing fields.
       scene("[scene\nname = 1", {"test.toml:1", "not valid TOML"}),

@@ -16,6 +16,20 @@ namespace {
 
 std::unique_ptr<World> grasp_pull(int threads = 1) { return test::scene_world("grasp-pull", threads); }
 
+// The same scene with the grasp held rigidly (a constraint; decision 0057's coupling_stiffness = 0).
+std::unique_ptr<World> grasp_pull_rigid() {
+  SceneDesc sc = test::scene_desc("grasp-pull");
+  sc.world.instruments[0].coupling_stiffness = 0.0;
+  return create_world(sc);
+}
+
+// How far a coupled grasp's node sits from where the stretch of the spring alone would put it:
+// | |node − grasp point| − |force| / k |, the damper's share (and its rounding) in what is left.
+double off_spring(const World& w, const InstrumentReading& r, double k) {
+  const Eigen::Vector3d node = w.node_positions().get(w.segment(r.grasped_segment).nodes.offset + r.grasped_node);
+  return std::abs((node - r.grasp_target).norm() - r.force.norm() / k);
+}
+
 // Σ of what the floor exerts on the rod.
 Eigen::Vector3d floor_force(const World& w) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -28,8 +42,8 @@ Eigen::Vector3d floor_force(const World& w) {
 
 // The force's check is the equilibrium test below (the reading against the weight the floor does
 // not carry); this one holds the grasp to the jaws.
-TEST_CASE("grasp-pull: the grasped node follows the grasper") {
-  auto w = grasp_pull();
+TEST_CASE("grasp-pull, rigid grasp: the grasped node follows the grasper") {
+  auto w = grasp_pull_rigid();
   REQUIRE(w->instrument_count() == 1);
   // Stated tolerance: the grasped node stays within a micrometre of where the grasp holds it
   // (Newton enforces attachments exactly; this bounds the solver's rounding).
@@ -67,6 +81,28 @@ TEST_CASE("grasp-pull: the grasped node follows the grasper") {
   CHECK(lift_force > -weight);
 }
 
+TEST_CASE("grasp-pull, coupled grasp: the node trails the grasp point by the spring's stretch, the force bounded") {
+  auto w = grasp_pull();
+  const double k = 1000.0, limit = 8.0;  // the defaults (world_desc.hpp)
+  double worst_off = 0.0, largest = 0.0, stretch_at_lift = 0.0;
+  int grasped = 0;
+  for (int f = 1; f <= 240; ++f) {
+    w->step();
+    const InstrumentReading r = w->instrument(0);
+    largest = std::max(largest, r.force.norm());
+    if (!r.grasping) continue;
+    ++grasped;
+    worst_off = std::max(worst_off, off_spring(*w, r, k));
+    if (f == 96) stretch_at_lift = r.force.norm() / k;
+  }
+  MESSAGE("grasped " << grasped << " frames; largest force " << largest << " N; node off the spring's stretch by "
+                     << worst_off << " m; stretch lifted " << stretch_at_lift << " m");
+  CHECK(grasped == 240 - 35);
+  CHECK(largest <= limit * (1.0 + 1e-12));
+  CHECK(stretch_at_lift > 1e-3);  // it does carry part of the rod: mm of stretch at 1 kN/m
+  test::measured("grasp-pull coupled: node off the spring's stretch, worst frame", worst_off, 5e-4, "m");
+}
+
 TEST_CASE("grasp-pull at rest, equilibrium: the instrument carries exactly the weight the floor does not") {
   auto w = grasp_pull();
   for (int f = 0; f < 540; ++f) w->step();  // the script holds its last pose from 3 s on
@@ -84,7 +120,7 @@ TEST_CASE("grasp-pull at rest, equilibrium: the instrument carries exactly the w
 }
 
 TEST_CASE("a host drives an instrument: grasp in reach, hold, release, and closing on air grasps nothing") {
-  auto w = grasp_pull();
+  auto w = grasp_pull_rigid();
   for (int f = 0; f < 5; ++f) w->step();
   // Far from the rod: closing grasps nothing.
   w->set_instrument_pose(0, Eigen::Vector3d(0.5, 0.3, 0.1), Eigen::Vector3d::UnitZ());

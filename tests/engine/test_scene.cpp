@@ -25,7 +25,7 @@ std::string error_of(const std::string& text, std::vector<std::string> sets = {}
   return "";
 }
 
-const char* const kMinimal = test::kMinimalScene;
+using test::kMinimalScene;
 
 }  // namespace
 
@@ -230,7 +230,7 @@ grasp = true
 }
 
 TEST_CASE("--set overrides any value, everywhere or in one segment, and is checked like the file") {
-  std::string two = kMinimal;
+  std::string two = kMinimalScene;
   two += "\n[[segment]]\nname = \"b\"\nnodes = 11\n";
   SceneDesc s = parse_scene(two, "t.toml", std::vector<std::string>{"segment.nodes=33"});
   CHECK(s.world.segments.at(0).nodes == 33);

@@ -174,9 +174,13 @@ TEST_CASE(
   MESSAGE("drag " << expected.norm() << " m, node moved " << moved.norm() << " m, off by "
                   << (moved - expected).norm());
   CHECK(expected.norm() > 0.05);
-  // Measured 4.7e-7 m, the same on a loaded machine (a scripted run steps in lockstep with the
-  // window): Newton holds a grasp to its 1e-6 m tolerance.
-  CHECK((moved - expected).norm() < 1e-6);
+  // The mouse holds through the virtual coupling (decision 0057, 1 kN/m): the node trails the drag
+  // by the spring's stretch, the force over the stiffness. The same on a loaded machine (a scripted
+  // run steps in lockstep with the window).
+  const double stretch = vec(held.back()["force"]).norm() / 1000.0;
+  MESSAGE("spring stretch " << stretch << " m, node off the drag by " << (moved - expected).norm() << " m");
+  CHECK(stretch > 5e-4);
+  CHECK(std::abs((moved - expected).norm() - stretch) < 5e-6);  // measured 4.7e-7 m
 
   // The force plot: nothing before the grasp, the organ's pull while held.
   double before = 0.0, during = 0.0;
@@ -189,7 +193,7 @@ TEST_CASE(
   for (const auto& f : rec["plot"]["raw"]) plotted = std::max(plotted, f.get<double>());
   MESSAGE("force before " << before << " N, while held " << during << " N, plot top " << plotted << " N");
   CHECK(before == 0.0);
-  CHECK(during > 0.3);  // measured 1.84 N: lifting a 0.37 kg rectum by one end
+  CHECK(during > 0.3);  // measured 2.57 N: lifting a 0.37 kg rectum by one end
   CHECK(plotted == doctest::Approx(during).epsilon(1e-6));
 }
 

@@ -180,7 +180,7 @@ int run(const RunOptions& o) {
     record.print_contacts(stdout, *world);
   }
   for (const Event& e : world->events())
-    if (e.kind == Event::Kind::recovered) fmt::print("  event: {}\n", e.message());
+    if (e.kind != Event::Kind::unstable) fmt::print("  event: {}\n", e.message());
   if (!o.out.empty()) write_run_outputs(o, scene, *world, record, tracks.get(), meshes.get(), status, error);
   if (status != "ok") {
     fmt::print(stderr, "error: {}\n", error);

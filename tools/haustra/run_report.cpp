@@ -102,7 +102,7 @@ nlohmann::json events_json(const World& world) {
   using nlohmann::json;
   json events = json::array();
   for (const Event& e : world.events())
-    events.push_back({{"kind", e.kind == Event::Kind::recovered ? "recovered" : "unstable"},
+    events.push_back({{"kind", std::string(event_kind_name(e.kind))},
                       {"frame", e.frame},
                       {"segment", e.segment},
                       {"node", e.node},

@@ -262,6 +262,17 @@ struct InstrumentDesc {
   double grasp_reach = 0.01;  // m beyond a bead's surface within which closing grasps it
   bool hold_frame = false;    // a grasp holds the node's orientation too
   double force_filter = 0.0;  // s: time constant of the low-pass filter on the reported force; 0 = none
+  // The virtual coupling (decision 0057): a grasped node follows the grasp point through a spring
+  // and a damper whose force saturates at force_limit, inside the frame's implicit solve; the force
+  // reported is the coupling's. coupling_stiffness = 0: a rigid grasp (a constraint, hold_frame
+  // honoured), as before the coupling.
+  double coupling_stiffness = 1000.0;  // N/m
+  double coupling_damping = 2.0;       // N·s/m, on the node's velocity relative to the grasp point's
+  double force_limit = 8.0;            // N
+  // A grasp pulled harder than this lets go (the tissue slips out of the jaws: an event, decision
+  // 0058); 0 (the default): it never slips, the force limit alone bounds the pull. Closing again
+  // grasps anew.
+  double holding_force = 0.0;  // N
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   std::vector<InstrumentKeyframe> keyframes;

@@ -148,7 +148,8 @@ struct Energy {
 };
 
 struct Event {
-  enum class Kind : std::uint8_t { recovered, unstable };
+  // slipped: a grasp pulled past its holding force let go (the frame itself went well).
+  enum class Kind : std::uint8_t { recovered, unstable, slipped };
   Kind kind = Kind::recovered;
   std::uint64_t frame = 0;
   std::size_t segment = 0;
@@ -159,5 +160,15 @@ struct Event {
   std::array<char, 512> text{};
   [[nodiscard]] std::string_view message() const { return {text.data()}; }
 };
+
+// "recovered", "unstable" or "slipped".
+[[nodiscard]] constexpr std::string_view event_kind_name(Event::Kind k) noexcept {
+  switch (k) {
+    case Event::Kind::recovered: return "recovered";
+    case Event::Kind::unstable: return "unstable";
+    case Event::Kind::slipped: return "slipped";
+  }
+  return "unknown";
+}
 
 }  // namespace haustra

@@ -20,7 +20,7 @@ namespace haustra::detail {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'H', 'A', 'U', 'S', 'T', 'R', 'C', 'K'};
-constexpr std::uint32_t kFormatVersion = 2;  // 2: fast mode's chord state
+constexpr std::uint32_t kFormatVersion = 3;  // 2: fast mode's chord state; 3: the instruments' coupling
 
 std::uint64_t fnv1a(std::span<const std::byte> bytes, std::uint64_t h = 0xcbf29ce484222325ull) {
   for (std::byte b : bytes) {
@@ -82,7 +82,8 @@ template <class Io, StateOf<InstrumentState> I>
 void visit_members(Io& io, I& in) {
   io(in.tip), io(in.axis), io(in.frame), io(in.closed), io(in.scripted), io(in.grasping), io(in.grasp_segment),
       io(in.grasp_attachment), io(in.grasp_bead), io(in.grasp_offset), io(in.grasp_rotation), io(in.force),
-      io(in.torque), io(in.filtered_force), io(in.filtered_torque);
+      io(in.torque), io(in.filtered_force), io(in.filtered_torque), io(in.coupled), io(in.grasp_node),
+      io(in.grasp_target), io(in.target_start), io(in.coupling_force), io(in.slipped);
 }
 template <class Io, StateOf<ContactReport> R>
 void visit_members(Io& io, R& r) {
@@ -267,7 +268,7 @@ void check_indices(const WorldModel& model, const WorldState& st, const Reader& 
   for (const InstrumentState& in : st.instruments) {
     if (!in.grasping) continue;
     if (in.grasp_segment >= model.segments.size() || in.grasp_attachment >= model.attachment_total ||
-        in.grasp_bead >= model.beads.size())
+        in.grasp_bead >= model.beads.size() || in.grasp_node >= model.node_mass.size())
       reader.fail("has an instrument grasping a segment, slot or bead this world does not have");
   }
   if (st.robust_substeps < 1 || st.robust_substeps > std::max(model.solver.max_substeps, model.solver.substeps))

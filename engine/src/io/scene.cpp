@@ -287,7 +287,8 @@ void read_environment(const Reader& r, const toml::table& t, const std::filesyst
 
 InstrumentDesc read_instrument(const Reader& r, const toml::table& t, const std::string& path) {
   r.check_keys(t, path,
-               {"name", "radius", "length", "grasp_reach", "hold_frame", "force_filter", "tip", "axis", "keyframe"});
+               {"name", "radius", "length", "grasp_reach", "hold_frame", "force_filter", "tip", "axis", "keyframe",
+                "coupling_stiffness", "coupling_damping", "force_limit", "holding_force"});
   InstrumentDesc d;
   d.name = r.string(t, "name", path + ".name", path);
   d.radius = r.number(t, "radius", path + ".radius", d.radius);
@@ -295,6 +296,10 @@ InstrumentDesc read_instrument(const Reader& r, const toml::table& t, const std:
   d.grasp_reach = r.number(t, "grasp_reach", path + ".grasp_reach", d.grasp_reach);
   d.hold_frame = r.boolean(t, "hold_frame", path + ".hold_frame", d.hold_frame);
   d.force_filter = r.number(t, "force_filter", path + ".force_filter", d.force_filter);
+  d.coupling_stiffness = r.number(t, "coupling_stiffness", path + ".coupling_stiffness", d.coupling_stiffness);
+  d.coupling_damping = r.number(t, "coupling_damping", path + ".coupling_damping", d.coupling_damping);
+  d.force_limit = r.number(t, "force_limit", path + ".force_limit", d.force_limit);
+  d.holding_force = r.number(t, "holding_force", path + ".holding_force", d.holding_force);
   d.tip = r.vec3(t, "tip", path + ".tip", d.tip);
   d.axis = r.vec3(t, "axis", path + ".axis", d.axis);
   const auto keyframes = r.tables(t, "keyframe", path + ".keyframe");

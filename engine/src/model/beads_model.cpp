@@ -144,6 +144,17 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
       fail(where + ".grasp_reach", fmt::format("expected a reach in [0, 0.5] m, got {}", ins.grasp_reach));
     if (!std::isfinite(ins.force_filter) || ins.force_filter < 0.0 || ins.force_filter > 100.0)
       fail(where + ".force_filter", fmt::format("expected a time constant in [0, 100] s, got {}", ins.force_filter));
+    if (!std::isfinite(ins.coupling_stiffness) || ins.coupling_stiffness < 0.0 || ins.coupling_stiffness > 1e7)
+      fail(where + ".coupling_stiffness",
+           fmt::format("expected a stiffness in [0, 1e7] N/m (0: a rigid grasp), got {}", ins.coupling_stiffness));
+    if (!std::isfinite(ins.coupling_damping) || ins.coupling_damping < 0.0 || ins.coupling_damping > 1e5)
+      fail(where + ".coupling_damping",
+           fmt::format("expected a damping in [0, 1e5] N·s/m, got {}", ins.coupling_damping));
+    if (!(ins.force_limit > 0.0) || ins.force_limit > 1e5)  // infinity is refused too: the limit is the point
+      fail(where + ".force_limit", fmt::format("expected a force in (0, 1e5] N, got {}", ins.force_limit));
+    if (!std::isfinite(ins.holding_force) || ins.holding_force < 0.0)
+      fail(where + ".holding_force",
+           fmt::format("expected a force >= 0 N (0: the grasp never slips), got {}", ins.holding_force));
     check_finite(where + ".tip", ins.tip);
     check_unit(where + ".axis", ins.axis);
     ins.axis.normalize();

@@ -229,7 +229,9 @@ std::size_t World::Impl::guard_segments(const SubstepParameters& p) {
 void World::Impl::report() {
   if (model.beads.size() > 0 || !model.instruments.empty())
     timed(Stage::report, [&] {
-      detail::instrument_forces(model, state, model.dt);
+      slipped.clear();
+      detail::instrument_forces(model, state, model.dt, slipped);
+      for (const std::size_t i : slipped) record(slipped_event(i));
       if (model.beads.size() > 0) detail::stage_contact_report(model, state);
     });
 }

@@ -72,6 +72,25 @@ Event World::Impl::recovered_event(const Failure& first, const Rung& rung) const
   return e;
 }
 
+Event World::Impl::slipped_event(std::size_t instrument) const {
+  const detail::InstrumentState& s = state.instruments[instrument];
+  const InstrumentDesc& d = model.instruments[instrument];
+  Event e;
+  e.kind = Event::Kind::slipped;
+  e.frame = state.frame;
+  const std::size_t node = model.beads.node[s.grasp_bead] - model.segments[s.grasp_segment].node_offset;
+  std::tie(e.segment, e.node) = piece_of(s.grasp_segment, node);
+  e.stage = Stage::report;
+  const auto name = std::string_view(model.pieces[e.segment].info.name);
+  char* it =
+      append(e, e.text.data(),
+             "frame {}: instrument '{}' ({}) lost its grasp on segment '{}' ({}), node {}: pulled with {:.3g} N, "
+             "more than its holding force {:.3g} N; close it again to grasp anew",
+             state.frame, d.name, instrument, name, e.segment, e.node, s.slip_pull, d.holding_force);
+  terminate_text(e, it);
+  return e;
+}
+
 void World::Impl::record(const Event& e) {
   if (events.size() < kMaxEvents) events.push_back(e);  // capacity reserved at creation
 }

@@ -2,6 +2,8 @@
 #include "step/instruments.hpp"
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include "haustra/kernels/pose.hpp"
 
@@ -52,7 +54,10 @@ void grasp(const WorldModel& model, WorldState& state, std::size_t i) {
   const std::size_t slot = grasp_slot(seg, i);
   const std::size_t node = model.beads.node[chosen];
   AttachmentState& as = state.now.attachment[slot];
-  as.active = true;
+  // A coupled grasp is a load, not a constraint: the slot stays inactive.
+  s.coupled = d.coupling_stiffness > 0.0;
+  s.grasp_node = static_cast<std::uint32_t>(node);
+  as.active = !s.coupled;
   as.node = node - seg.node_offset;
   as.hold_frame = d.hold_frame;
   as.force.setZero();
@@ -65,6 +70,8 @@ void grasp(const WorldModel& model, WorldState& state, std::size_t i) {
   as.target = node_position(state, node);
   as.target_rotation = node_rot;
   s.grasping = true;
+  s.grasp_target = s.target_start = node_position(state, node);
+  s.coupling_force.setZero();
   s.grasp_segment = segment;
   s.grasp_attachment = slot;
   s.grasp_bead = static_cast<std::uint32_t>(chosen);
@@ -77,6 +84,8 @@ void release(WorldState& state, std::size_t i) {
   as.force.setZero();
   as.moment.setZero();
   s.grasping = false;
+  s.coupled = false;
+  s.coupling_force.setZero();
 }
 
 }  // namespace
@@ -118,17 +127,29 @@ void stage_instruments(const WorldModel& model, WorldState& state, double time) 
       }
       s.closed = time >= kf.front().time ? kf[k].grasp : kf.front().grasp;
     }
-    if (s.closed && !s.grasping) grasp(model, state, i);
+    if (!s.closed) s.slipped = false;  // opened: the next close grasps anew
+    if (s.closed && !s.grasping && !s.slipped) grasp(model, state, i);
     if (!s.closed && s.grasping) release(state, i);
     if (s.grasping) {
       AttachmentState& as = state.now.attachment[s.grasp_attachment];
-      as.target = s.tip + s.frame * s.grasp_offset;
+      s.target_start = s.grasp_target;
+      s.grasp_target = s.tip + s.frame * s.grasp_offset;
+      as.target = s.grasp_target;
       as.target_rotation = s.frame * s.grasp_rotation;
     }
   }
 }
 
-void instrument_forces(const WorldModel& model, WorldState& state, double dt) {
+kernels::CouplingResponse grasp_coupling(const InstrumentDesc& d, const InstrumentState& s, const Eigen::Vector3d& x,
+                                         const Eigen::Vector3d& x_start, double dt, double frame_dt) {
+  const double spring = d.coupling_stiffness, damper = d.coupling_damping / dt;
+  // The damper pulls the node's displacement over the substep towards the grasp point's.
+  const Eigen::Vector3d moved_with_grasp = x_start + (s.grasp_target - s.target_start) * (dt / frame_dt);
+  const Eigen::Vector3d target = (spring * s.grasp_target + damper * moved_with_grasp) / (spring + damper);
+  return kernels::virtual_coupling(x, target, spring + damper, d.force_limit);
+}
+
+void instrument_forces(const WorldModel& model, WorldState& state, double dt, std::vector<std::size_t>& slipped) {
   for (std::size_t i = 0; i < model.instruments.size(); ++i) {
     InstrumentState& s = state.instruments[i];
     Eigen::Vector3d force = Eigen::Vector3d::Zero();
@@ -139,7 +160,24 @@ void instrument_forces(const WorldModel& model, WorldState& state, double dt) {
       force += on_instrument;
       torque += (node_position(state, model.beads.node[k.bead]) - s.tip).cross(on_instrument);
     }
-    if (s.grasping) {
+    if (s.grasping && s.coupled) {
+      // Over the whole frame: the node's motion since the frame's start against the grasp point's.
+      const InstrumentDesc& d = model.instruments[i];
+      const Eigen::Vector3d x = node_position(state, s.grasp_node);
+      const kernels::CouplingResponse c =
+          grasp_coupling(d, s, x, state.frame_start.position.view().get(s.grasp_node), dt, dt);
+      s.coupling_force = -c.force;
+      force += s.coupling_force;
+      torque += (x - s.tip).cross(s.coupling_force);
+      // Pulled harder than the jaws hold: the tissue slips out (the spring's own force, before the
+      // limit caps it, so that a limit above the holding force still lets go).
+      if (d.holding_force > 0.0 && c.unsaturated > d.holding_force) {
+        release(state, i);
+        s.slipped = true;
+        s.slip_pull = c.unsaturated;
+        slipped.push_back(i);
+      }
+    } else if (s.grasping) {
       const AttachmentState& as = state.now.attachment[s.grasp_attachment];
       const std::size_t node = model.segments[s.grasp_segment].node_offset + as.node;
       force -= as.force;

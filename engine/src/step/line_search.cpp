@@ -8,6 +8,7 @@
 
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "step/collision.hpp"
+#include "step/instruments.hpp"
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
 #include "step/scheduler.hpp"
@@ -116,6 +117,11 @@ double part_potential(const WorldModel& model, const WorldState& state, std::siz
     }
   }
   if (seg.bead_count > 0) loads += segment_contact_potential(model, state, rod, ws.bead_start, r.first, r.end, false);
+  for_each_coupled_grasp(state, rod, [&](std::size_t i, std::size_t node) {
+    if (node < off + r.first || node >= off + r.end) return;
+    loads +=
+        grasp_coupling(model.instruments[i], state.instruments[i], pos.get(node), r0.get(node), p.dt, model.dt).energy;
+  });
   return law + loads;
 }
 

@@ -10,6 +10,7 @@
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/kernels/rod_newton.hpp"
 #include "step/collision.hpp"
+#include "step/instruments.hpp"
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
 #include "step/scheduler.hpp"
@@ -71,6 +72,13 @@ void linearize(const WorldModel& model, WorldState& state, std::size_t segment, 
     }
     for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b)
       ws.force_stiffness[model.beads.node[b] - seg.node_offset] += state.collision.bead_stiffness[b];
+    const auto pos = state.now.position.view();
+    const auto start = state.position_substep_start.view();
+    for_each_coupled_grasp(state, segment, [&](std::size_t i, std::size_t node) {
+      ws.force_stiffness[node - seg.node_offset] +=
+          grasp_coupling(model.instruments[i], state.instruments[i], pos.get(node), start.get(node), p.dt, model.dt)
+              .stiffness;
+    });
   }
   // q* = (k q̂ + (η/Δt) q_start) / a: the linear law's centre (and the line search's).
   const kernels::StrainLawCoefficients law = law_of(seg, p.dt);
@@ -493,8 +501,13 @@ void stage_newton_linearize(const WorldModel& model, WorldState& state, std::siz
     ws.pattern_now.clear();
     for (std::size_t a = 0; a < seg.attachments.size(); ++a) {
       const AttachmentState& as = state.now.attachment[seg.attachment_offset + a];
-      ws.pattern_now.push_back(as.active ? static_cast<std::uint32_t>(2 * as.node + (as.hold_frame ? 1 : 0))
-                                         : 0xFFFFFFFFu);
+      // A coupled grasp holds through its slot too (as a load, the slot inactive).
+      bool coupled = false;
+      for (const InstrumentState& in : state.instruments)
+        coupled = coupled || (in.grasping && in.coupled && in.grasp_attachment == seg.attachment_offset + a);
+      ws.pattern_now.push_back(as.active || coupled
+                                   ? static_cast<std::uint32_t>(2 * as.node + (as.hold_frame && !coupled ? 1 : 0))
+                                   : 0xFFFFFFFFu);
     }
     const CollisionState& cs = state.collision;
     for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count; ++b) {

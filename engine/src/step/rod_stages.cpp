@@ -12,6 +12,7 @@
 #include "haustra/kernels/strain_update.hpp"
 #include "haustra/kernels/tissue_law.hpp"
 #include "step/collision.hpp"
+#include "step/instruments.hpp"
 #include "step/segment_law.hpp"
 
 namespace haustra::detail {
@@ -67,6 +68,16 @@ void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment
     const std::size_t k = model.beads.node[b] - seg.node_offset;
     v.force.set(k, v.force.get(k) + bead_force.get(b));
   }
+  // Coupled grasps pull their nodes towards the grasp point (at the current iterate: Newton takes
+  // the coupling's stiffness too; the lagged scheme applies it as it is).
+  const auto pos = state.now.position.view();
+  const auto start = state.position_substep_start.view();
+  for_each_coupled_grasp(state, segment, [&](std::size_t i, std::size_t node) {
+    const kernels::CouplingResponse c =
+        grasp_coupling(model.instruments[i], state.instruments[i], pos.get(node), start.get(node), p.dt, model.dt);
+    const std::size_t k = node - seg.node_offset;
+    v.force.set(k, v.force.get(k) + c.force);
+  });
   if (!p.newton) return;
   // Newton solves for increments of the constraint forces; their current totals are loads.
   add_attachment_loads(seg, state, v);
@@ -366,6 +377,14 @@ double outside_work_bound(const WorldModel& model, const WorldState& state, std:
           state.now.rotation.view().get(node) * state.frame_start.rotation.view().get(node).conjugate();
       work += std::max(now.moment.norm(), start.moment.norm()) * kernels::rotation_log(turn).norm();
     }
+  }
+  // A coupled grasp pulls with at most its force limit along the node's way.
+  for (std::size_t i = 0; i < state.instruments.size(); ++i) {
+    const InstrumentState& s = state.instruments[i];
+    if (!s.grasping || !s.coupled || s.grasp_segment != segment) continue;
+    const double moved =
+        (state.now.position.view().get(s.grasp_node) - state.frame_start.position.view().get(s.grasp_node)).norm();
+    work += model.instruments[i].force_limit * moved;
   }
   // The segment's own beads' contacts (the per-bead lists), not every candidate of the world.
   const CollisionState& cs = state.collision;

@@ -22,13 +22,18 @@ namespace haustra::detail {
 // each task acquires what the dispatch released and releases on an address of its own, which the
 // join acquires — so two tasks of one call are never ordered with each other (one address for
 // all would order a task after any that happened to end before it began, hiding their races).
-// The addresses belong to the call (on its stack), so calls running at once — two worlds, or a
-// task that dispatches — never order each other's tasks either. Other builds compile it away.
+// The join's addresses belong to the call (on its stack), so calls running at once — two worlds,
+// or a task that dispatches — never order each other's tasks. The dispatch's is one for all: a
+// task must acquire before it reads anything of its call, even the pointers its body captured
+// (their writes are the dispatching thread's), so begin() reads nothing of the call. Other builds
+// compile it away.
 #if defined(__SANITIZE_THREAD__)
+inline char g_task_dispatch = 0;
+
 class TaskOrder {
  public:
-  void dispatched() { __tsan_release(&dispatch_); }
-  void begin() { __tsan_acquire(&dispatch_); }
+  void dispatched() { __tsan_release(&g_task_dispatch); }
+  static void begin() { __tsan_acquire(&g_task_dispatch); }
   void end(std::size_t task) { __tsan_release(&done_[task % kAddresses]); }
   void joined(std::size_t tasks) {
     for (std::size_t t = 0; t < std::min(tasks, kAddresses); ++t) __tsan_acquire(&done_[t]);
@@ -36,13 +41,12 @@ class TaskOrder {
 
  private:
   static constexpr std::size_t kAddresses = 4096;
-  char dispatch_ = 0;
   std::array<char, kAddresses> done_{};
 };
 #else
 struct TaskOrder {
   void dispatched() {}
-  void begin() {}
+  static void begin() {}
   void end(std::size_t) {}
   void joined(std::size_t) {}
 };
@@ -58,7 +62,7 @@ void parallel_blocks(std::size_t count, std::size_t grain, F&& fn) {
   const std::size_t blocks = (count + grain - 1) / grain;
   TaskOrder order;
   const auto body = [&fn, &order, count, grain](std::size_t b) {
-    order.begin();
+    TaskOrder::begin();
     fn(b * grain, std::min(count, (b + 1) * grain));
     order.end(b);
   };
@@ -100,7 +104,7 @@ class Scheduler {
     // One task per segment, by index: the body never touches oneTBB's own range objects.
     TaskOrder order;
     const auto body = [&fn, &order](std::size_t i) {
-      order.begin();
+      TaskOrder::begin();
       fn(i);
       order.end(i);
     };
@@ -118,8 +122,8 @@ class Scheduler {
       TaskOrder order;
     } batch{&fn, {}};
     const JobSystemDesc::Task task = [](void* data, std::size_t first, std::size_t last) {
+      TaskOrder::begin();
       Batch& b = *static_cast<Batch*>(data);
-      b.order.begin();
       for (std::size_t i = first; i < last; ++i) (*b.fn)(i);
       b.order.end(first);  // ranges start at distinct indices
     };

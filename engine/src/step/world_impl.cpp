@@ -13,6 +13,7 @@ World::Impl::Impl(WorldDesc d, detail::WorldModel m)
   detail::init_instruments(model, state);
   guard.resize(model.segments.size());
   reserve_events();
+  slipped.reserve(model.instruments.size());
   base = {model.solver.substeps, model.solver.mode != SolverMode::lagged};
   state.robust_substeps = base.substeps;
   state.robust_newton = base.newton;

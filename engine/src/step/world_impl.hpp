@@ -23,6 +23,7 @@ struct World::Impl {
   detail::Scheduler scheduler;
   FrameProfile profile;
   std::vector<Event> events;
+  std::vector<std::size_t> slipped;  // instruments whose grasp slipped this frame (capacity: all of them)
   std::vector<detail::GuardResult> guard;
   // A rung of the robust mode's ladder: how a frame is attempted.
   struct Rung {
@@ -117,6 +118,7 @@ struct World::Impl {
   [[nodiscard]] Event make_event(Event::Kind kind, std::size_t s, const detail::GuardResult& g, int n) const;
   [[nodiscard]] Event unstable_event(std::size_t failed, const detail::GuardResult& g, const Rung& rung) const;
   [[nodiscard]] Event recovered_event(const Failure& first, const Rung& rung) const;
+  [[nodiscard]] Event slipped_event(std::size_t instrument) const;
   void record(const Event& e);
   void reserve_events();
 };

@@ -219,6 +219,14 @@ struct InstrumentState {
   std::uint32_t grasp_bead = 0;
   Eigen::Vector3d grasp_offset = Eigen::Vector3d::Zero();              // node in the instrument frame
   Eigen::Quaterniond grasp_rotation = Eigen::Quaterniond::Identity();  // node frame in the instrument frame
+  // The virtual coupling (coupling_stiffness > 0): the grasped node (global index), the grasp point
+  // this frame and last, the coupling's force on the instrument; a slip waits for the jaws to open.
+  bool coupled = false;
+  std::uint32_t grasp_node = 0;
+  Eigen::Vector3d grasp_target = Eigen::Vector3d::Zero(), target_start = Eigen::Vector3d::Zero();
+  Eigen::Vector3d coupling_force = Eigen::Vector3d::Zero();
+  bool slipped = false;
+  double slip_pull = 0.0;  // N: the spring's force when it slipped (for the event's text)
   Eigen::Vector3d force = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
   Eigen::Vector3d filtered_force = Eigen::Vector3d::Zero(), filtered_torque = Eigen::Vector3d::Zero();
 };
