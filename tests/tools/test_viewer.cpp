@@ -197,6 +197,50 @@ TEST_CASE(
   CHECK(plotted == doctest::Approx(during).epsilon(1e-6));
 }
 
+TEST_CASE(
+    "haustra view: the mouse drags the rectum into the floor for 2 s: the simulation runs on, the force bounded") {
+  // The first gesture: before the coupling (decision 0057) this reached 185 N within a few
+  // centimetres and stopped as unstable.
+  const fs::path dir = scratch("push");
+  const fs::path script =
+      write(dir / "push.txt", "wait 10\npress bead 27\nwait 10\nmove by 0 50 30\nwait 120\nrelease\nwait 5\nquit\n");
+  const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string() +
+                           " --record " + (dir / "record.json").string(),
+                       dir);
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  const nlohmann::json rec = nlohmann::json::parse(slurp(dir / "record.json"));
+  CHECK(rec["unstable"] == false);
+  nlohmann::json press, release;
+  for (const auto& e : rec["events"]) {
+    if (e["kind"] == "press") press = e;
+    if (e["kind"] == "release") release = e;
+  }
+  REQUIRE(press.is_object());
+  REQUIRE(release.is_object());
+  REQUIRE(press["on_organ"] == true);
+  // Where the drag took the grasp point: the ray through the release pixel in the plane through
+  // the hit point facing the eye — below the floor.
+  const TestCamera cam(press["camera"]);
+  const Eigen::Vector3d hit = vec(press["hit"]);
+  const Eigen::Vector3d d = cam.ray(release["x"].get<double>(), release["y"].get<double>());
+  const Eigen::Vector3d target = cam.eye + ((hit - cam.eye).dot(cam.forward) / d.dot(cam.forward)) * d;
+  double largest = 0.0, lowest = 1e9;
+  int held = 0;
+  for (const auto& s : rec["samples"]) {
+    if (s["grasping"] != true) continue;
+    ++held;
+    largest = std::max(largest, vec(s["force"]).norm());
+    lowest = std::min(lowest, vec(s["node_position"]).z());
+  }
+  MESSAGE("grasp point driven to z = " << target.z() << " m; held " << held << " samples, largest force " << largest
+                                       << " N, grasped node as low as " << lowest << " m");
+  CHECK(target.z() < -0.02);  // the mouse asked for the node centimetres below the floor (z = 0)
+  CHECK(held > 100);
+  CHECK(largest <= 8.0 * (1.0 + 1e-9));  // the coupling's limit
+  CHECK(largest > 1.0);                  // it did push
+}
+
 TEST_CASE("haustra view SURFACE: a surface where a scene is expected is imported with the defaults and shown") {
   const fs::path dir = scratch("surface");
   const fs::path script = write(dir / "look.txt", "wait 10\nscreenshot " + (dir / "organ.png").string() + "\nquit\n");

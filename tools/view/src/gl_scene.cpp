@@ -268,6 +268,10 @@ void GlScene::build_surroundings(const FramePublisher::Slot& f, const ModelInfo&
     render::Soup s;
     render::add_capsule(s, r.tip, r.tip + m.desc.instruments[i].length * r.axis, m.desc.instruments[i].radius);
     append(opaque_, s, kInstrument);
+    // A grasp holds through a spring (decision 0057): drawn from the grasp point to the node, so a
+    // hard pull shows as a long spring rather than a tissue that stops following.
+    if (r.grasping && r.grasped_segment < m.segment_nodes.size())
+      line(lines_, r.grasp_target, node(f, m.segment_nodes[r.grasped_segment].offset + r.grasped_node), kForce);
     if (i == m.mouse && r.grasping) {
       const Eigen::Vector3d force = r.filtered_force;
       const double length = std::min(force.norm() * o.force_scale, 0.5 * subject_size_);
