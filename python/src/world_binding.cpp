@@ -181,7 +181,8 @@ void bind_driving(py::class_<PyWorld>& c) {
       py::arg("instrument") = 0, "Opens the jaws: the grasped node is let go at the next step.");
   c.def(
       "instrument", [](PyWorld& w, std::size_t i) { return instrument_dict(w.locked()->instrument(i)); },
-      py::arg("instrument") = 0, "The instrument after the last frame: pose, grasp, force on it (raw and filtered).");
+      py::arg("instrument") = 0,
+      "The instrument after the last frame: pose, grasp (and whether it slipped), force on it (raw and filtered).");
 }
 
 void bind_reading(py::class_<PyWorld>& c) {

@@ -36,6 +36,7 @@ py::dict instrument_dict(const InstrumentReading& r) {
   d["grasping"] = r.grasping;
   d["grasped_segment"] = r.grasping ? py::object(py::int_(r.grasped_segment)) : py::object(py::none());
   d["grasped_node"] = r.grasping ? py::object(py::int_(r.grasped_node)) : py::object(py::none());
+  d["slipped"] = r.slipped;
   d["grasp_target"] = array3(r.grasp_target);
   d["force"] = array3(r.force);
   d["torque"] = array3(r.torque);

@@ -38,5 +38,7 @@ TradeoffKnob knob_rings();
 // The reconstruction's (tradeoff_reconstruction_knobs.cpp).
 TradeoffKnob knob_precision();
 TradeoffKnob knob_integrator();
+// The instruments' (tradeoff_instrument_knobs.cpp).
+TradeoffKnob knob_coupling();
 
 }  // namespace haustra::validation::tradeoff

@@ -28,6 +28,57 @@ std::vector<bool> pareto(const TradeoffKnob& k) {
   return front;
 }
 
+// Hooke against EXP2: what the simplification misses, up to and beyond the paper's 25 %.
+std::string exp2_guide_line(const TradeoffKnob& k) {
+  // Hooke against EXP2: what the simplification misses, up to and beyond the paper's 25 %.
+  double gentle = 0.0, hard = 0.0, hooke_cost = 0.0, exp2_cost = 0.0;
+  std::string worst_gentle, worst_hard;
+  for (const TradeoffRow& r : k.rows) {
+    const bool hooke = r.setting.rfind("Hooke", 0) == 0;
+    (hooke ? hooke_cost : exp2_cost) = r.cost_us;
+    if (!hooke) continue;
+    const bool beyond = r.setting.find("40 %") != std::string::npos || r.setting.find("60 %") != std::string::npos;
+    double& worst = beyond ? hard : gentle;
+    if (r.error > worst) {
+      worst = r.error;
+      (beyond ? worst_hard : worst_gentle) = r.setting.substr(7);
+    }
+  }
+  return fmt::format(
+      "- **{}**: up to 25 % strain Hooke's law misses the EXP2 equilibrium by up to {:.3g} mm ({}) on the "
+      "0.2 m rod, beyond it by up to {:.3g} mm ({}); EXP2 costs {:.2f}× Hooke's frame. With measured EXP2 "
+      "parameters use EXP2 in both loops — it costs next to nothing; Hooke's one modulus is the choice only when "
+      "that is all that is known. (The parameters here are illustrative: the paper gives none.)\n",
+      k.name, gentle, worst_gentle, hard, worst_hard, hooke_cost > 0.0 ? exp2_cost / hooke_cost : 0.0);
+}
+
+// The guide's line for a knob: the haptic pick within its threshold and the offline pick; a knob
+// with no threshold (not a speed knob) says what its note says.
+std::string guide_line(const TradeoffKnob& k) {
+  if (k.name == "tissue law: Hooke against EXP2") return exp2_guide_line(k);
+  if (k.haptic_error <= 0.0) return fmt::format("- **{}**: {}.\n", k.name, k.guide_note);
+  const TradeoffRow* best = &k.rows[0];
+  for (const TradeoffRow& r : k.rows)
+    if (r.error < best->error) best = &r;
+  const TradeoffRow* haptic = nullptr;
+  const TradeoffRow* cheapest = nullptr;
+  for (const TradeoffRow& r : k.rows) {
+    if (r.is_reference) continue;
+    if (cheapest == nullptr || r.cost_us < cheapest->cost_us) cheapest = &r;
+    if (r.error <= k.haptic_error && (haptic == nullptr || r.cost_us < haptic->cost_us)) haptic = &r;
+  }
+  std::string line = fmt::format(
+      "- **{}**: haptic loop — {}; offline — {} ({} {:.3g}, {:.4g} µs).\n", k.name,
+      haptic == nullptr
+          ? fmt::format("none within {:g} ({}); the cheapest, {}, misses by {:.3g}", k.haptic_error, k.error_name,
+                        cheapest != nullptr ? cheapest->setting : "—", cheapest != nullptr ? cheapest->error : 0.0)
+          : fmt::format("{} ({} {:.3g} ≤ {:g}, {:.4g} µs)", haptic->setting, k.error_name, haptic->error,
+                        k.haptic_error, haptic->cost_us),
+      best->setting, k.error_name, best->error, best->cost_us);
+  if (!k.guide_note.empty()) line += fmt::format("  *Note:* {}.\n", k.guide_note);
+  return line;
+}
+
 }  // namespace
 
 TradeoffStudy run_tradeoff_study(const std::function<void(const std::string&)>& progress) {
@@ -37,7 +88,8 @@ TradeoffStudy run_tradeoff_study(const std::function<void(const std::string&)>& 
       {"nodes per segment", knob_nodes},         {"beads per node", knob_beads},
       {"iterations per frame", knob_iterations}, {"inertia filter", knob_filter},
       {"Hooke against EXP2", knob_exp2},         {"MVC rings and linear blend", knob_rings},
-      {"float against double", knob_precision},  {"exponential against midpoint", knob_integrator}};
+      {"float against double", knob_precision},  {"exponential against midpoint", knob_integrator},
+      {"grasp coupling", knob_coupling}};
   for (const auto& [name, run] : knobs) {
     if (progress) progress(name);
     s.knobs.push_back(run());
@@ -76,51 +128,8 @@ std::string tradeoff_markdown(const TradeoffStudy& study) {
       "Picked from the tables below by rule, not by hand: for a **haptic loop** (1 kHz, every "
       "microsecond counts) the cheapest setting within the error stated; for an **offline accuracy "
       "check** the most accurate setting measured.\n\n";
-  for (const TradeoffKnob& k : study.knobs) {
-    if (k.rows.empty()) continue;
-    const TradeoffRow* best = &k.rows[0];
-    for (const TradeoffRow& r : k.rows)
-      if (r.error < best->error) best = &r;
-    if (k.haptic_error <= 0.0) {
-      // Hooke against EXP2: what the simplification misses, up to and beyond the paper's 25 %.
-      double gentle = 0.0, hard = 0.0, hooke_cost = 0.0, exp2_cost = 0.0;
-      std::string worst_gentle, worst_hard;
-      for (const TradeoffRow& r : k.rows) {
-        const bool hooke = r.setting.rfind("Hooke", 0) == 0;
-        (hooke ? hooke_cost : exp2_cost) = r.cost_us;
-        if (!hooke) continue;
-        const bool beyond = r.setting.find("40 %") != std::string::npos || r.setting.find("60 %") != std::string::npos;
-        double& worst = beyond ? hard : gentle;
-        if (r.error > worst) {
-          worst = r.error;
-          (beyond ? worst_hard : worst_gentle) = r.setting.substr(7);
-        }
-      }
-      md += fmt::format(
-          "- **{}**: up to 25 % strain Hooke's law misses the EXP2 equilibrium by up to {:.3g} mm ({}) on the "
-          "0.2 m rod, beyond it by up to {:.3g} mm ({}); EXP2 costs {:.2f}× Hooke's frame. With measured EXP2 "
-          "parameters use EXP2 in both loops — it costs next to nothing; Hooke's one modulus is the choice only when "
-          "that is all that is known. (The parameters here are illustrative: the paper gives none.)\n",
-          k.name, gentle, worst_gentle, hard, worst_hard, hooke_cost > 0.0 ? exp2_cost / hooke_cost : 0.0);
-      continue;
-    }
-    const TradeoffRow* haptic = nullptr;
-    const TradeoffRow* cheapest = nullptr;
-    for (const TradeoffRow& r : k.rows) {
-      if (r.is_reference) continue;
-      if (cheapest == nullptr || r.cost_us < cheapest->cost_us) cheapest = &r;
-      if (r.error <= k.haptic_error && (haptic == nullptr || r.cost_us < haptic->cost_us)) haptic = &r;
-    }
-    md += fmt::format(
-        "- **{}**: haptic loop — {}; offline — {} ({} {:.3g}, {:.4g} µs).\n", k.name,
-        haptic == nullptr
-            ? fmt::format("none within {:g} ({}); the cheapest, {}, misses by {:.3g}", k.haptic_error, k.error_name,
-                          cheapest != nullptr ? cheapest->setting : "—", cheapest != nullptr ? cheapest->error : 0.0)
-            : fmt::format("{} ({} {:.3g} ≤ {:g}, {:.4g} µs)", haptic->setting, k.error_name, haptic->error,
-                          k.haptic_error, haptic->cost_us),
-        best->setting, k.error_name, best->error, best->cost_us);
-    if (!k.guide_note.empty()) md += fmt::format("  *Note:* {}.\n", k.guide_note);
-  }
+  for (const TradeoffKnob& k : study.knobs)
+    if (!k.rows.empty()) md += guide_line(k);
   md += "\n## Knobs\n\n";
   for (const TradeoffKnob& k : study.knobs) {
     const std::vector<bool> front = pareto(k);

@@ -163,6 +163,7 @@ TEST_CASE("a grasp pulled past its holding force lets go with an event, and the 
   CHECK(std::string(e.message()).find("holding force 1.5 N") != std::string::npos);
   CHECK_FALSE(w->instrument(0).grasping);
   CHECK(w->instrument(0).closed);  // the jaws stay closed: no new grasp until they open
+  CHECK(w->instrument(0).slipped);
   // Settles: after 4 s the nodes barely move.
   for (int f = 0; f < 240; ++f) w->step();
   CHECK_FALSE(w->instrument(0).grasping);

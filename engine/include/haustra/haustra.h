@@ -89,6 +89,7 @@ typedef struct haustra_instrument_reading {
   double filtered_force[3]; /* low-passed (the scene's force_filter) */
   int closed;
   int grasping;
+  int slipped; /* closed, but the grasp let go: pulled past the instrument's holding_force */
   size_t grasped_segment;
   size_t grasped_node; /* local to the segment */
 } haustra_instrument_reading;

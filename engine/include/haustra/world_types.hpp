@@ -126,6 +126,7 @@ struct InstrumentReading {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   bool closed = false;
   bool grasping = false;
+  bool slipped = false;  // closed, but its grasp let go: pulled past its holding force (decision 0058)
   std::size_t grasped_segment = 0;
   std::size_t grasped_node = 0;  // local to the segment
   // The segment's attachment that holds the grasp (for attachment_force), and where the grasp

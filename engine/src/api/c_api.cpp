@@ -503,6 +503,7 @@ haustra_status haustra_world_instrument(const haustra_world* world, size_t instr
     copy3(r.filtered_force, o.filtered_force);
     o.closed = r.closed ? 1 : 0;
     o.grasping = r.grasping ? 1 : 0;
+    o.slipped = r.slipped ? 1 : 0;
     o.grasped_segment = r.grasped_segment;
     o.grasped_node = r.grasped_node;
     required(out, "out") = o;

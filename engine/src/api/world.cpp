@@ -156,11 +156,12 @@ InstrumentReading World::instrument(std::size_t instrument) const {
   r.axis = s.axis;
   r.closed = s.closed;
   r.grasping = s.grasping;
+  r.slipped = s.slipped;
   if (s.grasping) {
     const detail::AttachmentState& as = impl_->state.now.attachment[s.grasp_attachment];
     std::tie(r.grasped_segment, r.grasped_node) = impl_->piece_of(s.grasp_segment, as.node);
     r.grasp_attachment = s.grasp_attachment - impl_->model.segments[s.grasp_segment].attachment_offset;
-    r.grasp_target = as.target;
+    r.grasp_target = s.grasp_target;
   }
   r.force = s.force;
   r.torque = s.torque;

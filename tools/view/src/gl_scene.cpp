@@ -140,7 +140,7 @@ GlScene::GlScene() {
   vp_location_ = glGetUniformLocation(program_, "view_projection");
   eye_location_ = glGetUniformLocation(program_, "eye");
   lit_location_ = glGetUniformLocation(program_, "lit");
-  for (Batch* b : {&opaque_, &organ_, &lines_}) {
+  for (Batch* b : {&opaque_, &organ_, &lines_, &planes_}) {
     glGenVertexArrays(1, &b->vao);
     glGenBuffers(1, &b->vbo);
     glGenBuffers(1, &b->ebo);
@@ -158,7 +158,7 @@ GlScene::GlScene() {
 }
 
 GlScene::~GlScene() {
-  for (Batch* b : {&opaque_, &organ_, &lines_}) {
+  for (Batch* b : {&opaque_, &organ_, &lines_, &planes_}) {
     glDeleteBuffers(1, &b->vbo);
     glDeleteBuffers(1, &b->ebo);
     glDeleteVertexArrays(1, &b->vao);
@@ -170,6 +170,7 @@ void GlScene::build(const FramePublisher::Slot& f, const ModelInfo& m, const Dra
   opaque_.clear();
   organ_.clear();
   lines_.clear();
+  planes_.clear();
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   for (std::size_t k = 0; k < f.x.size(); ++k) {
     lo = lo.cwiseMin(node(f, k));
@@ -181,7 +182,7 @@ void GlScene::build(const FramePublisher::Slot& f, const ModelInfo& m, const Dra
   build_organ(f, m, o);
   build_overlays(f, m, o);
   build_surroundings(f, m, o);
-  for (Batch* b : {&opaque_, &organ_, &lines_}) upload(*b);
+  for (Batch* b : {&opaque_, &organ_, &lines_, &planes_}) upload(*b);
 }
 
 void GlScene::build_organ(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o) {
@@ -315,8 +316,13 @@ void GlScene::build_surroundings(const FramePublisher::Slot& f, const ModelInfo&
       quad.vertices.push_back(foot + half * (a * u + b * v) - 1e-4 * n);
       quad.normals.push_back(n);
     }
-    quad.triangles = {{0, 1, 2}, {0, 2, 3}};
-    append(opaque_, quad, kFloor);
+    // Wound to face the plane's free side: drawn with back faces culled, a wall between the eye and
+    // the organ (the eye outside the box) shows only its grid and never hides the organ.
+    if (u.cross(v).dot(n) > 0.0)
+      quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+    else
+      quad.triangles = {{0, 2, 1}, {0, 3, 2}};
+    append(planes_, quad, kFloor);
     for (double t = -half; t <= half + 1e-9; t += 0.1) {
       line(lines_, foot + t * u - half * v, foot + t * u + half * v, kGrid, 0.6f);
       line(lines_, foot - half * u + t * v, foot + half * u + t * v, kGrid, 0.6f);
@@ -353,6 +359,11 @@ void GlScene::draw(const OrbitCamera& camera, const DrawOptions&, int width, int
   glUniform1i(lit_location_, 1);
   glDisable(GL_BLEND);
   draw_batch(opaque_, GL_TRIANGLES);
+  glEnable(GL_CULL_FACE);  // planes from their free side only
+  glCullFace(GL_BACK);
+  glFrontFace(GL_CCW);
+  draw_batch(planes_, GL_TRIANGLES);
+  glDisable(GL_CULL_FACE);
   if (!organ_transparent_) draw_batch(organ_, GL_TRIANGLES);
   glEnable(GL_BLEND);
   glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);

@@ -59,7 +59,7 @@ class GlScene {
 
   unsigned program_ = 0;
   int vp_location_ = -1, eye_location_ = -1, lit_location_ = -1;
-  Batch opaque_, organ_, lines_;
+  Batch opaque_, organ_, lines_, planes_;  // planes: drawn from their free side only
   bool organ_transparent_ = false;
   Eigen::Vector3d subject_centre_ = Eigen::Vector3d::Zero();
   double subject_size_ = 1.0;

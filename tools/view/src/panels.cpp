@@ -16,11 +16,15 @@ namespace {
 void status(ViewerState& v) {
   const SimulationStats s = v.sim.stats();
   ImGui::Text("%s  frame %llu  t = %.3f s", v.scene_name.c_str(), static_cast<unsigned long long>(v.frame), v.time);
-  ImGui::Text("step %.3f ms   real time x%.2f   %.0f steps/s", 1e3 * v.profile.frame_seconds, s.real_time_factor,
-              s.steps_per_second);
+  ImGui::Text("step %.3f ms   real time x%.2f", 1e3 * v.profile.frame_seconds, s.real_time_factor);
+  ImGui::Text("%.0f steps/s   %.0f draws/s", s.steps_per_second, static_cast<double>(ImGui::GetIO().Framerate));
   ImGui::Text("iterations %d  substeps %d  retries %d  fallbacks %d  contacts %zu", v.profile.iterations,
               v.profile.substeps, v.profile.retries, v.profile.fallbacks, v.contact_count);
-  if (s.unstable) ImGui::TextColored(ImVec4(1, 0.3f, 0.2f, 1), "stopped: unstable (see the log)");
+  if (s.unstable) {
+    ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1, 0.3f, 0.2f, 1));
+    ImGui::TextWrapped("stopped: %s", s.stop_reason.c_str());
+    ImGui::PopStyleColor();
+  }
   if (ImGui::Button(s.paused ? "Run" : "Pause")) v.sim.post(SetPaused{!s.paused});
   ImGui::SameLine();
   if (ImGui::Button("Step")) v.sim.post(StepOnce{});
@@ -44,8 +48,7 @@ void stages(ViewerState& v) {
   }
 }
 
-void force_plot(ViewerState& v) {
-  const ForcePlot& p = v.plot;
+void force_plot(const ForcePlot& p) {
   float top = 0.1f;
   for (float f : p.raw) top = std::max(top, f);
   const ImVec2 size(ImGui::GetContentRegionAvail().x, 90);
@@ -149,7 +152,10 @@ void draw_panels(ViewerState& v) {
   ImGui::SetNextWindowSize(ImVec2(kPanelWidth, static_cast<float>(v.camera.height) - 16.0f), ImGuiCond_FirstUseEver);
   ImGui::Begin("haustra");
   status(v);
-  if (ImGui::CollapsingHeader("grasper force (N)", ImGuiTreeNodeFlags_DefaultOpen)) force_plot(v);
+  if (ImGui::CollapsingHeader("mouse grasper force (N)", ImGuiTreeNodeFlags_DefaultOpen)) force_plot(v.plot);
+  for (std::size_t i = 0; v.model && i < v.plots.size() && i < v.model->desc.instruments.size(); ++i)
+    if (ImGui::CollapsingHeader(fmt::format("{} force (N)##{}", v.model->desc.instruments[i].name, i).c_str()))
+      force_plot(v.plots[i]);
   if (ImGui::CollapsingHeader("stages", ImGuiTreeNodeFlags_DefaultOpen)) stages(v);
   if (ImGui::CollapsingHeader("display", ImGuiTreeNodeFlags_DefaultOpen)) display(v);
   if (ImGui::CollapsingHeader("knobs")) knobs(v);

@@ -84,6 +84,7 @@ void Simulation::run_in_lockstep() {
       std::lock_guard lock(log_mutex_);
       stats_.paused = paused_;
       stats_.unstable = unstable_;
+      stats_.stop_reason = unstable_ ? stop_reason_ : std::string();
       stats_.real_time_factor = 0.0;  // stepped by the window, not the clock
     }
     {
@@ -187,8 +188,12 @@ void Simulation::apply(Command& command) {
           w.set_instrument_grasp(mouse, false);
           park_after_step_ = true;
         } else if constexpr (std::is_same_v<T, SetPaused>) {
-          paused_ = c.paused;
-          log(paused_ ? "paused" : "running");
+          if (!c.paused && unstable_) {  // Run after a stop: say why it does not
+            log(fmt::format("cannot run: {} (reset, restore a checkpoint or change a knob)", stop_reason_));
+          } else {
+            paused_ = c.paused;
+            log(paused_ ? "paused" : "running");
+          }
         } else if constexpr (std::is_same_v<T, StepOnce>) {
           paused_ = true;
           step_once();
@@ -234,6 +239,7 @@ void Simulation::step_once() {
     unstable_ = true;
     paused_ = true;
     went_unstable_ = true;
+    stop_reason_ = e.what();
     log(fmt::format("stopped: {} (reset, restore a checkpoint or change a knob)", e.what()));
   }
   if (park_after_step_) {
@@ -271,6 +277,7 @@ void Simulation::run() {
       std::lock_guard lock(log_mutex_);
       stats_.paused = paused_;
       stats_.unstable = unstable_;
+      stats_.stop_reason = unstable_ ? stop_reason_ : std::string();
     }
     if (paused_ || unstable_) continue;
     const double ahead = (world_->time() - sim_start) - seconds_since(clock_start);

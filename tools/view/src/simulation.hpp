@@ -63,6 +63,7 @@ struct SimulationStats {
   double steps_per_second = 0.0;
   bool paused = false;
   bool unstable = false;  // the last step was refused; paused until a reset or restore
+  std::string stop_reason;  // why, while unstable
 };
 
 class Simulation {
@@ -120,6 +121,7 @@ class Simulation {
   SimulationStats stats_;
   std::size_t events_logged_ = 0;
   bool paused_ = false, unstable_ = false, park_after_step_ = false;
+  std::string stop_reason_;  // the physics thread's; copied into stats_ under the lock
   std::atomic<bool> went_unstable_{false};
   Eigen::Vector3d mouse_axis_ = Eigen::Vector3d::UnitZ();
   std::thread thread_;

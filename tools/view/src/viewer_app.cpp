@@ -60,6 +60,7 @@ void install_input(GLFWwindow* window) {
     if (key == GLFW_KEY_RIGHT) v.sim.post(StepOnce{});
     if (key == GLFW_KEY_TAB) v.show_panels = !v.show_panels;
     if (key == GLFW_KEY_B) v.draw.beads = !v.draw.beads;
+    if (key == GLFW_KEY_F) v.camera_fitted = false;  // fit the camera to the organ again
     if (key == GLFW_KEY_ESCAPE) glfwSetWindowShouldClose(w, GLFW_TRUE);
   });
 }
@@ -91,6 +92,12 @@ void take_frame(ViewerState& v, GlScene& scene) {
     v.camera.fit(lo, hi);
     if (v.show_panels) v.camera.pan(0.5 * kPanelWidth, 0.0);  // the subject in the middle of what the panel leaves
     v.camera_fitted = true;
+  }
+  if (fresh) {
+    v.plots.resize(std::min(m.mouse, v.instruments.size()));
+    for (std::size_t i = 0; i < v.plots.size(); ++i)
+      v.plots[i].push(static_cast<float>(v.instruments[i].force.norm()),
+                      static_cast<float>(v.instruments[i].filtered_force.norm()));
   }
   if (fresh && m.mouse < v.instruments.size()) {
     const InstrumentReading& r = v.instruments[m.mouse];

@@ -16,7 +16,7 @@ namespace haustra::view {
 
 inline constexpr float kPanelWidth = 370.0f;  // the panels' column on the left, pixels
 
-// The force on the mouse's grasper over the last seconds, one sample per frame the window saw.
+// The force on one instrument over the last seconds, one sample per frame the window saw.
 struct ForcePlot {
   static constexpr std::size_t kSamples = 300;
   std::deque<float> raw, filtered;  // |F|, N
@@ -79,7 +79,8 @@ struct ViewerState {
   std::vector<Eigen::Vector3d> bead_centres;
   std::size_t contact_count = 0;
 
-  ForcePlot plot;
+  ForcePlot plot;                // the mouse's grasper
+  std::vector<ForcePlot> plots;  // the scene's own instruments, in order
   MouseState mouse;
   std::vector<std::string> log;
   void note(std::string line) { log.push_back(std::move(line)); }
