@@ -62,7 +62,7 @@ struct SimulationStats {
   double real_time_factor = 0.0;  // simulated seconds per wall second over the last half second
   double steps_per_second = 0.0;
   bool paused = false;
-  bool unstable = false;  // the last step was refused; paused until a reset or restore
+  bool unstable = false;    // the last step was refused; paused until a reset or restore
   std::string stop_reason;  // why, while unstable
 };
 
