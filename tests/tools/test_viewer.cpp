@@ -105,6 +105,37 @@ Coverage coverage(const fs::path& png) {
   return c;
 }
 
+// Runs the viewer on the demo with `script` (written to DIR/NAME.txt) and reads back its record.
+nlohmann::json run_demo_script(const fs::path& dir, const std::string& name, const std::string& script) {
+  const fs::path file = write(dir / (name + ".txt"), script);
+  const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + file.string() + " --record " +
+                           (dir / "record.json").string(),
+                       dir);
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  return nlohmann::json::parse(slurp(dir / "record.json"));
+}
+
+// The record's (last) press and release, the press on the organ.
+std::pair<nlohmann::json, nlohmann::json> press_and_release(const nlohmann::json& rec) {
+  nlohmann::json press, release;
+  for (const auto& e : rec["events"]) {
+    if (e["kind"] == "press") press = e;
+    if (e["kind"] == "release") release = e;
+  }
+  REQUIRE(press.is_object());
+  REQUIRE(release.is_object());
+  REQUIRE(press["on_organ"] == true);
+  return {press, release};
+}
+
+// Where a drag takes the grasped point: the ray through the release pixel, met in the plane through
+// the hit point facing the eye.
+Eigen::Vector3d drag_point(const TestCamera& cam, const Eigen::Vector3d& hit, const nlohmann::json& release) {
+  const Eigen::Vector3d d = cam.ray(release["x"].get<double>(), release["y"].get<double>());
+  return cam.eye + ((hit - cam.eye).dot(cam.forward) / d.dot(cam.forward)) * d;
+}
+
 }  // namespace
 
 // One case of ~85 lines on purpose: one viewer session driven by one script, and what each of its
@@ -113,28 +144,12 @@ TEST_CASE(
     "haustra view: a mouse grasp moves the grasped node by the dragged distance, the plot shows the pull, beads toggle "
     "on screen") {
   const fs::path dir = scratch("grasp");
-  const fs::path script = write(dir / "grasp.txt",
-                                "wait 10\n"
-                                "screenshot " +
-                                    (dir / "organ.png").string() +
-                                    "\n"
-                                    "toggle beads\nwait 2\n"
-                                    "screenshot " +
-                                    (dir / "beads.png").string() +
-                                    "\n"
-                                    "toggle beads\n"
-                                    "press bead 5\nwait 15\n"
-                                    "move by 0 -100 30\nwait 20\n"
-                                    "screenshot " +
-                                    (dir / "dragged.png").string() +
-                                    "\n"
-                                    "release\nwait 5\nquit\n");
-  const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string() +
-                           " --record " + (dir / "record.json").string(),
-                       dir);
-  INFO(r.err);
-  REQUIRE(r.code == 0);
-  const nlohmann::json rec = nlohmann::json::parse(slurp(dir / "record.json"));
+  const nlohmann::json rec = run_demo_script(dir, "grasp",
+                                             "wait 10\nscreenshot " + (dir / "organ.png").string() +
+                                                 "\ntoggle beads\nwait 2\nscreenshot " + (dir / "beads.png").string() +
+                                                 "\ntoggle beads\npress bead 5\nwait 15\nmove by 0 -100 30\nwait 20\n"
+                                                 "screenshot " +
+                                                 (dir / "dragged.png").string() + "\nrelease\nwait 5\nquit\n");
   CHECK(rec["unstable"] == false);
 
   // The organ is on screen, and the beads appear when toggled.
@@ -145,25 +160,17 @@ TEST_CASE(
   CHECK(beads.bead > 0.0015);   // measured 0.0048
 
   // The press hit the organ at the pixel the test's own camera puts the hit point at.
-  nlohmann::json press, release;
+  const auto [press, release] = press_and_release(rec);
   int move_started = -1;
-  for (const auto& e : rec["events"]) {
-    if (e["kind"] == "press") press = e;
-    if (e["kind"] == "release") release = e;
+  for (const auto& e : rec["events"])
     if (e["kind"] == "script move") move_started = e["frame"].get<int>();
-  }
-  REQUIRE(press.is_object());
-  REQUIRE(release.is_object());
-  REQUIRE(press["on_organ"] == true);
   const TestCamera cam(press["camera"]);
   const Eigen::Vector3d hit = vec(press["hit"]);
   CHECK((cam.pixel(hit) - Eigen::Vector2d(press["x"].get<double>(), press["y"].get<double>())).norm() < 0.01);
 
-  // Where the drag should take the grasped point: the ray through the release pixel, met in the
-  // plane through the hit point facing the eye.
+  // Where the drag should take the grasped point.
   CHECK(release["y"].get<double>() == doctest::Approx(press["y"].get<double>() - 100.0));
-  const Eigen::Vector3d d = cam.ray(release["x"].get<double>(), release["y"].get<double>());
-  const Eigen::Vector3d expected = cam.eye + ((hit - cam.eye).dot(cam.forward) / d.dot(cam.forward)) * d - hit;
+  const Eigen::Vector3d expected = drag_point(cam, hit, release) - hit;
 
   std::vector<nlohmann::json> held;
   for (const auto& s : rec["samples"])
@@ -201,30 +208,12 @@ TEST_CASE(
     "haustra view: the mouse drags the rectum into the floor for 2 s: the simulation runs on, the force bounded") {
   // The first gesture: before the coupling (decision 0057) this reached 185 N within a few
   // centimetres and stopped as unstable.
-  const fs::path dir = scratch("push");
-  const fs::path script =
-      write(dir / "push.txt", "wait 10\npress bead 27\nwait 10\nmove by 0 50 30\nwait 120\nrelease\nwait 5\nquit\n");
-  const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string() +
-                           " --record " + (dir / "record.json").string(),
-                       dir);
-  INFO(r.err);
-  REQUIRE(r.code == 0);
-  const nlohmann::json rec = nlohmann::json::parse(slurp(dir / "record.json"));
+  const nlohmann::json rec = run_demo_script(
+      scratch("push"), "push", "wait 10\npress bead 27\nwait 10\nmove by 0 50 30\nwait 120\nrelease\nwait 5\nquit\n");
   CHECK(rec["unstable"] == false);
-  nlohmann::json press, release;
-  for (const auto& e : rec["events"]) {
-    if (e["kind"] == "press") press = e;
-    if (e["kind"] == "release") release = e;
-  }
-  REQUIRE(press.is_object());
-  REQUIRE(release.is_object());
-  REQUIRE(press["on_organ"] == true);
-  // Where the drag took the grasp point: the ray through the release pixel in the plane through
-  // the hit point facing the eye — below the floor.
-  const TestCamera cam(press["camera"]);
-  const Eigen::Vector3d hit = vec(press["hit"]);
-  const Eigen::Vector3d d = cam.ray(release["x"].get<double>(), release["y"].get<double>());
-  const Eigen::Vector3d target = cam.eye + ((hit - cam.eye).dot(cam.forward) / d.dot(cam.forward)) * d;
+  const auto [press, release] = press_and_release(rec);
+  // Where the drag took the grasp point: below the floor.
+  const Eigen::Vector3d target = drag_point(TestCamera(press["camera"]), vec(press["hit"]), release);
   double largest = 0.0, lowest = 1e9;
   int held = 0;
   for (const auto& s : rec["samples"]) {
