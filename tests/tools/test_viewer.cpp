@@ -230,6 +230,23 @@ TEST_CASE(
   CHECK(largest > 1.0);                  // it did push
 }
 
+TEST_CASE("haustra view: a grasp made while paused takes hold at the next step, and waits end while paused") {
+  const nlohmann::json rec = run_demo_script(scratch("paused"), "paused",
+                                             "wait 10\npause\nwait 3\npress bead 5\nwait 3\nstep\nwait 3\nquit\n");
+  int pressed = -1;
+  for (const auto& e : rec["events"])
+    if (e["kind"] == "press") pressed = e["frame"].get<int>();
+  REQUIRE(pressed > 0);
+  bool grasping_before = false, grasping_after = false;
+  for (const auto& s : rec["samples"]) {
+    const int f = s["frame"].get<int>();
+    if (f <= pressed) grasping_before = grasping_before || s["grasping"] == true;
+    if (f == pressed + 1) grasping_after = s["grasping"] == true;
+  }
+  CHECK_FALSE(grasping_before);  // pressed while paused: nothing happens until a step
+  CHECK(grasping_after);         // the step takes it
+}
+
 TEST_CASE("haustra view SURFACE: a surface where a scene is expected is imported with the defaults and shown") {
   const fs::path dir = scratch("surface");
   const fs::path script = write(dir / "look.txt", "wait 10\nscreenshot " + (dir / "organ.png").string() + "\nquit\n");

@@ -11,17 +11,18 @@
 namespace haustra::view {
 
 bool ScriptPlayer::tick(ViewerState& v) {
+  ++ticks_;
   while (next_ < lines_.size()) {
     const ScriptLine& l = lines_[next_];
     if (!started_) {
       started_ = true;
-      start_frame_ = v.frame;
+      start_tick_ = ticks_;
       v.events.push_back(
           {"script " + l.command, v.frame, v.mouse.x, v.mouse.y, false, 0, Eigen::Vector3d::Zero(), v.camera});
       from_x_ = v.mouse.x;
       from_y_ = v.mouse.y;
     }
-    const auto elapsed = static_cast<double>(v.frame - start_frame_);
+    const auto elapsed = static_cast<double>(ticks_ - start_tick_);
     if (l.command == "wait") {
       if (elapsed < l.frames) return true;
     } else if (l.command == "move") {
