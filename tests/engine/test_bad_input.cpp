@@ -187,6 +187,9 @@ std::vector<BadInput> catalogue(const Scratch& s) {
       scene(m + "\n[[instrument]]\n[[instrument.keyframe]]\ntip = [0, 0, 1]\n", {"instrument[0].keyframe[0].time", "needs time"}),
       scene(m + "\n[[instrument]]\n[[instrument.keyframe]]\ntime = 1.0\n[[instrument.keyframe]]\ntime = 0.5\n", {"instrument[0].keyframe[1].time", "increasing time"}, ErrorCode::invalid_argument),
       scene(m + "\n[[instrument]]\ngrasp_reach = -0.01\n", {"instrument[0].grasp_reach", "[0, 0.5]"}, ErrorCode::invalid_argument),
+      scene(m + "\n[[instrument]]\ncoupling_stiffness = -1.0\n", {"instrument[0].coupling_stiffness", "rigid grasp"}, ErrorCode::invalid_argument),
+      scene(m + "\n[[instrument]]\nforce_limit = 0.0\n", {"instrument[0].force_limit", "(0, 1e5]"}, ErrorCode::invalid_argument),
+      scene(m + "\n[[instrument]]\nholding_force = -2\n", {"instrument[0].holding_force", "never slips"}, ErrorCode::invalid_argument),
       scene(m + "\n[solver]\nmax_iterations = 0\n", {"solver.max_iterations", "[1, 10000]"}, ErrorCode::invalid_argument),
       scene(m + "\n[solver]\nattachment_tolerance = -1\n", {"solver.attachment_tolerance", "positive"}, ErrorCode::invalid_argument),
       // Centrelines.
@@ -322,7 +325,7 @@ TEST_CASE("bad-input catalogue: every case fails with its error code and a messa
   const std::vector<BadInput> cases = catalogue(scratch);
   // Exactly the catalogue's cases: one lost in an edit (a list that silently shrinks) fails here;
   // a new case raises the count.
-  CHECK(cases.size() == 110);
+  CHECK(cases.size() == 113);
   for (const BadInput& c : cases) {
     INFO(c.label);
     std::string message;

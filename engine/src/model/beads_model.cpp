@@ -89,6 +89,47 @@ bool BeadModel::excluded(std::uint32_t a, std::uint32_t b) const {
   return std::binary_search(lo, hi, b);
 }
 
+namespace {
+
+// An instrument's fields, checked; its axes normalized.
+void check_instrument(InstrumentDesc& ins, std::size_t i) {
+  const std::string where = fmt::format("instrument[{}]", i);
+  check_radius(where + ".radius", ins.radius);
+  if (!std::isfinite(ins.length) || !(ins.length > 0.0) || ins.length > 10.0)
+    fail(where + ".length", fmt::format("expected a length in (0, 10] m, got {}", ins.length));
+  if (!std::isfinite(ins.grasp_reach) || ins.grasp_reach < 0.0 || ins.grasp_reach > 0.5)
+    fail(where + ".grasp_reach", fmt::format("expected a reach in [0, 0.5] m, got {}", ins.grasp_reach));
+  if (!std::isfinite(ins.force_filter) || ins.force_filter < 0.0 || ins.force_filter > 100.0)
+    fail(where + ".force_filter", fmt::format("expected a time constant in [0, 100] s, got {}", ins.force_filter));
+  if (!std::isfinite(ins.coupling_stiffness) || ins.coupling_stiffness < 0.0 || ins.coupling_stiffness > 1e7)
+    fail(where + ".coupling_stiffness",
+         fmt::format("expected a stiffness in [0, 1e7] N/m (0: a rigid grasp), got {}", ins.coupling_stiffness));
+  if (!std::isfinite(ins.coupling_damping) || ins.coupling_damping < 0.0 || ins.coupling_damping > 1e5)
+    fail(where + ".coupling_damping",
+         fmt::format("expected a damping in [0, 1e5] N·s/m, got {}", ins.coupling_damping));
+  if (!(ins.force_limit > 0.0) || ins.force_limit > 1e5)  // infinity is refused too: the limit is the point
+    fail(where + ".force_limit", fmt::format("expected a force in (0, 1e5] N, got {}", ins.force_limit));
+  if (!std::isfinite(ins.holding_force) || ins.holding_force < 0.0)
+    fail(where + ".holding_force",
+         fmt::format("expected a force >= 0 N (0: the grasp never slips), got {}", ins.holding_force));
+  check_finite(where + ".tip", ins.tip);
+  check_unit(where + ".axis", ins.axis);
+  ins.axis.normalize();
+  for (std::size_t k = 0; k < ins.keyframes.size(); ++k) {
+    InstrumentKeyframe& kf = ins.keyframes[k];
+    const std::string kw = fmt::format("{}.keyframe[{}]", where, k);
+    if (!std::isfinite(kf.time)) fail(kw + ".time", "expected a finite time in s");
+    if (k > 0 && !(kf.time > ins.keyframes[k - 1].time))
+      fail(kw + ".time",
+           fmt::format("keyframes must come in increasing time: {} after {}", kf.time, ins.keyframes[k - 1].time));
+    check_finite(kw + ".tip", kf.tip);
+    check_unit(kw + ".axis", kf.axis);
+    kf.axis.normalize();
+  }
+}
+
+}  // namespace
+
 void build_environment(const WorldDesc& desc, WorldModel& m) {
   const ContactDesc& c = desc.contact;
   if (!std::isfinite(c.coefficient) || !(c.coefficient > 0.0))
@@ -134,42 +175,7 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
   }
   m.meshes = std::make_shared<const StaticMeshes>(m.environment.meshes);
   m.instruments = desc.instruments;
-  for (std::size_t i = 0; i < m.instruments.size(); ++i) {
-    InstrumentDesc& ins = m.instruments[i];
-    const std::string where = fmt::format("instrument[{}]", i);
-    check_radius(where + ".radius", ins.radius);
-    if (!std::isfinite(ins.length) || !(ins.length > 0.0) || ins.length > 10.0)
-      fail(where + ".length", fmt::format("expected a length in (0, 10] m, got {}", ins.length));
-    if (!std::isfinite(ins.grasp_reach) || ins.grasp_reach < 0.0 || ins.grasp_reach > 0.5)
-      fail(where + ".grasp_reach", fmt::format("expected a reach in [0, 0.5] m, got {}", ins.grasp_reach));
-    if (!std::isfinite(ins.force_filter) || ins.force_filter < 0.0 || ins.force_filter > 100.0)
-      fail(where + ".force_filter", fmt::format("expected a time constant in [0, 100] s, got {}", ins.force_filter));
-    if (!std::isfinite(ins.coupling_stiffness) || ins.coupling_stiffness < 0.0 || ins.coupling_stiffness > 1e7)
-      fail(where + ".coupling_stiffness",
-           fmt::format("expected a stiffness in [0, 1e7] N/m (0: a rigid grasp), got {}", ins.coupling_stiffness));
-    if (!std::isfinite(ins.coupling_damping) || ins.coupling_damping < 0.0 || ins.coupling_damping > 1e5)
-      fail(where + ".coupling_damping",
-           fmt::format("expected a damping in [0, 1e5] N·s/m, got {}", ins.coupling_damping));
-    if (!(ins.force_limit > 0.0) || ins.force_limit > 1e5)  // infinity is refused too: the limit is the point
-      fail(where + ".force_limit", fmt::format("expected a force in (0, 1e5] N, got {}", ins.force_limit));
-    if (!std::isfinite(ins.holding_force) || ins.holding_force < 0.0)
-      fail(where + ".holding_force",
-           fmt::format("expected a force >= 0 N (0: the grasp never slips), got {}", ins.holding_force));
-    check_finite(where + ".tip", ins.tip);
-    check_unit(where + ".axis", ins.axis);
-    ins.axis.normalize();
-    for (std::size_t k = 0; k < ins.keyframes.size(); ++k) {
-      InstrumentKeyframe& kf = ins.keyframes[k];
-      const std::string kw = fmt::format("{}.keyframe[{}]", where, k);
-      if (!std::isfinite(kf.time)) fail(kw + ".time", "expected a finite time in s");
-      if (k > 0 && !(kf.time > ins.keyframes[k - 1].time))
-        fail(kw + ".time",
-             fmt::format("keyframes must come in increasing time: {} after {}", kf.time, ins.keyframes[k - 1].time));
-      check_finite(kw + ".tip", kf.tip);
-      check_unit(kw + ".axis", kf.axis);
-      kf.axis.normalize();
-    }
-  }
+  for (std::size_t i = 0; i < m.instruments.size(); ++i) check_instrument(m.instruments[i], i);
 }
 
 // Beads whose node the mesh does not surround (a centreline running past an open end, rays
