@@ -22,6 +22,7 @@ GeometryError, UnstableError, InternalError) with the engine's message: file, li
 """
 
 from ._haustra import (  # noqa: F401
+    __version__,
     Error,
     FileError,
     GeometryError,
@@ -36,7 +37,7 @@ from ._haustra import (  # noqa: F401
 )
 
 __all__ = [
-    "World", "validate", "save_mesh", "estimate_memory", "Error", "InvalidArgumentError", "FileError",
+    "__version__", "World", "validate", "save_mesh", "estimate_memory", "Error", "InvalidArgumentError", "FileError",
     "ParseError", "GeometryError", "UnstableError", "InternalError", "save_segment_mesh",
 ]
 

@@ -3,6 +3,7 @@
 
 PYBIND11_MODULE(_haustra, m) {
   m.doc() = "haustra: beads-on-string soft organs (Cosserat rod, beads, cage-driven mesh)";
+  m.attr("__version__") = HAUSTRA_VERSION;  // the project's, as the C library's haustra_version()
   haustra::python::bind_errors(m);
   haustra::python::bind_world(m);
   haustra::python::bind_functions(m);

@@ -593,7 +593,7 @@ int dispatch(Commands& c) {
 
 int main(int argc, char** argv) {
   CLI::App app{"haustra: beads-on-string soft organ engine (Chang et al., The Visual Computer 2011)"};
-  app.set_version_flag("--version", std::string("haustra 0.1.0"));
+  app.set_version_flag("--version", std::string("haustra " HAUSTRA_VERSION));
   app.require_subcommand(1);
   Commands c;
   declare_run(app, c);
