@@ -2,6 +2,7 @@
 // memory a scene would take.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl/filesystem.h>  // a str or any os.PathLike for a path
 
 #include <fmt/format.h>
 
@@ -51,7 +52,7 @@ std::vector<Eigen::Vector3d> points_of(const py::object& value, const char* what
   return out;
 }
 
-void save_mesh_file(const std::string& path, const py::object& vertices, const py::object& triangles,
+void save_mesh_file(const std::filesystem::path& path, const py::object& vertices, const py::object& triangles,
                     const py::object& normals) {
   TriangleMesh mesh;
   mesh.vertices = points_of(vertices, "vertices");

@@ -3,6 +3,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>  // a str or any os.PathLike for a path
 
 #include <fmt/format.h>
 
@@ -143,11 +144,19 @@ void bind_views(py::class_<PyWorld>& c) {
 void bind_driving(py::class_<PyWorld>& c) {
   c.def(
       "set_external_load",
-      [](PyWorld& w, std::size_t node, const py::object& force, const py::object& moment) {
-        w.locked()->set_external_load(node, vector3(force, "force"), vector3(moment, "moment"));
+      [](PyWorld& w, std::int64_t node, const py::object& force, const py::object& moment) {
+        auto world = w.locked();
+        // Negative counts from the end, as in Python and in the scene format (node = -1: the last).
+        const auto count = static_cast<std::int64_t>(world->node_count());
+        if (node < -count || node >= count)
+          throw Error(ErrorCode::invalid_argument,
+                      fmt::format("set_external_load: node {} out of range: the world has {} nodes", node, count));
+        world->set_external_load(static_cast<std::size_t>(node < 0 ? node + count : node), vector3(force, "force"),
+                                 vector3(moment, "moment"));
       },
       py::arg("node"), py::arg("force"), py::arg("moment") = py::make_tuple(0.0, 0.0, 0.0),
-      "Force (N) and moment (N·m) on one node (an index into node_positions), world frame, held until changed.");
+      "Force (N) and moment (N·m) on one node (an index into node_positions, negative from the end), world frame, "
+      "held until changed.");
   c.def(
       "set_attachment_target",
       [](PyWorld& w, std::size_t segment, std::size_t attachment, const py::object& position) {
@@ -227,7 +236,7 @@ void bind_lifecycle(py::class_<PyWorld>& c) {
         "World({'world': {'dt': 0.01}, 'segment': [{'nodes': 50}]}). Errors name the field.");
   c.def_static(
       "from_scene",
-      [](const std::string& path, const py::dict& overrides) {
+      [](const std::filesystem::path& path, const py::dict& overrides) {
         return new PyWorld(load_scene(path, override_strings(overrides)));
       },
       py::arg("path"), py::arg("overrides") = py::dict(),

@@ -52,10 +52,28 @@ def test_external_load_turns_the_tip():
     assert up.node_positions[-1, 2] > 1e-4
     with pytest.raises(haustra.InvalidArgumentError, match="out of range"):
         up.set_external_load(10**6, force=[0, 0, 1])
+    with pytest.raises(haustra.InvalidArgumentError, match="out of range"):
+        up.set_external_load(-up.node_count - 1, force=[0, 0, 1])
     with pytest.raises(haustra.InvalidArgumentError, match="finite"):
         up.set_external_load(3, force=[0, float("nan"), 1])
     with pytest.raises(haustra.InvalidArgumentError, match="three numbers"):
         up.set_external_load(3, force=[0, 1])
+
+
+def test_negative_node_and_path_objects_as_python_has_them(scenes, tmp_path):
+    # -1 is the last node, as in the scene format; pathlib.Path wherever a path is taken.
+    a = haustra.World(rod(gravity=[0.0, 0.0, 0.0]))
+    b = haustra.World(rod(gravity=[0.0, 0.0, 0.0]))
+    a.set_external_load(-1, force=[0.0, 0.0, 1e-3])
+    b.set_external_load(b.node_count - 1, force=[0.0, 0.0, 1e-3])
+    a.step(5)
+    b.step(5)
+    assert np.array_equal(a.node_positions, b.node_positions)
+    w = haustra.World.from_scene(scenes / "cantilever.toml")
+    assert w.node_count > 0
+    haustra.save_mesh(tmp_path / "tri.obj", [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    assert (tmp_path / "tri.obj").exists()
+    assert haustra.estimate_memory(scenes / "cantilever.toml")["total"] > 0
 
 
 def test_step_releases_the_gil(scenes):
