@@ -392,6 +392,30 @@ TEST_CASE("a grasp survives a segment added beside it, and removing the grasped 
   CHECK(changed->events().empty());
 }
 
+TEST_CASE("a coupled grasp keeps its node when a segment before it is removed") {
+  // The grasped node is a world index: removing segment 0 renumbers every later node.
+  SceneDesc s = test::scene_desc("grasp-pull");
+  SceneDesc with_far = s;
+  with_far.world.segments.insert(with_far.world.segments.begin(), far_copy(s));
+  auto changed = create_world(with_far);
+  auto unchanged = create_world(s);
+  for (int f = 0; f < 60; ++f) {  // grasping from frame 36, lifting
+    changed->step();
+    unchanged->step();
+  }
+  REQUIRE(changed->instrument(0).grasping);
+  REQUIRE(changed->instrument(0).grasped_segment == 1);
+  changed->remove_segment(0);  // the far one, before the grasped one
+  REQUIRE(changed->instrument(0).grasping);
+  CHECK(changed->instrument(0).grasped_segment == 0);
+  for (int f = 0; f < 30; ++f) {
+    changed->step();
+    unchanged->step();
+  }
+  CHECK(segment_state(*changed, 0) == segment_state(*unchanged, 0));
+  CHECK(changed->instrument(0).force == unchanged->instrument(0).force);
+}
+
 TEST_CASE("reconfigure: the same description steps on bit for bit, a new one from frame 0 is a fresh world of it") {
   SceneDesc s = test::scene_desc("grasp-pull");
   auto changed = create_world(s);

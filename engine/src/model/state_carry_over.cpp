@@ -85,19 +85,20 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
     const std::size_t old_rod = in.grasp_segment;
     const std::size_t new_rod = rod_map[old_rod];
     if (new_rod == kRodRemoved) {  // what it held is gone: the jaws hold nothing
-      in.grasping = false;
+      in.grasping = in.coupled = false;
       continue;
     }
     const SegmentModel& a = from_model.segments[old_rod];
     const SegmentModel& b = to_model.segments[new_rod];
     if (a.bead_count != b.bead_count) {  // the grasped bead may be gone: let go
       to.now.attachment[in.grasp_attachment - a.attachment_offset + b.attachment_offset].active = false;
-      in.grasping = false;
+      in.grasping = in.coupled = false;
       continue;
     }
     in.grasp_segment = new_rod;
     in.grasp_attachment = in.grasp_attachment - a.attachment_offset + b.attachment_offset;
     in.grasp_bead = static_cast<std::uint32_t>(in.grasp_bead - a.bead_offset + b.bead_offset);
+    in.grasp_node = static_cast<std::uint32_t>(in.grasp_node - a.node_offset + b.node_offset);  // coupled grasps
   }
   to.frame_start.copy_from(to.now);
 }

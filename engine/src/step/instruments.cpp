@@ -2,8 +2,6 @@
 #include "step/instruments.hpp"
 
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 
 #include "haustra/kernels/pose.hpp"
 

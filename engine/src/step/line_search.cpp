@@ -3,8 +3,6 @@
 // begin (per rod), then per trial: sweep (per part), measure (per part), decide (per rod).
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "step/collision.hpp"
