@@ -38,6 +38,10 @@ class CMakeBuild(build_ext):
         target = Path(self.get_ext_fullpath(ext.name))
         target.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(built[0], target)
+        stubs = tree / "python" / "haustra" / "_haustra.pyi"  # generated from the module by the build
+        if not stubs.exists():
+            raise RuntimeError(f"{tree}: the build made no python/haustra/_haustra.pyi")
+        shutil.copyfile(stubs, target.parent / "_haustra.pyi")
 
 
 setup(version=project_version(), ext_modules=[Extension("haustra._haustra", sources=[])],

@@ -18,10 +18,14 @@ from importlib import metadata
 import haustra
 source, cli, venv = sys.argv[1:]
 assert haustra.__file__.startswith(venv), f"imported {haustra.__file__}, not the environment's"
+import pathlib
+package = pathlib.Path(haustra.__file__).parent
+missing = [f for f in ("py.typed", "_haustra.pyi", "types.py") if not (package / f).exists()]
+assert not missing, f"the installed package lacks {missing}"
 cli_version = subprocess.run([cli, "--version"], capture_output=True, text=True, check=True).stdout.split()[-1]
 assert haustra.__version__ == cli_version == metadata.version("haustra"), (haustra.__version__, cli_version)
 w = haustra.World.from_scene(f"{source}/scenes/cantilever.toml")
-w.step(5)
-assert w.frame == 5
+recording = w.step(5, record=["node_positions"])
+assert w.frame == 5 and recording["node_positions"].shape == (5, w.node_count, 3)
 print(f"pip install .: haustra {haustra.__version__} from {haustra.__file__}, stepped 5 frames")
 PY

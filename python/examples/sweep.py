@@ -20,14 +20,10 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def tip_and_cost(desc, nodes, iterations, frames):
-    desc["segment"][0]["nodes"] = nodes
-    desc.setdefault("solver", {})["iterations"] = iterations
-    w = haustra.World(desc)
-    seconds = 0.0
-    for _ in range(frames):
-        w.step()
-        seconds += w.profile["frame_seconds"]
-    return np.array(w.node_positions[-1]), seconds / frames
+    """The tip after `frames` frames and the mean frame time, recorded in one call (no Python loop)."""
+    w = haustra.World(desc, overrides={"segment.nodes": nodes, "solver.iterations": iterations})
+    recording = w.step(frames, record=["node_positions", "profile"])
+    return recording["node_positions"][-1, -1], recording["profile"]["frame_seconds"].mean()
 
 
 def main():

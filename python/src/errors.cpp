@@ -50,6 +50,11 @@ void raise(ErrorCode code, const char* message, const std::string* field) {
 
 }  // namespace
 
+void set_python_error(const Error& e) {
+  const auto* field = dynamic_cast<const FieldError*>(&e);
+  raise(e.code(), e.what(), field != nullptr ? &field->field() : nullptr);
+}
+
 void bind_errors(py::module_& m) {
   ExceptionTypes& t = types();
   t.base = new_type(m, "Error", py::make_tuple(py::handle(PyExc_RuntimeError)),

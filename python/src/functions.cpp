@@ -2,9 +2,12 @@
 // memory a scene would take.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>  // a str or any os.PathLike for a path
 
 #include <fmt/format.h>
+
+#include <optional>
 
 #include "bindings.hpp"
 #include "descriptions.hpp"
@@ -13,19 +16,20 @@
 #include "haustra/scene.hpp"
 #include "haustra/studies/validation.hpp"
 #include "haustra/world.hpp"
+#include "typed.hpp"
 
 namespace py = pybind11;
 
 namespace haustra::python {
 namespace {
 
-py::list validate() {
+ValidationList validate() {
   std::vector<validation::CaseResult> results;
   {
     py::gil_scoped_release release;
     results = validation::run_all(validation::Options{});
   }
-  py::list out;
+  ValidationList out;
   for (const validation::CaseResult& r : results) {
     py::dict d;
     d["name"] = r.name;
@@ -52,8 +56,8 @@ std::vector<Eigen::Vector3d> points_of(const py::object& value, const char* what
   return out;
 }
 
-void save_mesh_file(const std::filesystem::path& path, const py::object& vertices, const py::object& triangles,
-                    const py::object& normals) {
+void save_mesh_file(const std::filesystem::path& path, const ArrayLike& vertices, const ArrayLike& triangles,
+                    const ArrayLike& normals) {
   TriangleMesh mesh;
   mesh.vertices = points_of(vertices, "vertices");
   const auto t = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(triangles);
@@ -82,13 +86,13 @@ void save_mesh_file(const std::filesystem::path& path, const py::object& vertice
   save_mesh(path, mesh, n);
 }
 
-py::dict memory_of(const py::object& scene, const py::dict& overrides) {
-  const std::vector<std::string> o = override_strings(overrides);
+MemoryDict memory_of(const py::object& scene, const std::optional<py::dict>& overrides) {
+  const std::vector<std::string> o = overrides ? override_strings(*overrides) : std::vector<std::string>{};
   const SceneDesc desc = py::isinstance<py::dict>(scene)
                              ? parse_scene(toml_text(scene.cast<py::dict>()), "World(desc)", o)
                              : load_scene(py::str(scene).cast<std::string>(), o);
   const MemoryEstimate e = estimate_memory(desc.world);
-  py::dict d;
+  MemoryDict d;
 #define HAUSTRA_PUT_FIELD(type, name, initial, meaning) d[#name] = e.name;
   HAUSTRA_MEMORY_FIELDS(HAUSTRA_PUT_FIELD)
 #undef HAUSTRA_PUT_FIELD
@@ -106,7 +110,7 @@ void bind_functions(py::module_& m) {
         py::arg("normals") = py::none(),
         "Writes a triangle mesh in the format of the path's extension (.obj, .ply, .stl, .glb) through the engine's "
         "writers (assimp).");
-  m.def("estimate_memory", &memory_of, py::arg("scene"), py::arg("overrides") = py::dict(),
+  m.def("estimate_memory", &memory_of, py::arg("scene"), py::arg("overrides") = py::none(),
         "Bytes a scene (a path or a dict) would take, estimated before building, and what the machine has available.");
 }
 

@@ -1,5 +1,6 @@
 // The extension module haustra._haustra; the package's __init__.py re-exports it.
 #include "bindings.hpp"
+#include "typed.hpp"
 
 PYBIND11_MODULE(_haustra, m) {
   m.doc() = "haustra: beads-on-string soft organs (Cosserat rod, beads, cage-driven mesh)";
@@ -7,4 +8,7 @@ PYBIND11_MODULE(_haustra, m) {
   haustra::python::bind_errors(m);
   haustra::python::bind_world(m);
   haustra::python::bind_functions(m);
+  // ContactKind's names, in its order: contact_records' kind indexes them.
+  m.attr("CONTACT_KINDS") = pybind11::make_tuple("bead", "plane", "sphere", "capsule", "mesh", "instrument");
+  haustra::python::add_text_signatures(m);  // last: every function is bound
 }

@@ -40,6 +40,15 @@ py::array rows_of(std::span<const T> data, std::size_t columns, const Keeper& ke
 }  // namespace
 
 py::array vec3_array(kernels::Vec3View<const double> v, const Keeper& keeper) { return vec3_of(v, keeper); }
+py::array rotation_array(kernels::RotationView<const double> r, const Keeper& keeper) {
+  const auto n = static_cast<py::ssize_t>(r.size());
+  if (r.size() > 0 && (r.x.data() != r.w.data() + r.size() || r.y.data() != r.x.data() + r.size() ||
+                       r.z.data() != r.y.data() + r.size()))
+    throw Error(ErrorCode::internal,
+                "a RotationView that is not one block (w, x, y, z): cannot be viewed without a copy");
+  const auto item = static_cast<py::ssize_t>(sizeof(double));
+  return read_only<double>({n, 4}, {item, n * item}, r.w.data(), keeper);
+}
 py::array vec3_array(kernels::Vec3View<const float> v, const Keeper& keeper) { return vec3_of(v, keeper); }
 py::array rows_array(std::span<const double> data, std::size_t columns, const Keeper& keeper) {
   return rows_of(data, columns, keeper);

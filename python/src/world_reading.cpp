@@ -28,8 +28,8 @@ py::array array3(const Eigen::Vector3d& v) {
   return a;
 }
 
-py::dict instrument_dict(const InstrumentReading& r) {
-  py::dict d;
+InstrumentDict instrument_dict(const InstrumentReading& r) {
+  InstrumentDict d;
   d["tip"] = array3(r.tip);
   d["axis"] = array3(r.axis);
   d["closed"] = r.closed;
@@ -45,8 +45,8 @@ py::dict instrument_dict(const InstrumentReading& r) {
   return d;
 }
 
-py::list segments_list(const World& world) {
-  py::list out;
+SegmentList segments_list(const World& world) {
+  SegmentList out;
   for (std::size_t s = 0; s < world.segment_count(); ++s) {
     const SegmentInfo& i = world.segment(s);
     py::dict d;
@@ -72,14 +72,14 @@ py::list segments_list(const World& world) {
   return out;
 }
 
-py::dict profile_dict(const FrameProfile& p) {
+ProfileDict profile_dict(const FrameProfile& p) {
   py::dict seconds, calls;
   for (std::size_t s = 0; s < kStageCount; ++s) {
     const std::string name(stage_name(static_cast<Stage>(s)));
     seconds[py::str(name)] = p.seconds[s];
     calls[py::str(name)] = p.calls[s];
   }
-  py::dict d;
+  ProfileDict d;
   d["seconds"] = seconds;
   d["calls"] = calls;
   d["frame_seconds"] = p.frame_seconds;
@@ -90,8 +90,8 @@ py::dict profile_dict(const FrameProfile& p) {
   return d;
 }
 
-py::list events_list(std::span<const Event> events) {
-  py::list out;
+EventList events_list(std::span<const Event> events) {
+  EventList out;
   for (const Event& e : events) {
     py::dict d;
     d["kind"] = std::string(event_kind_name(e.kind));
@@ -106,8 +106,8 @@ py::list events_list(std::span<const Event> events) {
   return out;
 }
 
-py::dict contacts_dict(const ContactReport& r) {
-  py::dict d;
+ContactSummaryDict contacts_dict(const ContactReport& r) {
+  ContactSummaryDict d;
 #define HAUSTRA_PUT_FIELD(type, name, initial, meaning) d[#name] = r.name;
   HAUSTRA_CONTACT_FIELDS(HAUSTRA_PUT_FIELD)
 #undef HAUSTRA_PUT_FIELD

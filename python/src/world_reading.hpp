@@ -8,6 +8,7 @@
 
 #include "haustra/profile.hpp"
 #include "haustra/world.hpp"
+#include "typed.hpp"
 
 namespace haustra::python {
 
@@ -16,10 +17,10 @@ namespace haustra::python {
 Eigen::Vector3d vector3(const pybind11::object& value, const char* what);
 pybind11::array array3(const Eigen::Vector3d& v);
 
-pybind11::dict instrument_dict(const InstrumentReading& r);
-pybind11::list segments_list(const World& world);
-pybind11::dict profile_dict(const FrameProfile& p);
-pybind11::list events_list(std::span<const Event> events);
-pybind11::dict contacts_dict(const ContactReport& r);
+InstrumentDict instrument_dict(const InstrumentReading& r);
+SegmentList segments_list(const World& world);
+ProfileDict profile_dict(const FrameProfile& p);
+EventList events_list(std::span<const Event> events);
+ContactSummaryDict contacts_dict(const ContactReport& r);
 
 }  // namespace haustra::python

@@ -9,6 +9,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "haustra/error.hpp"
@@ -104,6 +105,26 @@ class World {
 
   [[nodiscard]] Energy energy() const;
 
+  // Run-time parameters, between frames and without a rebuild: each is checked as the scene's field
+  // would be (FieldError naming it), then takes effect at the next step; desc() follows, so a
+  // checkpoint, a copy or a reconfigure sees the value in force. A grasp's coupling may change its
+  // stiffness, damping and force limit but not switch between rigid (0) and coupled (> 0).
+  void set_gravity(const Eigen::Vector3d& gravity);
+  void set_dt(double dt);
+  void set_instrument_coupling(std::size_t instrument, double stiffness, double damping, double force_limit);
+  [[nodiscard]] Eigen::Vector3d gravity() const;
+  // The load set_external_load (or the scene) holds on a node: force, moment.
+  [[nodiscard]] std::pair<Eigen::Vector3d, Eigen::Vector3d> external_load(std::size_t node) const;
+
+  // Derived readings, computed on request into caller-owned arrays of 3 per node (x, y, z per node).
+  // Velocities are finite differences over the last frame: (r − r₀)/dt and the rotation vector of
+  // R·R₀ᵀ over dt (world frame); zero before the first step and after a pose or a restore.
+  void node_velocities(std::span<double> linear, std::span<double> angular) const;
+  // Per section (node k's section), from the tissue law at the current strains (the elastic part,
+  // not the viscous one): the internal moment in the material frame (about d1, d2, twist about d3),
+  // N·m, and the internal force in the material frame (0, 0, axial), N.
+  void section_stresses(std::span<double> moments, std::span<double> forces) const;
+
   // Checkpoints: everything a later frame depends on, as bytes (docs/decisions/0026-checkpoints.md).
   // Restoring into a world built from the same scene and stepping on gives the same bits as never
   // having stopped. A checkpoint of another model, a damaged or truncated one, is refused with
@@ -128,12 +149,20 @@ class World {
   // and the world is left as it was). A grasp is let go when its segment's beads change.
   void reconfigure(WorldDesc next);
   [[nodiscard]] const WorldDesc& desc() const;  // the description the model was built from
+  // A segment's (a chain's, through its first piece) material and relaxation time changed: the
+  // rods are rebuilt and the state carried over as by reconfigure, but the organ meshes' cages and
+  // bindings are kept (they depend on the rod's shape and beads, not on its material), so it costs
+  // a fraction of a rebuild with a mesh. Checked as the scene's fields.
+  void set_material(std::size_t segment, const MaterialDesc& material, double relaxation_time);
+  // The description of a segment's chain (its first piece's entry of desc().segments).
+  [[nodiscard]] const SegmentDesc& segment_desc(std::size_t segment) const;
 
   // Keeps the buffers behind every view above alive for as long as the handle lives: past the
   // world's destruction and past add_segment / remove_segment, which move the world to new buffers
   // and leave the old ones to the handles that still hold them. For hosts whose views outlive
   // calls (the Python module). Every Vec3View of this class is one block, x then y then z
-  // (y.data() == x.data() + size()), so a host can see it as one strided 3 × n array.
+  // (y.data() == x.data() + size()), so a host can see it as one strided 3 × n array; likewise
+  // node_rotations(), w then x then y then z.
   [[nodiscard]] std::shared_ptr<const void> buffers_keeper() const;
 
   [[nodiscard]] const FrameProfile& last_profile() const;
@@ -143,7 +172,7 @@ class World {
  private:
   struct Impl;  // engine/src/world_impl.hpp
   explicit World(std::unique_ptr<Impl> impl);
-  void rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver);
+  void rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver, bool keep_mesh_binding = false);
   std::shared_ptr<Impl> impl_;  // shared with buffers_keeper()'s handles
 };
 

@@ -58,6 +58,7 @@ void World::pose_rod(std::size_t segment, const kernels::Pose& base, std::span<c
                 fmt::format("segment '{}' is a later piece of the chain '{}': pose the chain through its first piece",
                             piece.info.name, m.segments[piece.rod].info.name));
   segment = piece.rod;
+  impl_->motion_dt = 0.0;  // the posed rod did not move there over a frame
   const detail::SegmentModel& seg = m.segments[segment];
   if (strains.size() != 4 * seg.node_count)
     throw Error(ErrorCode::invalid_argument, fmt::format("segment '{}' needs {} strains (4 per node), got {}",

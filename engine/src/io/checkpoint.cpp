@@ -351,6 +351,7 @@ void World::restore_checkpoint(std::span<const std::byte> bytes, const std::stri
   detail::restore_checkpoint(impl_->model, impl_->state, bytes, source);
   impl_->state.frame_start.copy_from(impl_->state.now);
   impl_->profile = FrameProfile{};
+  impl_->motion_dt = 0.0;
   impl_->follow_rod();
 }
 

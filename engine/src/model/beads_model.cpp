@@ -10,6 +10,7 @@
 #include "haustra/kernels/broad_phase.hpp"
 #include "model/field_checks.hpp"
 #include "model/static_meshes.hpp"
+#include "model/world_desc_checks.hpp"
 #include "model/world_model.hpp"
 
 namespace haustra::detail {
@@ -89,9 +90,7 @@ bool BeadModel::excluded(std::uint32_t a, std::uint32_t b) const {
   return std::binary_search(lo, hi, b);
 }
 
-namespace {
-
-// An instrument's fields, checked; its axes normalized.
+// An instrument's fields, checked; its axes normalized (world_desc_checks.hpp).
 void check_instrument(InstrumentDesc& ins, std::size_t i) {
   const std::string where = fmt::format("instrument[{}]", i);
   check_radius(where + ".radius", ins.radius);
@@ -127,8 +126,6 @@ void check_instrument(InstrumentDesc& ins, std::size_t i) {
     kf.axis.normalize();
   }
 }
-
-}  // namespace
 
 void build_environment(const WorldDesc& desc, WorldModel& m) {
   const ContactDesc& c = desc.contact;

@@ -108,8 +108,9 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
 namespace haustra {
 
 // The new model is built first: a description it refuses leaves the world as it was.
-void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver) {
-  auto fresh = std::make_unique<Impl>(next, detail::build_world_model(next));
+void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver, bool keep_mesh_binding) {
+  auto fresh =
+      std::make_unique<Impl>(next, detail::build_world_model(next, keep_mesh_binding ? &impl_->model : nullptr));
   detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, rod_map, carry_solver);
   fresh->events = impl_->events;
   fresh->follow_rod();
@@ -168,5 +169,24 @@ void World::reconfigure(WorldDesc next) {
 }
 
 const WorldDesc& World::desc() const { return impl_->desc; }
+
+const SegmentDesc& World::segment_desc(std::size_t segment) const {
+  return impl_->desc.segments.at(impl_->piece(segment).rod);
+}
+
+void World::set_material(std::size_t segment, const MaterialDesc& material, double relaxation_time) {
+  const detail::SegmentPiece& piece = impl_->piece(segment);
+  if (piece.first_node != 0)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("segment '{}' is a later piece of the chain '{}': set the chain's material through its "
+                            "first piece",
+                            piece.info.name, impl_->model.segments[piece.rod].info.name));
+  WorldDesc next = impl_->desc;
+  next.segments[piece.rod].material = material;
+  next.segments[piece.rod].relaxation_time = relaxation_time;
+  std::vector<std::size_t> rod_map(impl_->model.segments.size());
+  for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
+  rebuild(std::move(next), rod_map, false, true);  // fast mode's factorizations were of the old material
+}
 
 }  // namespace haustra

@@ -8,5 +8,7 @@ namespace haustra::detail {
 void check_world_desc(const WorldDesc& desc);
 // A world that would not fit is refused before anything is built (decision 0038).
 void check_memory(const WorldDesc& desc);
+// An instrument's fields (FieldError naming instrument[i].field); its axes normalized.
+void check_instrument(InstrumentDesc& instrument, std::size_t i);
 
 }  // namespace haustra::detail

@@ -240,7 +240,29 @@ void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector
 
 }  // namespace
 
-WorldModel build_world_model(const WorldDesc& desc) {
+namespace {
+
+// The organ meshes' part of a model: cages, bindings, the world mesh buffers' layout, normals' gathers.
+void take_mesh_binding(const WorldModel& from, WorldModel& m) {
+  m.meshes_of = from.meshes_of;
+  m.ring_total = from.ring_total;
+  m.mesh_vertex_total = from.mesh_vertex_total;
+  m.mesh_triangles = from.mesh_triangles;
+  m.vertex_corner_start = from.vertex_corner_start;
+  m.vertex_corner_pairs = from.vertex_corner_pairs;
+  m.normal_slot_start = from.normal_slot_start;
+  m.normal_gather_pairs = from.normal_gather_pairs;
+  m.normal_slots = from.normal_slots;
+  m.skin_chunks = from.skin_chunks;
+  m.normal_chunks = from.normal_chunks;
+  m.seam_group_start = from.seam_group_start;
+  m.seam_group_members = from.seam_group_members;
+  m.any_mesh = from.any_mesh;
+}
+
+}  // namespace
+
+WorldModel build_world_model(const WorldDesc& desc, const WorldModel* binding_from) {
   check_world_desc(desc);  // every field a description holds, before anything is built
   WorldModel m;
   m.gravity = desc.gravity;
@@ -254,7 +276,10 @@ WorldModel build_world_model(const WorldDesc& desc) {
   for (std::size_t si = 0; si < desc.segments.size(); ++si) build_rod(desc, si, m, initial_positions, rest_poses);
   std::vector<TriangleMesh> meshes = load_organ_meshes(desc, rest_poses, m);
   build_beads(desc, initial_positions, rest_poses, meshes, m);
-  bind_organ_meshes(desc, rest_poses, meshes, m);
+  if (binding_from != nullptr)
+    take_mesh_binding(*binding_from, m);
+  else
+    bind_organ_meshes(desc, rest_poses, meshes, m);
   return m;
 }
 

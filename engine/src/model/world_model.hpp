@@ -189,8 +189,10 @@ struct WorldModel {
   std::vector<std::uint8_t> initial_attachment_active;
 };
 
-// Builds the model; throws haustra::Error naming the segment and the field.
-WorldModel build_world_model(const WorldDesc& desc);
+// Builds the model; throws haustra::Error naming the segment and the field. With `binding_from`, a model
+// of the same description but for the rods' material (World::set_material), its organ meshes'
+// cages and bindings are taken as they are instead of being built again (the costly part).
+WorldModel build_world_model(const WorldDesc& desc, const WorldModel* binding_from = nullptr);
 
 // The beads of one segment (nodes and radii) and, with all segments placed, the world's bead
 // arrays and rest-pose exclusions; the environment and the instruments. Part of the builder.

@@ -254,6 +254,7 @@ void World::Impl::finish_frame(const Rung& kept, Clock::time_point t0) {
   profile.newton = kept.newton;
   state.frame += 1;
   state.time += model.dt;
+  motion_dt = model.dt;
   profile.frame_seconds = seconds_since(t0);
 }
 

@@ -33,6 +33,9 @@ struct World::Impl {
   Rung base{1, false};  // what the scene asked for; the rung it runs now is in the state
   bool any_free_base = false;
   bool any_constraints = false;
+  // The last frame's dt while frame_start still holds that frame's start (World::node_velocities); 0
+  // before the first frame and after a pose or a restore.
+  double motion_dt = 0.0;
 
   Impl(WorldDesc d, detail::WorldModel m);
 

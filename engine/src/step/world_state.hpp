@@ -1,6 +1,7 @@
 #pragma once
 // The per-frame part of a world (MuJoCo's mjData): everything a step writes. Allocated once at
 // creation; a step never allocates.
+#include <algorithm>
 #include <span>
 #include <type_traits>
 #include <vector>
@@ -65,16 +66,49 @@ struct Vec3BufferOf {
 using Vec3Buffer = Vec3BufferOf<double>;
 using FloatVec3Buffer = Vec3BufferOf<float>;
 
+// Unit quaternions as four parallel arrays (w[], x[], y[], z[]) in one block, w then x then y then z,
+// so a host sees them as one strided n × 4 array without a copy (as Vec3BufferOf).
 struct RotationBuffer {
-  std::vector<double> w, x, y, z;
+  std::span<double> w, x, y, z;
+
+  RotationBuffer() = default;
+  RotationBuffer(const RotationBuffer& other) : block_(other.block_) { seat(); }
+  RotationBuffer(RotationBuffer&& other) noexcept : block_(std::move(other.block_)) {
+    seat();
+    other.seat();
+  }
+  RotationBuffer& operator=(const RotationBuffer& other) {
+    if (this != &other) {
+      block_ = other.block_;  // same size: copied in place, no allocation
+      seat();
+    }
+    return *this;
+  }
+  RotationBuffer& operator=(RotationBuffer&& other) noexcept {
+    block_ = std::move(other.block_);
+    seat();
+    other.seat();
+    return *this;
+  }
+  ~RotationBuffer() = default;
+
   void resize(std::size_t n) {
-    w.assign(n, 1.0);
-    x.assign(n, 0.0);
-    y.assign(n, 0.0);
-    z.assign(n, 0.0);
+    block_.assign(4 * n, 0.0);
+    std::fill_n(block_.begin(), n, 1.0);  // identity: w = 1
+    seat();
   }
   [[nodiscard]] kernels::RotationView<double> view() { return {w, x, y, z}; }
   [[nodiscard]] kernels::RotationView<const double> view() const { return {w, x, y, z}; }
+
+ private:
+  void seat() {
+    const std::size_t n = block_.size() / 4;
+    w = {block_.data(), n};
+    x = {block_.data() + n, n};
+    y = {block_.data() + 2 * n, n};
+    z = {block_.data() + 3 * n, n};
+  }
+  std::vector<double> block_;
 };
 
 // With the frame's loads held, the next lagged step from the new strains against this frame's step.

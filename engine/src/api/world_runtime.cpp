@@ -1,0 +1,124 @@
+// Run-time parameters set between frames without a rebuild (gravity, dt, a grasp's coupling), the
+// host's load on a node, and readings derived on request (velocities, section stresses).
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <vector>
+
+#include "haustra/error.hpp"
+#include "haustra/kernels/pose.hpp"
+#include "haustra/kernels/tissue_law.hpp"
+#include "haustra/world.hpp"
+#include "model/world_desc_checks.hpp"
+#include "step/segment_law.hpp"
+#include "step/world_impl.hpp"
+
+namespace haustra {
+namespace {
+
+void check_span(std::span<double> out, std::size_t nodes, const char* what) {
+  if (out.size() != 3 * nodes)
+    throw Error(ErrorCode::invalid_argument, fmt::format("{}: expected room for 3 × {} nodes = {} values, got {}", what,
+                                                         nodes, 3 * nodes, out.size()));
+}
+
+}  // namespace
+
+void World::set_gravity(const Eigen::Vector3d& gravity) {
+  WorldDesc next = impl_->desc;
+  next.gravity = gravity;
+  detail::check_world_desc(next);
+  impl_->desc.gravity = impl_->model.gravity = gravity;
+}
+
+// Everything that depends on dt reads it per frame (the substep length, the law's rate terms, the
+// filter, the instruments' clock); fast mode refactorizes when the dt it recorded differs.
+void World::set_dt(double dt) {
+  WorldDesc next = impl_->desc;
+  next.dt = dt;
+  detail::check_world_desc(next);
+  impl_->desc.dt = impl_->model.dt = dt;
+}
+
+void World::set_instrument_coupling(std::size_t instrument, double stiffness, double damping, double force_limit) {
+  if (instrument >= impl_->model.instruments.size())
+    throw Error(ErrorCode::invalid_argument, fmt::format("instrument {} out of range (the world has {})", instrument,
+                                                         impl_->model.instruments.size()));
+  InstrumentDesc next = impl_->desc.instruments[instrument];
+  next.coupling_stiffness = stiffness;
+  next.coupling_damping = damping;
+  next.force_limit = force_limit;
+  detail::check_instrument(next, instrument);
+  const bool was_rigid = impl_->desc.instruments[instrument].coupling_stiffness == 0.0;
+  if (was_rigid != (stiffness == 0.0))
+    throw FieldError(ErrorCode::invalid_argument, fmt::format("instrument[{}].coupling_stiffness", instrument),
+                     fmt::format("a grasp switches between rigid (0) and coupled (> 0) only through a rebuild "
+                                 "(reconfigure); it is {} now",
+                                 was_rigid ? "rigid" : "coupled"));
+  for (InstrumentDesc* d : {&impl_->desc.instruments[instrument], &impl_->model.instruments[instrument]}) {
+    d->coupling_stiffness = stiffness;
+    d->coupling_damping = damping;
+    d->force_limit = force_limit;
+  }
+}
+
+Eigen::Vector3d World::gravity() const { return impl_->model.gravity; }
+
+std::pair<Eigen::Vector3d, Eigen::Vector3d> World::external_load(std::size_t node) const {
+  if (node >= impl_->model.node_total)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("node index {} out of range (the world has {} nodes)", node, impl_->model.node_total));
+  return {impl_->state.external_force.view().get(node), impl_->state.external_moment.view().get(node)};
+}
+
+void World::node_velocities(std::span<double> linear, std::span<double> angular) const {
+  const std::size_t n = impl_->model.node_total;
+  check_span(linear, n, "node_velocities: linear");
+  check_span(angular, n, "node_velocities: angular");
+  const double dt = impl_->motion_dt;
+  const auto& now = impl_->state.now;
+  const auto& start = impl_->state.frame_start;
+  for (std::size_t k = 0; k < n; ++k) {
+    Eigen::Vector3d v = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
+    if (dt > 0.0) {
+      v = (now.position.view().get(k) - start.position.view().get(k)) / dt;
+      const Eigen::Quaterniond turn = now.rotation.view().get(k) * start.rotation.view().get(k).conjugate();
+      w = kernels::rotation_log(turn.normalized()) / dt;
+    }
+    for (std::size_t c = 0; c < 3; ++c) {
+      linear[3 * k + c] = v[static_cast<Eigen::Index>(c)];
+      angular[3 * k + c] = w[static_cast<Eigen::Index>(c)];
+    }
+  }
+}
+
+// The law's stress with the strain at the step's start equal to the strain: no rate, the elastic part.
+void World::section_stresses(std::span<double> moments, std::span<double> forces) const {
+  const std::size_t total = impl_->model.node_total;
+  check_span(moments, total, "section_stresses: moments");
+  check_span(forces, total, "section_stresses: forces");
+  const auto& model = impl_->model;
+  const std::vector<double>& strain = impl_->state.now.strain;
+  std::vector<double> stress(strain.size()), tangent(strain.size()), coupling(total);
+  for (const detail::SegmentModel& seg : model.segments) {
+    const std::size_t off = seg.node_offset, n = seg.node_count;
+    const kernels::StrainView<const double> q{std::span<const double>(strain).subspan(4 * off, 4 * n)};
+    const kernels::StrainView<const double> rest{std::span<const double>(model.rest_strain).subspan(4 * off, 4 * n)};
+    const kernels::StrainView<double> s{std::span<double>(stress).subspan(4 * off, 4 * n)};
+    if (seg.exp2) {
+      kernels::nodal_law_evaluate(q, rest, q, detail::nodal_law_of(seg, model.dt), s,
+                                  kernels::StrainView<double>{std::span<double>(tangent).subspan(4 * off, 4 * n)},
+                                  std::span<double>(coupling).subspan(off, n));
+    } else {
+      for (std::size_t k = 0; k < n; ++k)
+        for (std::size_t c = 0; c < 4; ++c) s.at(k, c) = seg.stiffness[c] * (q.at(k, c) - rest.at(k, c));
+    }
+  }
+  for (std::size_t k = 0; k < total; ++k) {
+    for (std::size_t c = 0; c < 3; ++c) moments[3 * k + c] = stress[4 * k + c];
+    forces[3 * k + 0] = forces[3 * k + 1] = 0.0;
+    forces[3 * k + 2] = stress[4 * k + 3];
+  }
+}
+
+}  // namespace haustra

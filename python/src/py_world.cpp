@@ -1,0 +1,87 @@
+// PyWorld's lock, its step loop (Ctrl-C between frames, recordings) and scenes from an origin.
+#include "py_world.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <regex>
+
+#include "haustra/error.hpp"
+#include "recording.hpp"
+
+namespace py = pybind11;
+
+namespace haustra::python {
+
+PyWorld::PyWorld(WorldOrigin origin, const SceneDesc& scene)
+    : world_(create_world(scene)), name_(scene.name), scene_frames_(scene.frames), origin_(std::move(origin)) {}
+
+PyWorld::Locked PyWorld::locked() {
+  std::unique_lock<std::mutex> lock(mutex_, std::try_to_lock);
+  if (!lock.owns_lock()) {
+    py::gil_scoped_release release;
+    lock.lock();
+  }
+  return {std::move(lock), *world_};
+}
+
+namespace {
+
+// Python's signal handlers, run with the GIL; true when one raised (the error is set).
+bool signal_raised() {
+  py::gil_scoped_acquire gil;
+  return PyErr_CheckSignals() != 0;
+}
+
+}  // namespace
+
+PyWorld::StepOutcome PyWorld::step(long frames, Recorder* recorder) {
+  using Clock = std::chrono::steady_clock;
+  constexpr auto kSignalInterval = std::chrono::milliseconds(20);
+  StepOutcome out;
+  py::gil_scoped_release release;
+  const std::lock_guard<std::mutex> lock(mutex_);
+  auto last_check = Clock::now();
+  for (; out.frames_done < frames; ++out.frames_done) {
+    if (Clock::now() - last_check >= kSignalInterval) {  // a clock read per frame; the GIL every 20 ms
+      if (signal_raised()) {
+        out.interrupted = true;
+        return out;
+      }
+      last_check = Clock::now();
+    }
+    try {
+      world_->step();
+    } catch (...) {  // the world stays at its last good frame; the caller raises with what was recorded
+      out.error = std::current_exception();
+      return out;
+    }
+    if (recorder != nullptr) recorder->capture(*world_, out.frames_done);
+  }
+  return out;
+}
+
+void rethrow_without_lines(const std::filesystem::path& file) {
+  const std::string label = "World(desc)";
+  try {
+    throw;
+  } catch (const FieldError& e) {  // the key path, not a line of the TOML text made from the dict
+    throw FieldError(e.code(), e.field(), e.detail(), fmt::format("{}: {}: {}", label, e.field(), e.detail()));
+  } catch (const Error& e) {
+    const std::regex line_prefix(std::regex_replace(file.string(), std::regex(R"([.^$|()\[\]{}*+?\\])"), R"(\$&)") +
+                                 R"(:\d+:\d+: )");
+    throw Error(e.code(), std::regex_replace(e.what(), line_prefix, label + ": "));
+  }
+}
+
+PyWorld* build_world(WorldOrigin origin) {
+  try {
+    const SceneDesc scene = parse_scene(origin.text, origin.file, origin.overrides);
+    return new PyWorld(std::move(origin), scene);
+  } catch (const Error&) {
+    if (!origin.from_dict) throw;
+    rethrow_without_lines(origin.file);
+  }
+}
+
+}  // namespace haustra::python

@@ -1,0 +1,149 @@
+// Driving a haustra.World between steps: loads on nodes (set or added), attachments, instruments,
+// and the run-time parameters that need no rebuild (gravity, dt, a grasp's coupling).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <fmt/format.h>
+
+#include <optional>
+
+#include "haustra/error.hpp"
+#include "haustra/world.hpp"
+#include "typed.hpp"
+#include "world_bindings.hpp"
+#include "world_reading.hpp"
+
+namespace py = pybind11;
+
+namespace haustra::python {
+namespace {
+
+// Negative counts from the end, as in Python and in the scene format (node = -1: the last).
+std::size_t node_index(const World& world, std::int64_t node, const char* call) {
+  const auto count = static_cast<std::int64_t>(world.node_count());
+  if (node < -count || node >= count)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("{}: node {} out of range: the world has {} nodes", call, node, count));
+  return static_cast<std::size_t>(node < 0 ? node + count : node);
+}
+
+Eigen::Vector3d vector_or_zero(const py::object& value, const char* what) {
+  return value.is_none() ? Eigen::Vector3d::Zero() : vector3(value, what);
+}
+
+void bind_loads(WorldClass& c) {
+  c.def(
+      "set_external_load",
+      [](PyWorld& w, std::int64_t node, const ArrayLike& force, const ArrayLike& moment) {
+        auto world = w.locked();
+        world->set_external_load(node_index(world.world, node, "set_external_load"), vector3(force, "force"),
+                                 vector_or_zero(moment, "moment"));
+      },
+      py::arg("node"), py::arg("force"), py::arg("moment") = py::none(),
+      "Sets the force (N) and moment (N·m, None: zero) on one node (an index into node_positions, negative from "
+      "the end), world frame, held until changed. Replaces what the node held, a scene's load included; "
+      "add_external_load adds to it.");
+  c.def(
+      "add_external_load",
+      [](PyWorld& w, std::int64_t node, const ArrayLike& force, const ArrayLike& moment) {
+        auto world = w.locked();
+        const std::size_t k = node_index(world.world, node, "add_external_load");
+        const auto [f, m] = world->external_load(k);
+        world->set_external_load(k, f + vector3(force, "force"), m + vector_or_zero(moment, "moment"));
+      },
+      py::arg("node"), py::arg("force"), py::arg("moment") = py::none(),
+      "Adds a force (N) and moment (N·m) to what the node holds (a scene's load, an earlier call), world frame.");
+  c.def(
+      "external_load",
+      [](PyWorld& w, std::int64_t node) {
+        auto world = w.locked();
+        const auto [f, m] = world->external_load(node_index(world.world, node, "external_load"));
+        return std::make_pair(Float64Array(array3(f)), Float64Array(array3(m)));
+      },
+      py::arg("node"), "The force (N) and moment (N·m) a node holds, world frame: what the scene and calls set.");
+}
+
+void bind_attachments(WorldClass& c) {
+  c.def(
+      "set_attachment_target",
+      [](PyWorld& w, std::size_t segment, std::size_t attachment, const ArrayLike& position) {
+        w.locked()->set_attachment_target(segment, attachment, vector3(position, "position"));
+      },
+      py::arg("segment"), py::arg("attachment"), py::arg("position"),
+      "Moves an attachment's target (m, world frame); it pulls its node there from the next step.");
+  c.def(
+      "set_attachment_active",
+      [](PyWorld& w, std::size_t segment, std::size_t attachment, bool active) {
+        w.locked()->set_attachment_active(segment, attachment, active);
+      },
+      py::arg("segment"), py::arg("attachment"), py::arg("active"), "Switches an attachment on or off.");
+  c.def(
+      "attachment_force",
+      [](PyWorld& w, std::size_t segment, std::size_t attachment) {
+        return Float64Array(array3(w.locked()->attachment_force(segment, attachment)));
+      },
+      py::arg("segment"), py::arg("attachment"), "N, on the rod, in the last frame.");
+}
+
+void bind_instruments(WorldClass& c) {
+  c.def(
+      "set_instrument_pose",
+      [](PyWorld& w, std::size_t instrument, const ArrayLike& tip, const ArrayLike& axis) {
+        w.locked()->set_instrument_pose(instrument, vector3(tip, "tip"), vector3(axis, "axis"));
+      },
+      py::arg("instrument"), py::arg("tip"), py::arg("axis"),
+      "Moves an instrument (m; the axis is normalized). Hands it from its script to the caller for good.");
+  c.def(
+      "grasp", [](PyWorld& w, std::size_t instrument) { w.locked()->set_instrument_grasp(instrument, true); },
+      py::arg("instrument") = 0, "Closes the instrument's jaws: it grasps the nearest bead in reach at the next step.");
+  c.def(
+      "release", [](PyWorld& w, std::size_t instrument) { w.locked()->set_instrument_grasp(instrument, false); },
+      py::arg("instrument") = 0, "Opens the jaws: the grasped node is let go at the next step.");
+  c.def(
+      "set_instrument_coupling",
+      [](PyWorld& w, std::size_t instrument, double stiffness, double damping, double force_limit) {
+        w.locked()->set_instrument_coupling(instrument, stiffness, damping, force_limit);
+      },
+      py::arg("instrument"), py::arg("stiffness"), py::arg("damping"), py::arg("force_limit"),
+      "Changes a grasp's virtual coupling (N/m, N·s/m, N) from the next step, without a rebuild; a grasp does not "
+      "switch between rigid (stiffness 0) and coupled here.");
+}
+
+void bind_parameters(WorldClass& c) {
+  c.def_property(
+      "gravity", [](PyWorld& w) { return Float64Array(array3(w.locked()->gravity())); },
+      [](PyWorld& w, const ArrayLike& g) { w.locked()->set_gravity(vector3(g, "gravity")); },
+      "m/s², world frame. Settable between steps (no rebuild), checked as the scene's world.gravity.");
+  c.def_property(
+      "dt", [](PyWorld& w) { return w.locked()->dt(); }, [](PyWorld& w, double dt) { w.locked()->set_dt(dt); },
+      "s, a frame's length. Settable between steps (no rebuild), checked as the scene's world.dt.");
+  c.def(
+      "set_material",
+      [](PyWorld& w, std::size_t segment, std::optional<double> youngs_modulus, std::optional<double> poisson_ratio,
+         std::optional<double> density, std::optional<double> relaxation_time) {
+        auto world = w.locked();
+        const SegmentDesc& now = world->segment_desc(segment);
+        MaterialDesc m = now.material;
+        m.youngs_modulus = youngs_modulus.value_or(m.youngs_modulus);
+        m.poisson_ratio = poisson_ratio.value_or(m.poisson_ratio);
+        m.density = density.value_or(m.density);
+        world->set_material(segment, m, relaxation_time.value_or(now.relaxation_time));
+      },
+      py::arg("segment"), py::arg("youngs_modulus") = py::none(), py::arg("poisson_ratio") = py::none(),
+      py::arg("density") = py::none(), py::arg("relaxation_time") = py::none(),
+      "Changes a segment's (a chain's, through its first piece) material (Pa, -, kg/m³) and relaxation time (s; None "
+      "keeps a value). The rods are rebuilt and their state carried over, but the organ mesh's cage and binding "
+      "are kept: a fraction of a rebuild's cost.");
+}
+
+}  // namespace
+
+void bind_world_driving(WorldClass& c) {
+  bind_loads(c);
+  bind_attachments(c);
+  bind_instruments(c);
+  bind_parameters(c);
+}
+
+}  // namespace haustra::python
