@@ -1,10 +1,13 @@
 // The extension module haustra._haustra; the package's __init__.py re-exports it.
 #include "bindings.hpp"
 
+namespace haustra::python { void bind_studies(pybind11::module_& m); }  // studies_binding.cpp
+
 PYBIND11_MODULE(_haustra, m) {
   m.doc() = "haustra: beads-on-string soft organs (Cosserat rod, beads, cage-driven mesh)";
   m.attr("__version__") = HAUSTRA_VERSION;  // the project's, as the C library's haustra_version()
   haustra::python::bind_errors(m);
   haustra::python::bind_world(m);
   haustra::python::bind_functions(m);
+  haustra::python::bind_studies(m);
 }
