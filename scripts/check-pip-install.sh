@@ -18,6 +18,8 @@ from importlib import metadata
 import haustra
 source, cli, venv = sys.argv[1:]
 assert haustra.__file__.startswith(venv), f"imported {haustra.__file__}, not the environment's"
+import haustra.studies  # the subpackage ships too (decision 0070)
+assert haustra.studies.__file__.startswith(venv), f"imported {haustra.studies.__file__}, not the environment's"
 cli_version = subprocess.run([cli, "--version"], capture_output=True, text=True, check=True).stdout.split()[-1]
 assert haustra.__version__ == cli_version == metadata.version("haustra"), (haustra.__version__, cli_version)
 w = haustra.World.from_scene(f"{source}/scenes/cantilever.toml")

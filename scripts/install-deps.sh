@@ -13,6 +13,8 @@ packages=(
   valgrind
   # the Python module (`make python`) and its tests and examples (decision 0043)
   python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-matplotlib
+  # haustra.studies: studies on Dask, a local cluster or any scheduler (decision 0070)
+  python3-dask python3-distributed
   # `pip install .` into a virtual environment, offline (decision 0059)
   python3-venv python3-pip python3-setuptools python3-wheel
   # `haustra import` computes centrelines with CGAL (decision 0047)
