@@ -118,7 +118,7 @@ def parse_anatomy_row(markdown, name):
     """The surface's row of the table `haustra anatomy` prints, by the table's own header."""
     lines = [ln for ln in markdown.splitlines() if ln.startswith("| ")]
     header = [h.strip() for h in lines[0].strip("|").split(" | ")]
-    for line in lines[2:]:
+    for line in lines[1:]:  # the |---| line does not start with "| "
         values = [v.strip() for v in line.strip().strip("|").split(" | ")]
         if values[0] == name:
             return dict(zip(header, values))

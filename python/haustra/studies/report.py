@@ -62,13 +62,34 @@ def plot_grid(rows, errors, path):
     plt.close(fig)
 
 
+def import_table(rows):
+    """One line per imported surface: what the import found (the row `make anatomy` writes for it)."""
+    lines = ["Each surface as imported (`haustra anatomy` on it alone: the same import, grasp and row as "
+             "`make anatomy`; its frame time is on 2 threads, beside the full-MVC reference run):", "",
+             "| surface | repairs | organ | length mm | nodes | beads | rings | import s | outside | crossing | "
+             "lift mm | skin err mm | frame ms | outcome |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    seen = set()
+    for r in rows:
+        if r["scene_name"] in seen:
+            continue
+        seen.add(r["scene_name"])
+        if not r.get("import_nodes"):
+            lines.append(f"| {r['scene_name']} | {r['error']} |" + " |" * 12)
+            continue
+        lines.append("| " + " | ".join([r["scene_name"]] + [r[c] for c in (
+            "import_repairs", "import_organ", "import_length_mm", "import_nodes", "import_beads", "import_rings",
+            "import_s", "import_outside", "import_crossing", "anatomy_lift_mm", "anatomy_skin_err_mm",
+            "anatomy_frame_ms", "anatomy_outcome")]) + " |")
+    return lines
+
+
 def grid_summary(study, rows, out):
     errors = tip_errors(rows, study.reference) if study.reference else {}
     ok = [r for r in rows if r["status"] == "ok"]
     lines = [f"# Study {study.name}", "", f"{len(rows)} cells: {len(ok)} ran, {len(rows) - len(ok)} failed. "
              f"Engine {rows[0]['engine_version'] if rows else '?'}; every row keyed by scene file hash, overrides, "
              "protocol and engine version (results.csv).", ""]
-    lines += ["| scene | setting | protocol | status | tip error mm | lift mm | force max N | penetration mm | "
+    lines += ["| scene | setting | protocol | status | tip error mm | grasped node lift mm | force max N | penetration mm | "
               "energy change J | events (recovered/unstable) | frame ms (p99) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if r["status"] != "ok":
@@ -81,6 +102,8 @@ def grid_summary(study, rows, out):
                      f"{1e3 * number(r['penetration_max_m']):.3f} | {number(r['energy_change_J']):.3g} | "
                      f"{r['recovered']}/{r['unstable']} | {number(r['frame_ms_median']):.2f} "
                      f"({number(r['frame_ms_p99']):.2f}) |")
+    if study.imports:
+        lines += [""] + import_table(rows)
     (out / "summary.md").write_text("\n".join(lines) + "\n")
     plot_grid(rows, errors, out / "plots.png")
     return ["summary.md", "plots.png"]

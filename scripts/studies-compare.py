@@ -1,0 +1,82 @@
+#!/usr/bin/env python3
+"""The project's own studies on Dask against their commands: the stability map (`haustra stability`, the table
+of `make stability-doc`) and the speed/accuracy study (`haustra study`, `make study`), each run both ways now,
+their tables compared — the whole stability table and CSV byte for byte, the trade-off CSV's deterministic
+columns (knob, setting, error, error name, cost name, default; cost and Pareto flag are timings).
+
+    PYTHONPATH=build/release/python HAUSTRA_BIN=build/release/bin/haustra \
+      /usr/bin/python3 scripts/studies-compare.py [--workers 2] [--only stability|tradeoff]
+Exit 0 when every compared table matches.
+"""
+import argparse
+import csv
+import io
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+from haustra import studies
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+DETERMINISTIC_TRADEOFF = ["knob", "setting", "error", "error_name", "cost_name", "default"]
+
+
+def dask_study(name, out, workers):
+    study = studies.load_study(ROOT / "python" / "studies" / f"{name}.toml")
+    result = studies.run_study(study, out, workers=workers)
+    written = studies.write_report(study, result, out)
+    if result["failed"] or not written:
+        sys.exit(f"{name}: {result['failed']} cells failed on Dask: {out / 'results.csv'}")
+    return result
+
+
+def command(args, cwd):
+    return subprocess.run([os.environ.get("HAUSTRA_BIN", str(ROOT / "build/release/bin/haustra"))] + args,
+                          cwd=cwd, capture_output=True, text=True)
+
+
+def compare_stability(work, workers):
+    dask_study("stability", work / "dask-stability", workers)
+    done = command(["stability", "--markdown", "--csv", str(work / "cli-stability.csv")], work)
+    same_md = done.stdout == (work / "dask-stability" / "stability.md").read_text()
+    same_csv = (work / "cli-stability.csv").read_text() == (work / "dask-stability" / "stability-map.csv").read_text()
+    print(f"stability: markdown {'identical' if same_md else 'DIFFERS'}, CSV {'identical' if same_csv else 'DIFFERS'}"
+          f" (`haustra stability` exit {done.returncode})")
+    return same_md and same_csv
+
+
+def deterministic_columns(text):
+    return [[row[c] for c in DETERMINISTIC_TRADEOFF] for row in csv.DictReader(io.StringIO(text))]
+
+
+def compare_tradeoff(work, workers):
+    dask_study("tradeoff", work / "dask-tradeoff", workers)
+    command(["study", "--csv", str(work / "cli-tradeoff.csv")], work)
+    mine = deterministic_columns((work / "dask-tradeoff" / "tradeoff.csv").read_text())
+    theirs = deterministic_columns((work / "cli-tradeoff.csv").read_text())
+    differing = [(a, b) for a, b in zip(mine, theirs) if a != b]
+    same = len(mine) == len(theirs) and not differing
+    print(f"tradeoff: {len(mine)} rows, deterministic columns {'identical' if same else 'DIFFER'}"
+          + "".join(f"\n  dask {a}\n  cli  {b}" for a, b in differing))
+    return same
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--only", choices=["stability", "tradeoff"])
+    args = parser.parse_args()
+    work = pathlib.Path(tempfile.mkdtemp(prefix="haustra-studies-compare-"))
+    ok = True
+    if args.only in (None, "stability"):
+        ok = compare_stability(work, args.workers) and ok
+    if args.only in (None, "tradeoff"):
+        ok = compare_tradeoff(work, args.workers) and ok
+    print(f"work files: {work}")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
