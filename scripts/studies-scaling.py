@@ -29,6 +29,15 @@ def timed_run(study, out, address):
     return time.perf_counter() - start, result
 
 
+def task_costs(rows):
+    """s: what the tasks themselves took (each surface's import once, each cell's run), from the rows."""
+    cells = [float(r["cell_s"]) for r in rows if r["status"] == "ok"]
+    imports = list({r["scene_name"]: float(r["import_task_s"]) for r in rows if r.get("import_task_s")}.values())
+    return {"cell_seconds_total": sum(cells), "cell_seconds_mean": sum(cells) / len(cells),
+            "cell_seconds_max": max(cells), "import_seconds_total": sum(imports),
+            "import_seconds_mean": sum(imports) / len(imports), "import_seconds_max": max(imports)}
+
+
 def on_cluster(workers, run):
     """run(address) on a fresh local cluster of `workers` processes, one thread each (started before timing)."""
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
@@ -51,10 +60,10 @@ def main():
     runs = {}
     for workers in (1, 2):
         seconds, result = on_cluster(workers, lambda a, w=workers: timed_run(cohort, work / f"cohort-{w}", a))
-        runs[workers] = {"seconds": seconds, "cells": len(result["rows"]), "failed": result["failed"]}
+        runs[workers] = {"seconds": seconds, "cells": len(result["rows"]), "failed": result["failed"],
+                         **task_costs(result["rows"])}
     empty = studies.load_study(ROOT / "python" / "studies" / "empty.toml")
     empty.cells = empty.cells[:1]
-    one = empty.cells[0]
     many = studies.load_study(ROOT / "python" / "studies" / "empty.toml")
     from haustra.studies.cells import _empty_cells  # the same cells, as many as asked
     many.cells = _empty_cells({"study": {"cells": args.empty_cells}}, None)
@@ -64,7 +73,6 @@ def main():
         t_many, _ = timed_run(many, work / "empty-many", address)
         return t_one, t_many
     t_one, t_many = on_cluster(2, overhead)
-    assert one["key"] == many.cells[0]["key"]
     report = {
         "engine_version": haustra.__version__, "machine": platform.node(), "cores": os.cpu_count(),
         "note": "wall times on a shared machine (other builds running); ratios within this one run",

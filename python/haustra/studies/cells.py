@@ -15,17 +15,18 @@ from .. import _haustra
 # Columns whose values are wall-clock measurements: they differ between runs and machines, so the
 # determinism checks (and the comparison with `make study`) leave them out. Every other column of a
 # row is the same bits on 1 worker, 2 workers or in-process.
-TIMING_COLUMNS = {"frame_ms_median", "frame_ms_p99", "import_s", "anatomy_frame_ms", "knob_measured"}
+TIMING_COLUMNS = {"frame_ms_median", "frame_ms_p99", "cell_s", "import_s", "import_task_s", "anatomy_frame_ms",
+                  "knob_measured"}
 
 KEY_COLUMNS = ["key", "scene_name", "scene_hash", "setting", "overrides", "protocol", "engine_version", "status",
                "error"]
 GRID_METRICS = ["frames", "finite", "tip_x", "tip_y", "tip_z", "lift_m", "force_max_N",
                 "force_jump_max_N", "penetration_max_m", "bead_overlap_max_m", "energy_change_J", "recovered",
-                "unstable", "frame_ms_median", "frame_ms_p99"]
+                "unstable", "frame_ms_median", "frame_ms_p99", "cell_s"]
 # The import's report (the row `haustra anatomy` writes for the surface): in a surface study's rows.
 IMPORT_COLUMNS = ["import_repairs", "import_organ", "import_units", "import_open_ends", "import_length_mm",
                   "import_nodes", "import_beads", "import_rings", "import_s", "import_outside", "import_crossing",
-                  "anatomy_lift_mm", "anatomy_skin_err_mm", "anatomy_frame_ms", "anatomy_outcome"]
+                  "anatomy_lift_mm", "anatomy_skin_err_mm", "anatomy_frame_ms", "anatomy_outcome", "import_task_s"]
 LIFT_SECONDS, LIFT_HEIGHT = 1.0, 0.02  # grasp-and-lift: 2 cm in the first second, then held
 
 
@@ -187,7 +188,9 @@ def run_cell(cell):
         if cell.get("import_failed"):
             raise RuntimeError(cell["import_failed"])
         row.update(cell.get("import_report", {}))
+        started = time.perf_counter()
         row.update(PROTOCOLS[cell["protocol"]](cell))
+        row["cell_s"] = time.perf_counter() - started  # a grid row's cost (the projection in docs/studies.md)
     except Exception as e:  # noqa: BLE001 - every failure is a row: the study goes on
         row["status"], row["error"] = "failed", first_line(e)
     return row

@@ -114,7 +114,8 @@ def run_imported_cell(cell, imported, cell_runner=run_cell):
     if "error" in imported:
         cell["import_failed"] = imported["error"]
     else:
-        cell["scene"], cell["import_report"] = imported["scene"], imported["report"]
+        cell["scene"] = imported["scene"]
+        cell["import_report"] = dict(imported["report"], import_task_s=imported["seconds"])
     return cell_runner(cell)
 
 
