@@ -10,11 +10,12 @@ import json
 import os
 import pathlib
 import platform
+import resource
 import shutil
 import tempfile
 import time
 
-from distributed import LocalCluster
+from distributed import Client, LocalCluster
 
 import haustra
 from haustra import studies
@@ -27,6 +28,18 @@ def timed_run(study, out, address):
     start = time.perf_counter()
     result = studies.run_study(study, out, scheduler=address, show_progress=False)
     return time.perf_counter() - start, result
+
+
+def worker_peak_mb(address):
+    """MB: the largest peak resident memory of the cluster's worker processes so far."""
+    with Client(address) as client:
+        peaks = client.run(lambda: resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+    return max(peaks.values()) / 1024.0
+
+
+def cohort_run(study, out, address):
+    seconds, result = timed_run(study, out, address)
+    return seconds, result, worker_peak_mb(address)
 
 
 def task_costs(rows):
@@ -59,8 +72,9 @@ def main():
         cohort.imports = {s: cohort.imports[s] for s in surfaces}
     runs = {}
     for workers in (1, 2):
-        seconds, result = on_cluster(workers, lambda a, w=workers: timed_run(cohort, work / f"cohort-{w}", a))
+        seconds, result, peak = on_cluster(workers, lambda a, w=workers: cohort_run(cohort, work / f"cohort-{w}", a))
         runs[workers] = {"seconds": seconds, "cells": len(result["rows"]), "failed": result["failed"],
+                         "worker_peak_rss_mb": peak,
                          **task_costs(result["rows"])}
     empty = studies.load_study(ROOT / "python" / "studies" / "empty.toml")
     empty.cells = empty.cells[:1]

@@ -15,7 +15,7 @@ def main(argv=None):
     run = commands.add_parser("run", help="run the cells not yet in OUT/results.csv, then write the summary")
     run.add_argument("study", type=pathlib.Path, help="the study file (TOML)")
     where = run.add_mutually_exclusive_group()
-    where.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786)")
+    where.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler: its address (tcp://host:8786) or its scheduler file (JSON)")
     where.add_argument("--workers", type=int, metavar="N", help="a local cluster of N worker processes (default: "
                        "one per core)")
     where.add_argument("--serial", action="store_true", help="in this process, one cell after another, no Dask")

@@ -82,8 +82,8 @@ def run_scene_cell(cell):
         if world.instrument_count:
             state = world.instrument(0)
             forces.append(np.array(state["force"]))
-            if state["grasping"] and grasped_node is None:
-                grasped_node = state["grasped_node"]
+            if state["grasping"] and grasped_node is None:  # its node index is the segment's own
+                grasped_node = world.segments[state["grasped_segment"]]["node_offset"] + state["grasped_node"]
                 start = float(world.node_positions[grasped_node][2])
     if grasped_node is not None:
         lift = float(world.node_positions[grasped_node][2]) - start

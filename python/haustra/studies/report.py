@@ -83,25 +83,36 @@ def import_table(rows):
     return lines
 
 
+def cell_lines(rows, errors):
+    """The summary's table: one line per cell; the tip error column only when the study names a reference."""
+    tip_column = bool(errors)
+    head = ["scene", "setting", "protocol", "status"] + (["tip error mm"] if tip_column else []) + [
+        "grasped node lift mm", "force max N", "penetration mm", "energy change J", "events (recovered/unstable)",
+        "frame ms (p99)", "cell s"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        cells = [r["scene_name"], r["setting"], r["protocol"]]
+        if r["status"] != "ok":
+            lines.append("| " + " | ".join(cells + [f"failed: {r['error']}"]) + " |" + " |" * (len(head) - 4))
+            continue
+        tip = [f"{1e3 * errors[r['key']]:.3f}" if r["key"] in errors else ""] if tip_column else []
+        cells += ["ok"] + tip + [f"{1e3 * number(r['lift_m']):.2f}", f"{number(r['force_max_N']):.3g}",
+                                 f"{1e3 * number(r['penetration_max_m']):.3f}", f"{number(r['energy_change_J']):.3g}",
+                                 f"{r['recovered']}/{r['unstable']}",
+                                 f"{number(r['frame_ms_median']):.2f} ({number(r['frame_ms_p99']):.2f})",
+                                 f"{number(r.get('cell_s')):.2f}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
 def grid_summary(study, rows, out):
     errors = tip_errors(rows, study.reference) if study.reference else {}
     ok = [r for r in rows if r["status"] == "ok"]
-    lines = [f"# Study {study.name}", "", f"{len(rows)} cells: {len(ok)} ran, {len(rows) - len(ok)} failed. "
+    lines = [f"# Study: {study.name}", "", f"{len(rows)} cells: {len(ok)} ran, {len(rows) - len(ok)} failed. "
              f"Engine {rows[0]['engine_version'] if rows else '?'}; every row keyed by scene file hash, overrides, "
-             "protocol and engine version (results.csv).", ""]
-    lines += ["| scene | setting | protocol | status | tip error mm | grasped node lift mm | force max N | penetration mm | "
-              "energy change J | events (recovered/unstable) | frame ms (p99) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        if r["status"] != "ok":
-            lines.append(f"| {r['scene_name']} | {r['setting']} | {r['protocol']} | failed: {r['error']} |"
-                         " | | | | | | |")
-            continue
-        tip = f"{1e3 * errors[r['key']]:.3f}" if r["key"] in errors else ""
-        lines.append(f"| {r['scene_name']} | {r['setting']} | {r['protocol']} | ok | {tip} | "
-                     f"{1e3 * number(r['lift_m']):.2f} | {number(r['force_max_N']):.3g} | "
-                     f"{1e3 * number(r['penetration_max_m']):.3f} | {number(r['energy_change_J']):.3g} | "
-                     f"{r['recovered']}/{r['unstable']} | {number(r['frame_ms_median']):.2f} "
-                     f"({number(r['frame_ms_p99']):.2f}) |")
+             "protocol and engine version (results.csv). Frame and cell times are wall times on the machine "
+             "that ran the cell; every other number is the same bits wherever it ran.", ""]
+    lines += cell_lines(rows, errors)
     if study.imports:
         lines += [""] + import_table(rows)
     (out / "summary.md").write_text("\n".join(lines) + "\n")

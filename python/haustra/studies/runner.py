@@ -129,9 +129,12 @@ def safe_import(surface, out):
 
 
 def _client(scheduler, workers):
-    """A Dask client: the scheduler at ADDRESS, or a local cluster of `workers` processes, one thread each
-    (a world's threads are the cell's own, fixed in its overrides)."""
+    """A Dask client: the scheduler at ADDRESS (or named by a scheduler file, as `dask-scheduler --scheduler-file`
+    writes), or a local cluster of `workers` processes, one thread each (a world's threads are the cell's own,
+    fixed in its overrides)."""
     from distributed import Client, LocalCluster
+    if scheduler and pathlib.Path(scheduler).is_file():
+        return Client(scheduler_file=str(scheduler)), None
     if scheduler:
         return Client(scheduler), None
     cluster = LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1, processes=True,
