@@ -145,3 +145,21 @@ overrides = {{ "solver.iterations" = 1 }}
 def test_a_study_file_with_an_unknown_protocol_names_the_field(tmp_path):
     with pytest.raises(studies.StudyError, match=r"grid.protocols: 'wobble' is not a protocol"):
         write_study(tmp_path, f'[grid]\nscenes = ["{GRASP_PULL}"]\nprotocols = ["wobble"]\n')
+
+
+def test_stability_cells_through_dask_give_the_committed_map(tmp_path):
+    """The stability map's cells at N ≤ 20 (240 of 516) as a Dask study on 2 workers: outcomes equal to
+    tests/data/stability-map.csv, the table `make stability-doc` writes (the whole map: make studies-check)."""
+    study = write_study(tmp_path, '[study]\nname = "stability"\nkind = "stability"\n')
+    study.cells = [c for c in study.cells if c["setting"].startswith(("N=2 ", "N=20 "))]
+    result = studies.run_study(study, tmp_path / "out", workers=2, show_progress=False)
+    mine = [f"{r['nodes']},{float(r['youngs_modulus']):g},{float(r['dt']):g},{r['load']},{r['law']},{r['outcome']},"
+            f"{r['fast_outcome']}" for r in result["rows"]]
+    with open(SOURCE / "tests" / "data" / "stability-map.csv") as f:
+        committed = [line.strip() for line in f if line.split(",")[0] in ("2", "20")]
+    assert len(mine) == 240 and mine == committed
+
+
+def test_an_unknown_tradeoff_knob_is_refused_with_the_known_ones():
+    with pytest.raises(haustra.InvalidArgumentError, match=r"no knob 'wobble' \(expected one of 'nodes per segment'"):
+        haustra._haustra._studies.run_tradeoff_knob("wobble")
