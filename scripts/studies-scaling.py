@@ -53,7 +53,7 @@ def task_costs(rows):
 
 def on_cluster(workers, run):
     """run(address) on a fresh local cluster of `workers` processes, one thread each (started before timing)."""
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                       silence_logs=40) as cluster:
         return run(cluster.scheduler_address)
 

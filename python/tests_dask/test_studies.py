@@ -163,3 +163,12 @@ def test_stability_cells_through_dask_give_the_committed_map(tmp_path):
 def test_an_unknown_tradeoff_knob_is_refused_with_the_known_ones():
     with pytest.raises(haustra.InvalidArgumentError, match=r"no knob 'wobble' \(expected one of 'nodes per segment'"):
         haustra._haustra._studies.run_tradeoff_knob("wobble")
+
+
+def test_a_setting_removed_from_the_file_keeps_its_rows(tmp_path, serial_rows):
+    study = write_study(tmp_path, TWELVE_CELLS)
+    studies.run_study(study, tmp_path / "out", serial=True, show_progress=False)
+    fewer = write_study(tmp_path, TWELVE_CELLS.replace("[20000.0, 50000.0, 100000.0]", "[50000.0, 100000.0]"))
+    result = studies.run_study(fewer, tmp_path / "out", serial=True, show_progress=False)
+    assert result["ran"] == 0 and result["skipped"] == 8 and len(result["rows"]) == 8
+    assert len(studies.read_rows(tmp_path / "out" / "results.csv")) == 12  # the other 4 still there, after

@@ -138,7 +138,7 @@ def _client(scheduler, workers):
     if scheduler:
         return Client(scheduler), None
     cluster = LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=40)
+                           dashboard_address=":0", silence_logs=40)
     return Client(cluster), cluster
 
 
@@ -183,17 +183,19 @@ def run_cells(study, todo, out, writer, progress, serial, scheduler, workers, ce
 
 def run_study(study, out, serial=False, scheduler=None, workers=None, cell_runner=run_cell, show_progress=True,
               retry_failed=False):
-    """Runs the cells whose rows are not yet in OUT/results.csv; returns {'ran', 'skipped', 'failed', 'seconds'}.
-    A finished table is rewritten in the study's cell order, so it does not depend on where cells ran."""
+    """Runs the cells whose rows are not yet in OUT/results.csv; returns {'ran', 'skipped', 'failed', 'seconds',
+    'rows'} ('rows': this study's, in its cell order). Rows of cells no longer in the study (a setting removed
+    from the file) are kept, after this study's. A finished table is rewritten in the study's cell order, so it
+    does not depend on where the cells ran."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
     table = out / "results.csv"
     columns = columns_for(study)
     keys = {c["key"] for c in study.cells}
-    written = [r for r in read_rows(table, columns) if r["key"] in keys and (r["status"] == "ok" or not retry_failed)]
-    done = {r["key"] for r in written}
+    kept = [r for r in read_rows(table, columns) if not (retry_failed and r["status"] != "ok" and r["key"] in keys)]
+    done = {r["key"] for r in kept} & keys
     todo = [c for c in study.cells if c["key"] not in done]
-    writer = RowWriter(table, columns, written)
+    writer = RowWriter(table, columns, kept)
     progress = Progress(study.name, len(study.cells), len(done), enabled=show_progress)
     started = time.monotonic()
     try:
@@ -203,11 +205,12 @@ def run_study(study, out, serial=False, scheduler=None, workers=None, cell_runne
         writer.close()
         progress.finish()
     seconds = time.monotonic() - started
-    rows = read_rows(table, columns)
     order = {c["key"]: i for i, c in enumerate(study.cells)}
-    if {r["key"] for r in rows} == keys:
-        rows.sort(key=lambda r: order[r["key"]])
-        text = ",".join(columns) + "\n" + "".join(row_line(r, columns) for r in rows)
+    everything = read_rows(table, columns)
+    rows = sorted((r for r in everything if r["key"] in keys), key=lambda r: order[r["key"]])
+    others = [r for r in everything if r["key"] not in keys]
+    if len(rows) == len(keys):
+        text = ",".join(columns) + "\n" + "".join(row_line(r, columns) for r in rows + others)
         (out / "results.csv.new").write_text(text)
         os.replace(out / "results.csv.new", table)
     return {"ran": progress.done, "skipped": len(done), "failed": sum(r["status"] != "ok" for r in rows),
