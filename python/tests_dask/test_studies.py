@@ -83,6 +83,7 @@ def test_a_worker_killed_mid_study_loses_and_duplicates_nothing(tmp_path, serial
     runner = functools.partial(crash_once, marker=str(marker), victim=study.cells[5]["key"])
     result = studies.run_study(study, tmp_path / "out", workers=2, cell_runner=runner, show_progress=False)
     assert marker.exists() and int(marker.read_text()) != os.getpid()  # a worker process died
+    assert result["ran"] == 12
     written = studies.read_rows(tmp_path / "out" / "results.csv")
     assert sorted(r["key"] for r in written) == sorted(c["key"] for c in study.cells)  # each exactly once
     assert deterministic_rows(written) == deterministic_rows(serial_rows)

@@ -1,6 +1,5 @@
 """What one cell does: build its world, run a protocol, measure, return a row (a dict). Runs in any process."""
 import json
-import math
 import os
 import pathlib
 import shutil
@@ -196,17 +195,13 @@ def run_cell(cell):
     return row
 
 
-def is_number(value):
-    return isinstance(value, float) and not math.isnan(value)
-
-
 def _stability_cells(doc, path):
     """The stability map (`make stability-doc`): the main sweep, then the N = 20,000 corner, one task per cell."""
+    from .spec import cell_key
     cells = []
     for large_n in (False, True):
         for params in _haustra._studies.stability_cells(large_n):
             text = json.dumps(params, sort_keys=True)
-            from .spec import cell_key
             cells.append({"key": cell_key("stability", {}, "stability", {"params": params, "large_n": large_n}),
                           "scene_name": "stability-rod", "setting": f"N={params['nodes']} E={params['youngs_modulus']:g} "
                           f"dt={params['dt']:g} {params['load']} {params['law']}", "protocol": "stability",
