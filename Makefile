@@ -170,7 +170,7 @@ studies-doc: build
 	@echo "wrote $(abspath docs/studies-cohort.md), $(abspath docs/figures/studies-cohort.png) and $(abspath docs/studies-scaling.json)"
 
 # The stability map and the speed/accuracy study run as Dask studies and as `haustra stability` /
-# `haustra study`, their tables compared (deterministic columns bit for bit). About 5 minutes.
+# `haustra study`, their tables compared (deterministic columns bit for bit). About 3 minutes here.
 studies-check: build
 	@$(STUDIES_ENV) /usr/bin/python3 scripts/studies-compare.py --workers 2
 
