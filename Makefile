@@ -170,7 +170,8 @@ studies-doc: build
 	@echo "wrote $(abspath docs/studies-cohort.md), $(abspath docs/figures/studies-cohort.png) and $(abspath docs/studies-scaling.json)"
 
 # The stability map and the speed/accuracy study run as Dask studies and as `haustra stability` /
-# `haustra study`, their tables compared (deterministic columns bit for bit). About 3 minutes here.
+# `haustra study`, their tables compared (deterministic columns bit for bit); and the cohort's import
+# rows (from the last `make studies-doc`) against docs/anatomy.md. About 3 minutes here.
 studies-check: build
 	@$(STUDIES_ENV) /usr/bin/python3 scripts/studies-compare.py --workers 2
 
