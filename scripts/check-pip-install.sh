@@ -22,6 +22,8 @@ import pathlib
 package = pathlib.Path(haustra.__file__).parent
 missing = [f for f in ("py.typed", "_haustra.pyi", "types.py") if not (package / f).exists()]
 assert not missing, f"the installed package lacks {missing}"
+import haustra.studies  # the subpackage ships too (decision 0070)
+assert haustra.studies.__file__.startswith(venv), f"imported {haustra.studies.__file__}, not the environment's"
 cli_version = subprocess.run([cli, "--version"], capture_output=True, text=True, check=True).stdout.split()[-1]
 assert haustra.__version__ == cli_version == metadata.version("haustra"), (haustra.__version__, cli_version)
 w = haustra.World.from_scene(f"{source}/scenes/cantilever.toml")

@@ -15,6 +15,8 @@ packages=(
   python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-matplotlib
   # the stubs checked against the module and a typed example (decision 0080)
   python3-mypy
+  # haustra.studies: studies on Dask, a local cluster or any scheduler (decision 0070)
+  python3-dask python3-distributed
   # `pip install .` into a virtual environment, offline (decision 0059)
   python3-venv python3-pip python3-setuptools python3-wheel
   # `haustra import` computes centrelines with CGAL (decision 0047)

@@ -105,7 +105,7 @@ std::string load_title(const std::string& load) {
 }
 }  // namespace
 
-std::vector<StabilityCell> stability_sweep(const StabilityOptions& o) {
+std::vector<StabilityCell> stability_cells(const StabilityOptions& o) {
   std::vector<StabilityCell> cells;
   for (int n : o.nodes)
     for (const std::string& load : o.loads)
@@ -119,38 +119,47 @@ std::vector<StabilityCell> stability_sweep(const StabilityOptions& o) {
             c.load = load;
             c.law = law;
             c.frames = n > 200 ? o.frames_large : o.frames_small;
-            std::string event;
-            bool finite = true;
-            const std::string lagged_error =
-                run_cell(c, SolverMode::lagged, InstabilityPolicy::stop, o.max_substeps, finite, event);
-            c.finite = finite;
-            if (lagged_error.empty()) {
-              c.outcome = "lagged";
-            } else {
-              std::string robust_event;
-              const std::string robust_error =
-                  run_cell(c, SolverMode::lagged, InstabilityPolicy::recover, o.max_substeps, finite, robust_event);
-              c.finite = c.finite && finite;
-              if (robust_error.empty()) {
-                c.outcome = "robust";
-                c.detail = robust_event;
-              } else {
-                c.outcome = "error";
-                c.detail = robust_error;
-                c.names_cause = names_cause(robust_error);
-              }
-            }
-            if (o.fast) {
-              std::string fast_event;
-              const std::string fast_error =
-                  run_cell(c, SolverMode::fast, InstabilityPolicy::recover, o.max_substeps, finite, fast_event);
-              c.finite = c.finite && finite;
-              c.fast_outcome = !fast_error.empty() ? "error" : (fast_event.empty() ? "fast" : "robust");
-              c.fast_detail = fast_error.empty() ? fast_event : fast_error;
-              if (!fast_error.empty()) c.names_cause = c.names_cause && names_cause(fast_error);
-            }
             cells.push_back(c);
           }
+  return cells;
+}
+
+StabilityCell run_stability_cell(StabilityCell c, const StabilityOptions& o) {
+  std::string event;
+  bool finite = true;
+  const std::string lagged_error = run_cell(c, SolverMode::lagged, InstabilityPolicy::stop, o.max_substeps, finite, event);
+  c.finite = finite;
+  if (lagged_error.empty()) {
+    c.outcome = "lagged";
+  } else {
+    std::string robust_event;
+    const std::string robust_error =
+        run_cell(c, SolverMode::lagged, InstabilityPolicy::recover, o.max_substeps, finite, robust_event);
+    c.finite = c.finite && finite;
+    if (robust_error.empty()) {
+      c.outcome = "robust";
+      c.detail = robust_event;
+    } else {
+      c.outcome = "error";
+      c.detail = robust_error;
+      c.names_cause = names_cause(robust_error);
+    }
+  }
+  if (o.fast) {
+    std::string fast_event;
+    const std::string fast_error =
+        run_cell(c, SolverMode::fast, InstabilityPolicy::recover, o.max_substeps, finite, fast_event);
+    c.finite = c.finite && finite;
+    c.fast_outcome = !fast_error.empty() ? "error" : (fast_event.empty() ? "fast" : "robust");
+    c.fast_detail = fast_error.empty() ? fast_event : fast_error;
+    if (!fast_error.empty()) c.names_cause = c.names_cause && names_cause(fast_error);
+  }
+  return c;
+}
+
+std::vector<StabilityCell> stability_sweep(const StabilityOptions& o) {
+  std::vector<StabilityCell> cells = stability_cells(o);
+  for (StabilityCell& c : cells) c = run_stability_cell(c, o);
   return cells;
 }
 

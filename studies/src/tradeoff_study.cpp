@@ -6,6 +6,7 @@
 
 #include <chrono>
 
+#include "haustra/error.hpp"
 #include "tradeoff_knobs.hpp"
 
 namespace haustra::validation {
@@ -81,18 +82,39 @@ std::string guide_line(const TradeoffKnob& k) {
 
 }  // namespace
 
-TradeoffStudy run_tradeoff_study(const std::function<void(const std::string&)>& progress) {
-  const auto start = Clock::now();
-  TradeoffStudy s;
-  const std::vector<std::pair<std::string, TradeoffKnob (*)()>> knobs = {
+namespace {
+using KnobFunction = TradeoffKnob (*)();
+const std::vector<std::pair<std::string, KnobFunction>>& knob_functions() {
+  static const std::vector<std::pair<std::string, KnobFunction>> knobs = {
       {"nodes per segment", knob_nodes},         {"beads per node", knob_beads},
       {"iterations per frame", knob_iterations}, {"inertia filter", knob_filter},
       {"Hooke against EXP2", knob_exp2},         {"MVC rings and linear blend", knob_rings},
       {"float against double", knob_precision},  {"exponential against midpoint", knob_integrator},
       {"grasp coupling", knob_coupling}};
-  for (const auto& [name, run] : knobs) {
+  return knobs;
+}
+}  // namespace
+
+std::vector<std::string> tradeoff_knob_names() {
+  std::vector<std::string> names;
+  for (const auto& [name, run] : knob_functions()) names.push_back(name);
+  return names;
+}
+
+TradeoffKnob run_tradeoff_knob(const std::string& name) {
+  for (const auto& [known, run] : knob_functions())
+    if (known == name) return run();
+  std::string names;
+  for (const auto& [known, run] : knob_functions()) names += (names.empty() ? "'" : ", '") + known + "'";
+  throw Error(ErrorCode::invalid_argument, fmt::format("trade-off study: no knob '{}' (expected one of {})", name, names));
+}
+
+TradeoffStudy run_tradeoff_study(const std::function<void(const std::string&)>& progress) {
+  const auto start = Clock::now();
+  TradeoffStudy s;
+  for (const std::string& name : tradeoff_knob_names()) {
     if (progress) progress(name);
-    s.knobs.push_back(run());
+    s.knobs.push_back(run_tradeoff_knob(name));
   }
   s.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return s;

@@ -36,6 +36,11 @@ struct StabilityOptions {
   bool fast = true;  // also run each cell in fast mode
 };
 
+// The cells of the sweep, in its order, with only their parameters (E, dt, N, load, law, frames)
+// set; one cell run (its outcome filled in): what the sweep does for each, and what a study on
+// Dask runs as one task (python/haustra/studies, decision 0070).
+std::vector<StabilityCell> stability_cells(const StabilityOptions& options);
+StabilityCell run_stability_cell(StabilityCell cell, const StabilityOptions& options);
 std::vector<StabilityCell> stability_sweep(const StabilityOptions& options);
 
 // The N = 20,000 corner: softest, paper and stiffest material at the extreme time steps.

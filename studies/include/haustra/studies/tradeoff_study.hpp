@@ -35,6 +35,11 @@ struct TradeoffStudy {
   double seconds = 0.0;
 };
 
+// The knobs' names in the study's order, and one knob run (an unknown name is refused, the names
+// listed): what the study runs in turn, and what a study on Dask runs as one task (decision 0070).
+std::vector<std::string> tradeoff_knob_names();
+TradeoffKnob run_tradeoff_knob(const std::string& name);
+
 // progress: called with each knob's name as it starts (for the command line), may be empty.
 TradeoffStudy run_tradeoff_study(const std::function<void(const std::string&)>& progress = {});
 std::string tradeoff_markdown(const TradeoffStudy& study);

@@ -1,0 +1,185 @@
+"""haustra.studies on Dask: a 2-worker local cluster equals serial row for row; a killed worker loses and
+duplicates nothing; a stopped study resumes with only the missing cells; a bad override is its row's error."""
+import functools
+import os
+import pathlib
+import sys
+
+import cloudpickle
+import pytest
+
+import haustra
+from haustra import studies
+
+SOURCE = pathlib.Path(os.environ.get("HAUSTRA_SOURCE", pathlib.Path(__file__).parents[2])).resolve()
+GRASP_PULL = SOURCE / "scenes" / "grasp-pull.toml"
+
+# 3 stiffnesses × 2 iteration counts × 2 protocols = 12 cells of 20 frames of scenes/grasp-pull.toml.
+TWELVE_CELLS = f"""
+[study]
+name = "twelve"
+frames = 20
+reference = "segment.youngs_modulus=100000.0,solver.iterations=2"
+[grid]
+scenes = ["{GRASP_PULL}"]
+protocols = ["scripted", "grasp-and-lift"]
+[sweep]
+"segment.youngs_modulus" = [20000.0, 50000.0, 100000.0]
+"solver.iterations" = [1, 2]
+"""
+
+# The workers unpickle the cell functions below by value: this test module is not importable there.
+cloudpickle.register_pickle_by_value(sys.modules[__name__])
+
+
+def write_study(folder, text):
+    path = pathlib.Path(folder) / "study.toml"
+    path.write_text(text)
+    return studies.load_study(path)
+
+
+def deterministic_rows(rows):
+    return [studies.deterministic(r) for r in rows]
+
+
+@pytest.fixture(scope="module")
+def serial_rows(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("serial")
+    study = write_study(folder, TWELVE_CELLS)
+    result = studies.run_study(study, folder / "out", serial=True, show_progress=False)
+    assert result["ran"] == 12 and result["failed"] == 0
+    return result["rows"]
+
+
+def test_the_serial_rows_measure_the_runs(serial_rows):
+    keys = [r["key"] for r in serial_rows]
+    assert len(set(keys)) == 12
+    assert all(r["engine_version"] == haustra.__version__ and r["finite"] == "true" for r in serial_rows)
+    lifts = [float(r["lift_m"]) for r in serial_rows if r["protocol"] == "grasp-and-lift"]
+    # 20 frames of 1/60 s of a 1 s lift of 2 cm: the grasped node rises, by less than the jaws did.
+    assert all(0.0 < lift < 0.02 * 20 / 60 + 1e-3 for lift in lifts), lifts
+    # A softer rod sags differently: the settings change the numbers.
+    assert len({r["tip_z"] for r in serial_rows if r["protocol"] == "scripted"}) == 6
+
+
+def test_a_two_worker_local_cluster_gives_the_serial_rows(tmp_path, serial_rows):
+    study = write_study(tmp_path, TWELVE_CELLS)
+    result = studies.run_study(study, tmp_path / "out", workers=2, show_progress=False)
+    assert result["ran"] == 12
+    assert deterministic_rows(result["rows"]) == deterministic_rows(serial_rows)
+
+
+def crash_once(cell, marker, victim):
+    """The victim cell kills its own worker process on its first attempt (the marker file says it did)."""
+    if cell["key"] == victim and not pathlib.Path(marker).exists():
+        pathlib.Path(marker).write_text(str(os.getpid()))
+        os._exit(9)
+    return studies.run_cell(cell)
+
+
+def test_a_worker_killed_mid_study_loses_and_duplicates_nothing(tmp_path, serial_rows):
+    study = write_study(tmp_path, TWELVE_CELLS)
+    marker = tmp_path / "killed"
+    runner = functools.partial(crash_once, marker=str(marker), victim=study.cells[5]["key"])
+    result = studies.run_study(study, tmp_path / "out", workers=2, cell_runner=runner, show_progress=False)
+    assert marker.exists() and int(marker.read_text()) != os.getpid()  # a worker process died
+    assert result["ran"] == 12
+    written = studies.read_rows(tmp_path / "out" / "results.csv")
+    assert sorted(r["key"] for r in written) == sorted(c["key"] for c in study.cells)  # each exactly once
+    assert deterministic_rows(written) == deterministic_rows(serial_rows)
+
+
+class Stopped(BaseException):
+    """A stop (Ctrl-C, a job's time limit) after some cells: not a cell failure."""
+
+
+def stop_after(count, ran):
+    def runner(cell):
+        if len(ran) == count:
+            raise Stopped()
+        ran.append(cell["key"])
+        return studies.run_cell(cell)
+    return runner
+
+
+def test_a_stopped_study_runs_only_its_missing_cells_again(tmp_path, serial_rows):
+    study = write_study(tmp_path, TWELVE_CELLS)
+    first = []
+    with pytest.raises(Stopped):
+        studies.run_study(study, tmp_path / "out", serial=True, cell_runner=stop_after(5, first), show_progress=False)
+    assert len(studies.read_rows(tmp_path / "out" / "results.csv")) == 5
+    second = []
+    result = studies.run_study(study, tmp_path / "out", serial=True, cell_runner=stop_after(99, second),
+                               show_progress=False)
+    assert result["skipped"] == 5 and result["ran"] == 7
+    assert sorted(first + second) == sorted(c["key"] for c in study.cells) and not set(first) & set(second)
+    assert deterministic_rows(result["rows"]) == deterministic_rows(serial_rows)
+
+
+def test_a_bad_override_is_its_rows_error_and_the_others_complete(tmp_path):
+    study = write_study(tmp_path, f"""
+[study]
+name = "bad"
+frames = 5
+[grid]
+scenes = ["{GRASP_PULL}"]
+[[setting]]
+name = "default"
+[[setting]]
+name = "negative stiffness"
+overrides = {{ "segment.youngs_modulus" = -1.0 }}
+[[setting]]
+name = "fewer iterations"
+overrides = {{ "solver.iterations" = 1 }}
+""")
+    result = studies.run_study(study, tmp_path / "out", serial=True, show_progress=False)
+    rows = {r["setting"]: r for r in result["rows"]}
+    with pytest.raises(haustra.Error) as engine:
+        haustra.World.from_scene(GRASP_PULL, overrides={"segment.youngs_modulus": -1.0, "world.threads": 1})
+    assert rows["negative stiffness"]["status"] == "failed"
+    assert rows["negative stiffness"]["error"] == str(engine.value).strip().splitlines()[0]
+    assert "youngs_modulus" in rows["negative stiffness"]["error"]
+    assert [rows[s]["status"] for s in ("default", "fewer iterations")] == ["ok", "ok"]
+    assert rows["default"]["frames"] == "5"
+
+
+def test_a_study_file_with_an_unknown_protocol_names_the_field(tmp_path):
+    with pytest.raises(studies.StudyError, match=r"grid.protocols: 'wobble' is not a protocol"):
+        write_study(tmp_path, f'[grid]\nscenes = ["{GRASP_PULL}"]\nprotocols = ["wobble"]\n')
+
+
+def test_stability_cells_through_dask_give_the_committed_map(tmp_path):
+    """The stability map's cells at N ≤ 20 (240 of 516) as a Dask study on 2 workers: outcomes equal to
+    tests/data/stability-map.csv, the table `make stability-doc` writes (the whole map: make studies-check)."""
+    study = write_study(tmp_path, '[study]\nname = "stability"\nkind = "stability"\n')
+    study.cells = [c for c in study.cells if c["setting"].startswith(("N=2 ", "N=20 "))]
+    result = studies.run_study(study, tmp_path / "out", workers=2, show_progress=False)
+    mine = [f"{r['nodes']},{float(r['youngs_modulus']):g},{float(r['dt']):g},{r['load']},{r['law']},{r['outcome']},"
+            f"{r['fast_outcome']}" for r in result["rows"]]
+    with open(SOURCE / "tests" / "data" / "stability-map.csv") as f:
+        committed = [line.strip() for line in f if line.split(",")[0] in ("2", "20")]
+    assert len(mine) == 240 and mine == committed
+
+
+def test_an_unknown_tradeoff_knob_is_refused_with_the_known_ones():
+    with pytest.raises(haustra.InvalidArgumentError, match=r"no knob 'wobble' \(expected one of 'nodes per segment'"):
+        haustra._haustra._studies.run_tradeoff_knob("wobble")
+
+
+def test_a_setting_removed_from_the_file_keeps_its_rows(tmp_path, serial_rows):
+    study = write_study(tmp_path, TWELVE_CELLS)
+    studies.run_study(study, tmp_path / "out", serial=True, show_progress=False)
+    fewer = write_study(tmp_path, TWELVE_CELLS.replace("[20000.0, 50000.0, 100000.0]", "[50000.0, 100000.0]"))
+    result = studies.run_study(fewer, tmp_path / "out", serial=True, show_progress=False)
+    assert result["ran"] == 0 and result["skipped"] == 8 and len(result["rows"]) == 8
+    assert len(studies.read_rows(tmp_path / "out" / "results.csv")) == 12  # the other 4 still there, after
+
+
+def test_grasp_and_lift_measures_the_grasped_node_of_a_chain(tmp_path):
+    """scenes/bowel.toml is 32 chained segments: the grasped node's index is its segment's own, and the lift is
+    read at its world index (the jaws rise 2 cm × 20/60 ≈ 6.7 mm in 20 frames; the tissue follows most of it)."""
+    study = write_study(tmp_path, f'[study]\nframes = 20\n[grid]\nscenes = ["{SOURCE / "scenes" / "bowel.toml"}"]\n'
+                                  'protocols = ["grasp-and-lift"]\n')
+    row = studies.run_study(study, tmp_path / "out", serial=True, show_progress=False)["rows"][0]
+    assert row["status"] == "ok", row["error"]
+    assert 0.5 * 0.02 * 20 / 60 < float(row["lift_m"]) <= 0.02 * 20 / 60 + 1e-3
