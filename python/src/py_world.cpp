@@ -4,7 +4,7 @@
 #include <fmt/format.h>
 
 #include <chrono>
-#include <regex>
+#include <string>
 
 #include "haustra/error.hpp"
 #include "recording.hpp"
@@ -61,6 +61,23 @@ PyWorld::StepOutcome PyWorld::step(long frames, Recorder* recorder) {
   return out;
 }
 
+namespace {
+
+// "FILE:L:C: rest" → "rest" (the position in a TOML text made from a dict); other text as it is.
+std::string without_position(const std::string& message, const std::string& file) {
+  const std::string head = file + ":";
+  if (message.rfind(head, 0) != 0) return message;
+  std::size_t at = head.size();
+  for (int number = 0; number < 2; ++number) {  // L: then C:
+    const std::size_t digits = message.find_first_not_of("0123456789", at);
+    if (digits == at || digits == std::string::npos || message[digits] != ':') return message;
+    at = digits + 1;
+  }
+  return message.substr(at + (message.compare(at, 1, " ") == 0 ? 1 : 0));
+}
+
+}  // namespace
+
 void rethrow_without_lines(const std::filesystem::path& file) {
   const std::string label = "World(desc)";
   try {
@@ -68,9 +85,7 @@ void rethrow_without_lines(const std::filesystem::path& file) {
   } catch (const FieldError& e) {  // the key path, not a line of the TOML text made from the dict
     throw FieldError(e.code(), e.field(), e.detail(), fmt::format("{}: {}: {}", label, e.field(), e.detail()));
   } catch (const Error& e) {
-    const std::regex line_prefix(std::regex_replace(file.string(), std::regex(R"([.^$|()\[\]{}*+?\\])"), R"(\$&)") +
-                                 R"(:\d+:\d+: )");
-    throw Error(e.code(), std::regex_replace(e.what(), line_prefix, label + ": "));
+    throw Error(e.code(), fmt::format("{}: {}", label, without_position(e.what(), file.string())));
   }
 }
 
