@@ -2,6 +2,7 @@
 works on every function and method, every public name has a docstring, each TypedDict lists exactly
 the keys the module returns, and a typed study passes mypy --strict (and a wrong key does not)."""
 import inspect
+import os
 import pathlib
 import subprocess
 import sys
@@ -19,7 +20,8 @@ TOOLS = SOURCE / "python" / "tools"
 
 
 def module_env():
-    return {"PYTHONPATH": str(PACKAGE.parent), "PATH": "/usr/bin:/bin", "MYPY_CACHE_DIR": "/dev/null"}
+    """This process's environment (a sanitizer build's preloads included), the package first on the path."""
+    return {**os.environ, "PYTHONPATH": str(PACKAGE.parent), "MYPY_CACHE_DIR": "/dev/null"}
 
 
 def public_world_members():
