@@ -21,8 +21,12 @@ Errors raise haustra.Error (or a subclass per kind: InvalidArgumentError, FileEr
 GeometryError, UnstableError, InternalError) with the engine's message: file, line and field.
 """
 
+import os
+
 from ._haustra import (  # noqa: F401
     __version__,
+    CONTACT_KINDS,
+    RECORDABLE,
     Error,
     FileError,
     GeometryError,
@@ -38,11 +42,12 @@ from ._haustra import (  # noqa: F401
 
 __all__ = [
     "__version__", "World", "validate", "save_mesh", "estimate_memory", "Error", "InvalidArgumentError", "FileError",
-    "ParseError", "GeometryError", "UnstableError", "InternalError", "save_segment_mesh",
+    "ParseError", "GeometryError", "UnstableError", "InternalError", "save_segment_mesh", "RECORDABLE",
+    "CONTACT_KINDS",
 ]
 
 
-def save_segment_mesh(world, path, segment=0):
+def save_segment_mesh(world: World, path: "str | os.PathLike[str]", segment: int = 0) -> None:
     """Writes one segment's organ mesh at the current frame (.obj, .ply, .stl, .glb), with normals."""
     info = world.segments[segment]
     first, count = info["mesh_vertex_offset"], info["mesh_vertex_count"]

@@ -16,9 +16,9 @@ namespace {
 toml::table table_of(const py::dict& d, const std::string& path);
 
 [[noreturn]] void refuse(const std::string& path, const py::handle& value) {
-  throw Error(ErrorCode::invalid_argument,
-              fmt::format("{}: expected a bool, int, float, str, list or dict, got {}", path,
-                          py::str(py::type::of(value).attr("__name__")).cast<std::string>()));
+  throw FieldError(ErrorCode::invalid_argument, path,
+                   fmt::format("expected a bool, int, float, str (or path), list or dict, got {}",
+                               py::str(py::type::of(value).attr("__name__")).cast<std::string>()));
 }
 
 // Where a converted value goes: a table's key or the end of an array. Two fixed types, so the
@@ -52,6 +52,8 @@ void insert_value(const py::handle& value, const std::string& path, const Into& 
     insert(value.cast<double>());
   } else if (py::isinstance<py::str>(value)) {
     insert(value.cast<std::string>());
+  } else if (py::hasattr(value, "__fspath__")) {  // a pathlib.Path (any os.PathLike) as its text
+    insert(py::module_::import("os").attr("fspath")(value).cast<std::string>());
   } else if (py::isinstance<py::dict>(value)) {
     insert(table_of(value.cast<py::dict>(), path));
   } else if (py::isinstance<py::list>(value) || py::isinstance<py::tuple>(value)) {

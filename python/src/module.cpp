@@ -2,7 +2,9 @@
 #include "bindings.hpp"
 #include "typed.hpp"
 
-namespace haustra::python { void bind_studies(pybind11::module_& m); }  // studies_binding.cpp
+namespace haustra::python {
+void bind_studies(pybind11::module_& m);
+}  // namespace haustra::python
 
 PYBIND11_MODULE(_haustra, m) {
   m.doc() = "haustra: beads-on-string soft organs (Cosserat rod, beads, cage-driven mesh)";

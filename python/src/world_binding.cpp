@@ -32,8 +32,12 @@ std::vector<std::string> overrides_of(const std::optional<py::dict>& overrides) 
 PyWorld* world_of_dict(const py::dict& desc, const std::optional<py::dict>& overrides,
                        const std::optional<std::filesystem::path>& base_dir) {
   WorldOrigin origin;
-  origin.text = toml_text(desc);
   origin.file = (base_dir ? *base_dir : std::filesystem::current_path()) / "World(desc)";
+  try {
+    origin.text = toml_text(desc);
+  } catch (const Error&) {
+    rethrow_without_lines(origin.file);
+  }
   origin.overrides = overrides_of(overrides);
   origin.from_dict = true;
   return build_world(std::move(origin));

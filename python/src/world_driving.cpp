@@ -112,7 +112,12 @@ void bind_instruments(WorldClass& c) {
 
 void bind_parameters(WorldClass& c) {
   c.def_property(
-      "gravity", [](PyWorld& w) { return Float64Array(array3(w.locked()->gravity())); },
+      "gravity",
+      [](PyWorld& w) {
+        py::array a = array3(w.locked()->gravity());
+        a.attr("setflags")(py::arg("write") = false);  // a copy: writing into it would change nothing
+        return Float64Array(a);
+      },
       [](PyWorld& w, const ArrayLike& g) { w.locked()->set_gravity(vector3(g, "gravity")); },
       "m/s², world frame. Settable between steps (no rebuild), checked as the scene's world.gravity.");
   c.def_property(

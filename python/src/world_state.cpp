@@ -56,7 +56,8 @@ void bind_world_state(WorldClass& c) {
   auto velocities = [](const World& x, std::span<double> a, std::span<double> b) { x.node_velocities(a, b); };
   c.def_property_readonly(
       "node_velocities", [velocities](PyWorld& w) { return derived(w, velocities, true); },
-      "(N, 3) float64, m/s: each node's velocity over the last frame by finite difference, (r − r₀)/dt. Zeros "
+      "(N, 3) float64, m/s: each node's velocity over the last frame by finite difference, (r − r₀)/dt (the "
+      "model is quasi-static with drag: a free rod falls at its drag-limited speed, not at g·t). Zeros "
       "before the first step and after a pose or a restore. A copy.");
   c.def_property_readonly(
       "angular_velocities", [velocities](PyWorld& w) { return derived(w, velocities, false); },
@@ -65,16 +66,21 @@ void bind_world_state(WorldClass& c) {
   auto stresses = [](const World& x, std::span<double> a, std::span<double> b) { x.section_stresses(a, b); };
   c.def_property_readonly(
       "section_moments", [stresses](PyWorld& w) { return derived(w, stresses, true); },
-      "(N, 3) float64, N·m, material frame: the internal moment at each section from the tissue law at the "
-      "current strains (bending about d1, d2; twist about d3), the elastic part. A copy.");
+      "(N, 3) float64, N·m, material frame: the internal moment at each section from the tissue law (bending "
+      "about d1, d2; twist about d3): its elastic part at the current strains plus its viscous part at their rate "
+      "over the last frame (the paper's viscous bending and torsion have only the latter). A copy.");
   c.def_property_readonly(
       "section_forces", [stresses](PyWorld& w) { return derived(w, stresses, false); },
-      "(N, 3) float64, N, material frame: the internal force at each section from the tissue law: (0, 0, axial "
-      "force); the rod is unshearable, so no shear force is constitutive. A copy.");
+      "(N, 3) float64, N, material frame: the internal force at each section from the tissue law, elastic and "
+      "viscous as section_moments: (0, 0, axial force); the rod is unshearable, so no shear force is "
+      "constitutive. A copy.");
   c.def_property_readonly("contact_records", &contact_records,
-                          "The last frame's contacts, one record each (a structured array): bead, other (a bead, or "
-                          "the shape's index), kind (an index into haustra.CONTACT_KINDS), point, normal, force (N, "
-                          "on the bead), direction, stiffness (N/m), depth (m, > 0 overlapping), coupled. A copy.");
+                          "The last frame's contact candidates (pairs within the margin; depth > 0 where they touch, "
+                          "force 0 where they do not), one record each (a structured array): bead, other (a bead, or "
+                          "the shape's index), kind (an index into haustra.CONTACT_KINDS), point (nearest point of "
+                          "the other surface), normal (a mesh's plane normal; (0, 0, 1) for other kinds), force (N, "
+                          "on the bead), direction (the separating direction: use it for every kind), stiffness "
+                          "(N/m), depth (m), coupled. A copy.");
 }
 
 }  // namespace haustra::python

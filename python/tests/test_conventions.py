@@ -119,3 +119,15 @@ def test_loads_are_set_or_added_as_the_call_says(scenes):
     assert np.array_equal(force, [0.0, 0.0, 2.0]) and np.array_equal(moment, [0.0, 0.0, 0.0])
     with pytest.raises(haustra.InvalidArgumentError, match="out of range"):
         w.external_load(w.node_count)
+
+
+def test_a_dict_takes_paths_and_names_a_value_it_cannot_take():
+    desc = two_segment_desc()
+    desc["environment"]["mesh"][0]["file"] = SCENES / "assets" / "bolster.obj"  # a pathlib.Path
+    assert haustra.World(desc).node_count > 0
+    desc["environment"]["mesh"][0]["file"] = None
+    with pytest.raises(haustra.InvalidArgumentError) as error:
+        haustra.World(desc)
+    assert str(error.value) == "World(desc): environment.mesh[0].file: expected a bool, int, float, str (or path), " \
+                               "list or dict, got NoneType"
+    assert error.value.field == "environment.mesh[0].file"

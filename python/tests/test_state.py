@@ -167,3 +167,27 @@ def test_a_material_change_keeps_the_mesh_and_copies_with_the_world(scenes):
     assert np.array_equal(copied.mesh_positions, built.mesh_positions)
     with pytest.raises(haustra.InvalidArgumentError, match="youngs_modulus"):
         changed.set_material(0, youngs_modulus=-1.0)
+
+
+def test_viscous_bending_carries_its_rate_moment(scenes):
+    # grasp-pull's rod: bending and torsion viscous (η = k × relaxation time, no elastic part), axial
+    # elastic. While it moves, m = η (κ − κ₀)/dt with κ₀ the strains the frame started from.
+    w = haustra.World.from_scene(scenes / "grasp-pull.toml")
+    rec = w.step(45, record=["strains", "section_moments"])
+    s = w.segments[0]
+    eta = s["bending_stiffness"] * 1.0  # the scene's relaxation time: the default, 1 s
+    expected = eta * (rec["strains"][-1, :, :2] - rec["strains"][-2, :, :2]) / w.dt
+    scale = np.abs(expected).max()
+    assert scale > 0  # it moves
+    assert np.abs(w.section_moments[:, :2] - expected).max() < 1e-9 * scale
+    assert np.array_equal(rec["section_moments"][-1], w.section_moments)
+
+
+def test_gravity_is_read_only_and_checked():
+    w = haustra.World(rod(nodes=5))
+    with pytest.raises(ValueError):
+        w.gravity[2] = 0.0  # a copy: writing into it would change nothing, so it refuses
+    with pytest.raises(haustra.InvalidArgumentError, match="world.gravity: expected at most 1000"):
+        w.gravity = [0.0, 0.0, 1e30]
+    assert list(w.gravity) == [0.0, 0.0, -9.81]
+    assert "node_positions" in haustra.RECORDABLE and haustra.CONTACT_KINDS[0] == "bead"

@@ -108,9 +108,16 @@ def class_stub(cls):
     return out if members or cls.__doc__ else out + "    ...\n"
 
 
+ERROR_ATTRIBUTES = """    code: str  # the kind: 'invalid_argument', 'io', 'parse', 'invalid_geometry', 'unstable', 'internal'
+    field: Optional[str]  # the scene field it is about
+    recording: Dict[str, numpy.typing.NDArray[Any]]  # raised by step(n, record=...): the frames before it
+"""
+
+
 def exception_stub(cls):
     bases = ", ".join(b.__name__ for b in cls.__bases__)
-    return f"class {cls.__name__}({bases}):\n" + (docstring(cls.__doc__ or "", "    ") or "    ...\n")
+    out = f"class {cls.__name__}({bases}):\n" + (docstring(cls.__doc__ or "", "    ") or "    ...\n")
+    return out + (ERROR_ATTRIBUTES if cls is module.Error else "")
 
 
 def main(path):

@@ -120,9 +120,10 @@ class World {
   // Velocities are finite differences over the last frame: (r − r₀)/dt and the rotation vector of
   // R·R₀ᵀ over dt (world frame); zero before the first step and after a pose or a restore.
   void node_velocities(std::span<double> linear, std::span<double> angular) const;
-  // Per section (node k's section), from the tissue law at the current strains (the elastic part,
-  // not the viscous one): the internal moment in the material frame (about d1, d2, twist about d3),
-  // N·m, and the internal force in the material frame (0, 0, axial), N.
+  // Per section (node k's section), from the tissue law at the current strains and their rate over
+  // the last frame (elastic and viscous parts; the elastic part alone before the first frame): the
+  // internal moment in the material frame (about d1, d2, twist about d3), N·m, and the internal
+  // force in the material frame (0, 0, axial), N.
   void section_stresses(std::span<double> moments, std::span<double> forces) const;
 
   // Checkpoints: everything a later frame depends on, as bytes (docs/decisions/0026-checkpoints.md).

@@ -92,26 +92,35 @@ void World::node_velocities(std::span<double> linear, std::span<double> angular)
   }
 }
 
-// The law's stress with the strain at the step's start equal to the strain: no rate, the elastic part.
+// The law's stress at the current strains with its rate over the last frame (the strains the frame
+// started from, and its dt): elastic and viscous parts, as the frame's solve balanced them. Before
+// the first frame (or after a pose or a restore) there is no rate: the elastic part alone.
 void World::section_stresses(std::span<double> moments, std::span<double> forces) const {
   const std::size_t total = impl_->model.node_total;
   check_span(moments, total, "section_stresses: moments");
   check_span(forces, total, "section_stresses: forces");
   const auto& model = impl_->model;
   const std::vector<double>& strain = impl_->state.now.strain;
+  const bool moved = impl_->motion_dt > 0.0;
+  const std::vector<double>& start = moved ? impl_->state.frame_start.strain : strain;
+  const double dt = moved ? impl_->motion_dt : model.dt;
   std::vector<double> stress(strain.size()), tangent(strain.size()), coupling(total);
   for (const detail::SegmentModel& seg : model.segments) {
     const std::size_t off = seg.node_offset, n = seg.node_count;
-    const kernels::StrainView<const double> q{std::span<const double>(strain).subspan(4 * off, 4 * n)};
-    const kernels::StrainView<const double> rest{std::span<const double>(model.rest_strain).subspan(4 * off, 4 * n)};
+    auto part = [&](const std::vector<double>& v) {
+      return kernels::StrainView<const double>{std::span<const double>(v).subspan(4 * off, 4 * n)};
+    };
     const kernels::StrainView<double> s{std::span<double>(stress).subspan(4 * off, 4 * n)};
     if (seg.exp2) {
-      kernels::nodal_law_evaluate(q, rest, q, detail::nodal_law_of(seg, model.dt), s,
+      kernels::nodal_law_evaluate(part(strain), part(model.rest_strain), part(start), detail::nodal_law_of(seg, dt), s,
                                   kernels::StrainView<double>{std::span<double>(tangent).subspan(4 * off, 4 * n)},
                                   std::span<double>(coupling).subspan(off, n));
     } else {
+      const kernels::StrainLawCoefficients law = detail::law_of(seg, dt);
+      const auto q = part(strain), rest = part(model.rest_strain), q0 = part(start);
       for (std::size_t k = 0; k < n; ++k)
-        for (std::size_t c = 0; c < 4; ++c) s.at(k, c) = seg.stiffness[c] * (q.at(k, c) - rest.at(k, c));
+        for (std::size_t c = 0; c < 4; ++c)
+          s.at(k, c) = law.stiffness[c] * (q.at(k, c) - rest.at(k, c)) + law.rate[c] * (q.at(k, c) - q0.at(k, c));
     }
   }
   for (std::size_t k = 0; k < total; ++k) {

@@ -119,6 +119,8 @@ void check_memory(const WorldDesc& desc) {
 void check_world_desc(const WorldDesc& desc) {
   check_positive("world.dt", desc.dt, "s", 1.0);
   check_vector("world.gravity", desc.gravity, false);
+  if (desc.gravity.norm() > 1000.0)  // 100 g: beyond any body a simulator trains on, and a typo's likely sign
+    fail("world.gravity", fmt::format("expected at most 1000 m/s² (100 g), got {:.6g}", desc.gravity.norm()));
   check_int("world.threads", desc.threads, 0, 1024);
   check_solver(desc.solver);
   check_range("filter.zeta_scale", desc.filter.zeta_scale, 0.0, 1e12, "a scale factor");

@@ -99,12 +99,14 @@ class Progress:
         elapsed = time.monotonic() - self.start
         left = self.total - self.skipped - self.done
         eta = elapsed / self.done * left if self.done else 0.0
-        self.stream.write(f"\r{self.name}: {self.done + self.skipped}/{self.total} cells ({self.skipped} already "
-                          f"written), {self.failed} failed, {elapsed:.0f} s elapsed, ~{eta:.0f} s left   ")
+        terminal = getattr(self.stream, "isatty", lambda: False)()  # a log or a pipe gets one line per update
+        begin, end = ("\r", "   ") if terminal else ("", "\n")
+        self.stream.write(f"{begin}{self.name}: {self.done + self.skipped}/{self.total} cells ({self.skipped} "
+                          f"already written), {self.failed} failed, {elapsed:.0f} s elapsed, ~{eta:.0f} s left{end}")
         self.stream.flush()
 
     def finish(self):
-        if self.enabled:
+        if self.enabled and getattr(self.stream, "isatty", lambda: False)():
             self.stream.write("\n")
 
 
