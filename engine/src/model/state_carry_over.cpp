@@ -112,6 +112,7 @@ void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool c
   auto fresh = std::make_unique<Impl>(next, detail::build_world_model(next));
   detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, rod_map, carry_solver);
   fresh->events = impl_->events;
+  fresh->late_frames = impl_->late_frames;
   fresh->follow_rod();
   fresh->profile = FrameProfile{};
   impl_ = std::move(fresh);

@@ -120,6 +120,7 @@ void check_world_desc(const WorldDesc& desc) {
   check_positive("world.dt", desc.dt, "s", 1.0);
   check_vector("world.gravity", desc.gravity, false);
   check_int("world.threads", desc.threads, 0, 1024);
+  check_range("world.frame_budget", desc.frame_budget, 0.0, 3600.0, "seconds a frame may take (0: no budget)");
   check_solver(desc.solver);
   check_range("filter.zeta_scale", desc.filter.zeta_scale, 0.0, 1e12, "a scale factor");
   std::set<std::string> names;
