@@ -33,8 +33,8 @@ double quantile(std::vector<double> v, double q) {
 // Each iteration is one physics frame (with its publish), timed by hand; the counters are ms.
 void BM_SmallIntestine(benchmark::State& state) {
   std::vector<std::string> sets{"world.threads=2"};
-  if (state.range(0) == 2) sets.emplace_back("solver.mode=\"fast\"");
-  sets.emplace_back(state.range(1) == 1 ? "world.mesh_update=\"every_frame\"" : "world.mesh_update=\"on_read\"");
+  sets.emplace_back(state.range(0) == 2 ? "solver.mode=fast" : "solver.mode=newton");
+  sets.emplace_back(state.range(1) == 1 ? "world.mesh_update=every_frame" : "world.mesh_update=on_read");
   SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/small-intestine.toml", sets);
   scene.world.frame_budget = kHapticBudget;
   const Clock::time_point built0 = Clock::now();
