@@ -104,7 +104,7 @@ class World {
 
   // The mesh at render rate (decision 0060). With world.mesh_update = "on_read" (the default) a
   // step leaves the meshes behind; the accessors above bring them up to the current frame in the
-  // caller's thread. A reader on another thread instead takes the ring poses from the stepping
+  // caller's thread (so, like step(), not from two threads at once). A reader on another thread instead takes the ring poses from the stepping
   // thread (current_rings, cheap) and makes the mesh from them itself (mesh_from_rings, which
   // reads only the model and may run while the world steps): the same bits either way.
   [[nodiscard]] std::size_t ring_count() const;  // all segments' cage rings
