@@ -34,7 +34,7 @@ std::unique_ptr<World> bowel(int threads, const char* update) {
 
 }  // namespace
 
-TEST_CASE("a mesh made when read has the bits of the mesh made every frame, on 1 and 2 threads") {
+TEST_CASE("a mesh made when read has the bits of the mesh made every frame, with 1 and 2 threads") {
   // The bowel: 32 chained pieces with welded seams and normals, 64,576 vertices (skinned in
   // parallel chunks on 2 threads). The reference skins at the end of every frame on 1 thread.
   auto eager = bowel(1, "every_frame");
