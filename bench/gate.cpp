@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "haustra/scene.hpp"
 #include "haustra/studies/skinning_study.hpp"
@@ -14,8 +15,11 @@
 int main(int argc, char** argv) {
   using namespace haustra;
   const std::string workload = argc > 1 ? argv[1] : "";
-  if (workload == "drop-frame") {
-    SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/drop.toml");
+  if (workload == "drop-frame" || workload == "drop-fast-frame") {
+    // drop-fast-frame: the same frame in fast mode (decision 0037), the haptic loop's setting.
+    std::vector<std::string> sets;
+    if (workload == "drop-fast-frame") sets.emplace_back("solver.mode=fast");
+    SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/drop.toml", sets);
     scene.world.threads = 1;
     std::unique_ptr<World> w = create_world(scene);
     for (int f = 0; f < 60; ++f) w->step();  // fallen onto the floor: contacts in play
@@ -24,13 +28,14 @@ int main(int argc, char** argv) {
     w->step();
     CALLGRIND_TOGGLE_COLLECT;
     CALLGRIND_STOP_INSTRUMENTATION;
-    std::printf("drop frame %llu, %zu contacts touching\n", static_cast<unsigned long long>(w->frame()),
-                w->contacts().touching);
+    std::printf("drop frame %llu, %zu contacts touching, %d chords\n", static_cast<unsigned long long>(w->frame()),
+                w->contacts().touching, w->last_profile().chords);
     return 0;
   }
   if (workload == "skin-10k") {
     WorldDesc d = validation::study_organ(SkinningMethod::mean_value, 4);
     d.threads = 1;
+    d.mesh_update = MeshUpdate::every_frame;  // pose_rod skins at once (decision 0060)
     std::unique_ptr<World> w = World::create(d);
     const auto poses = validation::study_poses();
     w->pose_rod(0, w->base_pose(0), poses[1].strain);
@@ -42,6 +47,6 @@ int main(int argc, char** argv) {
     std::printf("skinned %zu vertices\n", w->mesh(0).vertices.count);
     return 0;
   }
-  std::fprintf(stderr, "usage: haustra_gate drop-frame|skin-10k\n");
+  std::fprintf(stderr, "usage: haustra_gate drop-frame|drop-fast-frame|skin-10k\n");
   return 2;
 }

@@ -25,6 +25,7 @@ class Profile(TypedDict):
     stiffenings: int  # Newton steps solved again with stiffened law rows
     chords: int  # fast mode: Newton iterations that reused the last factorization
     stalls: int  # line searches that took no part of a step that was not small
+    late: int  # 1 when the frame took longer than world.frame_budget
     newton: bool  # the frame that was kept ran Newton iterations
 
 

@@ -53,7 +53,7 @@ TEST_CASE("C API: version and ABI check") {
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION) == HAUSTRA_OK);
   CHECK(std::string(haustra_last_error()).empty());
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION + 1) == HAUSTRA_ABI_MISMATCH);
-  CHECK(says("ABI 8"));
+  CHECK(says("ABI 9"));
   CHECK(std::string(haustra_stage_name(0)) == "instruments");
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT - 1) != nullptr);
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT) == nullptr);
@@ -543,6 +543,47 @@ TEST_CASE("C API: a render thread reads completed frames while the world steps (
   CHECK(says("double_buffered"));
   CHECK(haustra_world_release_frame(single) == HAUSTRA_INVALID_ARGUMENT);
   REQUIRE(haustra_world_destroy(single) == HAUSTRA_OK);
+}
+
+TEST_CASE("C API: deadline mode counts the frames over the budget; the mesh made every frame or when read") {
+  const TestScene scene("c-api-two-segments");
+  haustra_world_def def;
+  REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+  CHECK(def.frame_budget == 0.0);
+  CHECK(def.mesh_every_frame == 0);
+  def.threads = 1;
+  def.frame_budget = 1e-9;  // no frame meets it
+  def.mesh_every_frame = 1;
+  haustra_world* w = nullptr;
+  REQUIRE(haustra_world_create_from_scene_def(scene.path.c_str(), &def, &w) == HAUSTRA_OK);
+  for (int f = 0; f < 4; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  haustra_profile p{};
+  REQUIRE(haustra_world_profile(w, &p) == HAUSTRA_OK);
+  CHECK(p.late == 1);
+  uint64_t late = 0;
+  REQUIRE(haustra_world_late_frames(w, &late) == HAUSTRA_OK);
+  CHECK(late == 4);
+  REQUIRE(haustra_world_set_frame_budget(w, 0.0) == HAUSTRA_OK);  // off
+  REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  REQUIRE(haustra_world_profile(w, &p) == HAUSTRA_OK);
+  CHECK(p.late == 0);
+  CHECK(haustra_world_set_frame_budget(w, -1.0) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("frame_budget"));
+  CHECK(haustra_world_late_frames(w, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  // The same frames with the mesh made when read: the same bits.
+  haustra_world_def lazy_def = def;
+  lazy_def.mesh_every_frame = 0;
+  haustra_world* lazy = nullptr;
+  REQUIRE(haustra_world_create_from_scene_def(scene.path.c_str(), &lazy_def, &lazy) == HAUSTRA_OK);
+  for (int f = 0; f < 5; ++f) REQUIRE(haustra_world_step(lazy) == HAUSTRA_OK);
+  CHECK(buffer_bits(lazy) == buffer_bits(w));
+  REQUIRE(haustra_world_destroy(lazy) == HAUSTRA_OK);
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+  haustra_world_def bad = def;
+  bad.mesh_every_frame = 2;
+  haustra_world* none = nullptr;
+  CHECK(haustra_world_create_from_scene_def(scene.path.c_str(), &bad, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("mesh_every_frame"));
 }
 
 TEST_CASE("C API: checkpoint to a file, restore, step on: the same bits") {

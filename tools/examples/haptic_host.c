@@ -5,7 +5,11 @@
  * frame and reads it while the haptic thread steps on, neither waiting for the other.
  *
  *   cc haptic_host.c -I$PREFIX/include -L$PREFIX/lib -Wl,-rpath,$PREFIX/lib -lhaustra -lpthread -lm
- *   ./a.out scenes/haptic-host.toml [seconds]
+ *   ./a.out scenes/haptic-host.toml [seconds] [threads]
+ *
+ * The world has a 1 ms frame budget (deadline mode): the host reports the frames over it and the
+ * physics frames' median, p99, p99.9 and max. The render thread's acquire makes the mesh of the
+ * frame it takes, in the render thread (the stepping thread publishes the rod and rings only).
  */
 #define _POSIX_C_SOURCE 200809L /* clock_gettime, nanosleep */
 #include <haustra/haustra.h>
@@ -36,6 +40,17 @@ static double smooth(double a, double b, double s) {
   return a + (b - a) * s;
 }
 
+static int by_value(const void* a, const void* b) {
+  const double x = *(const double*)a, y = *(const double*)b;
+  return (x > y) - (x < y);
+}
+
+/* The q-quantile of n sorted values. */
+static double quantile(const double* sorted, size_t n, double q) {
+  size_t i = (size_t)(q * (double)(n - 1) + 0.5);
+  return sorted[i < n ? i : n - 1];
+}
+
 static void* render_loop(void* arg) {
   Shared* sh = (Shared*)arg;
   const struct timespec frame = {0, 16666667}; /* 60 Hz */
@@ -64,14 +79,16 @@ static void* render_loop(void* arg) {
 int main(int argc, char** argv) {
   const char* scene = argc > 1 ? argv[1] : "scenes/haptic-host.toml";
   const double seconds = argc > 2 ? atof(argv[2]) : 10.0;
+  const int threads = argc > 3 ? atoi(argv[3]) : 1;
   haustra_status s = haustra_check_abi(HAUSTRA_ABI_VERSION);
   if (s != HAUSTRA_OK) return fail("haustra_check_abi", s);
 
   Shared sh = {PTHREAD_MUTEX_INITIALIZER, NULL, 0, 0, 0.0f, 0};
   haustra_world_def def;
   haustra_world_def_default(&def);
-  def.threads = 1;         /* the haptic thread steps alone */
+  def.threads = threads;   /* 1: the haptic thread steps alone */
   def.double_buffered = 1; /* the render thread reads completed frames */
+  def.frame_budget = 1e-3; /* a haptic frame's deadline: frames over it are counted */
   s = haustra_world_create_from_scene_def(scene, &def, &sh.world);
   if (s != HAUSTRA_OK) return fail("haustra_world_create_from_scene_def", s);
   haustra_counts counts;
@@ -90,6 +107,11 @@ int main(int argc, char** argv) {
   const double park[3] = {gx, gy, gz + 0.08}, up[3] = {0.0, 0.0, 1.0};
   double time = 0.0, max_force = 0.0;
   uint64_t frame = 0;
+  /* Every physics frame's time, kept before the loop so the loop allocates nothing. */
+  const size_t capacity = (size_t)(seconds * 1000.0) + 16;
+  double* frame_seconds = malloc(capacity * sizeof(double));
+  size_t timed = 0;
+  if (frame_seconds == NULL) return 1;
   int grasped_frames = 0, status = 0;
   struct timespec t0, t1;
   clock_gettime(CLOCK_MONOTONIC, &t0);
@@ -112,6 +134,9 @@ int main(int argc, char** argv) {
       status = fail("haustra_world_step", s);
       break;
     }
+    haustra_profile profile;
+    haustra_world_profile(sh.world, &profile);
+    if (timed < capacity) frame_seconds[timed++] = profile.frame_seconds;
     const double f = sqrt(r.force[0] * r.force[0] + r.force[1] * r.force[1] + r.force[2] * r.force[2]);
     if (f > max_force) max_force = f;
     grasped_frames += r.grasping;
@@ -128,6 +153,16 @@ int main(int argc, char** argv) {
   printf("grasping for %d frames, largest force on the grasper %.3f N\n", grasped_frames, max_force);
   printf("render thread: %ld mesh reads, lowest vertex %.4f m, %d non-finite vertices\n", sh.mesh_reads,
          (double)sh.lowest_vertex, sh.bad_vertices);
+  uint64_t late = 0;
+  haustra_world_late_frames(sh.world, &late);
+  if (timed > 0) {
+    qsort(frame_seconds, timed, sizeof(double), by_value);
+    printf("physics frame (%d threads): median %.0f us, p99 %.0f us, p99.9 %.0f us, max %.0f us; %llu of %zu over the 1 ms budget\n",
+           threads, 1e6 * quantile(frame_seconds, timed, 0.5), 1e6 * quantile(frame_seconds, timed, 0.99),
+           1e6 * quantile(frame_seconds, timed, 0.999), 1e6 * frame_seconds[timed - 1], (unsigned long long)late,
+           timed);
+  }
+  free(frame_seconds);
   haustra_world_destroy(sh.world);
   if (status == 0 && (grasped_frames == 0 || sh.mesh_reads == 0 || sh.bad_vertices != 0)) {
     fprintf(stderr, "the host saw no grasp, no mesh read, or a non-finite vertex\n");

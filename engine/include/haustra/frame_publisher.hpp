@@ -32,6 +32,11 @@ class FramePublisher {
     double time = 0.0;
     std::vector<double> x, y, z;                // nodes
     std::vector<float> px, py, pz, nx, ny, nz;  // mesh positions and normals
+    // Worlds whose mesh follows on read (decision 0060): the stepping thread publishes the frame's
+    // ring poses, and acquire() makes the mesh from them in the reader's thread.
+    std::vector<kernels::RingPose> rings;
+    std::vector<float> ring_delta;  // the reader's scratch
+    bool mesh_pending = false;
     FrameDetails details;                       // filled when the publisher wants details
   };
 
@@ -50,6 +55,7 @@ class FramePublisher {
     if (wait_for_reader) released_.wait(lock, [&] { return !held_; });
     refuse_if_held();
     const World& w = change();
+    world_ = &w;
     for (Slot& s : slots_) size_slot(s, w);
     fill(slots_[ready_], w);
     fresh_ = true;
@@ -58,7 +64,9 @@ class FramePublisher {
   // Whether cages are copied (a reader's toggle; takes effect from the next publish).
   void want_cages(bool on);
 
-  const Slot& acquire();  // the reading thread; one slot at a time
+  // The reading thread; one slot at a time. For a world whose mesh follows on read, the slot's
+  // mesh is made here, in the reader's thread, before it is returned.
+  const Slot& acquire();
   void release();
 
  private:
@@ -67,6 +75,7 @@ class FramePublisher {
   void refuse_if_held() const;
 
   std::array<Slot, 3> slots_;
+  const World* world_;  // whose model a reader's mesh is made with (changed only under the lock)
   std::mutex mutex_;
   std::condition_variable released_;
   int back_ = 0, ready_ = 1, reading_ = 2;

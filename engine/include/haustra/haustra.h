@@ -38,7 +38,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 8
+#define HAUSTRA_ABI_VERSION 9
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -108,6 +108,7 @@ typedef struct haustra_profile {
   int chords;      /* fast mode: Newton iterations that reused the last factorization */
   int stalls;      /* Newton iterations whose line search took none of a step that was not small */
   int iterations;  /* fixed-point iterations run, summed over substeps */
+  int late;        /* 1 when the frame took longer than the world's frame budget (decision 0061) */
   /* One field per counter of report_fields.h's HAUSTRA_PROFILE_COUNTERS (new ones at the end). */
 } haustra_profile;
 
@@ -139,6 +140,10 @@ typedef struct haustra_world_def {
   int self_contact;        /* 1 (default): beads of one segment collide */
   double memory_limit;     /* bytes the world may take (its estimate); 0 (default): what the machine has */
   int double_buffered;     /* 1: publish every frame for haustra_world_acquire_frame; default 0 */
+  int mesh_every_frame;    /* 1: skin the meshes at the end of every step; 0 (default): when read —
+                            * the accessors, or the render thread's acquire in its own thread (decision 0060) */
+  double frame_budget;     /* s a frame may take; one over it is counted (haustra_profile.late,
+                            * haustra_world_late_frames); 0 (default): none (decision 0061) */
 } haustra_world_def;
 
 /* One segment: a rod along a centreline (or straight), its beads, and its organ mesh. */
@@ -250,6 +255,9 @@ HAUSTRA_API haustra_status haustra_world_set_instrument_grasp(haustra_world* wor
 HAUSTRA_API haustra_status haustra_world_instrument(const haustra_world* world, size_t instrument,
                                                     haustra_instrument_reading* out);
 HAUSTRA_API haustra_status haustra_world_profile(const haustra_world* world, haustra_profile* out);
+/* Deadline mode (decision 0061): seconds a frame may take (0: none), and the frames over it so far. */
+HAUSTRA_API haustra_status haustra_world_set_frame_budget(haustra_world* world, double seconds);
+HAUSTRA_API haustra_status haustra_world_late_frames(const haustra_world* world, uint64_t* count);
 
 /* Double-buffered output (worlds created with double_buffered = 1). acquire gives the last
  * completed frame; its views stay valid, and unchanged, until release, however many frames the

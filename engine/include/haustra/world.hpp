@@ -103,6 +103,25 @@ class World {
   // Per cage vertex, the ring that carries it (an index into ring_poses(segment)).
   [[nodiscard]] std::span<const std::uint32_t> cage_vertex_rings(std::size_t segment) const;
 
+  // The mesh at render rate (decision 0060). With world.mesh_update = "on_read" (the default) a
+  // step leaves the meshes behind; the accessors above bring them up to the current frame in the
+  // caller's thread (so, like step(), not from two threads at once). A reader on another thread instead takes the ring poses from the stepping
+  // thread (current_rings, cheap) and makes the mesh from them itself (mesh_from_rings, which
+  // reads only the model and may run while the world steps): the same bits either way.
+  [[nodiscard]] std::size_t ring_count() const;  // all segments' cage rings
+  void current_rings(std::span<kernels::RingPose> out) const;
+  // ring_delta: kRingDeltaFloats × ring_count() floats of scratch; positions and normals:
+  // mesh_buffer_size() each.
+  void mesh_from_rings(std::span<const kernels::RingPose> rings, std::span<float> ring_delta,
+                       kernels::Vec3View<float> positions, kernels::Vec3View<float> normals) const;
+  [[nodiscard]] MeshUpdate mesh_update() const;
+
+  // The deadline of a frame in seconds (world.frame_budget, decision 0061): a frame that takes
+  // longer is counted in its profile (`late`) and in late_frames(). 0 turns it off.
+  void set_frame_budget(double seconds);
+  [[nodiscard]] double frame_budget() const;
+  [[nodiscard]] std::uint64_t late_frames() const;  // since the world was created
+
   [[nodiscard]] Energy energy() const;
 
   // Run-time parameters, between frames and without a rebuild: each is checked as the scene's field

@@ -326,6 +326,10 @@ struct JobSystemDesc {
   [[nodiscard]] bool enabled() const { return enqueue != nullptr; }
 };
 
+// When the organ meshes follow the rod (decision 0060): when a reader asks for them (the mesh
+// accessors, a FramePublisher's reader in its own thread), or at the end of every step as before.
+enum class MeshUpdate : std::uint8_t { on_read, every_frame };
+
 struct WorldDesc {
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};
   double dt = 1.0 / 60.0;
@@ -334,6 +338,10 @@ struct WorldDesc {
   int threads = 0;  // 0: all hardware threads
   // Bytes the world may take (its estimate, decision 0038); 0: what the machine has available.
   double memory_limit = 0.0;
+  MeshUpdate mesh_update = MeshUpdate::on_read;
+  // Seconds a frame may take (a haptic loop's deadline, decision 0061): a frame over it is counted in
+  // its profile (`late`). 0: no budget.
+  double frame_budget = 0.0;
   JobSystemDesc jobs;  // when set, the step's parallel stages run on the host's jobs, not oneTBB
   std::vector<SegmentDesc> segments;
   ContactDesc contact;

@@ -124,6 +124,11 @@ void apply_runtime(const haustra_world_def& d, haustra::WorldDesc& w) {
                 fmt::format("def.threads = {}: expected 0 (all cores) to 1024", d.threads));
   w.threads = d.threads;
   if (d.memory_limit != 0.0) w.memory_limit = d.memory_limit;
+  if (d.mesh_every_frame < 0 || d.mesh_every_frame > 1)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("def.mesh_every_frame = {}: expected 0 (when read) or 1 (every step)", d.mesh_every_frame));
+  if (d.mesh_every_frame == 1) w.mesh_update = haustra::MeshUpdate::every_frame;
+  if (d.frame_budget != 0.0) w.frame_budget = d.frame_budget;  // checked with the rest of the description
   if ((d.jobs.enqueue == nullptr) != (d.jobs.wait == nullptr))
     throw Error(ErrorCode::invalid_argument, "def.jobs: enqueue and wait are both needed (or neither, for oneTBB)");
   if (d.jobs.enqueue != nullptr) {
@@ -522,6 +527,14 @@ haustra_status haustra_world_profile(const haustra_world* world, haustra_profile
 #undef HAUSTRA_COPY_FIELD
     required(out, "out") = o;
   });
+}
+
+haustra_status haustra_world_set_frame_budget(haustra_world* world, double seconds) {
+  return guarded("haustra_world_set_frame_budget", [&] { live_handle(world).world->set_frame_budget(seconds); });
+}
+
+haustra_status haustra_world_late_frames(const haustra_world* world, uint64_t* count) {
+  return guarded("haustra_world_late_frames", [&] { required(count, "count") = live(world).late_frames(); });
 }
 
 haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* out) {

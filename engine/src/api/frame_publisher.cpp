@@ -8,7 +8,8 @@
 
 namespace haustra {
 
-FramePublisher::FramePublisher(const World& world, bool details, bool cages) : details_(details), cages_(cages) {
+FramePublisher::FramePublisher(const World& world, bool details, bool cages)
+    : world_(&world), details_(details), cages_(cages) {
   for (Slot& s : slots_) size_slot(s, world);
   publish(world);
 }
@@ -16,6 +17,9 @@ FramePublisher::FramePublisher(const World& world, bool details, bool cages) : d
 void FramePublisher::size_slot(Slot& s, const World& w) const {
   for (auto* v : {&s.x, &s.y, &s.z}) v->resize(w.node_count());
   for (auto* v : {&s.px, &s.py, &s.pz, &s.nx, &s.ny, &s.nz}) v->resize(w.mesh_buffer_size());
+  s.rings.resize(w.ring_count());
+  s.ring_delta.resize(kernels::kRingDeltaFloats * w.ring_count());
+  s.mesh_pending = false;
   if (!details_) return;
   s.details.strain.resize(4 * w.node_count());
   s.details.rest_strain.resize(4 * w.node_count());
@@ -33,7 +37,7 @@ void FramePublisher::publish(const World& world) {
 void FramePublisher::want_cages(bool on) { cages_ = on; }
 
 const FramePublisher::Slot& FramePublisher::acquire() {
-  std::lock_guard lock(mutex_);
+  std::unique_lock lock(mutex_);
   if (held_)
     throw Error(ErrorCode::invalid_argument,
                 "a frame is already acquired: call haustra_world_release_frame before acquiring the next");
@@ -42,7 +46,15 @@ const FramePublisher::Slot& FramePublisher::acquire() {
     fresh_ = false;
   }
   held_ = true;
-  return slots_[reading_];
+  Slot& s = slots_[reading_];
+  if (s.mesh_pending) {
+    // Outside the lock: the stepping thread publishes meanwhile; the held slot is never written
+    // and the world's model is not changed while a slot is held (resize).
+    lock.unlock();
+    world_->mesh_from_rings(s.rings, s.ring_delta, {s.px, s.py, s.pz}, {s.nx, s.ny, s.nz});
+    s.mesh_pending = false;
+  }
+  return s;
 }
 
 void FramePublisher::release() {
@@ -70,8 +82,13 @@ void FramePublisher::fill(Slot& s, const World& w) const {
     std::copy(from.z.begin(), from.z.end(), z.begin());
   };
   copy3(w.node_positions(), s.x, s.y, s.z);
-  copy3(w.mesh_positions(), s.px, s.py, s.pz);
-  copy3(w.mesh_normals(), s.nx, s.ny, s.nz);
+  if (w.mesh_update() == MeshUpdate::on_read) {
+    w.current_rings(s.rings);  // the reader makes the mesh (acquire)
+    s.mesh_pending = true;
+  } else {
+    copy3(w.mesh_positions(), s.px, s.py, s.pz);
+    copy3(w.mesh_normals(), s.nx, s.ny, s.nz);
+  }
   if (!details_) return;
   FrameDetails& d = s.details;
   const auto strain = w.strains().data, rest = w.rest_strains().data;

@@ -174,13 +174,49 @@ InstrumentReading World::instrument(std::size_t instrument) const {
 const MeshInfo& World::mesh(std::size_t segment) const { return impl_->mesh_of(segment).info; }
 std::size_t World::mesh_buffer_size() const { return impl_->model.mesh_vertex_total; }
 kernels::Vec3View<const float> World::mesh_positions() const {
+  impl_->bring_mesh_up_to_date();
   const auto& p = impl_->state.mesh.position;
   return {p.x, p.y, p.z};
 }
 kernels::Vec3View<const float> World::mesh_normals() const {
+  impl_->bring_mesh_up_to_date();
   const auto& p = impl_->state.mesh.normal;
   return {p.x, p.y, p.z};
 }
+std::size_t World::ring_count() const { return impl_->model.ring_total; }
+void World::current_rings(std::span<kernels::RingPose> out) const {
+  if (out.size() != impl_->model.ring_total)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("current_rings: {} ring poses given, the world has {}", out.size(), impl_->model.ring_total));
+  if (!impl_->rings_stale) {  // already made this frame: the same bits, copied
+    std::copy(impl_->state.mesh.ring_pose.begin(), impl_->state.mesh.ring_pose.end(), out.begin());
+    return;
+  }
+  for (std::size_t piece = 0; piece < impl_->model.pieces.size(); ++piece)
+    detail::stage_rings(impl_->model, impl_->state, out, piece);
+}
+void World::mesh_from_rings(std::span<const kernels::RingPose> rings, std::span<float> ring_delta,
+                            kernels::Vec3View<float> positions, kernels::Vec3View<float> normals) const {
+  const detail::WorldModel& m = impl_->model;
+  if (rings.size() != m.ring_total || ring_delta.size() != kernels::kRingDeltaFloats * m.ring_total ||
+      positions.size() != m.mesh_vertex_total || normals.size() != m.mesh_vertex_total)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("mesh_from_rings: expected {} rings, {} floats of scratch and {} vertices", m.ring_total,
+                            kernels::kRingDeltaFloats * m.ring_total, m.mesh_vertex_total));
+  impl_->mesh_from_rings({rings, ring_delta, {positions.x, positions.y, positions.z},
+                          {normals.x, normals.y, normals.z}});
+}
+MeshUpdate World::mesh_update() const { return impl_->desc.mesh_update; }
+
+void World::set_frame_budget(double seconds) {
+  if (!(seconds >= 0.0 && seconds <= 3600.0))
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("frame_budget = {}: expected seconds in [0, 3600] (0: no budget)", seconds));
+  impl_->desc.frame_budget = seconds;
+}
+double World::frame_budget() const { return impl_->desc.frame_budget; }
+std::uint64_t World::late_frames() const { return impl_->late_frames; }
+
 std::span<const std::array<std::uint32_t, 3>> World::mesh_triangles() const { return impl_->model.mesh_triangles; }
 std::span<const std::array<std::uint32_t, 3>> World::cage_triangles(std::size_t segment) const {
   return impl_->mesh_of(segment).cage.triangles;
@@ -188,6 +224,7 @@ std::span<const std::array<std::uint32_t, 3>> World::cage_triangles(std::size_t 
 std::vector<Eigen::Vector3d> World::cage_vertices(std::size_t segment) const {
   const detail::SegmentMesh& m = impl_->mesh_of(segment);
   if (!m.enabled) return {};
+  impl_->bring_mesh_up_to_date(/*rings_only=*/true);
   std::vector<Eigen::Vector3d> out(m.cage.offset.size());
   kernels::cage_vertices(std::span(impl_->state.mesh.ring_pose).subspan(m.ring_offset, m.cage.ring_station.size()),
                          m.cage.vertex_ring, m.cage.offset, out);
@@ -195,6 +232,7 @@ std::vector<Eigen::Vector3d> World::cage_vertices(std::size_t segment) const {
 }
 std::span<const kernels::RingPose> World::ring_poses(std::size_t segment) const {
   const detail::SegmentMesh& m = impl_->mesh_of(segment);
+  impl_->bring_mesh_up_to_date(/*rings_only=*/true);
   return std::span<const kernels::RingPose>(impl_->state.mesh.ring_pose)
       .subspan(m.ring_offset, m.cage.ring_station.size());
 }

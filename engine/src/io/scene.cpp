@@ -331,11 +331,14 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
   if (scene.name.empty()) scene.name = file.stem().string();
   WorldDesc& w = scene.world;
   if (const toml::table* t = r.table(root, "world", "world")) {
-    r.check_keys(*t, "world", {"dt", "gravity", "threads", "memory_limit"});
+    r.check_keys(*t, "world", {"dt", "gravity", "threads", "memory_limit", "mesh_update", "frame_budget"});
     w.dt = r.number(*t, "dt", "world.dt", w.dt);
     w.gravity = r.vec3(*t, "gravity", "world.gravity", w.gravity);
     w.threads = r.integer(*t, "threads", "world.threads", w.threads);
     w.memory_limit = r.number(*t, "memory_limit", "world.memory_limit", w.memory_limit);
+    w.mesh_update = r.choice<MeshUpdate>(*t, "mesh_update", "world.mesh_update", w.mesh_update,
+                                         {{"on_read", MeshUpdate::on_read}, {"every_frame", MeshUpdate::every_frame}});
+    w.frame_budget = r.number(*t, "frame_budget", "world.frame_budget", w.frame_budget);
   }
   if (const toml::table* t = r.table(root, "solver", "solver")) {
     r.check_keys(*t, "solver",

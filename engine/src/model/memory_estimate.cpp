@@ -71,7 +71,7 @@ MemoryEstimate estimate_memory(const WorldDesc& desc) {
     if (newton) {
       const std::size_t cols = columns_of(desc, s, beads > 0);
       solver = n * kNewtonPerNode;
-      if (n >= detail::kSplitMinNodes) {
+      if (detail::rod_is_split(n, desc.solver.mode)) {
         const auto m = static_cast<std::size_t>(detail::kSplitBaseFraction * static_cast<double>(n - 1));
         solver += gain_bytes(n - 1 - m, cols) + gain_bytes(m, cols + kernels::kJointColumns) + (n - m) * 14 * kDouble;
       } else {

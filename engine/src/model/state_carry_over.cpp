@@ -113,6 +113,7 @@ void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool c
       std::make_unique<Impl>(next, detail::build_world_model(next, keep_mesh_binding ? &impl_->model : nullptr));
   detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, rod_map, carry_solver);
   fresh->events = impl_->events;
+  fresh->late_frames = impl_->late_frames;
   fresh->follow_rod();
   fresh->profile = FrameProfile{};
   impl_ = std::move(fresh);

@@ -122,6 +122,7 @@ void check_world_desc(const WorldDesc& desc) {
   if (desc.gravity.norm() > 1000.0)  // 100 g: beyond any body a simulator trains on, and a typo's likely sign
     fail("world.gravity", fmt::format("expected at most 1000 m/s² (100 g), got {:.6g}", desc.gravity.norm()));
   check_int("world.threads", desc.threads, 0, 1024);
+  check_range("world.frame_budget", desc.frame_budget, 0.0, 3600.0, "seconds a frame may take (0: no budget)");
   check_solver(desc.solver);
   check_range("filter.zeta_scale", desc.filter.zeta_scale, 0.0, 1e12, "a scale factor");
   std::set<std::string> names;

@@ -228,7 +228,7 @@ void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector
   append_pieces(d, si, rest, seg, m);
   m.node_total += n;
   const auto rod = static_cast<std::uint32_t>(m.segments.size());
-  if (n >= kSplitMinNodes) {
+  if (rod_is_split(n, desc.solver.mode)) {
     seg.split_node = static_cast<std::size_t>(std::lround(kSplitBaseFraction * static_cast<double>(n - 1)));
     m.solve_parts.push_back({rod, SolvePartKind::tip});
     m.solve_parts.push_back({rod, SolvePartKind::base});

@@ -73,6 +73,9 @@ struct SegmentModel {
 // from the joint: `bowel` (641 nodes, ~45 coupled unknowns) measured 2.31, 2.14, 2.04, 2.13 and
 // 2.13 ms a frame on 2 threads at 0.36, 0.42, 0.48, 0.54 and 0.60.
 inline constexpr std::size_t kSplitMinNodes = 256;
+// Whether a rod of n nodes is solved in two parts (decision 0040). Fast mode keeps long rods whole:
+// its chord iterations replay a whole rod's recorded factorization (decision 0037).
+inline bool rod_is_split(std::size_t n, SolverMode mode) { return n >= kSplitMinNodes && mode != SolverMode::fast; }
 inline constexpr double kSplitBaseFraction = 0.48;
 
 // A unit of the Newton solve's parallel work: a whole rod, or one part of a split rod.

@@ -148,27 +148,53 @@ void World::Impl::lagged_iteration(const SubstepParameters& p) {
   per_active_segment(Stage::forward_sweep, [&](std::size_t s) { detail::stage_forward_sweep(model, state, s); });
 }
 
-// The organ meshes follow the rod: rings, skinning, normals. Only scheduled when a segment has
-// a mesh; skinning splits into fixed chunks so any thread count gives the same bits.
+// The beads follow the rod at once; the organ meshes every frame (world.mesh_update =
+// "every_frame") or when a reader next asks for them (decision 0060).
 void World::Impl::follow_rod() {
   const auto beads = state.collision.bead_position.view();
   for (std::size_t b = 0; b < beads.size(); ++b) beads.set(b, state.now.position.view().get(model.beads.node[b]));
-  if (!model.any_mesh) return;
-  timed(Stage::cage, [&] {
-    scheduler.for_each(model.pieces.size(), [&](std::size_t piece) { detail::stage_cage(model, state, piece); });
-  });
+  rings_stale = mesh_stale = model.any_mesh;
+  if (desc.mesh_update == MeshUpdate::every_frame) bring_mesh_up_to_date();
+}
+
+// The world's own mesh at the current frame, if it is not already: rings, skinning, normals.
+// Only scheduled when a segment has a mesh; skinning splits into fixed chunks so any thread count
+// gives the same bits. rings_only: the cage alone (what cage_vertices and ring_poses read).
+void World::Impl::bring_mesh_up_to_date(bool rings_only) {
+  const detail::MeshTarget target = detail::own_mesh(state);
+  if (rings_stale) {
+    timed(Stage::cage, [&] {
+      scheduler.for_each(model.pieces.size(), [&](std::size_t piece) {
+        detail::stage_rings(model, state, state.mesh.ring_pose, piece);
+        detail::stage_ring_deltas(model, target, piece);
+      });
+    });
+    rings_stale = false;
+  }
+  if (rings_only || !mesh_stale) return;
   // Below ~50,000 vertices a chunk takes a few µs: dispatching it costs more than it saves.
   const bool parallel = model.mesh_vertex_total >= kParallelMeshVertices;
   timed(Stage::skin, [&] {
     scheduler.for_each(
-        model.skin_chunks.size(), [&](std::size_t c) { detail::stage_skin(model, state, c); }, parallel);
-    detail::stage_weld_seams(model, state);  // a chain's pieces meet where its mesh was cut
+        model.skin_chunks.size(), [&](std::size_t c) { detail::stage_skin(model, target, c); }, parallel);
+    detail::stage_weld_seams(model, target);  // a chain's pieces meet where its mesh was cut
   });
   if (!model.normal_chunks.empty())
     timed(Stage::normals, [&] {
       scheduler.for_each(
-          model.normal_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, state, c); }, parallel);
+          model.normal_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, target, c); }, parallel);
     });
+  mesh_stale = false;
+}
+
+// A reader's copy of the mesh, from the ring poses the stepping thread published: in the
+// caller's thread alone, reading only the model, so it may run while the world steps. Each chunk
+// writes only its own vertices, so one after another gives the bits bring_mesh_up_to_date gives.
+void World::Impl::mesh_from_rings(const detail::MeshTarget& target) const {
+  for (std::size_t piece = 0; piece < model.pieces.size(); ++piece) detail::stage_ring_deltas(model, target, piece);
+  for (std::size_t c = 0; c < model.skin_chunks.size(); ++c) detail::stage_skin(model, target, c);
+  detail::stage_weld_seams(model, target);
+  for (std::size_t c = 0; c < model.normal_chunks.size(); ++c) detail::stage_normals(model, target, c);
 }
 
 // ---- The stages, one verb each ---------------------------------------------------------------------
@@ -256,6 +282,11 @@ void World::Impl::finish_frame(const Rung& kept, Clock::time_point t0) {
   state.time += model.dt;
   motion_dt = model.dt;
   profile.frame_seconds = seconds_since(t0);
+  // Deadline mode (decision 0061): the frame is already done; the host learns it came late.
+  if (desc.frame_budget > 0.0 && profile.frame_seconds > desc.frame_budget) {
+    profile.late = 1;
+    late_frames += 1;
+  }
 }
 
 // The frame failed on every rung it may take: the event, then the error; the world keeps the

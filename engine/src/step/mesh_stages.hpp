@@ -1,18 +1,34 @@
 #pragma once
 // The frame's last stages: cage rings follow the rod, the organ meshes follow the rings, normals.
+// They write to a MeshTarget: the world's own mesh state, or a reader's frame slot (decision 0060).
+#include "haustra/kernels/cage_rings.hpp"
+#include "haustra/kernels/skinning.hpp"
 #include "model/world_model.hpp"
 #include "step/world_state.hpp"
 
 namespace haustra::detail {
 
-// Per segment with a mesh: ring poses from the rod's stations and their change since rest.
-void stage_cage(const WorldModel& model, WorldState& state, std::size_t segment);
+// Where a mesh update writes: ring poses (model.ring_total), their deltas (kRingDeltaFloats per
+// ring), skinned positions and normals (model.mesh_vertex_total).
+struct MeshTarget {
+  std::span<const kernels::RingPose> ring_pose;  // read: stage_rings makes them
+  std::span<float> ring_delta;
+  kernels::FloatVec3Out position, normal;
+};
+
+// The world's own mesh state as a target.
+MeshTarget own_mesh(WorldState& state);
+
+// Per segment with a mesh: ring poses from the rod's stations (the current frame's poses).
+void stage_rings(const WorldModel& model, WorldState& state, std::span<kernels::RingPose> ring_pose, std::size_t piece);
+// Per segment with a mesh: the rings' change since rest (reads only the model and the target).
+void stage_ring_deltas(const WorldModel& model, const MeshTarget& target, std::size_t piece);
 // Per skinning chunk: vertices from the ring deltas (rigid-group form).
-void stage_skin(const WorldModel& model, WorldState& state, std::size_t chunk);
+void stage_skin(const WorldModel& model, const MeshTarget& target, std::size_t chunk);
 // Once skinned: the vertices a chain's cut copied into two pieces, set to their mean.
-void stage_weld_seams(const WorldModel& model, WorldState& state);
+void stage_weld_seams(const WorldModel& model, const MeshTarget& target);
 // Per normals chunk (segments that asked for normals): its vertices' normals, 8 at a time over
 // their corner pairs (kernels/mesh_normals).
-void stage_normals(const WorldModel& model, WorldState& state, std::size_t chunk);
+void stage_normals(const WorldModel& model, const MeshTarget& target, std::size_t chunk);
 
 }  // namespace haustra::detail

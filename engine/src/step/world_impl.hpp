@@ -10,6 +10,7 @@
 #include "haustra/error.hpp"
 #include "haustra/world.hpp"
 #include "model/world_model.hpp"
+#include "step/mesh_stages.hpp"
 #include "step/rod_stages.hpp"
 #include "step/scheduler.hpp"
 #include "step/world_state.hpp"
@@ -43,6 +44,12 @@ struct World::Impl {
   void step();
   std::size_t run_frame(int n, bool newton, bool chord);
   void follow_rod();
+  // The world's own mesh (or its rings alone) at the current frame when a reader asks (decision 0060).
+  void bring_mesh_up_to_date(bool rings_only = false);
+  // A reader's mesh from published ring poses; reads only the model (any thread, while stepping).
+  void mesh_from_rings(const detail::MeshTarget& target) const;
+  bool rings_stale = false, mesh_stale = false;
+  std::uint64_t late_frames = 0;  // frames over desc.frame_budget since the world was created  // the world's own mesh is behind its rod
 
   // The API's segment (a piece of a chain, or the whole rod) that holds node `node` of rod `rod`,
   // and the node's index in it; a joint node counts as the later piece's base.

@@ -1,0 +1,80 @@
+// Google Benchmark: issue 29's whole small intestine at the haptic rate, frame by frame: the
+// physics frame's median and tail (p99, p99.9, max), fast mode and Newton, two threads.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "haustra/frame_publisher.hpp"
+#include "haustra/scene.hpp"
+#include "haustra/world.hpp"
+
+namespace {
+
+using namespace haustra;
+using Clock = std::chrono::steady_clock;
+
+constexpr int kSettleFrames = 100;    // the first 0.1 s: the pile settling onto the floor
+constexpr int kRenderEvery = 17;      // a 60 Hz reader beside 1 kHz physics
+constexpr double kHapticBudget = 1e-3;
+
+double quantile(std::vector<double> v, double q) {
+  std::sort(v.begin(), v.end());
+  const auto i = static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5);
+  return v[std::min(i, v.size() - 1)];
+}
+
+// Args: solver (0 Newton with the scene's 2 iterations, 2 fast mode); mesh (0: made when read, a
+// 60 Hz reader acquiring every 17th frame through a FramePublisher, in lockstep on this thread
+// and outside the frame's time; 1: skinned at the end of every frame, as before decision 0060).
+// Each iteration is one physics frame (with its publish), timed by hand; the counters are ms.
+void BM_SmallIntestine(benchmark::State& state) {
+  std::vector<std::string> sets{"world.threads=2"};
+  sets.emplace_back(state.range(0) == 2 ? "solver.mode=fast" : "solver.mode=newton");
+  sets.emplace_back(state.range(1) == 1 ? "world.mesh_update=every_frame" : "world.mesh_update=on_read");
+  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/small-intestine.toml", sets);
+  scene.world.frame_budget = kHapticBudget;
+  const Clock::time_point built0 = Clock::now();
+  std::unique_ptr<World> w = create_world(scene);
+  const double build_seconds = std::chrono::duration<double>(Clock::now() - built0).count();
+  FramePublisher frames(*w);
+  for (int f = 0; f < kSettleFrames; ++f) w->step();
+  const std::uint64_t late_before = w->late_frames();
+  std::vector<double> seconds, render_seconds;
+  seconds.reserve(static_cast<std::size_t>(state.max_iterations));
+  for (auto _ : state) {
+    const Clock::time_point t0 = Clock::now();
+    w->step();
+    frames.publish(*w);
+    const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+    state.SetIterationTime(s);
+    seconds.push_back(s);
+    if (seconds.size() % kRenderEvery == 0) {
+      const Clock::time_point r0 = Clock::now();
+      benchmark::DoNotOptimize(frames.acquire().px.data());
+      frames.release();
+      render_seconds.push_back(std::chrono::duration<double>(Clock::now() - r0).count());
+    }
+  }
+  state.counters["median ms"] = 1e3 * quantile(seconds, 0.5);
+  state.counters["p99 ms"] = 1e3 * quantile(seconds, 0.99);
+  state.counters["p99.9 ms"] = 1e3 * quantile(seconds, 0.999);
+  state.counters["max ms"] = 1e3 * quantile(seconds, 1.0);
+  state.counters["late frames"] = static_cast<double>(w->late_frames() - late_before);
+  state.counters["reader acquire ms"] = render_seconds.empty() ? 0.0 : 1e3 * quantile(render_seconds, 0.5);
+  state.counters["build s"] = build_seconds;
+  state.counters["nodes"] = static_cast<double>(w->node_count());
+  state.counters["mesh vertices"] = static_cast<double>(w->mesh_buffer_size());
+}
+
+}  // namespace
+
+BENCHMARK(BM_SmallIntestine)
+    ->ArgsProduct({{2, 0}, {0, 1}})
+    ->ArgNames({"solver", "mesh_every_frame"})
+    ->Iterations(1200)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
