@@ -123,6 +123,10 @@ void bind_parameters(WorldClass& c) {
   c.def_property(
       "dt", [](PyWorld& w) { return w.locked()->dt(); }, [](PyWorld& w, double dt) { w.locked()->set_dt(dt); },
       "s, a frame's length. Settable between steps (no rebuild), checked as the scene's world.dt.");
+  c.def_property(
+      "frame_budget", [](PyWorld& w) { return w.locked()->frame_budget(); },
+      [](PyWorld& w, double seconds) { w.locked()->set_frame_budget(seconds); },
+      "s: a frame that takes longer is counted (profile['late'], late_frames); 0 turns it off (decision 0061).");
   c.def(
       "set_material",
       [](PyWorld& w, std::size_t segment, std::optional<double> youngs_modulus, std::optional<double> poisson_ratio,

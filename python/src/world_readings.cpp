@@ -29,6 +29,9 @@ void bind_counts(WorldClass& c) {
   c.def_property_readonly(
       "bead_count", [](PyWorld& w) { return w.locked()->bead_count(); }, "Beads of all segments.");
   c.def_property_readonly(
+      "late_frames", [](PyWorld& w) { return w.locked()->late_frames(); },
+      "Frames over frame_budget since the world was created.");
+  c.def_property_readonly(
       "instrument_count", [](PyWorld& w) { return w.locked()->instrument_count(); }, "Instruments.");
 }
 

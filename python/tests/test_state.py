@@ -191,3 +191,13 @@ def test_gravity_is_read_only_and_checked():
         w.gravity = [0.0, 0.0, 1e30]
     assert list(w.gravity) == [0.0, 0.0, -9.81]
     assert "node_positions" in haustra.RECORDABLE and haustra.CONTACT_KINDS[0] == "bead"
+
+
+def test_a_frame_budget_counts_the_frames_over_it():
+    w = haustra.World(rod(nodes=30))
+    w.frame_budget = 1e-9  # no frame is that fast: every one is late
+    rec = w.step(5, record=["profile"])
+    assert w.frame_budget == 1e-9 and w.late_frames == 5 and list(rec["profile"]["late"]) == [1] * 5
+    w.frame_budget = 0.0  # off
+    w.step(3)
+    assert w.late_frames == 5 and w.profile["late"] == 0
