@@ -44,8 +44,9 @@ TEST_CASE("run-time gravity, dt and coupling step as a world built with them") {
 }
 
 TEST_CASE("a material change keeps the mesh binding and steps as a full rebuild would") {
-  auto kept = test::scene_world("demo");
-  auto rebuilt = test::scene_world("demo");
+  // The demo with a 2,000-vertex organ: three builds of its binding (two worlds and the rebuild).
+  auto kept = test::scene_world("demo", 1, {"segment.mesh.procedural.vertices=2000"});
+  auto rebuilt = test::scene_world("demo", 1, {"segment.mesh.procedural.vertices=2000"});
   step(*kept, *rebuilt, 20);
   MaterialDesc stiffer = kept->desc().segments[0].material;
   stiffer.youngs_modulus *= 3.0;
