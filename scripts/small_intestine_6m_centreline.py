@@ -4,10 +4,7 @@ a 12.5 mm tube, folded in four layers in a 0.30 x 0.24 m abdominal box (issue 29
 x, then rows along y across them, twice, each layer rising over the last. A polyline through corner
 waypoints with every corner rounded by an arc (as scripts/small_intestine_centreline.py); points
 about every 5 mm. Run from the repository root: python3 scripts/small_intestine_6m_centreline.py"""
-import json
-import math
-
-from small_intestine_centreline import norm, rounded, sub
+from small_intestine_centreline import rounded, write_centreline
 
 R = 0.0125                 # tube radius, m
 GAP = 0.004                # between layers
@@ -38,18 +35,8 @@ def waypoints():
 
 
 def main():
-    pts = rounded(waypoints(), 0.0165)
-    length = sum(norm(sub(pts[i + 1], pts[i])) for i in range(len(pts) - 1))
-    doc = {
-        "units": "m",
-        "source": "procedural small intestine, four layers in a 0.30 x 0.24 m box "
-                  "(scripts/small_intestine_6m_centreline.py); %.3f m, %d points" % (length, len(pts)),
-        "points": [[round(c, 6) for c in p] for p in pts],
-    }
-    with open("scenes/assets/small-intestine-6m-centreline.json", "w") as f:
-        json.dump(doc, f, indent=None, separators=(",", ":"))
-        f.write("\n")
-    print("wrote scenes/assets/small-intestine-6m-centreline.json: %.3f m, %d points" % (length, len(pts)))
+    write_centreline(rounded(waypoints(), 0.0165), "scenes/assets/small-intestine-6m-centreline.json",
+                     "four layers in a 0.30 x 0.24 m box", "scripts/small_intestine_6m_centreline.py")
 
 
 if __name__ == "__main__":

@@ -67,19 +67,23 @@ def straight(a, b):
     return [add(a, mul(sub(b, a), k / n)) for k in range(1, n + 1)] if n > 0 else []
 
 
-def main():
-    pts = rounded(waypoints(), 0.0175)
-    length = sum(norm(sub(pts[i + 1], pts[i])) for i in range(len(pts) - 1))
+def write_centreline(points, path, layout, script):
+    """The centreline as the scene format's JSON polyline (metres), with its length and source."""
+    length = sum(norm(sub(points[i + 1], points[i])) for i in range(len(points) - 1))
     doc = {
         "units": "m",
-        "source": "procedural small intestine, two layers in a 0.30 x 0.24 m box "
-                  "(scripts/small_intestine_centreline.py); %.3f m, %d points" % (length, len(pts)),
-        "points": [[round(c, 6) for c in p] for p in pts],
+        "source": "procedural small intestine, %s (%s); %.3f m, %d points" % (layout, script, length, len(points)),
+        "points": [[round(c, 6) for c in p] for p in points],
     }
-    with open("scenes/assets/small-intestine-centreline.json", "w") as f:
+    with open(path, "w") as f:
         json.dump(doc, f, indent=None, separators=(",", ":"))
         f.write("\n")
-    print("wrote scenes/assets/small-intestine-centreline.json: %.3f m, %d points" % (length, len(pts)))
+    print("wrote %s: %.3f m, %d points" % (path, length, len(points)))
+
+
+def main():
+    write_centreline(rounded(waypoints(), 0.0175), "scenes/assets/small-intestine-centreline.json",
+                     "two layers in a 0.30 x 0.24 m box", "scripts/small_intestine_centreline.py")
 
 
 if __name__ == "__main__":
