@@ -46,7 +46,7 @@ PyWorld::StepOutcome PyWorld::step(long frames, Recorder* recorder) {
     if (Clock::now() - last_check >= kSignalInterval) {  // a clock read per frame; the GIL every 20 ms
       if (signal_raised()) {
         out.interrupted = true;
-        return out;
+        break;
       }
       last_check = Clock::now();
     }
@@ -54,10 +54,11 @@ PyWorld::StepOutcome PyWorld::step(long frames, Recorder* recorder) {
       world_->step();
     } catch (...) {  // the world stays at its last good frame; the caller raises with what was recorded
       out.error = std::current_exception();
-      return out;
+      break;
     }
     if (recorder != nullptr) recorder->capture(*world_, out.frames_done);
   }
+  if (mesh_viewed_ && out.frames_done > 0) (void)world_->mesh_positions();  // held mesh views show this frame
   return out;
 }
 

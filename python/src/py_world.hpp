@@ -59,6 +59,10 @@ class PyWorld {
   [[nodiscard]] const std::string& name() const { return name_; }
   [[nodiscard]] int scene_frames() const { return scene_frames_; }
   [[nodiscard]] const WorldOrigin& origin() const { return origin_; }
+  // A mesh view was handed out: step() then brings the mesh up to date when it ends (the engine
+  // makes it only when read, decision 0060), so a held view stays live as the others are. A loop
+  // that never takes a mesh view never pays for skinning.
+  void mesh_viewed() { mesh_viewed_ = true; }
   void mark_rebuilt() { origin_.rebuilt = true; }
 
  private:
@@ -67,6 +71,7 @@ class PyWorld {
   std::string name_;
   int scene_frames_ = 0;
   WorldOrigin origin_;
+  bool mesh_viewed_ = false;
 };
 
 // A world built from an origin's text; a dict's errors name the key path (segment[0].mesh.file)

@@ -20,6 +20,18 @@ void view_property(WorldClass& c, const char* name, F make, const char* doc) {
       name, [make](PyWorld& w) { return Typed(w.view(make)); }, doc);
 }
 
+// The same over a mesh buffer, which the engine makes when read: stepping keeps it live from then on.
+template <class Typed, class F>
+void mesh_view_property(WorldClass& c, const char* name, F make, const char* doc) {
+  c.def_property_readonly(
+      name,
+      [make](PyWorld& w) {
+        w.mesh_viewed();
+        return Typed(w.view(make));
+      },
+      doc);
+}
+
 void bind_rod_views(WorldClass& c) {
   view_property<Float64Array>(
       c, "node_positions", [](const World& x, const Keeper& k) { return vec3_array(x.node_positions(), k); },
@@ -52,10 +64,10 @@ void bind_bead_views(WorldClass& c) {
 }
 
 void bind_mesh_views(WorldClass& c) {
-  view_property<Float32Array>(
+  mesh_view_property<Float32Array>(
       c, "mesh_positions", [](const World& x, const Keeper& k) { return vec3_array(x.mesh_positions(), k); },
       "(V, 3) float32, m: every segment's organ mesh vertices. A live view.");
-  view_property<Float32Array>(
+  mesh_view_property<Float32Array>(
       c, "mesh_normals", [](const World& x, const Keeper& k) { return vec3_array(x.mesh_normals(), k); },
       "(V, 3) float32: unit vertex normals. A live view.");
   view_property<UInt32Array>(

@@ -73,3 +73,16 @@ def test_a_view_outlives_a_removed_segment(scenes):
     w.step(5)
     assert np.array_equal(old, kept)  # no longer updated: the world moved to new buffers
     assert w.node_positions.shape[0] == w.node_count < old.shape[0]
+
+
+def test_a_held_mesh_view_stays_live_though_the_mesh_is_made_when_read(scenes):
+    # The engine makes the mesh only when it is read (decision 0060); a view taken once must still
+    # show the last step's mesh, as every other view does.
+    w = haustra.World.from_scene(scenes / "demo.toml", overrides={"segment.mesh.procedural.vertices": 2000})
+    held, normals = w.mesh_positions, w.mesh_normals
+    before = np.array(held)
+    w.step(5)
+    assert not np.array_equal(held, before)
+    reference = haustra.World.from_scene(scenes / "demo.toml", overrides={"segment.mesh.procedural.vertices": 2000})
+    reference.step(5)
+    assert np.array_equal(held, reference.mesh_positions) and np.array_equal(normals, reference.mesh_normals)
