@@ -341,19 +341,13 @@ TEST_CASE("a segment removed between frames leaves the others stepping on, bit f
   two.world.segments.insert(two.world.segments.begin(), far);  // the far one first: removal moves the other down
   auto shrunk = create_world(two);
   auto alone = create_world(one);
-  for (int f = 0; f < 40; ++f) {
-    shrunk->step();
-    alone->step();
-  }
+  test::step_both(*shrunk, *alone, 40);
   CHECK(segment_state(*shrunk, 1) == segment_state(*alone, 0));
   shrunk->remove_segment(0);
   REQUIRE(shrunk->segment_count() == 1);
   CHECK(shrunk->segment(0).name == "rectum");
   CHECK(shrunk->node_count() == alone->node_count());
-  for (int f = 0; f < 40; ++f) {
-    shrunk->step();
-    alone->step();
-  }
+  test::step_both(*shrunk, *alone, 40);
   CHECK(same_nodes(*shrunk, *alone));
   CHECK_THROWS_AS(shrunk->remove_segment(1), Error);
   shrunk->remove_segment(0);
@@ -366,18 +360,12 @@ TEST_CASE("a grasp survives a segment added beside it, and removing the grasped 
   const SegmentDesc far = far_copy(s);
   auto changed = create_world(s);
   auto unchanged = create_world(s);
-  for (int f = 0; f < 60; ++f) {  // the jaws close at 0.6 s (frame 36) and lift
-    changed->step();
-    unchanged->step();
-  }
+  test::step_both(*changed, *unchanged, 60);  // the jaws close at 0.6 s (frame 36) and lift
   REQUIRE(changed->instrument(0).grasping);
   changed->add_segment(far);
   CHECK(changed->instrument(0).grasping);
   CHECK(changed->instrument(0).grasped_segment == 0);
-  for (int f = 0; f < 30; ++f) {
-    changed->step();
-    unchanged->step();
-  }
+  test::step_both(*changed, *unchanged, 30);
   CHECK(segment_state(*changed, 0) == segment_state(*unchanged, 0));
   CHECK(changed->instrument(0).force == unchanged->instrument(0).force);
   // A checkpoint of the grown world restores into it, not into the world it grew from.
@@ -399,19 +387,13 @@ TEST_CASE("a coupled grasp keeps its node when a segment before it is removed") 
   with_far.world.segments.insert(with_far.world.segments.begin(), far_copy(s));
   auto changed = create_world(with_far);
   auto unchanged = create_world(s);
-  for (int f = 0; f < 60; ++f) {  // grasping from frame 36, lifting
-    changed->step();
-    unchanged->step();
-  }
+  test::step_both(*changed, *unchanged, 60);  // grasping from frame 36, lifting
   REQUIRE(changed->instrument(0).grasping);
   REQUIRE(changed->instrument(0).grasped_segment == 1);
   changed->remove_segment(0);  // the far one, before the grasped one
   REQUIRE(changed->instrument(0).grasping);
   CHECK(changed->instrument(0).grasped_segment == 0);
-  for (int f = 0; f < 30; ++f) {
-    changed->step();
-    unchanged->step();
-  }
+  test::step_both(*changed, *unchanged, 30);
   CHECK(segment_state(*changed, 0) == segment_state(*unchanged, 0));
   CHECK(changed->instrument(0).force == unchanged->instrument(0).force);
 }
@@ -420,17 +402,11 @@ TEST_CASE("reconfigure: the same description steps on bit for bit, a new one fro
   SceneDesc s = test::scene_desc("grasp-pull");
   auto changed = create_world(s);
   auto unchanged = create_world(s);
-  for (int f = 0; f < 60; ++f) {  // grasping from frame 36
-    changed->step();
-    unchanged->step();
-  }
+  test::step_both(*changed, *unchanged, 60);  // grasping from frame 36
   changed->reconfigure(changed->desc());
   CHECK(changed->frame() == 60);
   CHECK(changed->instrument(0).grasping);
-  for (int f = 0; f < 30; ++f) {
-    changed->step();
-    unchanged->step();
-  }
+  test::step_both(*changed, *unchanged, 30);
   CHECK(segment_state(*changed, 0) == segment_state(*unchanged, 0));
   CHECK(changed->instrument(0).force == unchanged->instrument(0).force);
 
@@ -441,10 +417,7 @@ TEST_CASE("reconfigure: the same description steps on bit for bit, a new one fro
   auto reconfigured = create_world(s);
   reconfigured->reconfigure(other.world);
   auto built = create_world(other);
-  for (int f = 0; f < 60; ++f) {
-    reconfigured->step();
-    built->step();
-  }
+  test::step_both(*reconfigured, *built, 60);
   CHECK(segment_state(*reconfigured, 0) == segment_state(*built, 0));
   CHECK(reconfigured->desc().solver.iterations == 3);
 }

@@ -16,13 +16,6 @@ std::vector<float> mesh_positions(const World& w) {
   return out;
 }
 
-void step(World& a, World& b, int frames) {
-  for (int f = 0; f < frames; ++f) {
-    a.step();
-    b.step();
-  }
-}
-
 TEST_CASE("run-time gravity, dt and coupling step as a world built with them") {
   auto changed = test::scene_world("grasp-push");
   auto built =
@@ -32,7 +25,7 @@ TEST_CASE("run-time gravity, dt and coupling step as a world built with them") {
   changed->set_dt(0.01);
   changed->set_gravity({0.0, -2.0, -9.0});
   changed->set_instrument_coupling(0, 300.0, 1.0, 2.0);
-  step(*changed, *built, 80);
+  test::step_both(*changed, *built, 80);
   CHECK(test::positions(*changed) == test::positions(*built));
   CHECK(changed->instrument(0).force == built->instrument(0).force);
   CHECK(changed->desc().dt == 0.01);
@@ -47,7 +40,7 @@ TEST_CASE("a material change keeps the mesh binding and steps as a full rebuild 
   // The demo with a 2,000-vertex organ: three builds of its binding (two worlds and the rebuild).
   auto kept = test::scene_world("demo", 1, {"segment.mesh.procedural.vertices=2000"});
   auto rebuilt = test::scene_world("demo", 1, {"segment.mesh.procedural.vertices=2000"});
-  step(*kept, *rebuilt, 20);
+  test::step_both(*kept, *rebuilt, 20);
   MaterialDesc stiffer = kept->desc().segments[0].material;
   stiffer.youngs_modulus *= 3.0;
   stiffer.density *= 1.1;
@@ -56,7 +49,7 @@ TEST_CASE("a material change keeps the mesh binding and steps as a full rebuild 
   next.segments[0].material = stiffer;
   next.segments[0].relaxation_time = 0.5;
   rebuilt->reconfigure(next);
-  step(*kept, *rebuilt, 30);
+  test::step_both(*kept, *rebuilt, 30);
   CHECK(test::positions(*kept) == test::positions(*rebuilt));
   CHECK(mesh_positions(*kept) == mesh_positions(*rebuilt));
   CHECK(kept->desc().segments[0].material.youngs_modulus == stiffer.youngs_modulus);

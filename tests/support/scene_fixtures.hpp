@@ -26,6 +26,14 @@ inline std::unique_ptr<World> scene_world(const std::string& name, int threads =
   return create_world(scene_desc(name, std::move(sets), threads));
 }
 
+// Two worlds stepped frame by frame together (for bit comparisons of one against the other).
+inline void step_both(World& a, World& b, int frames) {
+  for (int f = 0; f < frames; ++f) {
+    a.step();
+    b.step();
+  }
+}
+
 inline std::vector<double> positions(const World& w) {
   const auto p = w.node_positions();
   std::vector<double> out;
