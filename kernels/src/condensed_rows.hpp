@@ -6,7 +6,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
-#if defined(__FMA__)
+#if defined(__AVX__)
 #include <immintrin.h>
 #endif
 
@@ -335,6 +335,59 @@ inline void fused_rhs_pass(const SectionFrame& g, const double (&a)[10][4], cons
   }
 }
 
+// Two 2-double halves of a and b (0, 1: a's low, high; 2, 3: b's) as one vector: one
+// vperm2f128 (the generic shuffle may compile to forms valgrind cannot decode: the instruction gate).
+template <int Low, int High>
+inline v4 halves(v4 a, v4 b) {
+#if defined(__AVX__)
+  return std::bit_cast<v4>(_mm256_permute2f128_pd(std::bit_cast<__m256d>(a), std::bit_cast<__m256d>(b), Low | (High << 4)));
+#else
+  constexpr int l = 2 * Low, h = 2 * High;
+  return __builtin_shufflevector(a, b, l, l + 1, h, h + 1);
+#endif
+}
+
+// a with its last lane 0.
+inline v4 without_last(v4 a) {
+#if defined(__AVX__)
+  return std::bit_cast<v4>(_mm256_blend_pd(std::bit_cast<__m256d>(a), _mm256_setzero_pd(), 8));
+#else
+  return v4{a[0], a[1], a[2], 0.0};
+#endif
+}
+
+// Node k+1's interface rows [δw_{k+1}; c_{k+1}] (pi: 10 rows over (δφ_{k+1}, δr_{k+1}, δq_{k+1},
+// right-hand sides)) written over z = (δφ_k, δr_k, δq_k, δq_{k+1}, the first two right-hand sides)
+// through the section's transport xr: the 6 kinematic rows of δφ_{k+1}, δr_{k+1} over z. Of the
+// transport's 16 lanes only the strain lanes are a full 6 × 4 block (the same for δq_k and
+// δq_{k+1}); the rotation lanes are the identity plus δr's skew(chord), the position lanes the
+// identity, the right-hand sides zero. So each row is the strain block once (six multiply-adds on
+// one register) placed in both strain chunks, and three multiply-adds for the first chunk — the
+// products and sums of the dense 16-lane product, in its order, without the terms that are exact
+// zeros and ones: the same numbers.
+inline void interface_over_z(const double* pi, const double* xr, double* wr, double* cr, int S) {
+  v4 block[6];  // the transport's strain lanes of δφ_{k+1}, δr_{k+1}: xr rows' lanes QK..QK+3
+  for (int i = 0; i < 6; ++i) block[i] = *reinterpret_cast<const v4*>(xr + i * S + QK);
+  // δr_{k+1}'s first chunk: its rotation lanes (δφ_k × chord) and, at lane POS, δr_k's identity.
+  const v4 rotation_x = chunks(xr + 3 * S)[0], rotation_y = chunks(xr + 4 * S)[0], rotation_z = chunks(xr + 5 * S)[0];
+  for (int r = 0; r < 10; ++r) {
+    const double* p = pi + r * S;
+    double* out = r < 6 ? wr + r * S : cr + (r - 6) * S;
+    const v4 p0 = broadcast<v4>(p[0]), p1 = broadcast<v4>(p[1]), p2 = broadcast<v4>(p[2]);
+    const v4 p3 = broadcast<v4>(p[3]), p4 = broadcast<v4>(p[4]), p5 = broadcast<v4>(p[5]);
+    const v4 strain = fmadd(p5, block[5],
+                            fmadd(p4, block[4], fmadd(p3, block[3], fmadd(p2, block[2], fmadd(p1, block[1], p0 * block[0])))));
+    const v4 next = strain + *reinterpret_cast<const v4*>(p + QK);  // δq_{k+1}'s lanes: + Π's own
+    const v4* in = chunks(p);
+    v4* o = chunks(out);
+    // δφ 0–2 (the identity: the row's own) and δr 0 (from rotation_x's 1 at lane POS).
+    o[0] = fmadd(p5, rotation_z, fmadd(p4, rotation_y, fmadd(p3, rotation_x, without_last(in[0]))));
+    o[1] = halves<0, 2>(in[1], strain);  // δr 1–2, δq_k 0–1
+    o[2] = halves<1, 2>(strain, next);   // δq_k 2–3, δq_{k+1} 0–1
+    o[3] = halves<1, 3>(next, in[3]);    // δq_{k+1} 2–3, rhs 0–1
+  }
+}
+
 // One function of ~290 lines on purpose: it is one recurrence from the tip to the base whose state
 // (the rows of Π, the interface's w and c, the distal wrench and its derivatives) passes from node
 // to node; each step of it is marked below (the tip, a joint, the wrench, the interface, section
@@ -440,28 +493,7 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
     xr[5 * S + PHI + 0] = g.chord.y;
     xr[5 * S + PHI + 1] = -g.chord.x;
 
-    // The interface of node k+1 over z: w_{k+1} into wr, c_{k+1} into cr.
-    for (int r = 0; r < 10; ++r) {
-      const double* p = pi + r * S;
-      double* out = r < 6 ? wr + r * S : cr + (r - 6) * S;
-      const v4* x0 = chunks(xr);
-      v4 acc[kZc];
-      for (int c = 0; c < kZc; ++c)
-        acc[c] = fmadd(broadcast<v4>(p[5]), x0[5 * S / 4 + c],
-                       fmadd(broadcast<v4>(p[4]), x0[4 * S / 4 + c],
-                             fmadd(broadcast<v4>(p[3]), x0[3 * S / 4 + c],
-                                   fmadd(broadcast<v4>(p[2]), x0[2 * S / 4 + c],
-                                         fmadd(broadcast<v4>(p[1]), x0[S / 4 + c], p[0] * x0[c])))));
-      const double rhs0 = p[RHS], rhs1 = p[RHS + 1];
-      const double q0 = p[QK], q1 = p[QK + 1], q2 = p[QK + 2], q3 = p[QK + 3];
-      for (int c = 0; c < kZc; ++c) chunks(out)[c] = acc[c];
-      out[QN] += q0;
-      out[QN + 1] += q1;
-      out[QN + 2] += q2;
-      out[QN + 3] += q3;
-      out[RHS] = rhs0;
-      out[RHS + 1] = rhs1;
-    }
+    interface_over_z(pi, xr, wr, cr, S);
     // δF_k = δF_{k+1} − K_{k+1} δr_{k+1}.
     double* fr = wr + 3 * S;
     double* mr = wr;
