@@ -79,7 +79,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     double a[3] = {in.number(), in.number(), in.number()};
     double b[3] = {in.number(), in.number(), in.number()};
     haustra_world* target = w;
-    switch (in.byte() % 18) {
+    switch (in.byte() % 19) {
       case 0:
       case 1:
       case 2: {
@@ -210,6 +210,22 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         const haustra_status s = haustra_world_remove_segment(w, index);
         require(s == HAUSTRA_OK || s == HAUSTRA_INVALID_ARGUMENT, "remove status");
         require(s != HAUSTRA_OK || !acquired, "no change while a frame is held");
+        if (s == HAUSTRA_OK) saved = false;
+        check_finite(w);
+        break;
+      }
+      case 18: {  // run-time parameters: any values, refused by name or in force from the next step
+        const int which = in.byte() % 4;
+        haustra_status s = HAUSTRA_OK;
+        if (which == 0) s = haustra_world_set_gravity(w, a);
+        if (which == 1) s = haustra_world_set_dt(w, b[0]);
+        if (which == 2) s = haustra_world_set_instrument_coupling(w, index, a[0], a[1], a[2]);
+        if (which == 3) {
+          const haustra_material m{a[0], a[1], a[2], b[0]};
+          s = haustra_world_set_material(w, index, &m);
+          require(s != HAUSTRA_OK || !acquired, "no material change while a frame is held");
+        }
+        require(s == HAUSTRA_OK || s == HAUSTRA_INVALID_ARGUMENT, "parameter status");
         if (s == HAUSTRA_OK) saved = false;
         check_finite(w);
         break;

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <string>
@@ -53,7 +54,7 @@ TEST_CASE("C API: version and ABI check") {
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION) == HAUSTRA_OK);
   CHECK(std::string(haustra_last_error()).empty());
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION + 1) == HAUSTRA_ABI_MISMATCH);
-  CHECK(says("ABI 9"));
+  CHECK(says("ABI 10"));
   CHECK(std::string(haustra_stage_name(0)) == "instruments");
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT - 1) != nullptr);
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT) == nullptr);
@@ -584,6 +585,132 @@ TEST_CASE("C API: deadline mode counts the frames over the budget; the mesh made
   haustra_world* none = nullptr;
   CHECK(haustra_world_create_from_scene_def(scene.path.c_str(), &bad, &none) == HAUSTRA_INVALID_ARGUMENT);
   CHECK(says("mesh_every_frame"));
+}
+
+// The two-segment scene with run-time parameters written into its text instead.
+std::string two_segments_with(const std::string& world_lines, const std::string& b_lines) {
+  std::ifstream in(std::filesystem::path(HAUSTRA_SOURCE_DIR) / "tests" / "scenes" / "c-api-two-segments.toml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string dt = "dt = 0.01\n";
+  text.replace(text.find(dt), dt.size(), world_lines);
+  const std::string b = "name = \"b\"\n";
+  text.insert(text.find(b) + b.size(), b_lines);
+  return text;
+}
+
+TEST_CASE("C API: gravity, dt and a segment's material changed between steps give a world built with them") {
+  const SceneFile built(two_segments_with("dt = 0.005\ngravity = [0.5, 0.0, -6.0]\n",
+                                          "youngs_modulus = 52000.0\npoisson_ratio = 0.3\ndensity = 1200.0\n"
+                                          "relaxation_time = 0.4\n"));
+  const TestScene plain("c-api-two-segments");
+  haustra_world* changed = nullptr;
+  haustra_world* reference = nullptr;
+  REQUIRE(haustra_world_create_from_scene(plain.path.c_str(), 1, &changed) == HAUSTRA_OK);
+  REQUIRE(haustra_world_create_from_scene(built.path.c_str(), 1, &reference) == HAUSTRA_OK);
+  double g[3] = {};
+  REQUIRE(haustra_world_gravity(changed, g) == HAUSTRA_OK);
+  CHECK(g[2] == -9.81);
+  double dt = 0.0;
+  REQUIRE(haustra_world_dt(changed, &dt) == HAUSTRA_OK);
+  CHECK(dt == 0.01);
+  haustra_material m{};
+  REQUIRE(haustra_world_material(changed, 1, &m) == HAUSTRA_OK);
+  CHECK(m.youngs_modulus == 33200.0);
+  CHECK(m.relaxation_time == 1.0);
+
+  const double gravity[3] = {0.5, 0.0, -6.0};
+  REQUIRE(haustra_world_set_gravity(changed, gravity) == HAUSTRA_OK);
+  REQUIRE(haustra_world_set_dt(changed, 0.005) == HAUSTRA_OK);
+  m.youngs_modulus = 52000.0;
+  m.poisson_ratio = 0.3;
+  m.density = 1200.0;
+  m.relaxation_time = 0.4;
+  REQUIRE(haustra_world_set_material(changed, 1, &m) == HAUSTRA_OK);
+  REQUIRE(haustra_world_gravity(changed, g) == HAUSTRA_OK);
+  CHECK(g[0] == 0.5);
+  REQUIRE(haustra_world_dt(changed, &dt) == HAUSTRA_OK);
+  CHECK(dt == 0.005);
+  haustra_material read{};
+  REQUIRE(haustra_world_material(changed, 1, &read) == HAUSTRA_OK);
+  CHECK(read.youngs_modulus == 52000.0);
+  CHECK(read.density == 1200.0);
+  REQUIRE(haustra_world_material(changed, 0, &read) == HAUSTRA_OK);
+  CHECK(read.youngs_modulus == 33200.0);  // the other segment's stands
+  for (int f = 0; f < 8; ++f) {
+    REQUIRE(haustra_world_step(changed) == HAUSTRA_OK);
+    REQUIRE(haustra_world_step(reference) == HAUSTRA_OK);
+  }
+  CHECK(buffer_bits(changed) == buffer_bits(reference));
+
+  // Refused with the field, the world as it was.
+  const std::vector<unsigned char> before = buffer_bits(changed);
+  const double heavy[3] = {0.0, 0.0, -1e30}, nan3[3] = {0.0, std::nan(""), 0.0};
+  CHECK(haustra_world_set_gravity(changed, heavy) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("gravity"));
+  CHECK(haustra_world_set_gravity(changed, nan3) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_world_set_gravity(changed, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_world_gravity(changed, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_world_set_dt(changed, -0.01) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("dt"));
+  CHECK(haustra_world_dt(changed, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  haustra_material bad = m;
+  bad.youngs_modulus = -1.0;
+  CHECK(haustra_world_set_material(changed, 1, &bad) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("youngs_modulus"));
+  CHECK(haustra_world_set_material(changed, 2, &m) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("out of range"));
+  CHECK(haustra_world_set_material(changed, 1, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_world_material(changed, 1, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_world_set_instrument_coupling(changed, 0, 1000.0, 2.0, 8.0) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("instrument"));
+  REQUIRE(haustra_world_material(changed, 1, &read) == HAUSTRA_OK);
+  CHECK(read.youngs_modulus == 52000.0);
+  CHECK(buffer_bits(changed) == before);
+  REQUIRE(haustra_world_destroy(changed) == HAUSTRA_OK);
+  REQUIRE(haustra_world_destroy(reference) == HAUSTRA_OK);
+  CHECK(haustra_world_set_dt(changed, 0.01) == HAUSTRA_INVALID_HANDLE);
+}
+
+TEST_CASE("C API: a grasp's coupling changed between steps gives a world built with it") {
+  const auto scene_with = [](const char* coupling) {
+    std::ifstream in(std::filesystem::path(HAUSTRA_SOURCE_DIR) / "tests" / "scenes" / "c-api-colon.toml");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string rigid = "coupling_stiffness = 0.0";
+    text.replace(text.find(rigid), rigid.size(), coupling);
+    return text;
+  };
+  const SceneFile plain(scene_with("coupling_stiffness = 1000.0"));
+  const SceneFile built(scene_with("coupling_stiffness = 300.0\ncoupling_damping = 0.5\nforce_limit = 0.05"));
+  haustra_world* changed = nullptr;
+  haustra_world* reference = nullptr;
+  REQUIRE(haustra_world_create_from_scene(plain.path.c_str(), 1, &changed) == HAUSTRA_OK);
+  REQUIRE(haustra_world_create_from_scene(built.path.c_str(), 1, &reference) == HAUSTRA_OK);
+  REQUIRE(haustra_world_set_instrument_coupling(changed, 0, 300.0, 0.5, 0.05) == HAUSTRA_OK);
+  // Grasp the tip and lift it: the coupling (a weak spring, saturating at 0.05 N) carries it.
+  haustra_world* both[2] = {changed, reference};
+  for (haustra_world* w : both) {
+    haustra_vec3_view n{};
+    REQUIRE(haustra_world_node_positions(w, &n) == HAUSTRA_OK);
+    const double tip[3] = {n.x[20], n.y[20], n.z[20] + 0.025}, up[3] = {0.0, 0.0, 1.0};
+    REQUIRE(haustra_world_set_instrument_pose(w, 0, tip, up) == HAUSTRA_OK);
+    REQUIRE(haustra_world_set_instrument_grasp(w, 0, 1) == HAUSTRA_OK);
+    REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+    const double lifted[3] = {tip[0], tip[1], tip[2] + 0.08};
+    REQUIRE(haustra_world_set_instrument_pose(w, 0, lifted, up) == HAUSTRA_OK);
+    for (int f = 0; f < 10; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  }
+  haustra_instrument_reading a{}, b{};
+  REQUIRE(haustra_world_instrument(changed, 0, &a) == HAUSTRA_OK);
+  REQUIRE(haustra_world_instrument(reference, 0, &b) == HAUSTRA_OK);
+  CHECK(a.grasping == 1);
+  CHECK(std::abs(a.force[2]) <= 0.05 * (1 + 1e-9));  // the limit holds
+  CHECK(std::memcmp(a.force, b.force, sizeof a.force) == 0);
+  CHECK(buffer_bits(changed) == buffer_bits(reference));
+  CHECK(haustra_world_set_instrument_coupling(changed, 0, -1.0, 0.5, 0.05) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("stiffness"));
+  CHECK(haustra_world_set_instrument_coupling(changed, 1, 300.0, 0.5, 0.05) == HAUSTRA_INVALID_ARGUMENT);
+  REQUIRE(haustra_world_destroy(changed) == HAUSTRA_OK);
+  REQUIRE(haustra_world_destroy(reference) == HAUSTRA_OK);
 }
 
 TEST_CASE("C API: checkpoint to a file, restore, step on: the same bits") {

@@ -38,7 +38,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 9
+#define HAUSTRA_ABI_VERSION 10
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -258,6 +258,30 @@ HAUSTRA_API haustra_status haustra_world_profile(const haustra_world* world, hau
 /* Deadline mode (decision 0061): seconds a frame may take (0: none), and the frames over it so far. */
 HAUSTRA_API haustra_status haustra_world_set_frame_budget(haustra_world* world, double seconds);
 HAUSTRA_API haustra_status haustra_world_late_frames(const haustra_world* world, uint64_t* count);
+
+/* Run-time parameters (decision 0082): changed between steps, each as if the world had been
+ * built with the value (the same bits from the next step on), checked as the scene's fields are.
+ * gravity in m/s² (world frame, at most 100 g); dt in s (world.dt's range). */
+HAUSTRA_API haustra_status haustra_world_set_gravity(haustra_world* world, const double gravity[3]);
+HAUSTRA_API haustra_status haustra_world_gravity(const haustra_world* world, double gravity[3]);
+HAUSTRA_API haustra_status haustra_world_set_dt(haustra_world* world, double dt);
+HAUSTRA_API haustra_status haustra_world_dt(const haustra_world* world, double* dt);
+/* A grasp's virtual coupling (N/m, N·s/m, N; decision 0057), from the next step. A grasp does not
+ * switch between rigid (stiffness 0) and coupled here. */
+HAUSTRA_API haustra_status haustra_world_set_instrument_coupling(haustra_world* world, size_t instrument,
+                                                                 double stiffness, double damping, double force_limit);
+/* A segment's (a chain's, through its first piece) material: read it, change fields, set it. The
+ * rods are rebuilt and their state carried over; the organ mesh's cage and binding are kept (a
+ * fraction of a rebuild). Views into the world are invalidated, as by haustra_world_add_segment. */
+typedef struct haustra_material {
+  double youngs_modulus;  /* Pa */
+  double poisson_ratio;
+  double density;         /* kg/m³ */
+  double relaxation_time; /* s: the viscous law's η / E */
+} haustra_material;
+HAUSTRA_API haustra_status haustra_world_material(const haustra_world* world, size_t segment, haustra_material* out);
+HAUSTRA_API haustra_status haustra_world_set_material(haustra_world* world, size_t segment,
+                                                      const haustra_material* material);
 
 /* Double-buffered output (worlds created with double_buffered = 1). acquire gives the last
  * completed frame; its views stay valid, and unchanged, until release, however many frames the

@@ -537,6 +537,62 @@ haustra_status haustra_world_late_frames(const haustra_world* world, uint64_t* c
   return guarded("haustra_world_late_frames", [&] { required(count, "count") = live(world).late_frames(); });
 }
 
+haustra_status haustra_world_set_gravity(haustra_world* world, const double gravity[3]) {
+  return guarded("haustra_world_set_gravity", [&] {
+    live_handle(world).world->set_gravity(finite_vec3(gravity, "gravity"));
+  });
+}
+
+haustra_status haustra_world_gravity(const haustra_world* world, double gravity[3]) {
+  return guarded("haustra_world_gravity", [&] {
+    double* out = &required(gravity, "gravity");
+    const Eigen::Vector3d g = live(world).gravity();
+    for (int i = 0; i < 3; ++i) out[i] = g[i];
+  });
+}
+
+haustra_status haustra_world_set_dt(haustra_world* world, double dt) {
+  return guarded("haustra_world_set_dt", [&] { live_handle(world).world->set_dt(dt); });
+}
+
+haustra_status haustra_world_dt(const haustra_world* world, double* dt) {
+  return guarded("haustra_world_dt", [&] { required(dt, "dt") = live(world).dt(); });
+}
+
+haustra_status haustra_world_set_instrument_coupling(haustra_world* world, size_t instrument, double stiffness,
+                                                     double damping, double force_limit) {
+  return guarded("haustra_world_set_instrument_coupling", [&] {
+    live_handle(world).world->set_instrument_coupling(instrument, stiffness, damping, force_limit);
+  });
+}
+
+haustra_status haustra_world_material(const haustra_world* world, size_t segment, haustra_material* out) {
+  return guarded("haustra_world_material", [&] {
+    const haustra::SegmentDesc& d = live(world).segment_desc(segment);
+    required(out, "out") = haustra_material{d.material.youngs_modulus, d.material.poisson_ratio, d.material.density,
+                                            d.relaxation_time};
+  });
+}
+
+haustra_status haustra_world_set_material(haustra_world* world, size_t segment, const haustra_material* material) {
+  return guarded("haustra_world_set_material", [&] {
+    haustra_world& h = live_handle(world);
+    const haustra_material& m = required(material, "material");
+    haustra::MaterialDesc next = h.world->segment_desc(segment).material;
+    next.youngs_modulus = m.youngs_modulus;
+    next.poisson_ratio = m.poisson_ratio;
+    next.density = m.density;
+    auto change = [&]() -> const haustra::World& {
+      h.world->set_material(segment, next, m.relaxation_time);
+      return *h.world;
+    };
+    if (h.frames)
+      h.frames->resize(change);
+    else
+      change();
+  });
+}
+
 haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* out) {
   return guarded("haustra_world_acquire_frame", [&] {
     haustra_world& h = live_handle(world);
