@@ -120,9 +120,11 @@ inline T fmadd(T a, T b, T c) {
   return a * b + c;
 #endif
 }
+// s in every lane. Not `T{} + s`: with signed zeros kept that is an addition the compiler must
+// perform (0 + (−0) = +0), one more instruction for every broadcast of the sweep.
 template <class T>
 inline T broadcast(double s) {
-  return T{} + s;
+  return T{s, s, s, s};
 }
 
 // y += a x over `nc` chunks.
@@ -145,8 +147,12 @@ struct Elimination {
   double factor[10][10];
 };
 
-template <bool Record = true>
-inline double gauss_jordan(double* rows, int count, int first, int stride, int w, Elimination& e) {
+// Count and W, where not 0, fix count and w at compile time (the sweep's 4 × 4 over 16 lanes: its
+// loops unrolled, the same operations).
+template <bool Record = true, int Count = 0, int W = 0>
+inline double gauss_jordan(double* rows, int count_, int first, int stride, int w_, Elimination& e) {
+  const int count = Count > 0 ? Count : count_;
+  const int w = W > 0 ? W : w_;
   int* order = e.order;
   const int nc = w / 4;
   double inv_scale[10];  // 1 / each row's largest entry in the eliminated lanes (0: an empty row)
@@ -600,7 +606,7 @@ CondenseReport sweep(const RodLinearization& rod, StrainView<const double> resid
     // δq_{k+1} = U_k (y_k, 1).
     Elimination el;
     const int* order = el.order;
-    const double pivot = gauss_jordan<true>(cr, 4, QN, S, kZ, el);
+    const double pivot = gauss_jordan<true, 4, kZ>(cr, 4, QN, S, kZ, el);
     if (pivot < report.smallest_pivot) {
       report.smallest_pivot = pivot;
       report.node = k + 1;
