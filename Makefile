@@ -41,7 +41,7 @@ import-asan: deps
 # Once, by hand: the module and the pytest suite under ASan+UBSan (views outliving their world).
 python-asan: deps
 	@cmake --preset asan -B build/asan-python -DHAUSTRA_PYTHON=ON >/dev/null
-	@cmake --build build/asan-python -j $(JOBS) --target haustra_python haustra
+	@cmake --build build/asan-python -j $(JOBS) --target haustra_python haustra_python_stubs haustra
 	@PYTHONPATH=$(abspath build/asan-python/python) HAUSTRA_BIN=$(abspath build/asan-python/bin/haustra) \
 	  HAUSTRA_SOURCE=$(abspath .) MPLBACKEND=Agg ASAN_OPTIONS=detect_leaks=0 \
 	  LD_PRELOAD="$$(gcc -print-file-name=libasan.so) $$(gcc -print-file-name=libubsan.so)" \

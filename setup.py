@@ -31,7 +31,7 @@ class CMakeBuild(build_ext):
                             "-DHAUSTRA_PYTHON=ON", f"-DPython3_EXECUTABLE={sys.executable}"], check=True)
         elif not (tree / "CMakeCache.txt").exists():
             raise RuntimeError(f"HAUSTRA_CMAKE_BUILD_DIR={given}: not a configured CMake build tree")
-        subprocess.run(["cmake", "--build", str(tree), "--target", "haustra_python"], check=True)
+        subprocess.run(["cmake", "--build", str(tree), "--target", "haustra_python", "haustra_python_stubs"], check=True)
         built = sorted((tree / "python" / "haustra").glob("_haustra*.so"))
         if not built:
             raise RuntimeError(f"{tree}: the build made no python/haustra/_haustra*.so")

@@ -31,7 +31,8 @@ def public_world_members():
 def test_the_package_ships_its_stubs_and_py_typed():
     assert (PACKAGE / "py.typed").exists()
     stub = (PACKAGE / "_haustra.pyi").read_text()
-    assert "def step(self, n: int = ..., record: Optional[List[str]] = ...)" in stub
+    assert "def step(self, n: int = ..., record: None = ...) -> None:" in stub  # overloads: the recording
+    assert "def step(self, n: int, record: List[str]) -> dict[str, numpy.typing.NDArray" in stub  # when asked
     assert "def profile(self) -> haustra.types.Profile:" in stub
 
 
@@ -101,10 +102,13 @@ def test_a_typed_study_passes_mypy_strict_and_a_wrong_key_does_not(tmp_path):
     wrong.write_text("import haustra\n"
                      "w = haustra.World.from_scene('x.toml')\n"
                      "s: float = w.profile['frame_second']\n"
-                     "w.step('ten')\n")
+                     "w.step('ten')\n"
+                     "frames = w.step(10)['frame']\n")  # no record=: step() returns None
     out = mypy(wrong)
     assert out.returncode == 1
-    assert "frame_second" in out.stdout and "Argument 1 to \"step\"" in out.stdout, out.stdout
+    assert "frame_second" in out.stdout, out.stdout
+    assert "No overload variant of \"step\"" in out.stdout, out.stdout
+    assert "\"None\" is not indexable" in out.stdout, out.stdout
 
 
 def test_contact_records_and_recordings_are_structured(scenes):

@@ -91,6 +91,27 @@ def prop(name, value, indent):
     return out
 
 
+# Methods whose result type depends on an argument: their overloads, written here because pybind11's
+# single signature cannot say it (step() returns the recording only when record= names quantities).
+RECORDING = "dict[str, numpy.typing.NDArray[typing.Any]]"
+OVERLOADS = {
+    ("World", "step"): [
+        "(self, n: int = ..., record: None = ...) -> None",
+        f"(self, n: int, record: List[str]) -> {RECORDING}",
+        f"(self, *, record: List[str]) -> {RECORDING}",
+    ],
+}
+
+
+def overloaded(cls_name, name, doc, indent):
+    _, _, rest = typed_signature(doc)
+    out = ""
+    for i, signature in enumerate(OVERLOADS[(cls_name, name)]):
+        out += f"{indent}@typing.overload\n{indent}def {name}{signature}:\n"
+        out += (docstring(rest, indent + "    ") if i == 0 else "") or f"{indent}    ...\n"
+    return out
+
+
 def class_stub(cls):
     bases = [b.__name__ if b.__module__ in ("haustra", module.__name__) else b.__name__ for b in cls.__bases__
              if b is not object and b.__name__ != "pybind11_object"]
@@ -103,6 +124,8 @@ def class_stub(cls):
             out += prop(name, value, "    ")
         elif isinstance(value, staticmethod):
             out += function(name, value.__func__.__doc__, "    ", "staticmethod")
+        elif (cls.__name__, name) in OVERLOADS:
+            out += overloaded(cls.__name__, name, value.__doc__, "    ")
         elif callable(value) and getattr(value, "__doc__", None):
             out += function(name, value.__doc__, "    ")
     return out if members or cls.__doc__ else out + "    ...\n"
