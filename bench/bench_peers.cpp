@@ -4,7 +4,7 @@
 // above the floor, starting horizontal, stepped 270 frames of 1/60 s on one thread:
 //   - haustra: scenes/rope.toml — the Cosserat rod (the paper's laws: viscous bending and torsion,
 //     elastic stretch; Newton), pinned at node 0 (a free base in the medium's drag), with 55 beads
-//     of 2 cm for the floor;
+//     of 2 cm for the floor; and again in fast mode (its last row; how far it ends from Newton's);
 //   - Bullet 3.24 (libbullet-dev): btSoftBodyHelpers::CreateRope, first node fixed, bending links,
 //     10 substeps of 1/600 s per frame, collision margin 2 cm;
 //   - MuJoCo 2.2 (libmujoco-dev): its rope composite, 167 capsule elements of 2 cm radius on hinge
@@ -78,12 +78,16 @@ Result run(const std::string& name, const std::function<void()>& step,
   return r;
 }
 
-Result run_haustra() {
+// The final node positions of a run, for comparing two of haustra's.
+std::vector<Eigen::Vector3d> g_final_nodes[2];
+
+Result run_haustra(bool fast) {
   // scenes/rope.toml (the rope pinned at one end: a free base in the medium's drag, node 0 held),
-  // with the floor and the paper's 55 beads added.
+  // with the floor and the paper's 55 beads added; Newton as the scene has it, or fast mode.
   haustra::SceneDesc scene = haustra::load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/rope.toml");
   haustra::WorldDesc& d = scene.world;
   d.threads = 1;
+  if (fast) d.solver.mode = haustra::SolverMode::fast;
   haustra::PlaneDesc floor;
   floor.name = "floor";
   d.environment.planes.push_back(floor);
@@ -93,11 +97,12 @@ Result run_haustra() {
   s.beads.radius = kRadius;
   auto w = haustra::create_world(scene);
   return run(
-      "haustra", [&] { w->step(); },
+      fast ? "haustra, fast mode" : "haustra", [&] { w->step(); },
       [&] {
         std::vector<Eigen::Vector3d> out;
         const auto p = w->node_positions();
         for (std::size_t k = 0; k < w->node_count(); ++k) out.emplace_back(p.x[k], p.y[k], p.z[k]);
+        g_final_nodes[fast ? 1 : 0] = out;
         return out;
       });
 }
@@ -190,7 +195,7 @@ Result run_mujoco() {
 
 int main() {
   try {
-    std::vector<Result> results{run_haustra(), run_bullet(), run_mujoco()};
+    std::vector<Result> results{run_haustra(false), run_bullet(), run_mujoco(), run_haustra(true)};
     fmt::print(
         "rope: {} m, {} nodes, radius {} m, {:.3f} kg, held at one end {} m above the floor, starting "
         "horizontal; {} frames of 1/60 s, one thread\n\n",
@@ -201,6 +206,12 @@ int main() {
       fmt::print("| {} | {:.1f} | {:.2f} | {:+.2f} % | {:.1f} mm ({:.0f} % of r) | {} |\n", r.engine, r.median_us,
                  r.median_us / results[0].median_us, 100.0 * r.stretch, 1000.0 * r.penetration,
                  100.0 * r.penetration / kRadius, r.finite ? "yes" : "NO");
+    // Fast mode is another trade (docs/tradeoff.md): how far its rope ends from Newton's.
+    double apart = 0.0;
+    for (std::size_t k = 0; k < g_final_nodes[0].size(); ++k)
+      apart = std::max(apart, (g_final_nodes[0][k] - g_final_nodes[1][k]).norm());
+    fmt::print("\nBullet / haustra fast mode: {:.2f}×; fast mode's final nodes within {:.1f} mm of Newton's\n",
+               results[1].median_us / results[3].median_us, 1000.0 * apart);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench-peers: %s\n", e.what());
