@@ -587,10 +587,17 @@ TEST_CASE("C API: deadline mode counts the frames over the budget; the mesh made
   CHECK(says("mesh_every_frame"));
 }
 
+// A scene of tests/scenes/ as text, with `from` replaced by `to`.
+std::string scene_text_with(const char* name, const std::string& from, const std::string& to) {
+  std::ifstream in(TestScene(name).path);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text.replace(text.find(from), from.size(), to);
+  return text;
+}
+
 // The two-segment scene with run-time parameters written into its text instead.
 std::string two_segments_with(const std::string& world_lines, const std::string& b_lines) {
-  std::ifstream in(std::filesystem::path(HAUSTRA_SOURCE_DIR) / "tests" / "scenes" / "c-api-two-segments.toml");
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string text = scene_text_with("c-api-two-segments", "", "");
   const std::string dt = "dt = 0.01\n";
   text.replace(text.find(dt), dt.size(), world_lines);
   const std::string b = "name = \"b\"\n";
@@ -672,15 +679,10 @@ TEST_CASE("C API: gravity, dt and a segment's material changed between steps giv
 }
 
 TEST_CASE("C API: a grasp's coupling changed between steps gives a world built with it") {
-  const auto scene_with = [](const char* coupling) {
-    std::ifstream in(std::filesystem::path(HAUSTRA_SOURCE_DIR) / "tests" / "scenes" / "c-api-colon.toml");
-    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const std::string rigid = "coupling_stiffness = 0.0";
-    text.replace(text.find(rigid), rigid.size(), coupling);
-    return text;
-  };
-  const SceneFile plain(scene_with("coupling_stiffness = 1000.0"));
-  const SceneFile built(scene_with("coupling_stiffness = 300.0\ncoupling_damping = 0.5\nforce_limit = 0.05"));
+  const std::string rigid = "coupling_stiffness = 0.0";
+  const SceneFile plain(scene_text_with("c-api-colon", rigid, "coupling_stiffness = 1000.0"));
+  const SceneFile built(
+      scene_text_with("c-api-colon", rigid, "coupling_stiffness = 300.0\ncoupling_damping = 0.5\nforce_limit = 0.05"));
   haustra_world* changed = nullptr;
   haustra_world* reference = nullptr;
   REQUIRE(haustra_world_create_from_scene(plain.path.c_str(), 1, &changed) == HAUSTRA_OK);
