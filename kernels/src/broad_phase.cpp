@@ -203,22 +203,35 @@ std::size_t SphereGrid::query(const SphereSet& s, std::size_t first, std::size_t
          ++it)
       emit(a, *it);
     const std::int64_t cx = cell_of(s.x[a], 0), cy = cell_of(s.y[a], 1), cz = cell_of(s.z[a], 2);
+    // The entries of buckets [b0, b1) that are cells (ix, iy, iz0..iz1) and spheres after a. A
+    // dense grid's buckets are its cells; a hashed one's may be shared between cells.
+    auto test = [&](std::size_t b0, std::size_t b1, std::int64_t ix, std::int64_t iy, std::int64_t iz0,
+                    std::int64_t iz1) {
+      for (std::size_t e = bucket_start_[b0]; e < bucket_start_[b1]; ++e) {
+        const Entry& entry = entries_[e];
+        if (entry.sphere <= a) continue;
+        if (!dense_ && (entry.ix != ix || entry.iy != iy || entry.iz < iz0 || entry.iz > iz1)) continue;
+        // spheres_near on the copy: the same operations, so the same answer bit for bit.
+        const double dx = s.x[a] - entry.x, dy = s.y[a] - entry.y, dz = s.z[a] - entry.z;
+        const double within = s.radius[a] + entry.radius + margin_;
+        if (dx * dx + dy * dy + dz * dz > within * within) continue;
+        if (count < out.size()) out[count] = {static_cast<std::uint32_t>(a), entry.sphere};
+        ++count;
+      }
+    };
     for (std::int64_t ix = std::max<std::int64_t>(cx - 1, 0); ix <= cx + 1; ++ix)
-      for (std::int64_t iy = std::max<std::int64_t>(cy - 1, 0); iy <= cy + 1; ++iy)
-        for (std::int64_t iz = std::max<std::int64_t>(cz - 1, 0); iz <= cz + 1; ++iz) {
-          const std::size_t bk = bucket(ix, iy, iz);
-          for (std::size_t e = bucket_start_[bk]; e < bucket_start_[bk + 1]; ++e) {
-            const Entry& entry = entries_[e];
-            // The hash may share a bucket between cells; a cell lists its spheres in index order.
-            if (entry.ix != ix || entry.iy != iy || entry.iz != iz || entry.sphere <= a) continue;
-            // spheres_near on the copy: the same operations, so the same answer bit for bit.
-            const double dx = s.x[a] - entry.x, dy = s.y[a] - entry.y, dz = s.z[a] - entry.z;
-            const double within = s.radius[a] + entry.radius + margin_;
-            if (dx * dx + dy * dy + dz * dz > within * within) continue;
-            if (count < out.size()) out[count] = {static_cast<std::uint32_t>(a), entry.sphere};
-            ++count;
-          }
+      for (std::int64_t iy = std::max<std::int64_t>(cy - 1, 0); iy <= cy + 1; ++iy) {
+        const std::int64_t iz0 = std::max<std::int64_t>(cz - 1, 0), iz1 = cz + 1;
+        if (dense_) {  // a row of cells along z is a run of buckets: one range, not three
+          const std::size_t b0 = bucket(ix, iy, iz0);
+          test(b0, b0 + static_cast<std::size_t>(iz1 - iz0) + 1, ix, iy, iz0, iz1);
+          continue;
         }
+        for (std::int64_t iz = iz0; iz <= iz1; ++iz) {
+          const std::size_t bk = bucket(ix, iy, iz);
+          test(bk, bk + 1, ix, iy, iz, iz);
+        }
+      }
     if (count <= out.size())
       std::sort(out.begin() + static_cast<std::ptrdiff_t>(begin), out.begin() + static_cast<std::ptrdiff_t>(count),
                 [](const SpherePair& p, const SpherePair& q) { return p.b < q.b; });
