@@ -250,15 +250,17 @@ void stage_contacts(const WorldModel& model, WorldState& state, Scheduler& sched
       const kernels::SphereContact m = measure(model, state, k, node_position(state, model.beads.node[k.bead]));
       const double coefficient = stiffness_of(model, k);
       const kernels::Penalty p = kernels::contact_penalty(m.depth, coefficient, exponent);
-      const kernels::Penalty floor =
-          kernels::contact_penalty(kLinearizationDepth * model.beads.radius[k.bead], coefficient, exponent);
       k.depth = m.depth;
       k.direction = m.normal;
       k.force = p.force * m.normal;
-      // Two beads both move: each side sees the pair's stiffness twice, so that their combined
-      // correction is not doubled (one side held still then under-corrects, which converges).
-      k.stiffness =
-          m.depth > 0.0 ? std::max(p.stiffness, floor.stiffness) * (k.kind == ContactKind::bead ? 2.0 : 1.0) : 0.0;
+      k.stiffness = 0.0;
+      if (m.depth > 0.0) {  // (most candidates do not touch: no power taken for them)
+        const kernels::Penalty floor =
+            kernels::contact_penalty(kLinearizationDepth * model.beads.radius[k.bead], coefficient, exponent);
+        // Two beads both move: each side sees the pair's stiffness twice, so that their combined
+        // correction is not doubled (one side held still then under-corrects, which converges).
+        k.stiffness = std::max(p.stiffness, floor.stiffness) * (k.kind == ContactKind::bead ? 2.0 : 1.0);
+      }
       k.coupled = false;
     }
   });
