@@ -346,7 +346,8 @@ inline void fused_rhs_pass(const SectionFrame& g, const double (&a)[10][4], cons
 template <int Low, int High>
 inline v4 halves(v4 a, v4 b) {
 #if defined(__AVX__)
-  return std::bit_cast<v4>(_mm256_permute2f128_pd(std::bit_cast<__m256d>(a), std::bit_cast<__m256d>(b), Low | (High << 4)));
+  return std::bit_cast<v4>(
+      _mm256_permute2f128_pd(std::bit_cast<__m256d>(a), std::bit_cast<__m256d>(b), Low | (High << 4)));
 #else
   constexpr int l = 2 * Low, h = 2 * High;
   return __builtin_shufflevector(a, b, l, l + 1, h, h + 1);
@@ -381,8 +382,9 @@ inline void interface_over_z(const double* pi, const double* xr, double* wr, dou
     double* out = r < 6 ? wr + r * S : cr + (r - 6) * S;
     const v4 p0 = broadcast<v4>(p[0]), p1 = broadcast<v4>(p[1]), p2 = broadcast<v4>(p[2]);
     const v4 p3 = broadcast<v4>(p[3]), p4 = broadcast<v4>(p[4]), p5 = broadcast<v4>(p[5]);
-    const v4 strain = fmadd(p5, block[5],
-                            fmadd(p4, block[4], fmadd(p3, block[3], fmadd(p2, block[2], fmadd(p1, block[1], p0 * block[0])))));
+    const v4 strain =
+        fmadd(p5, block[5],
+              fmadd(p4, block[4], fmadd(p3, block[3], fmadd(p2, block[2], fmadd(p1, block[1], p0 * block[0])))));
     const v4 next = strain + *reinterpret_cast<const v4*>(p + QK);  // δq_{k+1}'s lanes: + Π's own
     const v4* in = chunks(p);
     v4* o = chunks(out);

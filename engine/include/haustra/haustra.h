@@ -274,7 +274,7 @@ HAUSTRA_API haustra_status haustra_world_set_instrument_coupling(haustra_world* 
  * rods are rebuilt and their state carried over; the organ mesh's cage and binding are kept (a
  * fraction of a rebuild). Views into the world are invalidated, as by haustra_world_add_segment. */
 typedef struct haustra_material {
-  double youngs_modulus;  /* Pa */
+  double youngs_modulus; /* Pa */
   double poisson_ratio;
   double density;         /* kg/m³ */
   double relaxation_time; /* s: the viscous law's η / E */

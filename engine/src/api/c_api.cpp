@@ -538,9 +538,8 @@ haustra_status haustra_world_late_frames(const haustra_world* world, uint64_t* c
 }
 
 haustra_status haustra_world_set_gravity(haustra_world* world, const double gravity[3]) {
-  return guarded("haustra_world_set_gravity", [&] {
-    live_handle(world).world->set_gravity(finite_vec3(gravity, "gravity"));
-  });
+  return guarded("haustra_world_set_gravity",
+                 [&] { live_handle(world).world->set_gravity(finite_vec3(gravity, "gravity")); });
 }
 
 haustra_status haustra_world_gravity(const haustra_world* world, double gravity[3]) {
@@ -569,8 +568,8 @@ haustra_status haustra_world_set_instrument_coupling(haustra_world* world, size_
 haustra_status haustra_world_material(const haustra_world* world, size_t segment, haustra_material* out) {
   return guarded("haustra_world_material", [&] {
     const haustra::SegmentDesc& d = live(world).segment_desc(segment);
-    required(out, "out") = haustra_material{d.material.youngs_modulus, d.material.poisson_ratio, d.material.density,
-                                            d.relaxation_time};
+    required(out, "out") =
+        haustra_material{d.material.youngs_modulus, d.material.poisson_ratio, d.material.density, d.relaxation_time};
   });
 }
 
