@@ -75,8 +75,7 @@ void BM_SmallIntestine(benchmark::State& state) {
 // timed by hand, its mesh made when read and never read. The 1 → 2 thread ratio of the medians is
 // the target.
 void BM_Bowel(benchmark::State& state) {
-  const std::vector<std::string> sets{"world.threads=" + std::to_string(state.range(0)),
-                                      "world.mesh_update=on_read"};
+  const std::vector<std::string> sets{"world.threads=" + std::to_string(state.range(0)), "world.mesh_update=on_read"};
   SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/bowel.toml", sets);
   std::unique_ptr<World> w = create_world(scene);
   constexpr int kFirst = 60, kFrames = 240;

@@ -399,8 +399,8 @@ TEST_CASE("a split rod's tip responses made before the join and folded with y_m 
             ++cases;
           }
         }
-  MESSAGE("affine tip responses over " << cases << " cases: worst relative difference to today's path "
-                                       << worst_path << ", to the whole rod " << worst_whole);
+  MESSAGE("affine tip responses over " << cases << " cases: worst relative difference to today's path " << worst_path
+                                       << ", to the whole rod " << worst_whole);
 }
 
 TEST_CASE("a chord iteration's replay solves the recorded Jacobian with a new residual") {

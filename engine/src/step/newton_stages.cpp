@@ -343,10 +343,9 @@ void condense_part(const WorldModel& model, WorldState& state, const SolvePart& 
       break;
     case SolvePartKind::tip: {
       const kernels::CondensedSystem sys = tip_system(ws, cols);
-      sp.tip_ok =
-          kernels::rod_condense_range(lin, residual, std::span(ws.loads).first(sp.tip_loads), sys,
-                                      {sp.joint, last, false, sp.interface})
-              .ok;
+      sp.tip_ok = kernels::rod_condense_range(lin, residual, std::span(ws.loads).first(sp.tip_loads), sys,
+                                              {sp.joint, last, false, sp.interface})
+                      .ok;
       // Its responses while its gains are in this core's cache: affine in the joint's y_m, folded
       // after the join (decision 0087).
       if (sp.tip_ok)
