@@ -224,6 +224,96 @@ void rod_condensed_responses_range(const RodLinearization& rod, CondensedSystem 
       for (std::size_t i = 0; i < 10; ++i) at_last[10 * c + i] = y[i * cp + lead + c - c0];
 }
 
+void rod_condensed_tip_responses(const RodLinearization& rod, CondensedSystem sys, std::size_t first,
+                                 std::span<const std::uint32_t> nodes, std::span<double> particular,
+                                 std::span<double> unit) {
+  using condensed::broadcast;
+  using condensed::chunks;
+  using condensed::fmadd;
+  using condensed::v4;
+  if (nodes.empty()) return;
+  const auto w = static_cast<std::size_t>(condensed_width(sys.columns));
+  const auto cols = static_cast<std::size_t>(sys.columns);
+  // y's rows: the columns as the gain rows hold their right-hand sides from lane 12 on (column c at
+  // position 2 + c; positions 0–1 face a gain's zero lanes 12–13) in chunks [0, np), then the ten
+  // unit starts in chunks [np, np + 3), with no right-hand side.
+  constexpr std::size_t lane = 12, lead = kCondensedRhs - lane;
+  const std::size_t pw = w - lane, np = pw / 4, nc = np + 3, cp = 4 * nc;
+  double* y = sys.scratch.data();
+  for (std::size_t i = 0; i < 10 * cp; ++i) y[i] = 0.0;
+  for (std::size_t j = 0; j < 10; ++j) y[j * cp + pw + j] = 1.0;
+  std::size_t listed = 0;
+  auto emit = [&](std::size_t k) {
+    while (listed < nodes.size() && nodes[listed] == k) {
+      double* o = particular.data() + listed * 6 * cols;
+      for (std::size_t c = 0; c < cols; ++c)
+        for (std::size_t i = 0; i < 6; ++i) o[6 * c + i] = y[i * cp + lead + c];
+      double* e = unit.data() + listed * 60;
+      for (std::size_t j = 0; j < 10; ++j)
+        for (std::size_t i = 0; i < 6; ++i) e[6 * j + i] = y[i * cp + pw + j];
+      ++listed;
+    }
+  };
+  emit(first);
+  v4* yv[10];
+  for (std::size_t i = 0; i < 10; ++i) yv[i] = chunks(y + i * cp);
+  for (std::size_t k = first; k < nodes.back(); ++k) {
+    const double* u = sys.gain.data() + (k - first) * 4 * w;
+    const v4* rhs[4];
+    for (std::size_t r = 0; r < 4; ++r) rhs[r] = chunks(u + r * w + lane);
+    const condensed::SectionFrame g = condensed::section_frame(rod, k);
+    const double half = 0.5 * g.h;
+    const condensed::V3 d0 = half * g.d[0], d1 = half * g.d[1], d2 = half * g.d[2];
+    const condensed::V3 ch = g.chord, lv = g.lever;
+    // As rod_condensed_responses_range, chunk by chunk; the unit starts' chunks add no right-hand side.
+    for (std::size_t c = 0; c < nc; ++c) {
+      v4 yc[10];
+      for (std::size_t i = 0; i < 10; ++i) yc[i] = yv[i][c];
+      v4 nx[4];
+      for (std::size_t r = 0; r < 4; ++r) {
+        const double* row = u + r * w;
+        v4 acc = c < np ? rhs[r][c] : v4{};
+        for (std::size_t i = 0; i < 10; ++i) acc = fmadd(broadcast<v4>(row[i]), yc[i], acc);
+        nx[r] = acc;
+      }
+      const v4 s0 = yc[6] + nx[0], s1 = yc[7] + nx[1], s2 = yc[8] + nx[2], se = yc[9] + nx[3];
+      const v4 t0 = d0.x * s0 + d1.x * s1 + d2.x * s2;
+      const v4 t1 = d0.y * s0 + d1.y * s1 + d2.y * s2;
+      const v4 t2 = d0.z * s0 + d1.z * s1 + d2.z * s2;
+      const v4 p0 = yc[0], p1 = yc[1], p2 = yc[2];
+      yv[3][c] = yc[3] + ((p1 * ch.z - p2 * ch.y) + (t1 * lv.z - t2 * lv.y) + se * d2.x);
+      yv[4][c] = yc[4] + ((p2 * ch.x - p0 * ch.z) + (t2 * lv.x - t0 * lv.z) + se * d2.y);
+      yv[5][c] = yc[5] + ((p0 * ch.y - p1 * ch.x) + (t0 * lv.y - t1 * lv.x) + se * d2.z);
+      yv[0][c] = p0 + t0;
+      yv[1][c] = p1 + t1;
+      yv[2][c] = p2 + t2;
+      for (std::size_t r = 0; r < 4; ++r) yv[6 + r][c] = nx[r];
+    }
+    emit(k + 1);
+  }
+}
+
+void rod_condensed_tip_fold(std::span<const double> particular, std::span<const double> unit,
+                            std::span<const double> y_joint, int columns, std::size_t nodes, std::span<double> out,
+                            int column_first, int column_end) {
+  const auto cols = static_cast<std::size_t>(columns);
+  const auto c0 = static_cast<std::size_t>(column_first);
+  const std::size_t c1 = column_end > 0 ? static_cast<std::size_t>(column_end) : cols;
+  for (std::size_t k = 0; k < nodes; ++k) {
+    const double* p = particular.data() + k * 6 * cols;
+    const double* e = unit.data() + k * 60;
+    double* o = out.data() + k * 6 * cols;
+    for (std::size_t c = c0; c < c1; ++c) {
+      const double* ym = y_joint.data() + 10 * c;
+      double v[6];
+      for (std::size_t i = 0; i < 6; ++i) v[i] = p[6 * c + i];
+      for (std::size_t j = 0; j < 10; ++j)
+        for (std::size_t i = 0; i < 6; ++i) v[i] = std::fma(e[6 * j + i], ym[j], v[i]);
+      for (std::size_t i = 0; i < 6; ++i) o[6 * c + i] = v[i];
+    }
+  }
+}
+
 void rod_condensed_responses(const RodLinearization& rod, CondensedSystem sys, std::span<const std::uint32_t> nodes,
                              std::span<double> out) {
   if (nodes.empty()) return;

@@ -16,8 +16,10 @@ enum class Stage : std::uint8_t {
   loads,           // gravity + external loads + contacts → node forces
   free_base,       // rigid drag of free bases
   backward_sweep,  // node forces → generalized forces R
-  condense,        // Newton: linearize and condense the system tip → base (or the banded LU's fallback)
-  solve,           // lagged: prefactored M and the strain law; Newton: coupled unknowns and the step
+  condense,        // Newton: linearize and condense the system tip → base (or the banded LU's fallback);
+                   // a split rod's parts also make their responses here, each in its own task (0087)
+  solve,           // lagged: prefactored M and the strain law; Newton: the coupled unknowns' responses
+                   // (a split rod's: folded with the join's result), multipliers and the step
   line_search,     // Newton: the step's fraction that lowers the frame's incremental potential
   constraints,     // lagged: attachments, implicit through the Schur complement
   forward_sweep,   // strains → node poses

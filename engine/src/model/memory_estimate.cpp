@@ -73,7 +73,8 @@ MemoryEstimate estimate_memory(const WorldDesc& desc) {
       solver = n * kNewtonPerNode;
       if (detail::rod_is_split(n, desc.solver.mode)) {
         const auto m = static_cast<std::size_t>(detail::kSplitBaseFraction * static_cast<double>(n - 1));
-        solver += gain_bytes(n - 1 - m, cols) + gain_bytes(m, cols + kernels::kJointColumns) + (n - m) * 14 * kDouble;
+        solver += gain_bytes(n - 1 - m, cols) + gain_bytes(m, cols + kernels::kJointColumns) + (n - m) * 14 * kDouble +
+                  2 * cols * (6 * cols + 60) * kDouble;  // the tip part's responses (decision 0087)
       } else {
         solver += gain_bytes(n, cols);
         if (desc.solver.mode == SolverMode::fast) solver += kernels::condensed_record_size(n) * kDouble;

@@ -69,9 +69,9 @@ struct SegmentModel {
 };
 
 // Rods from this many nodes are split; the base part takes this fraction of the rod. It carries the
-// joint's 10 unknowns and the back-substitution to the joint, while the tip part's responses run
-// from the joint: `bowel` (641 nodes, ~45 coupled unknowns) measured 2.31, 2.14, 2.04, 2.13 and
-// 2.13 ms a frame on 2 threads at 0.36, 0.42, 0.48, 0.54 and 0.60.
+// joint's 10 unknowns and the back-substitution to the joint; the tip part its responses, affine in
+// the joint's start (its columns + 10, decision 0087). On `bowel` (641 nodes) the two condense tasks
+// took 235/212, 213/250 and 190/272 µs (tip/base, one thread) at 0.48, 0.52 and 0.56: equal near 0.49.
 inline constexpr std::size_t kSplitMinNodes = 256;
 // Whether a rod of n nodes is solved in two parts (decision 0040). Fast mode keeps long rods whole:
 // its chord iterations replay a whole rod's recorded factorization (decision 0037).

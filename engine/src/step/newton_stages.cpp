@@ -341,11 +341,18 @@ void condense_part(const WorldModel& model, WorldState& state, const SolvePart& 
         }
       }
       break;
-    case SolvePartKind::tip:
-      sp.tip_ok = kernels::rod_condense_range(lin, residual, std::span(ws.loads).first(sp.tip_loads),
-                                              tip_system(ws, cols), {sp.joint, last, false, sp.interface})
+    case SolvePartKind::tip: {
+      const kernels::CondensedSystem sys = tip_system(ws, cols);
+      sp.tip_ok = kernels::rod_condense_range(lin, residual, std::span(ws.loads).first(sp.tip_loads), sys,
+                                              {sp.joint, last, false, sp.interface})
                       .ok;
+      // Its responses while its gains are in this core's cache: affine in the joint's y_m, folded
+      // after the join (decision 0087).
+      if (sp.tip_ok)
+        kernels::rod_condensed_tip_responses(lin, sys, sp.joint, std::span(ws.response_nodes).subspan(sp.base_nodes),
+                                             sp.tip_particular, sp.tip_unit);
       break;
+    }
     case SolvePartKind::base: {
       const kernels::CondensedSystem sys = base_system(ws);
       const std::span<const kernels::UnitLoad> loads = std::span(sp.base_loads).first(sp.base_load_count);
@@ -382,39 +389,38 @@ bool join(const WorldModel& model, WorldState& state, std::size_t rod, const Sub
   return true;
 }
 
-// Step 4, half of a rod's columns: their responses at the coupled unknowns' nodes (a split rod's
-// tip part from the joint; the second half also folds λ into the base part's).
+// Step 4, half of a rod's responses at the coupled unknowns' nodes. A whole rod: half of its
+// columns, back-substituted. A split rod: its parts' responses were made in their condense tasks;
+// here they are folded with the join's result — the tip part's with y_m (half 0), the base part's
+// with λ (half 1), 6 × 10 multiply-adds per node and column.
 void responses_half(const WorldModel& model, WorldState& state, std::size_t rod, int half, const SubstepParameters& p) {
   NewtonWorkspace& ws = state.newton[rod];
   NewtonSplit& sp = ws.split;
   if (ws.band || ws.response_nodes.empty()) return;
-  const kernels::RodLinearization lin = linearization_at(model, state, rod, p);
   const int cols = coupled_unknowns(model, state, rod).columns();
-  int middle = cols / 2, first = half == 0 ? 0 : middle, end = half == 0 ? middle : cols;
-  if (ws.chord && ws.law_scale == 1.0) {  // the unit loads' responses stand: the residual's alone
-    first = 0;
-    end = half == 0 ? 1 : 0;
-  }
   const auto per_node = 6 * static_cast<std::size_t>(cols);
-  std::span<double> scratch = half == 0 ? std::span<double>(ws.scratch) : std::span<double>(ws.scratch_second);
   if (sp.joint == 0) {
+    const kernels::RodLinearization lin = linearization_at(model, state, rod, p);
+    int middle = cols / 2, first = half == 0 ? 0 : middle, end = half == 0 ? middle : cols;
+    if (ws.chord && ws.law_scale == 1.0) {  // the unit loads' responses stand: the residual's alone
+      first = 0;
+      end = half == 0 ? 1 : 0;
+    }
     kernels::CondensedSystem sys = whole_system(ws, cols);
-    sys.scratch = scratch;
+    sys.scratch = half == 0 ? std::span<double>(ws.scratch) : std::span<double>(ws.scratch_second);
     if (end > first)
       kernels::rod_condensed_responses_range(lin, sys, 0, ws.response_nodes.back(), sys.base, ws.response_nodes,
                                              ws.responses, {}, first, end);
     return;
   }
-  const std::span<const std::uint32_t> nodes = std::span(ws.response_nodes).subspan(sp.base_nodes);
-  kernels::CondensedSystem sys = tip_system(ws, cols);
-  sys.scratch = scratch;
-  if (!nodes.empty() && end > first)
-    kernels::rod_condensed_responses_range(lin, sys, sp.joint, model.segments[rod].node_count - 1, sp.y_joint, nodes,
-                                           std::span(ws.responses).subspan(sp.base_nodes * per_node), {}, first, end);
-  if (half == 1)
-    kernels::rod_condensed_base_responses(
-        sp.raw, sp.base_columns, std::span(sp.base_column).first(static_cast<std::size_t>(cols)),
-        std::span(sp.lambda).first(10 * static_cast<std::size_t>(cols)), sp.base_nodes, ws.responses);
+  const auto c = static_cast<std::size_t>(cols);
+  if (half == 0)
+    kernels::rod_condensed_tip_fold(sp.tip_particular, sp.tip_unit, std::span(sp.y_joint).first(10 * c), cols,
+                                    ws.response_nodes.size() - sp.base_nodes,
+                                    std::span(ws.responses).subspan(sp.base_nodes * per_node));
+  else
+    kernels::rod_condensed_base_responses(sp.raw, sp.base_columns, std::span(sp.base_column).first(c),
+                                          std::span(sp.lambda).first(10 * c), sp.base_nodes, ws.responses);
 }
 
 // Step 4, the rod: the coupled unknowns' multipliers (the column weights), and where the rod is

@@ -49,6 +49,8 @@ void NewtonSplit::allocate(std::size_t nodes, std::size_t m, int columns) {
   tip_column.assign(c, 0);
   base_column.assign(c, 0);
   raw.assign(2 * c * 6 * b, 0.0);
+  tip_particular.assign(2 * c * 6 * c, 0.0);
+  tip_unit.assign(2 * c * 60, 0.0);
   at_joint.assign(10 * b, 0.0);
   lambda.assign(10 * c, 0.0);
   y_joint.assign(10 * c, 0.0);

@@ -153,6 +153,9 @@ struct NewtonSplit {
   std::vector<int> tip_column, base_column;
   std::size_t base_nodes = 0;  // response nodes at or before the joint (a prefix of the rod's)
   std::vector<double> raw, at_joint, lambda, y_joint, base_weights;
+  // The tip part's responses at its response nodes, made in its condense task (decision 0087):
+  // every column's from y_m = 0 (6 × columns per node) and the ten unit starts' (6 × 10 per node).
+  std::vector<double> tip_particular, tip_unit;
   std::array<double, 10> base_start{}, tip_start{};
   bool tip_ok = true, base_ok = true;
   // The line search's tip part: its poses relative to the joint's frame (nodes m..N, sections

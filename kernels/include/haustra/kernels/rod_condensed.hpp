@@ -163,6 +163,23 @@ void rod_condensed_responses_range(const RodLinearization& rod, CondensedSystem 
                                    std::span<const std::uint32_t> nodes, std::span<double> out,
                                    std::span<double> at_last, int column_first = 0, int column_end = 0);
 
+// A tip part's responses made affine in its start y_m, right after its sweep and before the join
+// (decision 0087): back-substitution is linear in the start, so column g's δφ, δr at a node are
+// particular(g) + unit · y_m(g). particular: every column's responses from y_m = 0 with the gains'
+// right-hand sides (6 × columns per listed node, as rod_condensed_responses); unit: the responses
+// to the 10 unit starts e_j without right-hand sides (6 × 10 per listed node, column j after
+// column j − 1). One pass over the part's gains from node `first` to the last listed node
+// (ascending, all beyond `first`). Scratch: sys.scratch (10 × condensed_width(columns) doubles).
+void rod_condensed_tip_responses(const RodLinearization& rod, CondensedSystem sys, std::size_t first,
+                                 std::span<const std::uint32_t> nodes, std::span<double> particular,
+                                 std::span<double> unit);
+
+// The fold after the join: out = particular + unit · y_m for each of `nodes` listed nodes and
+// columns [column_first, column_end) (end 0: all `columns`); out as rod_condensed_responses.
+void rod_condensed_tip_fold(std::span<const double> particular, std::span<const double> unit,
+                            std::span<const double> y_joint, int columns, std::size_t nodes, std::span<double> out,
+                            int column_first = 0, int column_end = 0);
+
 // The step over a part, nodes [first, last]: from y at `first` (10 numbers) and the weighted sum
 // of the part's columns.
 void rod_condensed_step_range(const RodLinearization& rod, CondensedSystem sys, std::size_t first, std::size_t last,
