@@ -14,6 +14,8 @@
 #include "haustra/kernels/skinning.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
+#include "model/skin_binding.hpp"
+#include "model/world_model.hpp"
 #include "segment_rows.hpp"
 
 namespace {
@@ -195,6 +197,59 @@ void BM_StreamTriad(benchmark::State& state) {
       12.0 * static_cast<double>(n) * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 
+// A dense cage (decision 0083): one piece of the small intestine at 2 mm sections (51 nodes, 26
+// beads over 10 cm, radius 12.5 mm, 50,000 vertices), bound with fixed K = 4 (arg 0) and with the
+// default localization bounded to 7 rings (`max_rings_per_vertex = 7`, arg 1), skinned on one
+// thread; the ratio of the two rows of one run is what it costs per vertex against 4 rings.
+void BM_SkinDenseCage(benchmark::State& state) {
+  struct Bound {
+    detail::SkinBinding fixed, chosen;
+    std::size_t rings = 0, vertices = 0;
+  };
+  static const Bound bound = [] {
+    WorldDesc d;
+    d.threads = 1;
+    SegmentDesc s;
+    s.nodes = 51;
+    s.rest.length = 0.1;
+    s.cross_section.radius = 0.0125;
+    s.beads.enabled = true;
+    s.beads.count = 26;
+    s.beads.radius = 0.0125;
+    s.mesh.enabled = true;
+    s.mesh.procedural.vertices = 50'000;
+    s.mesh.cage.ring_vertices = 12;
+    s.mesh.max_rings_per_vertex = 7;
+    d.segments.push_back(s);
+    const detail::WorldModel m = detail::build_world_model(d);
+    const detail::SegmentMesh& mesh = m.meshes_of[0];
+    Bound b;
+    SkinReport report;
+    TriangleMesh rest;  // where the vertices are does not change the rings they keep, nor the cost
+    for (const auto& v : mesh.cage.mesh_binding) rest.vertices.push_back(v);
+    b.fixed = detail::bind_mean_value(mesh.cage, rest, 4, 0.0, report);
+    b.chosen = mesh.binding;
+    b.rings = mesh.cage.ring_station.size();
+    b.vertices = mesh.binding.vertices;
+    return b;
+  }();
+  const detail::SkinBinding& binding = state.range(0) == 0 ? bound.fixed : bound.chosen;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-0.01f, 0.01f);
+  std::vector<float> delta(kRingDeltaFloats * bound.rings);
+  for (auto& x : delta) x = u(rng);
+  std::vector<float> ox(bound.vertices), oy(bound.vertices), oz(bound.vertices);
+  for (auto _ : state) {
+    skin_rigid_groups(binding.view(), delta, 0, binding.blocks(), {ox, oy, oz});
+    benchmark::ClobberMemory();
+  }
+  state.SetLabel(state.range(0) == 0 ? "K = 4" : "at most 7 rings (decision 0083)");
+  state.counters["slots/vertex"] =
+      static_cast<double>(binding.slot_start.back()) * kSkinLanes / static_cast<double>(bound.vertices);
+  state.counters["vertices/s"] = benchmark::Counter(
+      static_cast<double>(bound.vertices) * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
 // What each optional stage costs (issue 6: a scene models only what it needs): `drop` with its
 // 10,000-vertex organ mesh, then with one thing switched off. Arg: which. The difference to "all"
 // is what that part of the model costs per frame.
@@ -240,6 +295,7 @@ BENCHMARK(BM_SegmentsWithMesh)
     ->MinTime(1.0)
     ->UseRealTime();
 BENCHMARK(BM_StageCost)->DenseRange(0, 4)->Unit(benchmark::kMicrosecond)->Iterations(150);
+BENCHMARK(BM_SkinDenseCage)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SkinRigidGroups)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SkinScalarReference)->Arg(10'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Normals)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMicrosecond);

@@ -329,11 +329,11 @@ void print_mesh_info(std::FILE* out, const World& world, std::size_t segment) {
   if (k.method == SkinningMethod::mean_value)
     fmt::print(
         out,
-        "    mean value coordinates: {:.2f} rings per vertex (up to {}); min weight {:.3g}; negative mass max {:.3g}, "
+        "    mean value coordinates: {:.2f} rings per vertex (up to {}), {:.2f} slots per vertex; min weight {:.3g}; negative mass max {:.3g}, "
         "mean {:.3g} "
         "({} vertices); weight left out max {:.3g}, mean {:.3g}; rest correction max {:.2f} mm; rest error {:.2g} m; "
         "{:.2f} s\n",
-        k.mean_rings_per_vertex, k.rings_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass,
+        k.mean_rings_per_vertex, k.rings_per_vertex, k.slots_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass,
         k.negative_vertices, k.max_dropped_mass, k.mean_dropped_mass, 1e3 * k.max_rest_correction, k.rest_error,
         k.seconds);
   else

@@ -166,6 +166,10 @@ struct OrganMeshDesc {
   // ... and more, per vertex, while the weight mass left out exceeds this fraction of its total
   // (decision 0048: under 1 mm from full MVC on real anatomy); 0: exactly rings_per_vertex.
   double weight_left_out = 0.02;
+  // The most rings a vertex keeps (decision 0083): 0, no bound; else what its weight would want
+  // beyond them is folded onto the kept rings nearest along the rod. 7 bounds a dense cage's cost
+  // to about twice that of 4 rings, at some accuracy where loops touch (docs/skinning.md).
+  int max_rings_per_vertex = 0;
   bool normals = true;  // per-vertex normals every frame
 };
 

@@ -69,7 +69,8 @@ struct CageReport {
 struct SkinReport {
   SkinningMethod method = SkinningMethod::mean_value;
   std::size_t rings_per_vertex = 0;    // rings kept, the vertex that keeps most (all rings when not localized)
-  double mean_rings_per_vertex = 0.0;  // over the vertices: what skinning costs
+  double mean_rings_per_vertex = 0.0;  // over the vertices
+  double slots_per_vertex = 0.0;       // what skinning costs: rings × lanes of every block (padding too), per vertex
   double min_weight = 0.0;             // most negative MVC weight of any vertex
   double max_negative_mass = 0.0;      // Σ|w| of negative weights, worst vertex
   double mean_negative_mass = 0.0;

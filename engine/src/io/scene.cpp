@@ -36,7 +36,7 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
                               const std::filesystem::path& scene_dir) {
   r.check_keys(t, path,
                {"source", "file", "scale", "translate", "procedural", "cage", "skinning", "rings_per_vertex",
-                "weight_left_out", "normals"});
+                "weight_left_out", "max_rings_per_vertex", "normals"});
   OrganMeshDesc d;
   d.enabled = true;
   const toml::node* file_node = t.get("file");
@@ -58,6 +58,8 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
                                {{"mvc", SkinningMethod::mean_value}, {"linear-blend", SkinningMethod::linear_blend}});
   d.rings_per_vertex = r.integer(t, "rings_per_vertex", path + ".rings_per_vertex", d.rings_per_vertex);
   d.weight_left_out = r.number(t, "weight_left_out", path + ".weight_left_out", d.weight_left_out);
+  d.max_rings_per_vertex =
+      r.integer(t, "max_rings_per_vertex", path + ".max_rings_per_vertex", d.max_rings_per_vertex);
   d.normals = r.boolean(t, "normals", path + ".normals", d.normals);
   if (const toml::table* p = r.table(t, "procedural", path + ".procedural")) {
     const std::string pp = path + ".procedural";

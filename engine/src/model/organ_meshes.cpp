@@ -218,6 +218,11 @@ void check_mesh_fields(const SegmentDesc& sd, const SegmentModel& seg, std::size
   if (!std::isfinite(d.weight_left_out) || d.weight_left_out < 0.0 || d.weight_left_out >= 1.0)
     fail(ErrorCode::invalid_argument, where + ".weight_left_out",
          fmt::format("expected a fraction in [0, 1) of each vertex's weight, got {}", d.weight_left_out));
+  if (d.max_rings_per_vertex < 0 || d.max_rings_per_vertex > 4096 ||
+      (d.max_rings_per_vertex > 0 && d.max_rings_per_vertex < d.rings_per_vertex))
+    fail(ErrorCode::invalid_argument, where + ".max_rings_per_vertex",
+         fmt::format("expected 0 (no bound) or a count from rings_per_vertex ({}) up to 4096, got {}",
+                     d.rings_per_vertex, d.max_rings_per_vertex));
   if (d.rings_per_vertex < 0 || d.rings_per_vertex > 4096)
     fail(ErrorCode::invalid_argument, where + ".rings_per_vertex",
          fmt::format("expected 0 (all rings) or a count up to 4096, got {}", d.rings_per_vertex));
@@ -302,7 +307,8 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
       throw FieldError(e.code(), e.field(), fmt::format("{} (mesh {})", e.detail(), d.file));
     }
     out.binding = d.skinning == SkinningMethod::mean_value
-                      ? bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, d.weight_left_out, out.info.skin)
+                      ? bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, d.weight_left_out, out.info.skin,
+                                        nullptr, d.max_rings_per_vertex)
                       : bind_linear_blend(out.cage, meshes[pi], out.info.skin);
 
     append_mesh_buffers(pi, meshes[pi], d.normals, out, m);

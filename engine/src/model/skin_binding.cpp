@@ -4,7 +4,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
+#include <limits>
 #include <numeric>
+#include <span>
 
 #include "haustra/kernels/mean_value_coordinates.hpp"
 #include "step/scheduler.hpp"
@@ -38,43 +41,60 @@ struct Slots {
   }
 };
 
-// Packs vertices into blocks that share their ring set: vertices sorted by ring set (shorter sets
-// first, then lexicographically, then by index), each set filling whole blocks, the last padded.
-SkinBinding pack(const TriangleMesh& mesh, const Slots& slots) {
+// Packs vertices into blocks of kSkinLanes (decision 0084): vertices sorted by ring set
+// (lexicographically, then by index); a block takes the next vertex while the union of their ring
+// sets is at most one ring more than its largest member's and at most `max_rings`, so similar
+// sets share a block instead of padding their own; a vertex's coefficients are zero on the rings
+// of its block it does not keep. Sets of one size never merge unless equal when max_rings is that
+// size (fixed K packs as before).
+SkinBinding pack(const TriangleMesh& mesh, const Slots& slots, std::size_t max_rings) {
   const std::size_t n = mesh.vertices.size();
   std::vector<std::uint32_t> order(n);
   std::iota(order.begin(), order.end(), 0U);
   std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    const auto &ra = slots.ring[a], &rb = slots.ring[b];
-    if (ra.size() != rb.size()) return ra.size() < rb.size();
-    return std::lexicographical_compare(ra.begin(), ra.end(), rb.begin(), rb.end());
+    return slots.ring[a] < slots.ring[b];  // lexicographic: a set next to the sets it begins
   });
+  std::vector<std::uint32_t> merged;
+  // Whether a vertex of ring set `add` may join a block of rings `set` whose largest member keeps
+  // `largest` rings: the union then has at most one ring more than its largest member's.
+  const auto fits = [&](const std::vector<std::uint32_t>& set, std::size_t largest, const std::vector<std::uint32_t>& add) {
+    merged.clear();
+    std::set_union(set.begin(), set.end(), add.begin(), add.end(), std::back_inserter(merged));
+    const std::size_t most = std::max(largest, add.size());
+    return merged.size() == most || merged.size() <= std::min(max_rings, most + 1);
+  };
   SkinBinding b;
   b.vertices = n;
   b.slot_start.push_back(0);
   std::size_t i = 0;
   while (i < n) {
-    const std::vector<std::uint32_t>& set = slots.ring[order[i]];
-    std::size_t j = i;
-    while (j < n && slots.ring[order[j]] == set) ++j;
-    const std::size_t k = set.size();
-    for (std::size_t first = i; first < j; first += kSkinLanes) {
-      const std::size_t slot0 = b.ring.size();
-      b.ring.insert(b.ring.end(), set.begin(), set.end());
-      b.slot_start.push_back(static_cast<std::uint32_t>(b.ring.size()));
-      b.coefficient.resize(b.ring.size() * kSkinCoefficients * kSkinLanes, 0.0f);
-      for (std::size_t l = 0; l < kSkinLanes; ++l) {
-        const bool real = first + l < j;
-        const std::uint32_t v = real ? order[first + l] : kernels::kNoVertex;
-        b.vertex.push_back(v);
-        b.rest_x.push_back(real ? static_cast<float>(mesh.vertices[v].x()) : 0.0f);
-        b.rest_y.push_back(real ? static_cast<float>(mesh.vertices[v].y()) : 0.0f);
-        b.rest_z.push_back(real ? static_cast<float>(mesh.vertices[v].z()) : 0.0f);
-        if (!real) continue;
-        for (std::size_t s = 0; s < k; ++s)
-          for (std::size_t c = 0; c < kSkinCoefficients; ++c)
-            b.coefficient[((slot0 + s) * kSkinCoefficients + c) * kSkinLanes + l] =
-                static_cast<float>(slots.coef[v][4 * s + c]);
+    // The block: up to kSkinLanes vertices from i, its rings the union of theirs.
+    std::vector<std::uint32_t> set = slots.ring[order[i]];
+    std::size_t largest = set.size();
+    std::size_t j = i + 1;
+    while (j < n && j - i < kSkinLanes && fits(set, largest, slots.ring[order[j]])) {
+      largest = std::max(largest, slots.ring[order[j]].size());
+      set = merged;
+      ++j;
+    }
+    const std::size_t slot0 = b.ring.size();
+    b.ring.insert(b.ring.end(), set.begin(), set.end());
+    b.slot_start.push_back(static_cast<std::uint32_t>(b.ring.size()));
+    b.coefficient.resize(b.ring.size() * kSkinCoefficients * kSkinLanes, 0.0f);
+    for (std::size_t l = 0; l < kSkinLanes; ++l) {
+      const bool real = i + l < j;
+      const std::uint32_t v = real ? order[i + l] : kernels::kNoVertex;
+      b.vertex.push_back(v);
+      b.rest_x.push_back(real ? static_cast<float>(mesh.vertices[v].x()) : 0.0f);
+      b.rest_y.push_back(real ? static_cast<float>(mesh.vertices[v].y()) : 0.0f);
+      b.rest_z.push_back(real ? static_cast<float>(mesh.vertices[v].z()) : 0.0f);
+      if (!real) continue;
+      const std::vector<std::uint32_t>& own = slots.ring[v];
+      for (std::size_t k = 0; k < own.size(); ++k) {
+        const auto s = static_cast<std::size_t>(std::lower_bound(set.begin(), set.end(), own[k]) - set.begin());
+        for (std::size_t c = 0; c < kSkinCoefficients; ++c)
+          b.coefficient[((slot0 + s) * kSkinCoefficients + c) * kSkinLanes + l] =
+              static_cast<float>(slots.coef[v][4 * k + c]);
       }
     }
     i = j;
@@ -91,17 +111,29 @@ double rest_error(const SkinBinding& b, const TriangleMesh& mesh) {
   return worst;
 }
 
+// What skinning costs per vertex: the slots of every block times its lanes (padding included),
+// over the vertices.
+double slots_per_vertex(const SkinBinding& b) {
+  return b.vertices == 0 ? 0.0
+                         : static_cast<double>(b.slot_start.back()) * kSkinLanes / static_cast<double>(b.vertices);
+}
+
 struct VertexStats {
   double min_weight = 0.0, negative_mass = 0.0, dropped_mass = 0.0, correction = 0.0;
   std::size_t kept = 0;
   kernels::MvcLocation location = kernels::MvcLocation::general;
 };
 
-// The rings of largest weight mass (ties: lower ring first): at least `at_least`, and more
-// while the mass left out exceeds `weight_left_out` of the total; then in ring order.
-// Returns how many rings `order` starts with and the weight mass the others carry.
-std::pair<std::size_t, double> choose_rings(const std::vector<double>& mass, std::size_t at_least,
-                                            double weight_left_out, std::vector<std::uint32_t>& order) {
+// The rings a vertex keeps (decision 0083): the `at_least` of largest weight mass (ties: lower
+// ring first), then, while the mass left out exceeds `weight_left_out` of the total and fewer than
+// `at_most` are kept, the left-out ring whose mass times its distance along the rod from the
+// nearest kept ring is largest (what folding it would cost: a ring next to a kept one moves almost
+// as it does), or of largest mass when arc is empty (no bound: decision 0048); then in ring order.
+// arc: per ring, or empty. Returns how many rings `order` starts with and
+// the weight mass the others carry.
+std::pair<std::size_t, double> choose_rings(const std::vector<double>& mass, std::span<const double> arc,
+                                            std::size_t at_least, std::size_t at_most, double weight_left_out,
+                                            std::vector<std::uint32_t>& order, std::vector<double>& gap) {
   const std::size_t rings = mass.size();
   std::iota(order.begin(), order.end(), 0U);
   std::sort(order.begin(), order.end(),
@@ -110,10 +142,68 @@ std::pair<std::size_t, double> choose_rings(const std::vector<double>& mass, std
   for (std::size_t g = 0; g < rings; ++g) total_mass += mass[g];
   for (std::size_t k = at_least; k < rings; ++k) dropped += mass[order[k]];
   std::size_t keep = at_least;
-  while (weight_left_out > 0.0 && keep < rings && dropped > weight_left_out * total_mass)
-    dropped -= mass[order[keep++]];
+  if (arc.empty()) {
+    while (weight_left_out > 0.0 && keep < std::min(rings, at_most) && dropped > weight_left_out * total_mass)
+      dropped -= mass[order[keep++]];
+  } else if (weight_left_out > 0.0 && keep < at_most && dropped > weight_left_out * total_mass) {
+    // gap[k]: the distance along the rod from order[k] (left out) to the nearest kept ring.
+    for (std::size_t k = keep; k < rings; ++k) {
+      gap[k] = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < keep; ++i) gap[k] = std::min(gap[k], std::abs(arc[order[k]] - arc[order[i]]));
+    }
+    while (keep < at_most && dropped > weight_left_out * total_mass) {
+      std::size_t best = keep;
+      for (std::size_t k = keep + 1; k < rings; ++k)
+        if (mass[order[k]] * gap[k] > mass[order[best]] * gap[best]) best = k;
+      std::swap(order[keep], order[best]);
+      std::swap(gap[keep], gap[best]);
+      dropped -= mass[order[keep]];
+      for (std::size_t k = keep + 1; k < rings; ++k)
+        gap[k] = std::min(gap[k], std::abs(arc[order[k]] - arc[order[keep]]));
+      ++keep;
+    }
+  }
   std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep));
   return {keep, dropped};
+}
+
+// Folds the weight of the rings left out onto the kept ones (decision 0083): a left-out ring g's
+// share of the vertex, the point b_g c_g + R_g A_g at rest, is carried instead by the kept rings
+// nearest it along the rod — split between the two that bracket it, in proportion to their arc
+// lengths, or all to the nearer end of the kept ones — so the sum of the weights stays 1 and the
+// rest pose is reproduced as by all rings; what it costs is how differently g and its carriers move.
+// kept: the kept rings, ascending (ring order is arc order); weight, moment: per ring, updated.
+void fold_left_out(const CageModel& cage, std::span<const std::uint32_t> kept, std::vector<double>& weight,
+                   std::vector<Eigen::Vector3d>& moment, std::vector<std::uint8_t>& is_kept) {
+  const std::size_t rings = weight.size();
+  std::fill(is_kept.begin(), is_kept.end(), 0);
+  for (const std::uint32_t g : kept) is_kept[g] = 1;
+  const auto arc = [&](std::size_t g) { return cage.ring_binding[g].centre.z(); };
+  // Moves ring g's share (fraction f of it) onto ring h, as the same point at rest.
+  const auto carry = [&](std::size_t g, std::size_t h, double f) {
+    const kernels::RingPose &rg = cage.ring_rest[g], &rh = cage.ring_rest[h];
+    const double b = f * weight[g];
+    moment[h] += rh.rotation.transpose() * (f * (rg.rotation * moment[g]) + b * (rg.centre - rh.centre));
+    weight[h] += b;
+  };
+  std::size_t next = 0;  // index into kept of the first kept ring above g
+  for (std::size_t g = 0; g < rings; ++g) {
+    while (next < kept.size() && kept[next] <= g) ++next;
+    if (is_kept[g] != 0 || (weight[g] == 0.0 && moment[g].isZero())) continue;
+    if (next == 0) {
+      carry(g, kept.front(), 1.0);
+    } else if (next == kept.size()) {
+      carry(g, kept.back(), 1.0);
+    } else {
+      const std::size_t lo = kept[next - 1], hi = kept[next];
+      const double span = arc(hi) - arc(lo);
+      const double f = span > 0.0 ? std::clamp((arc(hi) - arc(g)) / span, 0.0, 1.0) : 0.5;
+      carry(g, lo, f);
+      carry(g, hi, 1.0 - f);
+    }
+    weight[g] = 0.0;
+    moment[g].setZero();
+  }
 }
 
 // The binding's report from each vertex's statistics: the worst and the mean.
@@ -157,12 +247,20 @@ void pack_rows(const std::vector<std::vector<std::pair<std::uint32_t, double>>>&
 }  // namespace
 
 SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int rings_per_vertex,
-                            double weight_left_out, SkinReport& report, CageWeights* csr) {
+                            double weight_left_out, SkinReport& report, CageWeights* csr, int max_rings_per_vertex) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t rings = cage.ring_station.size();
   const std::size_t n = cage.rest_vertices.size();
   const std::size_t at_least =
       rings_per_vertex <= 0 ? rings : std::min(rings, static_cast<std::size_t>(rings_per_vertex));
+  // At most max_rings_per_vertex (decision 0083): what a vertex's weight would want beyond them is
+  // folded onto the kept rings nearest along the rod.
+  const std::size_t at_most =
+      max_rings_per_vertex <= 0
+          ? rings
+          : std::max(at_least, std::min(rings, static_cast<std::size_t>(max_rings_per_vertex)));
+  std::vector<double> arc(rings);  // along the rod: the binding pose is straight along z
+  for (std::size_t g = 0; g < rings; ++g) arc[g] = cage.ring_binding[g].centre.z();
   Slots slots;
   slots.resize(mesh.vertices.size());
   // Weights in the binding pose, where the cage embeds the mesh without folds.
@@ -176,6 +274,8 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
     std::vector<double> scratch(4 * n), w(n), mass(rings), weight(rings);
     std::vector<Eigen::Vector3d> moment(rings);
     std::vector<std::uint32_t> order(rings);
+    std::vector<std::uint8_t> is_kept(rings);
+    std::vector<double> gap(rings);
     for (std::size_t v = first; v != last; ++v) {
       const kernels::MvcResult r = kernels::mean_value_coordinates(cage.mesh_binding[v], view, frame, scratch, w);
       std::fill(mass.begin(), mass.end(), 0.0);
@@ -187,10 +287,14 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
         weight[g] += w[j];
         moment[g] += w[j] * cage.offset[j];
       }
-      const auto [keep, dropped] = choose_rings(mass, at_least, weight_left_out, order);
+      // By weight and distance when bounded, by weight alone otherwise (decision 0048).
+      const auto [keep, dropped] = choose_rings(mass, at_most < rings ? std::span<const double>(arc) : std::span<const double>(),
+                                                at_least, at_most, weight_left_out, order, gap);
+      if (keep < rings) fold_left_out(cage, std::span(order).first(keep), weight, moment, is_kept);
       double kept = 0.0;
       for (std::size_t k = 0; k < keep; ++k) kept += weight[order[k]];
-      // Renormalized to a partition of unity, so a rigid translation of the rod stays exact.
+      // Renormalized to a partition of unity, so a rigid translation of the rod stays exact (the
+      // folded weights already sum to MVC's 1, but for rounding).
       const double scale = kept != 0.0 ? 1.0 / kept : 1.0;
       // Carried to the rings' rest poses, the kept weights put the vertex at Σ b_g c_g + R_g A_g;
       // the rest of the way (the bend between binding and rest pose, and what localization left
@@ -221,8 +325,9 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
   });
 
   report = skin_report_of(stats);
-  SkinBinding b = pack(mesh, slots);
+  SkinBinding b = pack(mesh, slots, weight_left_out > 0.0 ? at_most : at_least);
   report.rest_error = rest_error(b, mesh);
+  report.slots_per_vertex = slots_per_vertex(b);
   if (csr != nullptr) pack_rows(rows, *csr);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return b;
@@ -257,11 +362,12 @@ SkinBinding bind_linear_blend(const CageModel& cage, const TriangleMesh& mesh, S
       slots.set(v, k, g[k], w[k], w[k] * (r.rotation.transpose() * (x - r.centre)));
     }
   });
-  SkinBinding b = pack(mesh, slots);
+  SkinBinding b = pack(mesh, slots, 2);
   report = SkinReport{};
   report.method = SkinningMethod::linear_blend;
   report.rings_per_vertex = 2;
   report.mean_rings_per_vertex = 2.0;
+  report.slots_per_vertex = slots_per_vertex(b);
   report.rest_error = rest_error(b, mesh);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return b;
