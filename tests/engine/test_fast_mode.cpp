@@ -3,9 +3,11 @@
 // afresh where something did.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
+#include "haustra/profile.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/studies/references.hpp"
 #include "haustra/world.hpp"
@@ -42,13 +44,103 @@ TEST_CASE("fast mode reaches the elastica under a large load applied at once, re
   CHECK(std::hypot(p.x[tip] - ref.x, p.z[tip] - ref.z) < 1e-4);
   CHECK(chords >= 5);
   CHECK(w->events().empty());
-  // Settled, frames reuse it until it is solver.refactor_frames (8) old.
+  // Settled, every frame replays a factorization: the one that comes of age (solver.refactor_frames,
+  // 8) is replaced by one made a frame early in the background (decision 0085).
   int settled = 0;
   for (int f = 0; f < 16; ++f) {
     w->step();
     settled += w->last_profile().chords;
   }
-  CHECK(settled == 14);
+  CHECK(settled == 16);
+  // Without the prefactor, the frame whose factorization comes of age factors afresh itself.
+  auto plain = create_world(test::scene_desc("cantilever", {"solver.mode=fast", "solver.prefactor=false"}));
+  for (int f = 0; f < 15; ++f) plain->step();
+  int plain_settled = 0;
+  for (int f = 0; f < 16; ++f) {
+    plain->step();
+    plain_settled += plain->last_profile().chords;
+  }
+  CHECK(plain_settled == 14);
+}
+
+namespace {
+
+// Per frame of a fast-mode run: whether it replayed a factorization (chords), swapped in a
+// prefactor, and ran the prefactor stage (a launch, or a swap).
+struct FastFrames {
+  std::vector<int> refactored, swapped, launched;  // frame numbers
+  int chords = 0, iterations = 0;
+};
+
+FastFrames run_fast(World& w, int frames) {
+  FastFrames out;
+  for (int f = 0; f < frames; ++f) {
+    w.step();
+    const FrameProfile& p = w.last_profile();
+    const int frame = static_cast<int>(w.frame()) - 1;
+    out.chords += p.chords;
+    out.iterations += p.iterations;
+    if (p.chords == 0) out.refactored.push_back(frame);
+    if (p.prefactors > 0) out.swapped.push_back(frame);
+    if (p.calls[static_cast<std::size_t>(Stage::prefactor)] > 0 && p.prefactors == 0) out.launched.push_back(frame);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("fast mode's prefactor swaps in on the planned frames: a frame before the record comes of age, none late") {
+  // The cantilever settled under its load: nothing but the factorization's age asks for a new one.
+  // The record made at frame 7 (the 8th frame's linearization) serves frames 8–14; at frame 14 it is
+  // one frame short of refactor_frames (8), so frame 14 launches the sweep of its own linearization
+  // and frame 15 swaps it in — every 7 frames, each frame a chord frame. Without the prefactor, every
+  // 8th frame factors afresh on its own time.
+  auto w = create_world(test::scene_desc("cantilever", {"solver.mode=fast"}));
+  for (int f = 0; f < 15; ++f) w->step();
+  const FastFrames fast = run_fast(*w, 40);
+  MESSAGE("cantilever, frames 15–54: swapped at " << fast.swapped.size() << " frames, refactored at "
+                                                   << fast.refactored.size());
+  CHECK(fast.refactored.empty());
+  REQUIRE(fast.swapped.size() >= 5);
+  for (std::size_t i = 1; i < fast.swapped.size(); ++i) CHECK(fast.swapped[i] - fast.swapped[i - 1] == 7);
+  for (const int s : fast.swapped)  // each swap's sweep was launched on the frame before it
+    if (s > 15) CHECK(std::find(fast.launched.begin(), fast.launched.end(), s - 1) != fast.launched.end());
+  CHECK(fast.launched.size() + 1 >= fast.swapped.size());
+
+  auto plain = create_world(test::scene_desc("cantilever", {"solver.mode=fast", "solver.prefactor=false"}));
+  for (int f = 0; f < 15; ++f) plain->step();
+  const FastFrames before = run_fast(*plain, 40);
+  CHECK(before.swapped.empty());
+  CHECK(before.launched.empty());
+  REQUIRE(before.refactored.size() == 5);
+  for (std::size_t i = 1; i < before.refactored.size(); ++i)
+    CHECK(before.refactored[i] - before.refactored[i - 1] == 8);
+}
+
+TEST_CASE("fast mode's prefactor on drop: the age-limited refactorizations leave the critical path, the fall as Newton's") {
+  // drop's 300 frames (falling, landing, piling up, settling). Refactorizations stay only where a
+  // bead starts touching (and on the robust mode's frames). Measured in release: frames that
+  // factor afresh 50 → 31 of 300 (the rest swapped in), and from converged Newton at frame 10
+  // 1.2e-12 m (5e-13 m without the prefactor: the record is a frame older).
+  SceneDesc exact = test::scene_desc("drop", {"solver.iterations=40", "solver.tolerance=1e-10"});
+  auto newton = create_world(exact);
+  auto fast = create_world(test::scene_desc("drop", {"solver.mode=fast"}));
+  auto plain = create_world(test::scene_desc("drop", {"solver.mode=fast", "solver.prefactor=false"}));
+  for (int f = 0; f < 10; ++f) newton->step();
+  const FastFrames early = run_fast(*fast, 10), plain_early = run_fast(*plain, 10);
+  const double at10 = largest_distance(*fast, *newton), plain_at10 = largest_distance(*plain, *newton);
+  const FastFrames with = run_fast(*fast, 290);
+  const FastFrames without = run_fast(*plain, 290);
+  const auto refactored = with.refactored.size() + early.refactored.size();
+  const auto plain_refactored = without.refactored.size() + plain_early.refactored.size();
+  MESSAGE("drop, fast mode, 300 frames: factored afresh on "
+          << refactored << " frames with the prefactor (" << with.swapped.size() + early.swapped.size()
+          << " swapped in), " << plain_refactored << " without; from converged Newton at frame 10: " << at10
+          << " m, " << plain_at10 << " m without");
+  CHECK(at10 < 1e-11);
+  CHECK(with.swapped.size() >= 20);
+  CHECK(refactored + 10 < plain_refactored);
+  CHECK(with.chords > with.iterations / 2);
 }
 
 TEST_CASE("fast mode on drop: the fall as converged Newton's, factorizations reused, fresh ones where contacts begin") {
@@ -94,7 +186,9 @@ TEST_CASE("fast mode on drop: the fall as converged Newton's, factorizations reu
           << before_contact << " m at frame 10, up to " << after_contact
           << " m at a node once touching, the centre of mass within " << centroid_gap << " m; first touch at frames "
           << first_touch_a << " and " << first_touch_b);
-  CHECK(before_contact < 5e-12);  // measured 5.3e-13 m: one iteration a frame, converged while falling
+  // Measured 1.2e-12 m (5.3e-13 m before decision 0085: the record swapped in at frame 8 is a frame
+  // older): one iteration a frame, converged while falling.
+  CHECK(before_contact < 5e-12);
   // Once beads touch, a pile-up is chaotic: a micrometre at the first touch grows to centimetres at
   // a node (measured 77 mm), so the comparison is of what the pile does as a whole — the centre of
   // mass (measured within 11.8 mm) and when it lands (frames 17 and 15).

@@ -17,6 +17,7 @@ enum class Stage : std::uint8_t {
   free_base,       // rigid drag of free bases
   backward_sweep,  // node forces → generalized forces R
   condense,        // Newton: linearize and condense the system tip → base (or the banded LU's fallback)
+  prefactor,       // fast mode: the next record's sweep handed to another thread, and swapped in a frame later
   solve,           // lagged: prefactored M and the strain law; Newton: coupled unknowns and the step
   line_search,     // Newton: the step's fraction that lowers the frame's incremental potential
   constraints,     // lagged: attachments, implicit through the Schur complement
