@@ -92,13 +92,13 @@ TEST_CASE("checkpoint, restore and step on: the same bits as never having stoppe
 }
 
 TEST_CASE("a checkpoint taken while fast mode's prefactor is in flight restores bit for bit") {
-  // drop in fast mode on 2 threads: its 8th frame (frame 7) replays the record of frame 0, which
+  // drop in fast mode on 2 threads: its 7th frame (frame 6) replays the record of frame 0, which
   // comes of age at frame 8, so it hands the sweep of its linearization to the other thread
   // (decision 0085). Saved right after it — the sweep finished and saved, not yet swapped in — and
   // restored into a fresh world, both must swap it in at frame 8 and agree bit for bit on.
   const std::vector<std::string> sets = {"solver.mode=fast"};
   auto original = test::scene_world("drop", 2, sets);
-  for (int f = 0; f < 8; ++f) original->step();
+  for (int f = 0; f < 7; ++f) original->step();
   const FrameProfile& launch = original->last_profile();
   REQUIRE(launch.calls[static_cast<std::size_t>(Stage::prefactor)] == 1);
   REQUIRE(launch.prefactors == 0);

@@ -45,7 +45,7 @@ TEST_CASE("fast mode reaches the elastica under a large load applied at once, re
   CHECK(chords >= 5);
   CHECK(w->events().empty());
   // Settled, every frame replays a factorization: the one that comes of age (solver.refactor_frames,
-  // 8) is replaced by one made a frame early in the background (decision 0085).
+  // 8) is replaced by one made two frames early in the background (decision 0085).
   int settled = 0;
   for (int f = 0; f < 16; ++f) {
     w->step();
@@ -89,12 +89,12 @@ FastFrames run_fast(World& w, int frames) {
 
 }  // namespace
 
-TEST_CASE("fast mode's prefactor swaps in on the planned frames: a frame before the record comes of age, none late") {
+TEST_CASE("fast mode's prefactor swaps in on the planned frames: launched two frames before the record comes of age, none late") {
   // The cantilever settled under its load: nothing but the factorization's age asks for a new one.
-  // The record made at frame 7 (the 8th frame's linearization) serves frames 8–14; at frame 14 it is
-  // one frame short of refactor_frames (8), so frame 14 launches the sweep of its own linearization
-  // and frame 15 swaps it in — every 7 frames, each frame a chord frame. Without the prefactor, every
-  // 8th frame factors afresh on its own time.
+  // A record made from frame f's linearization serves until it is refactor_frames (8) old: frame
+  // f + 6 launches the sweep of its own linearization, frame f + 8 swaps it in (the sweep has the
+  // rest of frame f + 6 and all of f + 7 on the other core) — every 6 frames, each frame a chord
+  // frame. Without the prefactor, every 8th frame factors afresh on its own time.
   auto w = create_world(test::scene_desc("cantilever", {"solver.mode=fast"}));
   for (int f = 0; f < 15; ++f) w->step();
   const FastFrames fast = run_fast(*w, 40);
@@ -102,9 +102,9 @@ TEST_CASE("fast mode's prefactor swaps in on the planned frames: a frame before 
                                                    << fast.refactored.size());
   CHECK(fast.refactored.empty());
   REQUIRE(fast.swapped.size() >= 5);
-  for (std::size_t i = 1; i < fast.swapped.size(); ++i) CHECK(fast.swapped[i] - fast.swapped[i - 1] == 7);
-  for (const int s : fast.swapped)  // each swap's sweep was launched on the frame before it
-    if (s > 15) CHECK(std::find(fast.launched.begin(), fast.launched.end(), s - 1) != fast.launched.end());
+  for (std::size_t i = 1; i < fast.swapped.size(); ++i) CHECK(fast.swapped[i] - fast.swapped[i - 1] == 6);
+  for (const int s : fast.swapped)  // each swap's sweep was launched two frames before it
+    if (s > 16) CHECK(std::find(fast.launched.begin(), fast.launched.end(), s - 2) != fast.launched.end());
   CHECK(fast.launched.size() + 1 >= fast.swapped.size());
 
   auto plain = create_world(test::scene_desc("cantilever", {"solver.mode=fast", "solver.prefactor=false"}));

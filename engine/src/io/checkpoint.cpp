@@ -110,7 +110,7 @@ void visit_chords(Io& io, const WorldModel& model, State& st) {
     io(ws.chord_ready), io(ws.chord_frame), io(ws.chord_dt);
     io.list(ws.chord_pattern, model.segments[s].attachments.size() + model.segments[s].bead_count);
     io(ws.record), io(ws.gain), io(ws.base_solution), io(ws.responses);
-    // The prefactor planned for the next frame (decision 0085), finished before a save: its sweep's
+    // The prefactor planned for a coming frame (decision 0085), finished before a save: its sweep's
     // outputs, so the restored world swaps in the record the uninterrupted one does.
     auto& pf = ws.prefactor;
     io(pf.pending);

@@ -47,7 +47,7 @@ void carry_chords(const std::vector<NewtonWorkspace>& from, std::size_t a, std::
   t.gain = f.gain;
   t.base_solution = f.base_solution;
   t.responses = f.responses;
-  // A prefactor planned for the next frame (decision 0085; settled before the rebuild) comes along.
+  // A prefactor planned for a coming frame (decision 0085; settled before the rebuild) comes along.
   const Prefactor& fp = f.prefactor;
   Prefactor& tp = t.prefactor;
   if (!fp.pending || fp.record.size() != tp.record.size() || fp.pattern.size() > tp.pattern.capacity()) return;

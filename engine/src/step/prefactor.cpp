@@ -1,6 +1,6 @@
 // Fast mode's prefactor (decision 0085): the factorization a chord frame will need when its record
-// comes of age, made one frame early on another thread, from a copy of that frame's linearization,
-// and swapped in at the next frame. The plan depends on the state alone, so the same frames launch
+// comes of age, made two frames early on another thread, from a copy of that frame's
+// linearization, and swapped in when its frame comes. The plan depends on the state alone, so the same frames launch
 // and swap on 1 or 2 threads and on a host's jobs, and the sweep's numbers are those of its copy.
 #include <algorithm>
 
@@ -47,13 +47,19 @@ void prefactor_sweep(void* data) {
                                            pf.responses, {});
 }
 
-// The rod replays its record this iteration, and the record is one frame short of its age limit:
-// the next frame's record is made now.
+// Frames between a prefactor's launch and its swap: the sweep has the rest of the launch frame and
+// the whole next one on the other core (measured on the small intestine: a sweep with its responses
+// takes ~0.5–0.7 ms there beside the stepping thread, longer than what is left of one frame).
+constexpr std::uint64_t kLead = 2;
+
+// The rod replays its record this iteration, and the record comes of age kLead frames from now:
+// the record for that frame is launched now.
 bool launch_due(const WorldModel& model, const WorldState& state, std::size_t rod, const SubstepParameters& p) {
   const NewtonWorkspace& ws = state.newton[rod];
-  return model.solver.prefactor && p.chord && p.iteration == 0 && !ws.record.empty() && !ws.prefactor.pending &&
+  return model.solver.prefactor && static_cast<std::uint64_t>(model.solver.refactor_frames) > kLead && p.chord &&
+         p.iteration == 0 && !ws.record.empty() && !ws.prefactor.pending &&
          state.segment_converged[rod] == 0 && ws.chord && ws.law_scale == 1.0 && !ws.band &&
-         state.frame + 1 - ws.chord_frame >= static_cast<std::uint64_t>(model.solver.refactor_frames);
+         state.frame + kLead - ws.chord_frame >= static_cast<std::uint64_t>(model.solver.refactor_frames);
 }
 
 void launch(const WorldModel& model, WorldState& state, Scheduler& scheduler, std::size_t rod,
@@ -91,7 +97,7 @@ void launch(const WorldModel& model, WorldState& state, Scheduler& scheduler, st
   scheduler.launch(pf.job, &prefactor_sweep, &pf);
 }
 
-// The prefactor made for this frame becomes the record — if the record it was made to replace
+// At its frame, the prefactor becomes the record — if the record it was made to replace
 // still stands (no refactorization came between) and its sweep held its pivots. A prefactor whose
 // frame passed without a chord iteration to swap it into is dropped.
 void swap_in(WorldState& state, Scheduler& scheduler, std::size_t rod, const SubstepParameters& p) {
@@ -99,7 +105,7 @@ void swap_in(WorldState& state, Scheduler& scheduler, std::size_t rod, const Sub
   Prefactor& pf = ws.prefactor;
   scheduler.join(pf.job);
   pf.pending = false;
-  const bool planned = state.frame == pf.frame + 1 && p.chord && p.iteration == 0;
+  const bool planned = state.frame == pf.frame + kLead && p.chord && p.iteration == 0;
   if (!planned || !pf.ok || !ws.chord_ready || ws.chord_frame != pf.replaces) return;
   std::swap(ws.gain, pf.gain);
   std::swap(ws.base_solution, pf.base_solution);
@@ -115,7 +121,7 @@ void swap_in(WorldState& state, Scheduler& scheduler, std::size_t rod, const Sub
 
 bool prefactor_swap_due(const WorldState& state) {
   for (const NewtonWorkspace& ws : state.newton)
-    if (ws.prefactor.pending && state.frame > ws.prefactor.frame) return true;
+    if (ws.prefactor.pending && state.frame >= ws.prefactor.frame + kLead) return true;
   return false;
 }
 
@@ -123,7 +129,7 @@ void stage_prefactor_swap(const WorldModel& model, WorldState& state, Scheduler&
                           const SubstepParameters& p) {
   for (std::size_t s = 0; s < model.segments.size() && s < state.newton.size(); ++s) {
     const Prefactor& pf = state.newton[s].prefactor;
-    if (pf.pending && state.frame > pf.frame) swap_in(state, scheduler, s, p);
+    if (pf.pending && state.frame >= pf.frame + kLead) swap_in(state, scheduler, s, p);
   }
 }
 

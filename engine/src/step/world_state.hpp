@@ -178,8 +178,8 @@ struct LineSearch {
 };
 
 // Fast mode's prefactor (decision 0085): a whole sweep of one frame's linearization, made on
-// another thread into buffers of its own while that frame's chord step goes on, and swapped in as
-// the record at the next frame — the frame the record it replaces comes of age. Planned from the
+// another thread into buffers of its own while that frame and the next go on, and swapped in as
+// the record two frames later — the frame the record it replaces comes of age. Planned from the
 // state alone (never from timing), so the same frames swap on 1 or 2 threads or a host's jobs.
 struct Prefactor {
   // Its input, copied from the workspace and the state (the stepping thread goes on and changes
@@ -197,7 +197,7 @@ struct Prefactor {
   std::vector<double> gain, scratch, base_solution, record, responses;
   bool ok = false;
   // The plan: made from frame `frame`'s linearization (step length dt, contact pattern), to replace
-  // the record of frame `replaces` at frame frame + 1. pending: launched and not yet swapped.
+  // the record of frame `replaces` at frame frame + 2. pending: launched and not yet swapped.
   bool pending = false;
   std::uint64_t frame = 0, replaces = 0;
   double dt = 0.0;
