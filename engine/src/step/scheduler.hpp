@@ -120,8 +120,9 @@ class Scheduler {
   }
 
   // `run(data)` on another thread while the caller goes on; join() waits for it. One thread: run
-  // at once, inline, at the same point. oneTBB: a worker takes it in an arena of its own (when none
-  // has by the join, the caller runs it itself there). A host's jobs: one range of the host's; its next
+  // at once, inline, at the same point. oneTBB: enqueued in the stages' arena, where its worker
+  // takes it between the stages' loops (it may take ~1 ms to come: hence fast mode's two frames of
+  // lead); if none has by the join, the caller runs it itself there. A host's jobs: one range of the host's; its next
   // wait — a stage's or the join's — returns only once it has run (the host's wait covers every
   // range enqueued since the last one).
   void launch(BackgroundJob& job, BackgroundJob::Run run, void* data) {
@@ -147,7 +148,7 @@ class Scheduler {
       return;
     }
     BackgroundJob* const pointer = &job;
-    background_.enqueue([pointer] {
+    arena_.enqueue([pointer] {
       TaskOrder::begin();
       BackgroundJob::task(*pointer);
     });
@@ -202,10 +203,6 @@ class Scheduler {
   int threads_;
   JobSystemDesc jobs_;
   tbb::task_arena arena_;
-  // Background jobs' own arena (one slot, none kept for a caller): a job enqueued there asks the
-  // market for a worker of its own, which then leaves the stages' arena one thread short until the
-  // job ends (enqueued in the stages' arena, a job waited ~1 ms for a worker that had gone idle).
-  tbb::task_arena background_{1, 0};
 };
 
 }  // namespace haustra::detail
