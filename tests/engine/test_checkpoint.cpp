@@ -96,7 +96,7 @@ TEST_CASE("a checkpoint taken while fast mode's prefactor is in flight restores 
   // comes of age at frame 8, so it hands the sweep of its linearization to the other thread
   // (decision 0085). Saved right after it — the sweep finished and saved, not yet swapped in — and
   // restored into a fresh world, both must swap it in at frame 8 and agree bit for bit on.
-  const std::vector<std::string> sets = {"solver.mode=fast"};
+  const std::vector<std::string> sets = {"solver.mode=fast", "solver.prefactor=true"};
   auto original = test::scene_world("drop", 2, sets);
   for (int f = 0; f < 7; ++f) original->step();
   const FrameProfile& launch = original->last_profile();

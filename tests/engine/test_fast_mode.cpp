@@ -44,23 +44,23 @@ TEST_CASE("fast mode reaches the elastica under a large load applied at once, re
   CHECK(std::hypot(p.x[tip] - ref.x, p.z[tip] - ref.z) < 1e-4);
   CHECK(chords >= 5);
   CHECK(w->events().empty());
-  // Settled, every frame replays a factorization: the one that comes of age (solver.refactor_frames,
-  // 8) is replaced by one made two frames early in the background (decision 0085).
+  // Settled, frames reuse it until it is solver.refactor_frames (8) old.
   int settled = 0;
   for (int f = 0; f < 16; ++f) {
     w->step();
     settled += w->last_profile().chords;
   }
-  CHECK(settled == 16);
-  // Without the prefactor, the frame whose factorization comes of age factors afresh itself.
-  auto plain = create_world(test::scene_desc("cantilever", {"solver.mode=fast", "solver.prefactor=false"}));
-  for (int f = 0; f < 15; ++f) plain->step();
-  int plain_settled = 0;
+  CHECK(settled == 14);
+  // With the prefactor (decision 0085) every frame replays one: the factorization that comes of
+  // age is replaced by one made two frames early in the background.
+  auto early = create_world(test::scene_desc("cantilever", {"solver.mode=fast", "solver.prefactor=true"}));
+  for (int f = 0; f < 15; ++f) early->step();
+  int early_settled = 0;
   for (int f = 0; f < 16; ++f) {
-    plain->step();
-    plain_settled += plain->last_profile().chords;
+    early->step();
+    early_settled += early->last_profile().chords;
   }
-  CHECK(plain_settled == 14);
+  CHECK(early_settled == 16);
 }
 
 namespace {
@@ -95,7 +95,7 @@ TEST_CASE("fast mode's prefactor swaps in on the planned frames: launched two fr
   // f + 6 launches the sweep of its own linearization, frame f + 8 swaps it in (the sweep has the
   // rest of frame f + 6 and all of f + 7 on the other core) — every 6 frames, each frame a chord
   // frame. Without the prefactor, every 8th frame factors afresh on its own time.
-  auto w = create_world(test::scene_desc("cantilever", {"solver.mode=fast"}));
+  auto w = create_world(test::scene_desc("cantilever", {"solver.mode=fast", "solver.prefactor=true"}));
   for (int f = 0; f < 15; ++f) w->step();
   const FastFrames fast = run_fast(*w, 40);
   MESSAGE("cantilever, frames 15–54: swapped at " << fast.swapped.size() << " frames, refactored at "
@@ -124,7 +124,7 @@ TEST_CASE("fast mode's prefactor on drop: the age-limited refactorizations leave
   // 1.2e-12 m (5e-13 m without the prefactor: the record is a frame older).
   SceneDesc exact = test::scene_desc("drop", {"solver.iterations=40", "solver.tolerance=1e-10"});
   auto newton = create_world(exact);
-  auto fast = create_world(test::scene_desc("drop", {"solver.mode=fast"}));
+  auto fast = create_world(test::scene_desc("drop", {"solver.mode=fast", "solver.prefactor=true"}));
   auto plain = create_world(test::scene_desc("drop", {"solver.mode=fast", "solver.prefactor=false"}));
   for (int f = 0; f < 10; ++f) newton->step();
   const FastFrames early = run_fast(*fast, 10), plain_early = run_fast(*plain, 10);
@@ -186,9 +186,7 @@ TEST_CASE("fast mode on drop: the fall as converged Newton's, factorizations reu
           << before_contact << " m at frame 10, up to " << after_contact
           << " m at a node once touching, the centre of mass within " << centroid_gap << " m; first touch at frames "
           << first_touch_a << " and " << first_touch_b);
-  // Measured 1.2e-12 m (5.3e-13 m before decision 0085: the record swapped in at frame 8 is a frame
-  // older): one iteration a frame, converged while falling.
-  CHECK(before_contact < 5e-12);
+  CHECK(before_contact < 5e-12);  // measured 5.3e-13 m: one iteration a frame, converged while falling
   // Once beads touch, a pile-up is chaotic: a micrometre at the first touch grows to centimetres at
   // a node (measured 77 mm), so the comparison is of what the pile does as a whole — the centre of
   // mass (measured within 11.8 mm) and when it lands (frames 17 and 15).
