@@ -94,7 +94,7 @@ typedef struct haustra_instrument_reading {
   size_t grasped_node; /* local to the segment */
 } haustra_instrument_reading;
 
-#define HAUSTRA_STAGE_COUNT 19
+#define HAUSTRA_STAGE_COUNT 20
 
 typedef struct haustra_profile {
   double stage_seconds[HAUSTRA_STAGE_COUNT]; /* in the order of haustra_stage_name(0..) */
@@ -109,6 +109,7 @@ typedef struct haustra_profile {
   int stalls;      /* Newton iterations whose line search took none of a step that was not small */
   int iterations;  /* fixed-point iterations run, summed over substeps */
   int late;        /* 1 when the frame took longer than the world's frame budget (decision 0061) */
+  int prefactors;  /* fast mode: records swapped in that were made two frames before, in the background */
   /* One field per counter of report_fields.h's HAUSTRA_PROFILE_COUNTERS (new ones at the end). */
 } haustra_profile;
 

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "step/newton_stages.hpp"
 #include "step/world_impl.hpp"
 
 #include <fmt/format.h>
@@ -20,7 +21,7 @@ namespace haustra::detail {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'H', 'A', 'U', 'S', 'T', 'R', 'C', 'K'};
-constexpr std::uint32_t kFormatVersion = 3;  // 2: fast mode's chord state; 3: the instruments' coupling
+constexpr std::uint32_t kFormatVersion = 4;  // 2: fast mode's chord state; 3: the instruments' coupling; 4: fast mode's prefactor
 
 std::uint64_t fnv1a(std::span<const std::byte> bytes, std::uint64_t h = 0xcbf29ce484222325ull) {
   for (std::byte b : bytes) {
@@ -109,6 +110,14 @@ void visit_chords(Io& io, const WorldModel& model, State& st) {
     io(ws.chord_ready), io(ws.chord_frame), io(ws.chord_dt);
     io.list(ws.chord_pattern, model.segments[s].attachments.size() + model.segments[s].bead_count);
     io(ws.record), io(ws.gain), io(ws.base_solution), io(ws.responses);
+    // The prefactor planned for a coming frame (decision 0085), finished before a save: its sweep's
+    // outputs, so the restored world swaps in the record the uninterrupted one does.
+    auto& pf = ws.prefactor;
+    io(pf.pending);
+    if (!pf.pending) continue;
+    io(pf.ok), io(pf.frame), io(pf.replaces), io(pf.dt);
+    io.list(pf.pattern, model.segments[s].attachments.size() + model.segments[s].bead_count);
+    io(pf.record), io(pf.gain), io(pf.base_solution), io(pf.responses);
   }
 }
 // Appends values as raw little-endian bytes (the checkpoint is for the machine that wrote it, or
@@ -345,9 +354,13 @@ void restore_checkpoint(const WorldModel& model, WorldState& state, std::span<co
 
 namespace haustra {
 
-std::vector<std::byte> World::save_checkpoint() const { return detail::save_checkpoint(impl_->model, impl_->state); }
+std::vector<std::byte> World::save_checkpoint() const {
+  detail::settle_prefactors(impl_->state, impl_->scheduler);  // a prefactor's outputs are saved
+  return detail::save_checkpoint(impl_->model, impl_->state);
+}
 
 void World::restore_checkpoint(std::span<const std::byte> bytes, const std::string& source) {
+  detail::settle_prefactors(impl_->state, impl_->scheduler);  // none writes what is restored
   detail::restore_checkpoint(impl_->model, impl_->state, bytes, source);
   impl_->state.frame_start.copy_from(impl_->state.now);
   impl_->profile = FrameProfile{};

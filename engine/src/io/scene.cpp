@@ -345,7 +345,7 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
   if (const toml::table* t = r.table(root, "solver", "solver")) {
     r.check_keys(*t, "solver",
                  {"mode", "iterations", "substeps", "relaxation", "tolerance", "max_iterations", "attachment_tolerance",
-                  "refactor_frames", "on_instability", "max_substeps", "max_axial_strain", "max_section_angle",
+                  "refactor_frames", "prefactor", "on_instability", "max_substeps", "max_axial_strain", "max_section_angle",
                   "max_displacement", "max_attachment_error"});
     SolverDesc& s = w.solver;
     s.mode = r.choice<SolverMode>(
@@ -357,6 +357,7 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
     s.tolerance = r.number(*t, "tolerance", "solver.tolerance", s.tolerance);
     s.max_iterations = r.integer(*t, "max_iterations", "solver.max_iterations", s.max_iterations);
     s.refactor_frames = r.integer(*t, "refactor_frames", "solver.refactor_frames", s.refactor_frames);
+    s.prefactor = r.boolean(*t, "prefactor", "solver.prefactor", s.prefactor);
     s.attachment_tolerance =
         r.number(*t, "attachment_tolerance", "solver.attachment_tolerance", s.attachment_tolerance);
     s.on_instability =

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "step/newton_stages.hpp"
 #include "step/world_impl.hpp"
 
 namespace haustra::detail {
@@ -46,6 +47,20 @@ void carry_chords(const std::vector<NewtonWorkspace>& from, std::size_t a, std::
   t.gain = f.gain;
   t.base_solution = f.base_solution;
   t.responses = f.responses;
+  // A prefactor planned for a coming frame (decision 0085; settled before the rebuild) comes along.
+  const Prefactor& fp = f.prefactor;
+  Prefactor& tp = t.prefactor;
+  if (!fp.pending || fp.record.size() != tp.record.size() || fp.pattern.size() > tp.pattern.capacity()) return;
+  tp.pending = true;
+  tp.ok = fp.ok;
+  tp.frame = fp.frame;
+  tp.replaces = fp.replaces;
+  tp.dt = fp.dt;
+  tp.pattern = fp.pattern;
+  tp.record = fp.record;
+  tp.gain = fp.gain;
+  tp.base_solution = fp.base_solution;
+  tp.responses = fp.responses;
 }
 
 }  // namespace
@@ -109,6 +124,7 @@ namespace haustra {
 
 // The new model is built first: a description it refuses leaves the world as it was.
 void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver, bool keep_mesh_binding) {
+  detail::settle_prefactors(impl_->state, impl_->scheduler);  // what is carried over is finished
   auto fresh =
       std::make_unique<Impl>(next, detail::build_world_model(next, keep_mesh_binding ? &impl_->model : nullptr));
   detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, rod_map, carry_solver);

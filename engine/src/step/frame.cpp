@@ -127,9 +127,15 @@ std::size_t World::Impl::run_frame(int n, bool newton, bool chord) {
 // Newton (decision 0036): condense the linearized system tip → base, solve for the coupled unknowns
 // and the step, take the fraction of it that lowers the incremental potential (decision 0039).
 // The line search leaves the poses of the strains it took.
+// Fast mode's prefactor (decision 0085) around the condense stage: the record made for this frame
+// swapped in before it, the next one launched on another thread after it.
 void World::Impl::newton_iteration(const SubstepParameters& p) {
   backward_sweep();
+  if (detail::prefactor_swap_due(state))
+    timed(Stage::prefactor, [&] { detail::stage_prefactor_swap(model, state, scheduler, p); });
   timed(Stage::condense, [&] { detail::stage_condense(model, state, scheduler, p); });
+  if (detail::prefactor_launch_due(model, state, p))
+    timed(Stage::prefactor, [&] { detail::stage_prefactor_launch(model, state, scheduler, p); });
   timed(Stage::solve, [&] { detail::stage_newton_solve(model, state, scheduler, p); });
   timed(Stage::line_search, [&] { detail::stage_line_search(model, state, scheduler, p); });
   detail::end_unsolvable(model, state);
@@ -270,7 +276,8 @@ void World::Impl::collect_newton_counts() {
     profile.stiffenings += ws.stiffenings;
     profile.chords += ws.chords;
     profile.stalls += ws.stalls;
-    ws.fallbacks = ws.backtracks = ws.stiffenings = ws.chords = ws.stalls = 0;
+    profile.prefactors += ws.prefactors;
+    ws.fallbacks = ws.backtracks = ws.stiffenings = ws.chords = ws.stalls = ws.prefactors = 0;
   }
 }
 

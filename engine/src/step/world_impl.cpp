@@ -3,6 +3,7 @@
 #include "step/world_impl.hpp"
 #include "step/collision.hpp"
 #include "step/instruments.hpp"
+#include "step/newton_stages.hpp"
 
 namespace haustra {
 
@@ -23,6 +24,8 @@ World::Impl::Impl(WorldDesc d, detail::WorldModel m)
   }
   follow_rod();  // the meshes at rest, before the first step
 }
+
+World::Impl::~Impl() { detail::settle_prefactors(state, scheduler); }
 
 // The API's segment (a piece of a chain, or the whole rod) that holds node `node` of rod `rod`,
 // and the node's index in it; a joint node counts as the later piece's base.

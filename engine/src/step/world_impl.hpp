@@ -39,6 +39,9 @@ struct World::Impl {
   double motion_dt = 0.0;
 
   Impl(WorldDesc d, detail::WorldModel m);
+  ~Impl();  // waits for fast mode's prefactors in flight (they write the state)
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
 
   // frame.cpp: one frame with the robust mode's ladder, one attempt at it, the meshes after it.
   void step();
