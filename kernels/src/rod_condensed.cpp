@@ -148,6 +148,47 @@ void rod_condensed_step(const RodLinearization& rod, CondensedSystem sys, std::s
   rod_condensed_step_range(rod, sys, 0, rod.poses.node_count() - 1, y, weights, dq, dphi, dr);
 }
 
+namespace {
+
+// One step of the back-substitution base → tip over chunks [0, nc) of columns, in registers:
+// δq_{k+1} = U_k y_k + u_k (the gains u, rows w apart; right-hand sides rhs in the chunks below
+// rhs_chunks, none beyond), then node k+1's δφ, δr (condensed::advance_kinematics).
+void back_substitute_node(const condensed::SectionFrame& g, const double* u, std::size_t w,
+                          const condensed::v4* const (&rhs)[4], std::size_t rhs_chunks, std::size_t nc,
+                          condensed::v4* const (&yv)[10]) {
+  using condensed::broadcast;
+  using condensed::fmadd;
+  using condensed::v4;
+  const double half = 0.5 * g.h;
+  const condensed::V3 d0 = half * g.d[0], d1 = half * g.d[1], d2 = half * g.d[2];
+  const condensed::V3 ch = g.chord, lv = g.lever;
+  for (std::size_t c = 0; c < nc; ++c) {
+    v4 yc[10];
+    for (std::size_t i = 0; i < 10; ++i) yc[i] = yv[i][c];
+    v4 nx[4];
+    for (std::size_t r = 0; r < 4; ++r) {
+      const double* row = u + r * w;
+      v4 acc = c < rhs_chunks ? rhs[r][c] : v4{};
+      for (std::size_t i = 0; i < 10; ++i) acc = fmadd(broadcast<v4>(row[i]), yc[i], acc);
+      nx[r] = acc;
+    }
+    const v4 s0 = yc[6] + nx[0], s1 = yc[7] + nx[1], s2 = yc[8] + nx[2], se = yc[9] + nx[3];
+    const v4 t0 = d0.x * s0 + d1.x * s1 + d2.x * s2;
+    const v4 t1 = d0.y * s0 + d1.y * s1 + d2.y * s2;
+    const v4 t2 = d0.z * s0 + d1.z * s1 + d2.z * s2;
+    const v4 p0 = yc[0], p1 = yc[1], p2 = yc[2];
+    yv[3][c] = yc[3] + ((p1 * ch.z - p2 * ch.y) + (t1 * lv.z - t2 * lv.y) + se * d2.x);
+    yv[4][c] = yc[4] + ((p2 * ch.x - p0 * ch.z) + (t2 * lv.x - t0 * lv.z) + se * d2.y);
+    yv[5][c] = yc[5] + ((p0 * ch.y - p1 * ch.x) + (t0 * lv.y - t1 * lv.x) + se * d2.z);
+    yv[0][c] = p0 + t0;
+    yv[1][c] = p1 + t1;
+    yv[2][c] = p2 + t2;
+    for (std::size_t r = 0; r < 4; ++r) yv[6 + r][c] = nx[r];
+  }
+}
+
+}  // namespace
+
 void rod_condensed_responses_range(const RodLinearization& rod, CondensedSystem sys, std::size_t first,
                                    std::size_t last, std::span<const double> start,
                                    std::span<const std::uint32_t> nodes, std::span<double> out,
@@ -181,42 +222,12 @@ void rod_condensed_responses_range(const RodLinearization& rod, CondensedSystem 
   emit(first);
   v4* yv[10];
   for (std::size_t i = 0; i < 10; ++i) yv[i] = chunks(y + i * cp);
-  using condensed::broadcast;
-  using condensed::fmadd;
   const std::size_t end = at_last.empty() ? (nodes.empty() ? first : std::size_t{nodes.back()}) : last;
   for (std::size_t k = first; k < end; ++k) {
     const double* u = sys.gain.data() + (k - first) * 4 * w;
     const v4* rhs[4];
     for (std::size_t r = 0; r < 4; ++r) rhs[r] = chunks(u + r * w + lane);
-    const condensed::SectionFrame g = condensed::section_frame(rod, k);
-    const double half = 0.5 * g.h;
-    const condensed::V3 d0 = half * g.d[0], d1 = half * g.d[1], d2 = half * g.d[2];
-    const condensed::V3 ch = g.chord, lv = g.lever;
-    // One chunk of columns at a time, in registers: δq_{k+1} = U_k y_k + u_k, then node k+1's
-    // δφ, δr (condensed::advance_kinematics).
-    for (std::size_t c = 0; c < nc; ++c) {
-      v4 yc[10];
-      for (std::size_t i = 0; i < 10; ++i) yc[i] = yv[i][c];
-      v4 nx[4];
-      for (std::size_t r = 0; r < 4; ++r) {
-        const double* row = u + r * w;
-        v4 acc = rhs[r][c];
-        for (std::size_t i = 0; i < 10; ++i) acc = fmadd(broadcast<v4>(row[i]), yc[i], acc);
-        nx[r] = acc;
-      }
-      const v4 s0 = yc[6] + nx[0], s1 = yc[7] + nx[1], s2 = yc[8] + nx[2], se = yc[9] + nx[3];
-      const v4 t0 = d0.x * s0 + d1.x * s1 + d2.x * s2;
-      const v4 t1 = d0.y * s0 + d1.y * s1 + d2.y * s2;
-      const v4 t2 = d0.z * s0 + d1.z * s1 + d2.z * s2;
-      const v4 p0 = yc[0], p1 = yc[1], p2 = yc[2];
-      yv[3][c] = yc[3] + ((p1 * ch.z - p2 * ch.y) + (t1 * lv.z - t2 * lv.y) + se * d2.x);
-      yv[4][c] = yc[4] + ((p2 * ch.x - p0 * ch.z) + (t2 * lv.x - t0 * lv.z) + se * d2.y);
-      yv[5][c] = yc[5] + ((p0 * ch.y - p1 * ch.x) + (t0 * lv.y - t1 * lv.x) + se * d2.z);
-      yv[0][c] = p0 + t0;
-      yv[1][c] = p1 + t1;
-      yv[2][c] = p2 + t2;
-      for (std::size_t r = 0; r < 4; ++r) yv[6 + r][c] = nx[r];
-    }
+    back_substitute_node(condensed::section_frame(rod, k), u, w, rhs, nc, nc, yv);
     emit(k + 1);
   }
   if (!at_last.empty())
@@ -227,9 +238,7 @@ void rod_condensed_responses_range(const RodLinearization& rod, CondensedSystem 
 void rod_condensed_tip_responses(const RodLinearization& rod, CondensedSystem sys, std::size_t first,
                                  std::span<const std::uint32_t> nodes, std::span<double> particular,
                                  std::span<double> unit) {
-  using condensed::broadcast;
   using condensed::chunks;
-  using condensed::fmadd;
   using condensed::v4;
   if (nodes.empty()) return;
   const auto w = static_cast<std::size_t>(condensed_width(sys.columns));
@@ -261,34 +270,7 @@ void rod_condensed_tip_responses(const RodLinearization& rod, CondensedSystem sy
     const double* u = sys.gain.data() + (k - first) * 4 * w;
     const v4* rhs[4];
     for (std::size_t r = 0; r < 4; ++r) rhs[r] = chunks(u + r * w + lane);
-    const condensed::SectionFrame g = condensed::section_frame(rod, k);
-    const double half = 0.5 * g.h;
-    const condensed::V3 d0 = half * g.d[0], d1 = half * g.d[1], d2 = half * g.d[2];
-    const condensed::V3 ch = g.chord, lv = g.lever;
-    // As rod_condensed_responses_range, chunk by chunk; the unit starts' chunks add no right-hand side.
-    for (std::size_t c = 0; c < nc; ++c) {
-      v4 yc[10];
-      for (std::size_t i = 0; i < 10; ++i) yc[i] = yv[i][c];
-      v4 nx[4];
-      for (std::size_t r = 0; r < 4; ++r) {
-        const double* row = u + r * w;
-        v4 acc = c < np ? rhs[r][c] : v4{};
-        for (std::size_t i = 0; i < 10; ++i) acc = fmadd(broadcast<v4>(row[i]), yc[i], acc);
-        nx[r] = acc;
-      }
-      const v4 s0 = yc[6] + nx[0], s1 = yc[7] + nx[1], s2 = yc[8] + nx[2], se = yc[9] + nx[3];
-      const v4 t0 = d0.x * s0 + d1.x * s1 + d2.x * s2;
-      const v4 t1 = d0.y * s0 + d1.y * s1 + d2.y * s2;
-      const v4 t2 = d0.z * s0 + d1.z * s1 + d2.z * s2;
-      const v4 p0 = yc[0], p1 = yc[1], p2 = yc[2];
-      yv[3][c] = yc[3] + ((p1 * ch.z - p2 * ch.y) + (t1 * lv.z - t2 * lv.y) + se * d2.x);
-      yv[4][c] = yc[4] + ((p2 * ch.x - p0 * ch.z) + (t2 * lv.x - t0 * lv.z) + se * d2.y);
-      yv[5][c] = yc[5] + ((p0 * ch.y - p1 * ch.x) + (t0 * lv.y - t1 * lv.x) + se * d2.z);
-      yv[0][c] = p0 + t0;
-      yv[1][c] = p1 + t1;
-      yv[2][c] = p2 + t2;
-      for (std::size_t r = 0; r < 4; ++r) yv[6 + r][c] = nx[r];
-    }
+    back_substitute_node(condensed::section_frame(rod, k), u, w, rhs, np, nc, yv);
     emit(k + 1);
   }
 }
