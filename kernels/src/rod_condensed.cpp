@@ -154,9 +154,10 @@ namespace {
 // δq_{k+1} = U_k y_k + u_k (the gains u, rows w apart; right-hand sides rhs in the chunks below
 // rhs_chunks, none beyond), then node k+1's δφ, δr (condensed::advance_kinematics). Inlined so
 // that where every chunk has a right-hand side the per-chunk test folds away (the gate counts it).
-[[gnu::always_inline]] inline void back_substitute_node(const condensed::SectionFrame& g, const double* u, std::size_t w,
-                          const condensed::v4* const (&rhs)[4], std::size_t rhs_chunks, std::size_t nc,
-                          condensed::v4* const (&yv)[10]) {
+[[gnu::always_inline]] inline void back_substitute_node(const condensed::SectionFrame& g, const double* u,
+                                                        std::size_t w, const condensed::v4* const (&rhs)[4],
+                                                        std::size_t rhs_chunks, std::size_t nc,
+                                                        condensed::v4* const (&yv)[10]) {
   using condensed::broadcast;
   using condensed::fmadd;
   using condensed::v4;
