@@ -4,6 +4,7 @@
 
 #include "bindings.hpp"
 #include "haustra/error.hpp"
+#include "indices.hpp"
 
 namespace py = pybind11;
 
@@ -12,7 +13,7 @@ namespace {
 
 // Exception classes live as long as the interpreter: their handles are never released.
 struct ExceptionTypes {
-  py::handle base, invalid_argument, io, parse, geometry, unstable, internal;
+  py::handle base, invalid_argument, invalid_index, io, parse, geometry, unstable, internal;
 };
 ExceptionTypes& types() {
   static ExceptionTypes t;
@@ -40,8 +41,8 @@ py::handle type_of(ErrorCode code) {
   return t.base;
 }
 
-void raise(ErrorCode code, const char* message, const std::string* field) {
-  const py::handle type = type_of(code);
+void raise(ErrorCode code, const char* message, const std::string* field, bool index = false) {
+  const py::handle type = index ? types().invalid_index : type_of(code);
   py::object error = py::reinterpret_borrow<py::object>(type)(message);
   error.attr("code") = error_code_name(code);
   error.attr("field") = field != nullptr ? py::object(py::str(*field)) : py::object(py::none());
@@ -52,7 +53,8 @@ void raise(ErrorCode code, const char* message, const std::string* field) {
 
 void set_python_error(const Error& e) {
   const auto* field = dynamic_cast<const FieldError*>(&e);
-  raise(e.code(), e.what(), field != nullptr ? &field->field() : nullptr);
+  raise(e.code(), e.what(), field != nullptr ? &field->field() : nullptr,
+        dynamic_cast<const IndexOutOfRange*>(&e) != nullptr);
 }
 
 void bind_errors(py::module_& m) {
@@ -66,6 +68,10 @@ void bind_errors(py::module_& m) {
                     doc);
   };
   t.invalid_argument = sub("InvalidArgumentError", PyExc_ValueError, "A value out of its range, a wrong index.");
+  // Both a haustra error and the built-in a Python user catches for a bad index (decision 0088).
+  t.invalid_index = new_type(m, "InvalidIndexError", py::make_tuple(t.invalid_argument, py::handle(PyExc_IndexError)),
+                             "An index argument out of range (a node, segment, attachment or instrument): the message "
+                             "names the call, the argument, the value given and the valid range.");
   t.io = sub("FileError", PyExc_OSError, "A file that cannot be read or written.");
   t.parse = sub("ParseError", PyExc_ValueError, "A file (or description) that is not what its format says.");
   t.geometry = sub("GeometryError", PyExc_ValueError, "A centreline or mesh the model cannot be built from.");
@@ -76,6 +82,8 @@ void bind_errors(py::module_& m) {
   py::register_exception_translator([](std::exception_ptr thrown) {
     try {
       if (thrown) std::rethrow_exception(thrown);
+    } catch (const IndexOutOfRange& e) {
+      raise(e.code(), e.what(), nullptr, true);
     } catch (const FieldError& e) {
       raise(e.code(), e.what(), &e.field());
     } catch (const Error& e) {

@@ -15,6 +15,7 @@
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
+#include "indices.hpp"
 #include "py_world.hpp"
 #include "recording.hpp"
 #include "typed.hpp"
@@ -137,8 +138,9 @@ void bind_segments(py::class_<PyWorld>& c) {
       "Views taken before keep the old buffers (valid memory, no longer updated).");
   c.def(
       "remove_segment",
-      [](PyWorld& w, std::size_t segment) {
-        w.locked()->remove_segment(segment);
+      [](PyWorld& w, std::int64_t segment) {
+        auto world = w.locked();
+        world->remove_segment(segment_index(world.world, segment, "remove_segment"));
         w.mark_rebuilt();
       },
       py::arg("segment"), "Removes a segment (a chain whole). Views taken before keep the old buffers.");

@@ -10,6 +10,7 @@
 
 #include "haustra/error.hpp"
 #include "haustra/world.hpp"
+#include "indices.hpp"
 #include "typed.hpp"
 #include "world_bindings.hpp"
 #include "world_reading.hpp"
@@ -18,15 +19,6 @@ namespace py = pybind11;
 
 namespace haustra::python {
 namespace {
-
-// Negative counts from the end, as in Python and in the scene format (node = -1: the last).
-std::size_t node_index(const World& world, std::int64_t node, const char* call) {
-  const auto count = static_cast<std::int64_t>(world.node_count());
-  if (node < -count || node >= count)
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("{}: node {} out of range: the world has {} nodes", call, node, count));
-  return static_cast<std::size_t>(node < 0 ? node + count : node);
-}
 
 Eigen::Vector3d vector_or_zero(const py::object& value, const char* what) {
   return value.is_none() ? Eigen::Vector3d::Zero() : vector3(value, what);
@@ -67,21 +59,29 @@ void bind_loads(WorldClass& c) {
 void bind_attachments(WorldClass& c) {
   c.def(
       "set_attachment_target",
-      [](PyWorld& w, std::size_t segment, std::size_t attachment, const ArrayLike& position) {
-        w.locked()->set_attachment_target(segment, attachment, vector3(position, "position"));
+      [](PyWorld& w, std::int64_t segment, std::int64_t attachment, const ArrayLike& position) {
+        auto world = w.locked();
+        const std::size_t s = segment_index(world.world, segment, "set_attachment_target");
+        world->set_attachment_target(s, attachment_index(world.world, s, attachment, "set_attachment_target"),
+                                     vector3(position, "position"));
       },
       py::arg("segment"), py::arg("attachment"), py::arg("position"),
       "Moves an attachment's target (m, world frame); it pulls its node there from the next step.");
   c.def(
       "set_attachment_active",
-      [](PyWorld& w, std::size_t segment, std::size_t attachment, bool active) {
-        w.locked()->set_attachment_active(segment, attachment, active);
+      [](PyWorld& w, std::int64_t segment, std::int64_t attachment, bool active) {
+        auto world = w.locked();
+        const std::size_t s = segment_index(world.world, segment, "set_attachment_active");
+        world->set_attachment_active(s, attachment_index(world.world, s, attachment, "set_attachment_active"), active);
       },
       py::arg("segment"), py::arg("attachment"), py::arg("active"), "Switches an attachment on or off.");
   c.def(
       "attachment_force",
-      [](PyWorld& w, std::size_t segment, std::size_t attachment) {
-        return Float64Array(array3(w.locked()->attachment_force(segment, attachment)));
+      [](PyWorld& w, std::int64_t segment, std::int64_t attachment) {
+        auto world = w.locked();
+        const std::size_t s = segment_index(world.world, segment, "attachment_force");
+        return Float64Array(
+            array3(world->attachment_force(s, attachment_index(world.world, s, attachment, "attachment_force"))));
       },
       py::arg("segment"), py::arg("attachment"), "N, on the rod, in the last frame.");
 }
@@ -89,21 +89,33 @@ void bind_attachments(WorldClass& c) {
 void bind_instruments(WorldClass& c) {
   c.def(
       "set_instrument_pose",
-      [](PyWorld& w, std::size_t instrument, const ArrayLike& tip, const ArrayLike& axis) {
-        w.locked()->set_instrument_pose(instrument, vector3(tip, "tip"), vector3(axis, "axis"));
+      [](PyWorld& w, std::int64_t instrument, const ArrayLike& tip, const ArrayLike& axis) {
+        auto world = w.locked();
+        world->set_instrument_pose(instrument_index(world.world, instrument, "set_instrument_pose"),
+                                   vector3(tip, "tip"), vector3(axis, "axis"));
       },
       py::arg("instrument"), py::arg("tip"), py::arg("axis"),
       "Moves an instrument (m; the axis is normalized). Hands it from its script to the caller for good.");
   c.def(
-      "grasp", [](PyWorld& w, std::size_t instrument) { w.locked()->set_instrument_grasp(instrument, true); },
+      "grasp",
+      [](PyWorld& w, std::int64_t instrument) {
+        auto world = w.locked();
+        world->set_instrument_grasp(instrument_index(world.world, instrument, "grasp"), true);
+      },
       py::arg("instrument") = 0, "Closes the instrument's jaws: it grasps the nearest bead in reach at the next step.");
   c.def(
-      "release", [](PyWorld& w, std::size_t instrument) { w.locked()->set_instrument_grasp(instrument, false); },
+      "release",
+      [](PyWorld& w, std::int64_t instrument) {
+        auto world = w.locked();
+        world->set_instrument_grasp(instrument_index(world.world, instrument, "release"), false);
+      },
       py::arg("instrument") = 0, "Opens the jaws: the grasped node is let go at the next step.");
   c.def(
       "set_instrument_coupling",
-      [](PyWorld& w, std::size_t instrument, double stiffness, double damping, double force_limit) {
-        w.locked()->set_instrument_coupling(instrument, stiffness, damping, force_limit);
+      [](PyWorld& w, std::int64_t instrument, double stiffness, double damping, double force_limit) {
+        auto world = w.locked();
+        world->set_instrument_coupling(instrument_index(world.world, instrument, "set_instrument_coupling"), stiffness,
+                                       damping, force_limit);
       },
       py::arg("instrument"), py::arg("stiffness"), py::arg("damping"), py::arg("force_limit"),
       "Changes a grasp's virtual coupling (N/m, N·s/m, N) from the next step, without a rebuild; a grasp does not "
@@ -129,9 +141,10 @@ void bind_parameters(WorldClass& c) {
       "s: a frame that takes longer is counted (profile['late'], late_frames); 0 turns it off (decision 0061).");
   c.def(
       "set_material",
-      [](PyWorld& w, std::size_t segment, std::optional<double> youngs_modulus, std::optional<double> poisson_ratio,
+      [](PyWorld& w, std::int64_t index, std::optional<double> youngs_modulus, std::optional<double> poisson_ratio,
          std::optional<double> density, std::optional<double> relaxation_time) {
         auto world = w.locked();
+        const std::size_t segment = segment_index(world.world, index, "set_material");
         const SegmentDesc& now = world->segment_desc(segment);
         MaterialDesc m = now.material;
         m.youngs_modulus = youngs_modulus.value_or(m.youngs_modulus);

@@ -3,6 +3,7 @@
 #include <pybind11/pybind11.h>
 
 #include "haustra/world.hpp"
+#include "indices.hpp"
 #include "typed.hpp"
 #include "world_bindings.hpp"
 #include "world_reading.hpp"
@@ -65,7 +66,11 @@ void bind_world_readings(WorldClass& c) {
       "contacts", [](PyWorld& w) { return contacts_dict(w.locked()->contacts()); },
       "The last frame's contact summary (haustra.types.ContactSummary); contact_records has each contact.");
   c.def(
-      "instrument", [](PyWorld& w, std::size_t i) { return instrument_dict(w.locked()->instrument(i)); },
+      "instrument",
+      [](PyWorld& w, std::int64_t i) {
+        auto world = w.locked();
+        return instrument_dict(world->instrument(instrument_index(world.world, i, "instrument")));
+      },
       py::arg("instrument") = 0,
       "The instrument after the last frame (haustra.types.Instrument): pose, grasp (and whether it slipped), force "
       "on it (raw and filtered).");

@@ -1,4 +1,5 @@
 """Bad input raises haustra.Error subclasses carrying the engine's message: file, line, field."""
+import numpy as np
 import pytest
 
 import haustra
@@ -66,3 +67,72 @@ def test_bad_indices_and_vectors(scenes):
         w.set_instrument_pose(0, "up", [0, 0, 1])
     with pytest.raises(haustra.InvalidArgumentError, match="triangles"):
         haustra.save_mesh("x.ply", [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 5]])
+
+
+def held_rod_with_a_grasper():
+    """rod() with beads, one attachment (its tip) and one instrument: one of each kind of index."""
+    desc = rod()
+    desc["segment"][0]["beads"] = {"count": 5}
+    desc["segment"][0]["attachment"] = [{"node": -1}]
+    desc["instrument"] = [{"name": "grasper", "radius": 0.004, "length": 0.3}]
+    return desc
+
+
+@pytest.mark.parametrize("call, arguments, message", [
+    ("set_instrument_pose", (3, [0, 0, 0], [0, 0, 1]),
+     "set_instrument_pose: instrument 3 is out of range (the world has 1 instrument: 0, or -1 from the end)"),
+    ("grasp", (-2,), "grasp: instrument -2 is out of range (the world has 1 instrument: 0, or -1 from the end)"),
+    ("release", (1,), "release: instrument 1 is out of range (the world has 1 instrument: 0, or -1 from the end)"),
+    ("instrument", (-5,), "instrument: instrument -5 is out of range (the world has 1 instrument: 0, or -1 from the end)"),
+    ("set_instrument_coupling", (2, 0.0, 0.0, 0.0),
+     "set_instrument_coupling: instrument 2 is out of range (the world has 1 instrument: 0, or -1 from the end)"),
+    ("set_external_load", (21, [0, 0, 1]),
+     "set_external_load: node 21 is out of range (the world has 21 nodes: 0 to 20, or -21 to -1 from the end)"),
+    ("external_load", (-22,),
+     "external_load: node -22 is out of range (the world has 21 nodes: 0 to 20, or -21 to -1 from the end)"),
+    ("set_material", (1,), "set_material: segment 1 is out of range (the world has 1 segment: 0, or -1 from the end)"),
+    ("remove_segment", (-2,),
+     "remove_segment: segment -2 is out of range (the world has 1 segment: 0, or -1 from the end)"),
+    ("attachment_force", (5, 0),
+     "attachment_force: segment 5 is out of range (the world has 1 segment: 0, or -1 from the end)"),
+    ("attachment_force", (0, 2),
+     "attachment_force: attachment 2 is out of range (segment 0 ('rod') has 2 attachments: 0 to 1, or -2 to -1 "
+     "from the end; the last is the instrument's grasp slot)"),
+    ("set_attachment_active", (0, -3, False),
+     "set_attachment_active: attachment -3 is out of range (segment 0 ('rod') has 2 attachments: 0 to 1, or -2 to -1 "
+     "from the end; the last is the instrument's grasp slot)"),
+    ("set_attachment_target", (-1, 7, [0, 0, 0]),
+     "set_attachment_target: attachment 7 is out of range (segment 0 ('rod') has 2 attachments: 0 to 1, or -2 to -1 "
+     "from the end; the last is the instrument's grasp slot)"),
+])
+def test_an_index_out_of_range_names_call_argument_value_and_range(call, arguments, message):
+    # Negative ints once gave pybind11's TypeError, indices past the end a message without the call (decision 0088).
+    w = haustra.World(held_rod_with_a_grasper())
+    with pytest.raises(haustra.InvalidIndexError) as info:
+        getattr(w, call)(*arguments)
+    assert str(info.value) == message
+    assert isinstance(info.value, IndexError) and isinstance(info.value, haustra.InvalidArgumentError)
+    assert info.value.code == "invalid_argument" and info.value.field is None
+
+
+def test_a_world_without_instruments_says_it_has_none():
+    w = haustra.World(rod())
+    with pytest.raises(IndexError, match=r"^grasp: instrument 0 is out of range \(the world has no instruments\)$"):
+        w.grasp()
+
+
+def test_negative_indices_count_from_the_end():
+    w = haustra.World(held_rod_with_a_grasper())
+    w.set_attachment_target(-1, -2, [1.0, 0.0, 0.5])  # segment 0's attachment 0: the tip's
+    w.set_instrument_pose(-1, [0.0, 0.0, 2.0], [0.0, 0.0, 1.0])
+    assert np.array_equal(w.instrument(-1)["tip"], [0.0, 0.0, 2.0])
+    reference = haustra.World(held_rod_with_a_grasper())
+    reference.set_attachment_target(0, 0, [1.0, 0.0, 0.5])
+    reference.set_instrument_pose(0, [0.0, 0.0, 2.0], [0.0, 0.0, 1.0])
+    w.step(3)
+    reference.step(3)
+    assert np.array_equal(w.node_positions, reference.node_positions)
+    assert np.array_equal(w.attachment_force(-1, -2), reference.attachment_force(0, 0))
+    assert np.linalg.norm(reference.attachment_force(0, 0)) > 0
+    w.set_material(-1, youngs_modulus=2e6)
+    assert w.segments[0]["bending_stiffness"] == pytest.approx(2 * reference.segments[0]["bending_stiffness"])

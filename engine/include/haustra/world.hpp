@@ -67,6 +67,8 @@ class World {
   void set_attachment_target(std::size_t segment, std::size_t attachment, const Eigen::Vector3d& position);
   void set_attachment_target_rotation(std::size_t segment, std::size_t attachment, const Eigen::Quaterniond& rotation);
   void set_attachment_active(std::size_t segment, std::size_t attachment, bool active);
+  // How many a segment addresses: its chain's SegmentDesc::attachments, then its grasp slots.
+  [[nodiscard]] std::size_t attachment_count(std::size_t segment) const;
   // Force (and moment) the attachment exerted on the rod in the last frame, world frame.
   [[nodiscard]] Eigen::Vector3d attachment_force(std::size_t segment, std::size_t attachment) const;
   [[nodiscard]] Eigen::Vector3d attachment_moment(std::size_t segment, std::size_t attachment) const;

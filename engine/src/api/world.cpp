@@ -102,6 +102,10 @@ void World::set_attachment_active(std::size_t segment, std::size_t attachment, b
   impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].active = active;
 }
 
+std::size_t World::attachment_count(std::size_t segment) const {
+  return impl_->model.segments[impl_->piece(segment).rod].attachments.size();
+}
+
 Eigen::Vector3d World::attachment_force(std::size_t segment, std::size_t attachment) const {
   return impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].force;
 }
