@@ -205,10 +205,8 @@ AnatomyStudy run_anatomy_study(const std::vector<std::pair<std::string, std::fil
     std::vector<Points> rigid;
     for (std::size_t d = 0; d < kDeformations.size(); ++d)
       for (std::size_t v = 0; v < worlds.size(); ++v) {
-        const double before = worlds[v]->last_profile().seconds[static_cast<std::size_t>(Stage::skin)];
         deform(*worlds[v], d);
-        if (d != 2)
-          times[v].push_back(worlds[v]->last_profile().seconds[static_cast<std::size_t>(Stage::skin)] - before);
+        if (d != 2) times[v].push_back(validation::skinning_seconds(*worlds[v]));
         posed[v].push_back(validation::organ_points(*worlds[v]));
         if (v + 1 == worlds.size()) rigid.push_back(carried(*worlds[v], mat));
       }

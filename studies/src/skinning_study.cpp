@@ -120,6 +120,13 @@ std::vector<Eigen::Vector3d> transported(const World& w, const Transport& t, con
 
 }  // namespace
 
+double skinning_seconds(const World& w) {
+  const auto skin = [&w] { return w.last_profile().seconds[static_cast<std::size_t>(Stage::skin)]; };
+  const double before = skin();
+  (void)w.mesh_positions();  // what skins
+  return skin() - before;
+}
+
 std::vector<Eigen::Vector3d> organ_points(const World& w) {
   const MeshInfo& m = w.mesh(0);
   const auto p = w.mesh_positions();
@@ -189,9 +196,8 @@ SkinningStudy run_skinning_study() {
     const Transport transport = material_coordinates(*w, rest);
     for (std::size_t pi = 0; pi < ps.size(); ++pi) {
       for (int r = 0; r < kTimingRepeats; ++r) {
-        const double before = w->last_profile().seconds[static_cast<std::size_t>(Stage::skin)];
         w->pose_rod(0, base, ps[pi].strain);
-        times.push_back(w->last_profile().seconds[static_cast<std::size_t>(Stage::skin)] - before);
+        times.push_back(skinning_seconds(*w));
       }
       const std::vector<Eigen::Vector3d> x = organ_points(*w);
       if (v.method == SkinningMethod::mean_value && v.k == 0) reference.push_back(x);

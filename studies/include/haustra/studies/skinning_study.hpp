@@ -50,6 +50,11 @@ struct StudyPose {
 std::vector<StudyPose> study_poses();
 std::string skinning_markdown(const SkinningStudy& study);
 
+// Seconds the skin stage takes to bring w's organ meshes up to its current pose: the mesh is made
+// when read (decision 0060), so this reads it and takes that stage's share of the profile. 0 when
+// the meshes were already read at this pose.
+double skinning_seconds(const World& w);
+
 // The first segment's organ mesh as it is now, and with its vertices at x (its own triangles).
 std::vector<Eigen::Vector3d> organ_points(const World& w);
 TriangleMesh organ_mesh(const World& w, const std::vector<Eigen::Vector3d>& x);
