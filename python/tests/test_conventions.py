@@ -131,3 +131,42 @@ def test_a_dict_takes_paths_and_names_a_value_it_cannot_take():
     assert str(error.value) == "World(desc): environment.mesh[0].file: expected a bool, int, float, str (or path), " \
                                "list or dict, got NoneType"
     assert error.value.field == "environment.mesh[0].file"
+
+
+def bounded_organ(max_rings_per_vertex=None):
+    """A cantilever with beads 2 cm apart (rings dense enough that vertices want more than 4) and a procedural
+    organ; segment.mesh.max_rings_per_vertex when given."""
+    desc = rod(nodes=41)
+    segment = desc["segment"][0]
+    segment["rest"]["length"] = 0.4
+    segment["beads"] = {"count": 20}
+    segment["mesh"] = {"source": "procedural", "procedural": {"vertices": 1500}}
+    if max_rings_per_vertex is not None:
+        segment["mesh"]["max_rings_per_vertex"] = max_rings_per_vertex
+    return desc
+
+
+def test_a_dicts_max_rings_per_vertex_gives_the_scene_files_world(tmp_path):
+    # decision 0083's bound, in a dict as in a scene file: the same bits, nodes and mesh.
+    scene = tmp_path / "bounded.toml"
+    with open(scene, "w") as f:
+        f.write('[world]\ndt = 0.01\nthreads = 1\n[[segment]]\nname = "rod"\nnodes = 41\nyoungs_modulus = 1e6\n'
+                '[segment.rest]\nlength = 0.4\n[segment.beads]\ncount = 20\n[segment.mesh]\nsource = "procedural"\n'
+                'max_rings_per_vertex = 4\n[segment.mesh.procedural]\nvertices = 1500\n')
+    worlds = [haustra.World(bounded_organ(4)), haustra.World.from_scene(scene), haustra.World(bounded_organ())]
+    for w in worlds:
+        w.step(20)
+    bounded, from_file, unbounded = worlds
+    assert np.array_equal(bounded.node_positions, from_file.node_positions)
+    assert np.array_equal(bounded.mesh_positions, from_file.mesh_positions)
+    assert np.array_equal(bounded.mesh_normals, from_file.mesh_normals)
+    assert not np.array_equal(bounded.mesh_positions, unbounded.mesh_positions)  # the bound is not ignored
+
+
+@pytest.mark.parametrize("bad", [3, -1, 5000])
+def test_a_bad_max_rings_per_vertex_is_refused_naming_the_field(bad):
+    with pytest.raises(haustra.InvalidArgumentError) as error:
+        haustra.World(bounded_organ(bad))
+    assert str(error.value) == ("World(desc): segment[0].mesh.max_rings_per_vertex: expected 0 (no bound) or a count "
+                                f"from rings_per_vertex (4) up to 4096, got {bad}")
+    assert error.value.field == "segment[0].mesh.max_rings_per_vertex"

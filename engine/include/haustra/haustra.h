@@ -38,7 +38,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 10
+#define HAUSTRA_ABI_VERSION 11
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -180,6 +180,9 @@ typedef struct haustra_segment_def {
   double exp2_alpha;       /* default 8 */
   double exp2_beta;        /* Pa; default 6700 */
   double exp2_gamma;       /* Pa; default 20000 */
+  /* The most rings a mesh vertex keeps (the scene's mesh.max_rings_per_vertex, decision 0083):
+   * 0 (default): no bound; else rings_per_vertex to 4096. Since ABI 11. */
+  int max_rings_per_vertex;
 } haustra_segment_def;
 
 /* One segment as the world holds it (haustra_world_segment). */
