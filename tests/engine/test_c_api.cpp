@@ -47,6 +47,19 @@ struct SceneFile {
 
 bool says(const char* words) { return std::strstr(haustra_last_error(), words) != nullptr; }
 
+// A straight clamped segment (the defaults otherwise) with beads and a procedural organ.
+haustra_segment_def organ_def(const char* name, int nodes, double length, int beads, int mesh_vertices) {
+  haustra_segment_def seg;
+  REQUIRE(haustra_segment_def_default(&seg) == HAUSTRA_OK);
+  seg.name = name;
+  seg.nodes = nodes;
+  seg.length = length;
+  seg.beads = beads;
+  seg.mesh = 1;
+  seg.mesh_vertices = mesh_vertices;
+  return seg;
+}
+
 }  // namespace
 
 TEST_CASE("C API: version and ABI check") {
@@ -845,14 +858,7 @@ TEST_CASE("C API: segments added and removed while a render thread reads frames"
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
   def.threads = 2;
   def.double_buffered = 1;
-  haustra_segment_def seg;
-  REQUIRE(haustra_segment_def_default(&seg) == HAUSTRA_OK);
-  seg.name = "first";
-  seg.nodes = 21;
-  seg.length = 0.4;
-  seg.beads = 7;
-  seg.mesh = 1;
-  seg.mesh_vertices = 1000;
+  haustra_segment_def seg = organ_def("first", 21, 0.4, 7, 1000);
   haustra_world* w = nullptr;
   REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
   std::atomic<bool> stepping{true};
@@ -942,16 +948,9 @@ TEST_CASE("C API: max_rings_per_vertex gives the world of a scene with mesh.max_
   haustra_world_def def;
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
   def.threads = 1;
-  haustra_segment_def seg;
-  REQUIRE(haustra_segment_def_default(&seg) == HAUSTRA_OK);
+  haustra_segment_def seg = organ_def("organ", 41, 0.4, 20, 1500);
   CHECK(seg.max_rings_per_vertex == 0);  // no bound, as the scene's default
-  seg.name = "organ";
-  seg.nodes = 41;
-  seg.length = 0.4;
-  seg.beads = 20;
-  seg.mesh = 1;
-  seg.mesh_vertices = 1500;
-  seg.max_rings_per_vertex = 4;  // = rings_per_vertex: every vertex keeps exactly 4, the rest folded
+  seg.max_rings_per_vertex = 4;          // = rings_per_vertex: every vertex keeps exactly 4, the rest folded
   const SceneFile scene(
       "[world]\nthreads = 1\n[[segment]]\nname = \"organ\"\nnodes = 41\n[segment.rest]\nlength = 0.4\n"
       "[segment.beads]\ncount = 20\n[segment.mesh]\nsource = \"procedural\"\nmax_rings_per_vertex = 4\n"
