@@ -559,7 +559,7 @@ TEST_CASE("C API: a render thread reads completed frames while the world steps (
   REQUIRE(haustra_world_destroy(single) == HAUSTRA_OK);
 }
 
-TEST_CASE("C API: deadline mode counts the frames over the budget; the mesh made every frame or when read") {
+TEST_CASE("C API: deadline mode counts the frames over the budget, the mesh made every frame or when read") {
   const TestScene scene("c-api-two-segments");
   haustra_world_def def;
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
