@@ -942,19 +942,30 @@ TEST_CASE("C API: an EXP2 segment pulled at its tip stretches to A sigma(eps) = 
   CHECK(says("tissue = 2"));
 }
 
-TEST_CASE("C API: max_rings_per_vertex gives the world of a scene with mesh.max_rings_per_vertex, and is checked") {
+TEST_CASE(
+    "C API: max_rings_per_vertex and mean_rings_per_vertex give the world of a scene with them, and are checked") {
   // A cantilever with beads 2 cm apart (rings dense enough that vertices want more than 4) and a
-  // procedural organ, bending under gravity, from definitions and from a scene file.
+  // procedural organ, bending under gravity, from definitions and from a scene file. Each bound at
+  // 4 (= rings_per_vertex): every vertex keeps exactly 4 rings, the rest folded.
+  struct Field {
+    const char* key;
+    void (*set)(haustra_segment_def&, double);
+    std::vector<std::pair<double, const char*>> refused;  // value, what the message says it got
+  };
+  const Field fields[] = {
+      {"max_rings_per_vertex",
+       [](haustra_segment_def& s, double v) { s.max_rings_per_vertex = static_cast<int>(v); },
+       {{3, "got 3"}, {-1, "got -1"}, {5000, "got 5000"}}},
+      {"mean_rings_per_vertex",
+       [](haustra_segment_def& s, double v) { s.mean_rings_per_vertex = v; },
+       {{-1, "got -1"}, {5000, "got 5000"}, {std::numeric_limits<double>::quiet_NaN(), "got nan"}}},
+  };
   haustra_world_def def;
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
   def.threads = 1;
-  haustra_segment_def seg = organ_def("organ", 41, 0.4, 20, 1500);
-  CHECK(seg.max_rings_per_vertex == 0);  // no bound, as the scene's default
-  seg.max_rings_per_vertex = 4;          // = rings_per_vertex: every vertex keeps exactly 4, the rest folded
-  const SceneFile scene(
-      "[world]\nthreads = 1\n[[segment]]\nname = \"organ\"\nnodes = 41\n[segment.rest]\nlength = 0.4\n"
-      "[segment.beads]\ncount = 20\n[segment.mesh]\nsource = \"procedural\"\nmax_rings_per_vertex = 4\n"
-      "[segment.mesh.procedural]\nvertices = 1500\n");
+  const haustra_segment_def plain = organ_def("organ", 41, 0.4, 20, 1500);
+  CHECK(plain.max_rings_per_vertex == 0);  // no bound, as the scene's default
+  CHECK(plain.mean_rings_per_vertex == 0.0);
   auto stepped = [](haustra_world* w) {
     for (int f = 0; f < 20; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
     std::vector<unsigned char> bits = buffer_bits(w);
@@ -962,24 +973,32 @@ TEST_CASE("C API: max_rings_per_vertex gives the world of a scene with mesh.max_
     return bits;
   };
   haustra_world* w = nullptr;
-  REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
-  const std::vector<unsigned char> from_def = stepped(w);
-  REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &w) == HAUSTRA_OK);
-  CHECK(stepped(w) == from_def);
-  // The bound changes the mesh (the rod's nodes alone would be the same): the field is not ignored.
-  haustra_segment_def unbounded = seg;
-  unbounded.max_rings_per_vertex = 0;
-  REQUIRE(haustra_world_create(&def, &unbounded, 1, &w) == HAUSTRA_OK);
-  CHECK(stepped(w) != from_def);
+  REQUIRE(haustra_world_create(&def, &plain, 1, &w) == HAUSTRA_OK);
+  const std::vector<unsigned char> unbounded = stepped(w);
+  for (const Field& field : fields) {
+    CAPTURE(field.key);
+    haustra_segment_def seg = plain;
+    field.set(seg, 4);
+    const SceneFile scene(
+        std::string("[world]\nthreads = 1\n[[segment]]\nname = \"organ\"\nnodes = 41\n[segment.rest]\nlength = 0.4\n"
+                    "[segment.beads]\ncount = 20\n[segment.mesh]\nsource = \"procedural\"\n") +
+        field.key + " = 4\n[segment.mesh.procedural]\nvertices = 1500\n");
+    REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
+    const std::vector<unsigned char> from_def = stepped(w);
+    REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &w) == HAUSTRA_OK);
+    CHECK(stepped(w) == from_def);
+    // The bound changes the mesh (the rod's nodes alone would be the same): the field is not ignored.
+    CHECK(unbounded != from_def);
 
-  // Below rings_per_vertex, negative or past 4096: refused naming the field, nothing created.
-  haustra_world* none = nullptr;
-  for (const int bad : {3, -1, 5000}) {
-    haustra_segment_def refused = seg;
-    refused.max_rings_per_vertex = bad;
-    CHECK(haustra_world_create(&def, &refused, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
-    CHECK(says("segment[0].mesh.max_rings_per_vertex"));
-    CHECK(says(("got " + std::to_string(bad)).c_str()));
+    // Out of range or not a number: refused naming the field, nothing created.
+    haustra_world* none = nullptr;
+    for (const auto& [bad, got] : field.refused) {
+      haustra_segment_def refused = seg;
+      field.set(refused, bad);
+      CHECK(haustra_world_create(&def, &refused, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
+      CHECK(says((std::string("segment[0].mesh.") + field.key).c_str()));
+      CHECK(says(got));
+    }
+    CHECK(none == nullptr);
   }
-  CHECK(none == nullptr);
 }

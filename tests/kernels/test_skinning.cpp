@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <cstring>
+#include <limits>
 #include <random>
 
 #include "cage_fixtures.hpp"
@@ -305,10 +306,11 @@ TEST_CASE("localization study: error falls with K, and MVC follows rigid cross-s
   CHECK(std::abs(s.transport_bend_volume_change) < 1e-3);  // the reference keeps its volume
 }
 
-TEST_CASE("a dense cage (a piece of the 3,001-node small intestine) with max_rings_per_vertex = 7: under 2 × the slots of 4 rings, near full MVC") {
-  // One of the 60 pieces of scenes/small-intestine.toml at 2 mm sections (51 nodes, 26 beads over
-  // 10 cm, radius 12.5 mm): rings 2 mm apart on a tube 25 mm wide, so a vertex's weight spreads
-  // over many rings (decision 0083).
+// One of the 60 pieces of scenes/small-intestine.toml at 2 mm sections (51 nodes, 26 beads over
+// 10 cm, radius 12.5 mm): rings 2 mm apart on a tube 25 mm wide, so a vertex's weight spreads over
+// many rings (decision 0083).
+namespace {
+WorldDesc dense_piece() {
   WorldDesc d = straight_organ(4, 5000);
   d.segments[0].nodes = 51;
   d.segments[0].rest.length = 0.1;
@@ -316,6 +318,14 @@ TEST_CASE("a dense cage (a piece of the 3,001-node small intestine) with max_rin
   d.segments[0].beads.radius = 0.0125;
   d.segments[0].cross_section.radius = 0.0125;
   d.segments[0].mesh.cage.ring_vertices = 12;
+  return d;
+}
+}  // namespace
+
+TEST_CASE(
+    "a dense cage (a piece of the 3,001-node small intestine) with max_rings_per_vertex = 7: under 2 × the slots of 4 "
+    "rings, near full MVC") {
+  WorldDesc d = dense_piece();
   d.segments[0].mesh.max_rings_per_vertex = 7;  // the bound for dense cages (decision 0083)
   const detail::WorldModel m = detail::build_world_model(d);
   const detail::SegmentMesh& mesh = m.meshes_of[0];
@@ -350,6 +360,63 @@ TEST_CASE("a dense cage (a piece of the 3,001-node small intestine) with max_rin
   CHECK(moved > 0.02);
   test::measured("dense cage: the default localization's largest distance from full MVC, random bends", worst, 1e-3,
                  "m");
+}
+
+TEST_CASE(
+    "mean_rings_per_vertex: a budget the vertices keep within changes nothing, one they exceed bounds the mean near "
+    "full MVC") {
+  // The dense piece, straight: by decision 0048's rule its vertices keep about 11 rings on average.
+  const WorldDesc d = dense_piece();
+  const detail::WorldModel m = detail::build_world_model(d);
+  const detail::SegmentMesh& mesh = m.meshes_of[0];
+  const TriangleMesh input = regenerate(m, d);
+  SkinReport rule, roomy, tight, full;
+  const detail::SkinBinding by_rule = detail::bind_mean_value(mesh.cage, input, 4, 0.02, rule);
+  const detail::SkinBinding within =
+      detail::bind_mean_value(mesh.cage, input, 4, 0.02, roomy, nullptr, 0, rule.mean_rings_per_vertex + 0.5);
+  const detail::SkinBinding bounded = detail::bind_mean_value(mesh.cage, input, 4, 0.02, tight, nullptr, 0, 4.5);
+  const detail::SkinBinding all = detail::bind_mean_value(mesh.cage, input, 0, 0.0, full);
+  MESSAGE("rings per vertex: the rule " << rule.mean_rings_per_vertex << " (" << rule.slots_per_vertex
+                                        << " slots), budget 4.5: " << tight.mean_rings_per_vertex << " ("
+                                        << tight.slots_per_vertex << " slots)");
+  // Within the budget: the same binding, bit for bit.
+  CHECK(roomy.mean_rings_budget == 0.0);
+  CHECK(within.coefficient == by_rule.coefficient);
+  CHECK(within.ring == by_rule.ring);
+  CHECK(within.slot_start == by_rule.slot_start);
+  // Beyond it: the mean bounded, and what it costs counted.
+  CHECK(rule.mean_rings_per_vertex > 5.0);
+  CHECK(tight.mean_rings_budget == 4.5);
+  CHECK(tight.mean_rings_per_vertex <= 4.5);
+  CHECK(tight.mean_rings_per_vertex > 4.4);  // the budget is used, not undershot
+  CHECK(tight.slots_per_vertex < rule.slots_per_vertex);
+  CHECK(tight.rings_per_vertex > 5);  // some vertices keep more than the mean, others fold
+  std::mt19937 rng(31);
+  double worst = 0.0, worst_rule = 0.0;
+  for (int trial = 0; trial < 4; ++trial) {
+    std::vector<kernels::RingPose> now;
+    const std::vector<double> q = random_strains(m.segments[0].node_count, 10.0 + 5.0 * trial, rng);
+    const std::vector<float> delta = posed_deltas(m, m.segments[0].initial_base, q, now);
+    Skinned a(input.vertices.size()), b(input.vertices.size()), c(input.vertices.size());
+    kernels::skin_rigid_groups(bounded.view(), delta, 0, bounded.blocks(), a.out());
+    kernels::skin_rigid_groups(by_rule.view(), delta, 0, by_rule.blocks(), b.out());
+    kernels::skin_rigid_groups(all.view(), delta, 0, all.blocks(), c.out());
+    for (std::size_t v = 0; v < input.vertices.size(); ++v) {
+      worst = std::max(worst, (a.at(v) - c.at(v)).norm());
+      worst_rule = std::max(worst_rule, (b.at(v) - c.at(v)).norm());
+    }
+  }
+  MESSAGE("vs full MVC in random bends: budget 4.5 " << worst << " m, the rule " << worst_rule << " m");
+  test::measured("dense cage, a mean budget of 4.5 rings: the largest distance from full MVC, random bends", worst,
+                 1e-3, "m");
+}
+
+TEST_CASE("mean_rings_per_vertex negative or not finite is refused naming the field") {
+  for (const double bad : {-1.0, std::numeric_limits<double>::quiet_NaN(), 5000.0}) {
+    WorldDesc d = straight_organ(4, 1000);
+    d.segments[0].mesh.mean_rings_per_vertex = bad;
+    CHECK_THROWS_WITH_AS(World::create(d), doctest::Contains("segment[0].mesh.mean_rings_per_vertex"), FieldError);
+  }
 }
 
 TEST_CASE("max_rings_per_vertex below rings_per_vertex, or negative, is refused naming the field") {

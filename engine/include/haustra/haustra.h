@@ -183,6 +183,9 @@ typedef struct haustra_segment_def {
   /* The most rings a mesh vertex keeps (the scene's mesh.max_rings_per_vertex, decision 0083):
    * 0 (default): no bound; else rings_per_vertex to 4096. Since ABI 11. */
   int max_rings_per_vertex;
+  /* A budget on the rings a mesh vertex keeps on average (the scene's mesh.mean_rings_per_vertex,
+   * decision 0090): 0 (default): none; else up to 4096. Since ABI 11. */
+  double mean_rings_per_vertex;
 } haustra_segment_def;
 
 /* One segment as the world holds it (haustra_world_segment). */

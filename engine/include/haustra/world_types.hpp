@@ -71,8 +71,10 @@ struct SkinReport {
   std::size_t rings_per_vertex = 0;    // rings kept, the vertex that keeps most (all rings when not localized)
   double mean_rings_per_vertex = 0.0;  // over the vertices
   double slots_per_vertex = 0.0;       // what skinning costs: rings × lanes of every block (padding too), per vertex
-  double min_weight = 0.0;             // most negative MVC weight of any vertex
-  double max_negative_mass = 0.0;      // Σ|w| of negative weights, worst vertex
+  // The mean_rings_per_vertex that bounded the rings kept (decision 0090); 0: none did.
+  double mean_rings_budget = 0.0;
+  double min_weight = 0.0;         // most negative MVC weight of any vertex
+  double max_negative_mass = 0.0;  // Σ|w| of negative weights, worst vertex
   double mean_negative_mass = 0.0;
   std::size_t negative_vertices = 0;       // vertices with any negative weight
   std::size_t on_face = 0, on_vertex = 0;  // vertices found on the cage (exact branches)

@@ -223,6 +223,9 @@ void check_mesh_fields(const SegmentDesc& sd, const SegmentModel& seg, std::size
     fail(ErrorCode::invalid_argument, where + ".max_rings_per_vertex",
          fmt::format("expected 0 (no bound) or a count from rings_per_vertex ({}) up to 4096, got {}",
                      d.rings_per_vertex, d.max_rings_per_vertex));
+  if (!std::isfinite(d.mean_rings_per_vertex) || d.mean_rings_per_vertex < 0.0 || d.mean_rings_per_vertex > 4096.0)
+    fail(ErrorCode::invalid_argument, where + ".mean_rings_per_vertex",
+         fmt::format("expected 0 (no budget) or a mean number of rings up to 4096, got {}", d.mean_rings_per_vertex));
   if (d.rings_per_vertex < 0 || d.rings_per_vertex > 4096)
     fail(ErrorCode::invalid_argument, where + ".rings_per_vertex",
          fmt::format("expected 0 (all rings) or a count up to 4096, got {}", d.rings_per_vertex));
@@ -308,7 +311,7 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
     }
     out.binding = d.skinning == SkinningMethod::mean_value
                       ? bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, d.weight_left_out, out.info.skin,
-                                        nullptr, d.max_rings_per_vertex)
+                                        nullptr, d.max_rings_per_vertex, d.mean_rings_per_vertex)
                       : bind_linear_blend(out.cage, meshes[pi], out.info.skin);
 
     append_mesh_buffers(pi, meshes[pi], d.normals, out, m);

@@ -131,9 +131,13 @@ struct VertexStats {
 // as it does), or of largest mass when arc is empty (no bound: decision 0048); then in ring order.
 // arc: per ring, or empty. Returns how many rings `order` starts with and
 // the weight mass the others carry.
+// values: when given, the worth of each ring kept past `at_least`, in the order kept: its mass times
+// its gap when kept, made non-increasing (each the least so far), so that keeping the rings worth
+// more than a threshold keeps a prefix (decision 0090's budget).
 std::pair<std::size_t, double> choose_rings(const std::vector<double>& mass, std::span<const double> arc,
                                             std::size_t at_least, std::size_t at_most, double weight_left_out,
-                                            std::vector<std::uint32_t>& order, std::vector<double>& gap) {
+                                            std::vector<std::uint32_t>& order, std::vector<double>& gap,
+                                            std::vector<double>* values = nullptr) {
   const std::size_t rings = mass.size();
   std::iota(order.begin(), order.end(), 0U);
   std::sort(order.begin(), order.end(),
@@ -157,6 +161,10 @@ std::pair<std::size_t, double> choose_rings(const std::vector<double>& mass, std
         if (mass[order[k]] * gap[k] > mass[order[best]] * gap[best]) best = k;
       std::swap(order[keep], order[best]);
       std::swap(gap[keep], gap[best]);
+      if (values != nullptr) {
+        const double worth = mass[order[keep]] * gap[keep];
+        values->push_back(values->empty() ? worth : std::min(values->back(), worth));
+      }
       dropped -= mass[order[keep]];
       for (std::size_t k = keep + 1; k < rings; ++k)
         gap[k] = std::min(gap[k], std::abs(arc[order[k]] - arc[order[keep]]));
@@ -244,13 +252,109 @@ void pack_rows(const std::vector<std::vector<std::pair<std::uint32_t, double>>>&
   }
 }
 
+// How many rings past `at_least` each vertex keeps under a budget of `budget` rings in all: those
+// worth more than the threshold that leaves at most that many (worth: per vertex, non-increasing).
+std::vector<std::size_t> extra_rings_within(const std::vector<std::vector<double>>& worth, std::size_t budget,
+                                            std::size_t at_least) {
+  std::vector<std::size_t> extra(worth.size(), 0);
+  const std::size_t base = at_least * worth.size();
+  const std::size_t room = budget > base ? budget - base : 0;
+  std::vector<double> all;
+  for (const auto& w : worth) all.insert(all.end(), w.begin(), w.end());
+  double threshold = -1.0;  // every extra ring fits
+  if (all.size() > room) {
+    std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(room), all.end(), std::greater<>());
+    threshold = all[room];  // the first left out: keep only what is worth more
+  }
+  for (std::size_t v = 0; v < worth.size(); ++v)
+    while (extra[v] < worth[v].size() && worth[v][extra[v]] > threshold) ++extra[v];
+  return extra;
+}
+
+// Binds every vertex: its mean value coordinates, the rings it keeps (at most at_most(v)), the
+// weight of the others folded onto them, its slots, statistics and, when wanted, CSR row. worth:
+// when given, each vertex's rings past at_least and their worth (choose_rings).
+struct Binder {
+  const CageModel& cage;
+  const TriangleMesh& mesh;
+  std::size_t at_least;
+  double weight_left_out;
+  Slots& slots;
+  std::vector<VertexStats>& stats;
+  std::vector<std::vector<std::pair<std::uint32_t, double>>>& rows;
+
+  template <class AtMost>
+  void run(std::span<const double> arc, AtMost at_most, std::vector<std::vector<double>>* worth = nullptr) const {
+    const std::size_t rings = cage.ring_station.size();
+    const std::size_t n = cage.rest_vertices.size();
+    // Weights in the binding pose, where the cage embeds the mesh without folds.
+    const kernels::CageView view{cage.binding_vertices, cage.triangles};
+    const kernels::CageFrame frame = kernels::cage_frame(cage.binding_vertices);
+    parallel_blocks(mesh.vertices.size(), 64, [&](std::size_t first, std::size_t last) {
+      std::vector<double> scratch(4 * n), w(n), mass(rings), weight(rings);
+      std::vector<Eigen::Vector3d> moment(rings);
+      std::vector<std::uint32_t> order(rings);
+      std::vector<std::uint8_t> is_kept(rings);
+      std::vector<double> gap(rings);
+      for (std::size_t v = first; v != last; ++v) {
+        const kernels::MvcResult r = kernels::mean_value_coordinates(cage.mesh_binding[v], view, frame, scratch, w);
+        std::fill(mass.begin(), mass.end(), 0.0);
+        std::fill(weight.begin(), weight.end(), 0.0);
+        std::fill(moment.begin(), moment.end(), Eigen::Vector3d::Zero());
+        for (std::size_t j = 0; j < n; ++j) {
+          const std::uint32_t g = cage.vertex_ring[j];
+          mass[g] += std::abs(w[j]);
+          weight[g] += w[j];
+          moment[g] += w[j] * cage.offset[j];
+        }
+        const auto [keep, dropped] = choose_rings(mass, arc, at_least, at_most(v), weight_left_out, order, gap,
+                                                  worth != nullptr ? &(*worth)[v] : nullptr);
+        if (keep < rings) fold_left_out(cage, std::span(order).first(keep), weight, moment, is_kept);
+        double kept = 0.0;
+        for (std::size_t k = 0; k < keep; ++k) kept += weight[order[k]];
+        // Renormalized to a partition of unity, so a rigid translation of the rod stays exact (the
+        // folded weights already sum to MVC's 1, but for rounding).
+        const double scale = kept != 0.0 ? 1.0 / kept : 1.0;
+        // Carried to the rings' rest poses, the kept weights put the vertex at Σ b_g c_g + R_g A_g;
+        // the rest of the way (the bend between binding and rest pose, and what localization left
+        // out) is shared by the kept rings in proportion to their weight, rotating with each ring:
+        // the rest pose is then reproduced exactly and a rigid motion of the rod moves the vertex
+        // rigidly.
+        Eigen::Vector3d reach = Eigen::Vector3d::Zero();
+        for (std::size_t k = 0; k < keep; ++k) {
+          const kernels::RingPose& rp = cage.ring_rest[order[k]];
+          reach += scale * (weight[order[k]] * rp.centre + rp.rotation * moment[order[k]]);
+        }
+        const Eigen::Vector3d correction = mesh.vertices[v] - reach;
+        slots.ring[v].clear();
+        slots.coef[v].clear();
+        for (std::size_t k = 0; k < keep; ++k) {
+          const double bg = scale * weight[order[k]];
+          const Eigen::Vector3d ag =
+              scale * moment[order[k]] + bg * (cage.ring_rest[order[k]].rotation.transpose() * correction);
+          slots.set(v, k, order[k], bg, ag);
+        }
+        stats[v] = {r.min_weight, r.negative_mass, dropped, correction.norm(), keep, r.location};
+        if (!rows.empty()) {
+          rows[v].clear();
+          std::vector<std::uint8_t> kept_ring(rings, 0);
+          for (std::size_t k = 0; k < keep; ++k) kept_ring[order[k]] = 1;
+          for (std::size_t j = 0; j < n; ++j)
+            if (kept_ring[cage.vertex_ring[j]] != 0 && w[j] != 0.0)
+              rows[v].emplace_back(static_cast<std::uint32_t>(j), scale * w[j]);
+        }
+      }
+    });
+  }
+};
+
 }  // namespace
 
 SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int rings_per_vertex,
-                            double weight_left_out, SkinReport& report, CageWeights* csr, int max_rings_per_vertex) {
+                            double weight_left_out, SkinReport& report, CageWeights* csr, int max_rings_per_vertex,
+                            double mean_rings_per_vertex) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t rings = cage.ring_station.size();
-  const std::size_t n = cage.rest_vertices.size();
   const std::size_t at_least =
       rings_per_vertex <= 0 ? rings : std::min(rings, static_cast<std::size_t>(rings_per_vertex));
   // At most max_rings_per_vertex (decision 0083): what a vertex's weight would want beyond them is
@@ -263,68 +367,32 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
   for (std::size_t g = 0; g < rings; ++g) arc[g] = cage.ring_binding[g].centre.z();
   Slots slots;
   slots.resize(mesh.vertices.size());
-  // Weights in the binding pose, where the cage embeds the mesh without folds.
-  const kernels::CageView view{cage.binding_vertices, cage.triangles};
-  const kernels::CageFrame frame = kernels::cage_frame(cage.binding_vertices);
-
   std::vector<VertexStats> stats(mesh.vertices.size());
   std::vector<std::vector<std::pair<std::uint32_t, double>>> rows(csr != nullptr ? mesh.vertices.size() : 0);
+  const Binder binder{cage, mesh, at_least, weight_left_out, slots, stats, rows};
 
-  parallel_blocks(mesh.vertices.size(), 64, [&](std::size_t first, std::size_t last) {
-    std::vector<double> scratch(4 * n), w(n), mass(rings), weight(rings);
-    std::vector<Eigen::Vector3d> moment(rings);
-    std::vector<std::uint32_t> order(rings);
-    std::vector<std::uint8_t> is_kept(rings);
-    std::vector<double> gap(rings);
-    for (std::size_t v = first; v != last; ++v) {
-      const kernels::MvcResult r = kernels::mean_value_coordinates(cage.mesh_binding[v], view, frame, scratch, w);
-      std::fill(mass.begin(), mass.end(), 0.0);
-      std::fill(weight.begin(), weight.end(), 0.0);
-      std::fill(moment.begin(), moment.end(), Eigen::Vector3d::Zero());
-      for (std::size_t j = 0; j < n; ++j) {
-        const std::uint32_t g = cage.vertex_ring[j];
-        mass[g] += std::abs(w[j]);
-        weight[g] += w[j];
-        moment[g] += w[j] * cage.offset[j];
-      }
-      // By weight and distance when bounded, by weight alone otherwise (decision 0048).
-      const auto [keep, dropped] = choose_rings(mass, at_most < rings ? std::span<const double>(arc) : std::span<const double>(),
-                                                at_least, at_most, weight_left_out, order, gap);
-      if (keep < rings) fold_left_out(cage, std::span(order).first(keep), weight, moment, is_kept);
-      double kept = 0.0;
-      for (std::size_t k = 0; k < keep; ++k) kept += weight[order[k]];
-      // Renormalized to a partition of unity, so a rigid translation of the rod stays exact (the
-      // folded weights already sum to MVC's 1, but for rounding).
-      const double scale = kept != 0.0 ? 1.0 / kept : 1.0;
-      // Carried to the rings' rest poses, the kept weights put the vertex at Σ b_g c_g + R_g A_g;
-      // the rest of the way (the bend between binding and rest pose, and what localization left
-      // out) is shared by the kept rings in proportion to their weight, rotating with each ring:
-      // the rest pose is then reproduced exactly and a rigid motion of the rod moves the vertex
-      // rigidly.
-      Eigen::Vector3d reach = Eigen::Vector3d::Zero();
-      for (std::size_t k = 0; k < keep; ++k) {
-        const kernels::RingPose& rp = cage.ring_rest[order[k]];
-        reach += scale * (weight[order[k]] * rp.centre + rp.rotation * moment[order[k]]);
-      }
-      const Eigen::Vector3d correction = mesh.vertices[v] - reach;
-      for (std::size_t k = 0; k < keep; ++k) {
-        const double bg = scale * weight[order[k]];
-        const Eigen::Vector3d ag =
-            scale * moment[order[k]] + bg * (cage.ring_rest[order[k]].rotation.transpose() * correction);
-        slots.set(v, k, order[k], bg, ag);
-      }
-      stats[v] = {r.min_weight, r.negative_mass, dropped, correction.norm(), keep, r.location};
-      if (csr != nullptr) {
-        std::vector<std::uint8_t> kept_ring(rings, 0);
-        for (std::size_t k = 0; k < keep; ++k) kept_ring[order[k]] = 1;
-        for (std::size_t j = 0; j < n; ++j)
-          if (kept_ring[cage.vertex_ring[j]] != 0 && w[j] != 0.0)
-            rows[v].emplace_back(static_cast<std::uint32_t>(j), scale * w[j]);
-      }
-    }
-  });
+  // By weight and distance when bounded, by weight alone otherwise (decision 0048).
+  const std::span<const double> by_distance(arc);
+  binder.run(at_most < rings ? by_distance : std::span<const double>(), [&](std::size_t) { return at_most; });
+  // A budget on the mean (decision 0090): where the vertices keep more rings than it allows, the
+  // rings past `at_least` are kept by their worth (weight × distance along the rod) across the whole
+  // mesh: a threshold on worth, so a vertex whose weight lies far along the rod keeps its rings and
+  // one whose left-out rings are next to its kept ones folds them.
+  const auto budget = static_cast<std::size_t>(mean_rings_per_vertex * static_cast<double>(mesh.vertices.size()));
+  std::size_t kept_total = 0;
+  for (const VertexStats& st : stats) kept_total += st.kept;
+  double bounded_by = 0.0;
+  if (mean_rings_per_vertex > 0.0 && kept_total > budget && at_least < rings) {
+    std::vector<std::vector<double>> worth(mesh.vertices.size());
+    binder.run(
+        by_distance, [&](std::size_t) { return at_most; }, &worth);
+    const std::vector<std::size_t> extra = extra_rings_within(worth, budget, at_least);
+    binder.run(by_distance, [&](std::size_t v) { return at_least + extra[v]; });
+    bounded_by = mean_rings_per_vertex;
+  }
 
   report = skin_report_of(stats);
+  report.mean_rings_budget = bounded_by;
   SkinBinding b = pack(mesh, slots, weight_left_out > 0.0 ? at_most : at_least);
   report.rest_error = rest_error(b, mesh);
   report.slots_per_vertex = slots_per_vertex(b);

@@ -22,6 +22,9 @@ struct CohortRow {
   bool grasped = false;                     // the grasper still held a node at the end
   double lift = 0.0;                        // m the grasped node rose
   double skin_error = 0.0;                  // m: localized skinning against full MVC of the same cage, after the lift
+  // What skinning costs per vertex (slots, padding included) against fixed K = 4 on the same cages:
+  // the whole organ, and its worst piece.
+  double skin_cost = 0.0, skin_cost_worst = 0.0;
   double frame_median = 0.0, frame_p99 = 0.0;  // s per frame, the mesh included, 2 threads
 };
 
