@@ -133,27 +133,28 @@ def test_a_dict_takes_paths_and_names_a_value_it_cannot_take():
     assert error.value.field == "environment.mesh[0].file"
 
 
-def bounded_organ(max_rings_per_vertex=None):
+def bounded_organ(key=None, value=None):
     """A cantilever with beads 2 cm apart (rings dense enough that vertices want more than 4) and a procedural
-    organ; segment.mesh.max_rings_per_vertex when given."""
+    organ; segment.mesh[key] = value when given (a bound on the rings its vertices keep)."""
     desc = rod(nodes=41)
     segment = desc["segment"][0]
     segment["rest"]["length"] = 0.4
     segment["beads"] = {"count": 20}
     segment["mesh"] = {"source": "procedural", "procedural": {"vertices": 1500}}
-    if max_rings_per_vertex is not None:
-        segment["mesh"]["max_rings_per_vertex"] = max_rings_per_vertex
+    if key is not None:
+        segment["mesh"][key] = value
     return desc
 
 
-def test_a_dicts_max_rings_per_vertex_gives_the_scene_files_world(tmp_path):
-    # decision 0083's bound, in a dict as in a scene file: the same bits, nodes and mesh.
+@pytest.mark.parametrize("key", ["max_rings_per_vertex", "mean_rings_per_vertex"])
+def test_a_dicts_ring_bound_gives_the_scene_files_world(tmp_path, key):
+    # decision 0083's bound and decision 0090's budget, in a dict as in a scene file: the same bits, nodes and mesh.
     scene = tmp_path / "bounded.toml"
     with open(scene, "w") as f:
         f.write('[world]\ndt = 0.01\nthreads = 1\n[[segment]]\nname = "rod"\nnodes = 41\nyoungs_modulus = 1e6\n'
                 '[segment.rest]\nlength = 0.4\n[segment.beads]\ncount = 20\n[segment.mesh]\nsource = "procedural"\n'
-                'max_rings_per_vertex = 4\n[segment.mesh.procedural]\nvertices = 1500\n')
-    worlds = [haustra.World(bounded_organ(4)), haustra.World.from_scene(scene), haustra.World(bounded_organ())]
+                f'{key} = 4\n[segment.mesh.procedural]\nvertices = 1500\n')
+    worlds = [haustra.World(bounded_organ(key, 4)), haustra.World.from_scene(scene), haustra.World(bounded_organ())]
     for w in worlds:
         w.step(20)
     bounded, from_file, unbounded = worlds
@@ -163,10 +164,15 @@ def test_a_dicts_max_rings_per_vertex_gives_the_scene_files_world(tmp_path):
     assert not np.array_equal(bounded.mesh_positions, unbounded.mesh_positions)  # the bound is not ignored
 
 
-@pytest.mark.parametrize("bad", [3, -1, 5000])
-def test_a_bad_max_rings_per_vertex_is_refused_naming_the_field(bad):
+@pytest.mark.parametrize("key,bad,expected", [
+    ("max_rings_per_vertex", 3, "expected 0 (no bound) or a count from rings_per_vertex (4) up to 4096, got 3"),
+    ("max_rings_per_vertex", -1, "expected 0 (no bound) or a count from rings_per_vertex (4) up to 4096, got -1"),
+    ("max_rings_per_vertex", 5000, "expected 0 (no bound) or a count from rings_per_vertex (4) up to 4096, got 5000"),
+    ("mean_rings_per_vertex", -1.5, "expected 0 (no budget) or a mean number of rings up to 4096, got -1.5"),
+    ("mean_rings_per_vertex", 5000, "expected 0 (no budget) or a mean number of rings up to 4096, got 5000"),
+])
+def test_a_bad_ring_bound_is_refused_naming_the_field(key, bad, expected):
     with pytest.raises(haustra.InvalidArgumentError) as error:
-        haustra.World(bounded_organ(bad))
-    assert str(error.value) == ("World(desc): segment[0].mesh.max_rings_per_vertex: expected 0 (no bound) or a count "
-                                f"from rings_per_vertex (4) up to 4096, got {bad}")
-    assert error.value.field == "segment[0].mesh.max_rings_per_vertex"
+        haustra.World(bounded_organ(key, bad))
+    assert str(error.value) == f"World(desc): segment[0].mesh.{key}: {expected}"
+    assert error.value.field == f"segment[0].mesh.{key}"
