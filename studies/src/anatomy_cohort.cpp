@@ -130,7 +130,8 @@ void skin_cost_against_k4(const SceneDesc& scene, const World& world, CohortRow&
 
 }  // namespace
 
-CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::filesystem::path& out, int frames) {
+CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::filesystem::path& out, int frames,
+                             int threads) {
   CohortRow row;
   row.name = surface.stem().string();
   ImportOptions o;
@@ -145,7 +146,7 @@ CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::fi
   }
   try {
     SceneDesc scene = load_scene(row.report.scene);
-    scene.world.threads = 2;
+    scene.world.threads = threads;
     const auto rest = create_world(scene);
     scene = with_grasp(std::move(scene), *rest, std::min(0.02, 0.15 * row.report.length));
     {
@@ -202,7 +203,8 @@ CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::fi
   return row;
 }
 
-std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std::filesystem::path& out, int frames) {
+std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std::filesystem::path& out, int frames,
+                                  int threads) {
   std::vector<std::filesystem::path> surfaces;
   for (const auto& entry : std::filesystem::directory_iterator(folder))
     if (entry.path().extension() == ".obj") surfaces.push_back(entry.path());
@@ -211,7 +213,7 @@ std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std
   std::vector<CohortRow> rows;
   for (const auto& s : surfaces) {
     fmt::print(stderr, "anatomy: {}\n", s.filename().string());
-    rows.push_back(run_cohort_surface(s, out / s.stem(), frames));
+    rows.push_back(run_cohort_surface(s, out / s.stem(), frames, threads));
   }
   return rows;
 }

@@ -416,3 +416,18 @@ TEST_CASE("haustra import: bad input fails with a clear message") {
   CHECK_THROWS_WITH_AS(import::import_surface(options(dir / "ball.obj", {}, dir / "ball.toml")),
                        doctest::Contains("ball.obj: no tube in this mesh: it is closed"), Error);
 }
+
+TEST_CASE(
+    "an anatomy row is the same on 1 and 2 threads but its frame time (a study's import runs on its cells' threads)") {
+  const fs::path surface = kAnatomy / "HuBMAPVHM-00070-large-intestine-Appendix.obj";
+  const import::CohortRow one = import::run_cohort_surface(surface, scratch("threads-1"), 30, 1);
+  const import::CohortRow two = import::run_cohort_surface(surface, scratch("threads-2"), 30, 2);
+  REQUIRE(one.ran);
+  REQUIRE(two.ran);
+  CHECK(one.lift == two.lift);
+  CHECK(one.skin_error == two.skin_error);
+  CHECK(one.skin_cost == two.skin_cost);
+  CHECK(one.mesh_vertices == two.mesh_vertices);
+  CHECK(one.lift > 0.0);
+  CHECK(one.skin_cost >= 1.0);  // the default keeps at least K = 4's rings
+}

@@ -455,6 +455,7 @@ struct Commands {
   std::string figure_out = "fig6-cage.png";
   import::ImportOptions import_options;
   fs::path anatomy_folder, anatomy_out = fs::temp_directory_path() / "haustra-anatomy";
+  int anatomy_threads = 2;
 };
 
 void declare_run(CLI::App& app, Commands& c) {
@@ -554,6 +555,10 @@ void declare_import(CLI::App& app, Commands& c) {
       ->required()
       ->check(CLI::ExistingDirectory);
   c.anatomy_cmd->add_option("--out", c.anatomy_out, "where the imported scenes go");
+  c.anatomy_cmd
+      ->add_option("--threads", c.anatomy_threads,
+                   "threads each organ's world runs on (default 2, docs/anatomy.md's; the same bits on any)")
+      ->check(CLI::Range(1, 256));
 }
 
 int dispatch(Commands& c) {
@@ -568,7 +573,7 @@ int dispatch(Commands& c) {
     return 0;
   }
   if (*c.anatomy_cmd) {
-    const auto rows = import::run_cohort(c.anatomy_folder, c.anatomy_out);
+    const auto rows = import::run_cohort(c.anatomy_folder, c.anatomy_out, 120, c.anatomy_threads);
     fmt::print("{}", import::cohort_markdown(rows, c.anatomy_folder));
     std::size_t ok = 0;
     for (const auto& r : rows) ok += r.ran ? 1 : 0;

@@ -125,9 +125,10 @@ def parse_anatomy_row(markdown, name):
     raise RuntimeError(f"haustra anatomy: no row for '{name}' in its table")
 
 
-def import_surface(surface, out):
+def import_surface(surface, out, threads=1):
     """Imports one surface as `make anatomy` does (the same C++ run: `haustra anatomy` on a folder holding
-    only it); returns the import report fields and the grasp scene written beside the imported scene."""
+    only it), its world on `threads` threads (a study's cells' own: one per worker's core, the same bits);
+    returns the import report fields and the grasp scene written beside the imported scene."""
     surface = pathlib.Path(surface)
     out = pathlib.Path(out)
     started = time.perf_counter()
@@ -135,8 +136,8 @@ def import_surface(surface, out):
         for part in [surface, surface.with_name(surface.stem + "-centreline.json")]:
             if part.exists():
                 os.symlink(part, pathlib.Path(folder) / part.name)
-        done = subprocess.run([haustra_command(), "anatomy", folder, "--out", str(out)], capture_output=True,
-                              text=True)
+        done = subprocess.run([haustra_command(), "anatomy", folder, "--out", str(out), "--threads", str(threads)],
+                              capture_output=True, text=True)
     if done.returncode != 0 and "| surface |" not in done.stdout:
         raise RuntimeError(f"haustra anatomy {surface.name}: exit {done.returncode}: {first_line(done.stderr)}")
     row = parse_anatomy_row(done.stdout, surface.stem)

@@ -65,7 +65,8 @@ def plot_grid(rows, errors, path):
 def import_table(rows):
     """One line per imported surface: what the import found (the row `make anatomy` writes for it)."""
     lines = ["Each surface as imported (`haustra anatomy` on it alone: the same import, grasp and row as "
-             "`make anatomy`; its frame time is on 2 threads, beside the full-MVC reference run):", "",
+             "`make anatomy`; its frame time is on the study's threads per world, beside the full-MVC "
+             "reference run):", "",
              "| surface | repairs | organ | length mm | nodes | beads | rings | import s | outside | crossing | "
              "lift mm | skin err mm | frame ms | outcome |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     seen = set()

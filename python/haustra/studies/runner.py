@@ -121,11 +121,11 @@ def run_imported_cell(cell, imported, cell_runner=run_cell):
     return cell_runner(cell)
 
 
-def safe_import(surface, out):
+def safe_import(surface, out, threads=1):
     """The import as a task that never raises: a failure is recorded in its cells' rows."""
     from .cells import first_line
     try:
-        return import_surface(surface, out)
+        return import_surface(surface, out, threads)
     except Exception as e:  # noqa: BLE001
         return {"error": f"import: {first_line(e)}"}
 
@@ -151,7 +151,8 @@ def run_cells(study, todo, out, writer, progress, serial, scheduler, workers, ce
         for cell in todo:
             if cell.get("surface") is not None:
                 if cell["surface"] not in imported:
-                    imported[cell["surface"]] = safe_import(study.imports[cell["surface"]]["surface"], imports_out)
+                    imported[cell["surface"]] = safe_import(study.imports[cell["surface"]]["surface"], imports_out,
+                                                            study.threads)
                 row = run_imported_cell(cell, imported[cell["surface"]], cell_runner)
             else:
                 row = cell_runner(cell)
@@ -167,7 +168,8 @@ def run_cells(study, todo, out, writer, progress, serial, scheduler, workers, ce
                 surface = cell["surface"]
                 if surface not in import_futures:
                     import_futures[surface] = client.submit(safe_import, study.imports[surface]["surface"],
-                                                            imports_out, key=f"import-{surface}-{cell['scene_hash']}")
+                                                            imports_out, study.threads,
+                                                            key=f"import-{surface}-{cell['scene_hash']}")
                 futures.append(client.submit(run_imported_cell, cell, import_futures[surface], cell_runner,
                                              key=f"cell-{cell['key']}"))
             else:

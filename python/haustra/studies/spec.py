@@ -29,8 +29,9 @@ def cell_key(input_hash, overrides, protocol, extra=None):
 class Study:
     """What a study file describes: name, kind, its cells (dicts, each with a unique 'key') and options."""
 
-    def __init__(self, name, kind, cells, source=None, reference=None, imports=None):
+    def __init__(self, name, kind, cells, source=None, reference=None, imports=None, threads=1):
         self.name, self.kind, self.cells, self.source = name, kind, cells, source
+        self.threads = threads  # a world's threads in each cell, and in each surface's import
         self.reference = reference  # the setting tip errors are measured against (grid studies)
         self.imports = imports or {}  # surface name -> its import job (surface studies)
         keys = [c["key"] for c in cells]
@@ -136,4 +137,4 @@ def grid_study(doc, path, name):
         cells.append({"key": cell_key(digest, fixed, protocol, extra), "scene_name": scene_name, "scene": scene,
                       "scene_hash": digest, "surface": surface, "setting": setting,
                       "overrides": json.dumps(fixed, sort_keys=True), "protocol": protocol, "frames": frames})
-    return Study(name, "grid", cells, source=path, reference=reference, imports=imports)
+    return Study(name, "grid", cells, source=path, reference=reference, imports=imports, threads=threads)

@@ -28,13 +28,15 @@ struct CohortRow {
   double frame_median = 0.0, frame_p99 = 0.0;  // s per frame, the mesh included, 2 threads
 };
 
-// One surface: imported into `out` (a folder of its own), then run. Never throws: a failure is
-// the row's error.
-CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::filesystem::path& out, int frames = 120);
+// One surface: imported into `out` (a folder of its own), then run on `threads` threads (the
+// table's are 2; a study's import runs on its cells' threads). Never throws: a failure is the
+// row's error.
+CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::filesystem::path& out, int frames = 120,
+                             int threads = 2);
 
 // Every .obj of `folder`, in name order.
 std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std::filesystem::path& out,
-                                  int frames = 120);
+                                  int frames = 120, int threads = 2);
 
 // docs/anatomy.md: generated, dated, the machine named.
 std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::filesystem::path& folder);
