@@ -2,6 +2,7 @@
 #include "model/world_model.hpp"
 
 #include <fmt/format.h>
+#include <oneapi/tbb/task_arena.h>
 #include <cmath>
 #include <numbers>
 #include <set>
@@ -260,10 +261,7 @@ void take_mesh_binding(const WorldModel& from, WorldModel& m) {
   m.any_mesh = from.any_mesh;
 }
 
-}  // namespace
-
-WorldModel build_world_model(const WorldDesc& desc, const WorldModel* binding_from) {
-  check_world_desc(desc);  // every field a description holds, before anything is built
+WorldModel build_world_model_here(const WorldDesc& desc, const WorldModel* binding_from) {
   WorldModel m;
   m.gravity = desc.gravity;
   m.dt = desc.dt;
@@ -281,6 +279,16 @@ WorldModel build_world_model(const WorldDesc& desc, const WorldModel* binding_fr
   else
     bind_organ_meshes(desc, rest_poses, meshes, m);
   return m;
+}
+
+}  // namespace
+
+WorldModel build_world_model(const WorldDesc& desc, const WorldModel* binding_from) {
+  check_world_desc(desc);  // every field a description holds, before anything is built
+  // Built on the world's own threads (the mesh binding's blocks, by index: the same bits on any
+  // count), so that a study's worlds, one thread each, do not each take every core while building.
+  tbb::task_arena arena(desc.threads > 0 ? desc.threads : tbb::task_arena::automatic);
+  return arena.execute([&] { return build_world_model_here(desc, binding_from); });
 }
 
 }  // namespace haustra::detail
