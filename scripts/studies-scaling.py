@@ -89,7 +89,7 @@ def main():
     t_one, t_many = on_cluster(2, overhead)
     report = {
         "engine_version": haustra.__version__, "machine": platform.node(), "cores": os.cpu_count(),
-        "note": "wall times on a shared machine (other builds running); ratios within this one run",
+        "note": "wall times on a shared virtual machine; ratios within this one run",
         "cohort": {"surfaces": len(cohort.imports), "cells": len(cohort.cells), "one_worker": runs[1],
                    "two_workers": runs[2], "ratio_1_to_2": runs[1]["seconds"] / runs[2]["seconds"]},
         "empty_cells": {"workers": 2, "cells": args.empty_cells, "one_cell_seconds": t_one,

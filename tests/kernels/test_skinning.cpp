@@ -310,8 +310,8 @@ TEST_CASE("localization study: error falls with K, and MVC follows rigid cross-s
 // 10 cm, radius 12.5 mm): rings 2 mm apart on a tube 25 mm wide, so a vertex's weight spreads over
 // many rings (decision 0083).
 namespace {
-WorldDesc dense_piece() {
-  WorldDesc d = straight_organ(4, 5000);
+WorldDesc dense_piece(int vertices = 5000) {
+  WorldDesc d = straight_organ(4, vertices);
   d.segments[0].nodes = 51;
   d.segments[0].rest.length = 0.1;
   d.segments[0].beads.count = 26;
@@ -365,8 +365,9 @@ TEST_CASE(
 TEST_CASE(
     "mean_rings_per_vertex: a budget the vertices keep within changes nothing, one they exceed bounds the mean near "
     "full MVC") {
-  // The dense piece, straight: by decision 0048's rule its vertices keep about 11 rings on average.
-  const WorldDesc d = dense_piece();
+  // The dense piece, straight, with fewer vertices (the binding is most of this test's time): by
+  // decision 0048's rule its vertices keep about 11 rings on average.
+  const WorldDesc d = dense_piece(1500);
   const detail::WorldModel m = detail::build_world_model(d);
   const detail::SegmentMesh& mesh = m.meshes_of[0];
   const TriangleMesh input = regenerate(m, d);
@@ -409,6 +410,21 @@ TEST_CASE(
   MESSAGE("vs full MVC in random bends: budget 4.5 " << worst << " m, the rule " << worst_rule << " m");
   test::measured("dense cage, a mean budget of 4.5 rings: the largest distance from full MVC, random bends", worst,
                  1e-3, "m");
+  // Built on 1 and on 2 threads (the world's own, decision 0091), through the scene's field: the
+  // same binding, bit for bit, as the one bound here.
+  WorldDesc one = d;
+  one.threads = 1;
+  one.segments[0].mesh.mean_rings_per_vertex = 4.5;
+  WorldDesc two = one;
+  two.threads = 2;
+  const detail::WorldModel m1 = detail::build_world_model(one), m2 = detail::build_world_model(two);
+  for (const detail::WorldModel* built : {&m1, &m2}) {
+    const detail::SegmentMesh& b = built->meshes_of[0];
+    CHECK(b.info.skin.mean_rings_budget == 4.5);
+    CHECK(b.binding.coefficient == bounded.coefficient);
+    CHECK(b.binding.ring == bounded.ring);
+    CHECK(b.binding.slot_start == bounded.slot_start);
+  }
 }
 
 TEST_CASE("mean_rings_per_vertex negative or not finite is refused naming the field") {

@@ -192,27 +192,6 @@ TEST_CASE("haustra validate --json reports every case, all passing") {
   }
 }
 
-TEST_CASE("haustra skinning: every localization's skin column is the time of the skinning, above 0 us") {
-  // The mesh is made when read (decision 0060): the study once timed the pose alone, 0.0 us a row.
-  const Result r = run("skinning");
-  REQUIRE(r.code == 0);
-  std::istringstream lines(r.out);
-  int rows = 0;
-  for (std::string line; std::getline(lines, line);) {
-    const std::size_t at = line.find(" skin ");
-    if (at == std::string::npos) continue;
-    INFO(line);
-    std::istringstream fields(line.substr(at + 6));
-    double us = 0.0;
-    std::string unit;
-    fields >> us >> unit;
-    CHECK(unit == "us");
-    CHECK(us > 0.0);
-    ++rows;
-  }
-  CHECK(rows == 8);  // the K sweep, the default and linear blend
-}
-
 TEST_CASE("haustra run SURFACE imports it with the defaults first, a line per phase, and runs it") {
   const fs::path dir = out_dir("surface");
   const Result r =

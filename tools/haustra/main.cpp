@@ -557,8 +557,8 @@ void declare_import(CLI::App& app, Commands& c) {
   c.anatomy_cmd->add_option("--out", c.anatomy_out, "where the imported scenes go");
   c.anatomy_cmd
       ->add_option("--threads", c.anatomy_threads,
-                   "threads each organ's world runs on (default 2, docs/anatomy.md's; the same bits on any)")
-      ->check(CLI::Range(1, 256));
+                   "threads each organ's worlds run on, 0: all (default 2, docs/anatomy.md's; the same bits on any)")
+      ->check(CLI::Range(0, 1024));
 }
 
 int dispatch(Commands& c) {
@@ -573,7 +573,7 @@ int dispatch(Commands& c) {
     return 0;
   }
   if (*c.anatomy_cmd) {
-    const auto rows = import::run_cohort(c.anatomy_folder, c.anatomy_out, 120, c.anatomy_threads);
+    const auto rows = import::run_cohort(c.anatomy_folder, c.anatomy_out, import::kCohortFrames, c.anatomy_threads);
     fmt::print("{}", import::cohort_markdown(rows, c.anatomy_folder));
     std::size_t ok = 0;
     for (const auto& r : rows) ok += r.ran ? 1 : 0;

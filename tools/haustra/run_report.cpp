@@ -329,13 +329,15 @@ void print_mesh_info(std::FILE* out, const World& world, std::size_t segment) {
   if (k.method == SkinningMethod::mean_value)
     fmt::print(
         out,
-        "    mean value coordinates: {:.2f} rings per vertex (up to {}), {:.2f} slots per vertex; min weight {:.3g}; negative mass max {:.3g}, "
+        "    mean value coordinates: {:.2f} rings per vertex (up to {}{}), {:.2f} slots per vertex; min weight {:.3g}; "
+        "negative mass max {:.3g}, "
         "mean {:.3g} "
         "({} vertices); weight left out max {:.3g}, mean {:.3g}; rest correction max {:.2f} mm; rest error {:.2g} m; "
         "{:.2f} s\n",
-        k.mean_rings_per_vertex, k.rings_per_vertex, k.slots_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass,
-        k.negative_vertices, k.max_dropped_mass, k.mean_dropped_mass, 1e3 * k.max_rest_correction, k.rest_error,
-        k.seconds);
+        k.mean_rings_per_vertex, k.rings_per_vertex,
+        k.mean_rings_budget > 0.0 ? fmt::format("; bounded by a mean of {:g}", k.mean_rings_budget) : std::string(),
+        k.slots_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass, k.negative_vertices,
+        k.max_dropped_mass, k.mean_dropped_mass, 1e3 * k.max_rest_correction, k.rest_error, k.seconds);
   else
     fmt::print(out, "    linear-blend skinning on the bead frames (2 per vertex); rest error {:.2g} m\n", k.rest_error);
 }

@@ -173,7 +173,7 @@ struct OrganMeshDesc {
   // A budget on the rings kept per vertex on average (decision 0090): 0, none; else where the
   // vertices would keep more, the rings past rings_per_vertex are kept by weight × distance along
   // the rod across the whole mesh, the others folded. Below rings_per_vertex: rings_per_vertex.
-  // 7 holds every anatomy surface under 2× the cost of 4 rings, at up to 2 mm where loops touch.
+  // 7 holds every anatomy surface under 2× the cost of 4 rings, at up to about 2 mm (2.05) where loops touch.
   double mean_rings_per_vertex = 0.0;
   bool normals = true;  // per-vertex normals every frame
 };

@@ -271,10 +271,28 @@ std::vector<std::size_t> extra_rings_within(const std::vector<std::vector<double
   return extra;
 }
 
-// Binds every vertex: its mean value coordinates, the rings it keeps (at most at_most(v)), the
-// weight of the others folded onto them, its slots, statistics and, when wanted, CSR row. worth:
-// when given, each vertex's rings past at_least and their worth (choose_rings).
-struct Binder {
+// Per thread: a vertex's MVC weights and its rings' sums.
+struct VertexScratch {
+  std::vector<double> mvc, w, mass, weight, gap;
+  std::vector<Eigen::Vector3d> moment;
+  std::vector<std::uint32_t> order;
+  std::vector<std::uint8_t> is_kept;
+  VertexScratch(std::size_t cage_vertices, std::size_t rings)
+      : mvc(4 * cage_vertices),
+        w(cage_vertices),
+        mass(rings),
+        weight(rings),
+        gap(rings),
+        moment(rings),
+        order(rings),
+        is_kept(rings) {}
+};
+
+// Binds the mesh's vertices to the cage: each vertex's mean value coordinates, the rings it keeps
+// (at most rings_at_most(v)), the weight of the others folded onto them, its slots, statistics and,
+// when wanted, CSR row. worth: when given, each vertex's rings past at_least and their worth
+// (choose_rings). Every pass overwrites what a vertex had.
+struct VertexBinder {
   const CageModel& cage;
   const TriangleMesh& mesh;
   std::size_t at_least;
@@ -283,68 +301,67 @@ struct Binder {
   std::vector<VertexStats>& stats;
   std::vector<std::vector<std::pair<std::uint32_t, double>>>& rows;
 
-  template <class AtMost>
-  void run(std::span<const double> arc, AtMost at_most, std::vector<std::vector<double>>* worth = nullptr) const {
-    const std::size_t rings = cage.ring_station.size();
-    const std::size_t n = cage.rest_vertices.size();
+  template <class RingsAtMost>
+  void run(std::span<const double> arc, RingsAtMost rings_at_most,
+           std::vector<std::vector<double>>* worth = nullptr) const {
     // Weights in the binding pose, where the cage embeds the mesh without folds.
     const kernels::CageView view{cage.binding_vertices, cage.triangles};
     const kernels::CageFrame frame = kernels::cage_frame(cage.binding_vertices);
     parallel_blocks(mesh.vertices.size(), 64, [&](std::size_t first, std::size_t last) {
-      std::vector<double> scratch(4 * n), w(n), mass(rings), weight(rings);
-      std::vector<Eigen::Vector3d> moment(rings);
-      std::vector<std::uint32_t> order(rings);
-      std::vector<std::uint8_t> is_kept(rings);
-      std::vector<double> gap(rings);
-      for (std::size_t v = first; v != last; ++v) {
-        const kernels::MvcResult r = kernels::mean_value_coordinates(cage.mesh_binding[v], view, frame, scratch, w);
-        std::fill(mass.begin(), mass.end(), 0.0);
-        std::fill(weight.begin(), weight.end(), 0.0);
-        std::fill(moment.begin(), moment.end(), Eigen::Vector3d::Zero());
-        for (std::size_t j = 0; j < n; ++j) {
-          const std::uint32_t g = cage.vertex_ring[j];
-          mass[g] += std::abs(w[j]);
-          weight[g] += w[j];
-          moment[g] += w[j] * cage.offset[j];
-        }
-        const auto [keep, dropped] = choose_rings(mass, arc, at_least, at_most(v), weight_left_out, order, gap,
-                                                  worth != nullptr ? &(*worth)[v] : nullptr);
-        if (keep < rings) fold_left_out(cage, std::span(order).first(keep), weight, moment, is_kept);
-        double kept = 0.0;
-        for (std::size_t k = 0; k < keep; ++k) kept += weight[order[k]];
-        // Renormalized to a partition of unity, so a rigid translation of the rod stays exact (the
-        // folded weights already sum to MVC's 1, but for rounding).
-        const double scale = kept != 0.0 ? 1.0 / kept : 1.0;
-        // Carried to the rings' rest poses, the kept weights put the vertex at Σ b_g c_g + R_g A_g;
-        // the rest of the way (the bend between binding and rest pose, and what localization left
-        // out) is shared by the kept rings in proportion to their weight, rotating with each ring:
-        // the rest pose is then reproduced exactly and a rigid motion of the rod moves the vertex
-        // rigidly.
-        Eigen::Vector3d reach = Eigen::Vector3d::Zero();
-        for (std::size_t k = 0; k < keep; ++k) {
-          const kernels::RingPose& rp = cage.ring_rest[order[k]];
-          reach += scale * (weight[order[k]] * rp.centre + rp.rotation * moment[order[k]]);
-        }
-        const Eigen::Vector3d correction = mesh.vertices[v] - reach;
-        slots.ring[v].clear();
-        slots.coef[v].clear();
-        for (std::size_t k = 0; k < keep; ++k) {
-          const double bg = scale * weight[order[k]];
-          const Eigen::Vector3d ag =
-              scale * moment[order[k]] + bg * (cage.ring_rest[order[k]].rotation.transpose() * correction);
-          slots.set(v, k, order[k], bg, ag);
-        }
-        stats[v] = {r.min_weight, r.negative_mass, dropped, correction.norm(), keep, r.location};
-        if (!rows.empty()) {
-          rows[v].clear();
-          std::vector<std::uint8_t> kept_ring(rings, 0);
-          for (std::size_t k = 0; k < keep; ++k) kept_ring[order[k]] = 1;
-          for (std::size_t j = 0; j < n; ++j)
-            if (kept_ring[cage.vertex_ring[j]] != 0 && w[j] != 0.0)
-              rows[v].emplace_back(static_cast<std::uint32_t>(j), scale * w[j]);
-        }
-      }
+      VertexScratch x(cage.rest_vertices.size(), cage.ring_station.size());
+      for (std::size_t v = first; v != last; ++v)
+        bind_vertex(v, view, frame, arc, rings_at_most(v), worth != nullptr ? &(*worth)[v] : nullptr, x);
     });
+  }
+
+  void bind_vertex(std::size_t v, const kernels::CageView& view, const kernels::CageFrame& frame,
+                   std::span<const double> arc, std::size_t at_most, std::vector<double>* worth,
+                   VertexScratch& x) const {
+    const std::size_t rings = cage.ring_station.size();
+    const std::size_t n = cage.rest_vertices.size();
+    const kernels::MvcResult r = kernels::mean_value_coordinates(cage.mesh_binding[v], view, frame, x.mvc, x.w);
+    std::fill(x.mass.begin(), x.mass.end(), 0.0);
+    std::fill(x.weight.begin(), x.weight.end(), 0.0);
+    std::fill(x.moment.begin(), x.moment.end(), Eigen::Vector3d::Zero());
+    for (std::size_t j = 0; j < n; ++j) {
+      const std::uint32_t g = cage.vertex_ring[j];
+      x.mass[g] += std::abs(x.w[j]);
+      x.weight[g] += x.w[j];
+      x.moment[g] += x.w[j] * cage.offset[j];
+    }
+    const auto [keep, dropped] = choose_rings(x.mass, arc, at_least, at_most, weight_left_out, x.order, x.gap, worth);
+    if (keep < rings) fold_left_out(cage, std::span(x.order).first(keep), x.weight, x.moment, x.is_kept);
+    double kept = 0.0;
+    for (std::size_t k = 0; k < keep; ++k) kept += x.weight[x.order[k]];
+    // Renormalized to a partition of unity, so a rigid translation of the rod stays exact (the
+    // folded weights already sum to MVC's 1, but for rounding).
+    const double scale = kept != 0.0 ? 1.0 / kept : 1.0;
+    // Carried to the rings' rest poses, the kept weights put the vertex at Σ b_g c_g + R_g A_g; the
+    // rest of the way (the bend between binding and rest pose, and what localization left out) is
+    // shared by the kept rings in proportion to their weight, rotating with each ring: the rest
+    // pose is then reproduced exactly and a rigid motion of the rod moves the vertex rigidly.
+    Eigen::Vector3d reach = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < keep; ++k) {
+      const kernels::RingPose& rp = cage.ring_rest[x.order[k]];
+      reach += scale * (x.weight[x.order[k]] * rp.centre + rp.rotation * x.moment[x.order[k]]);
+    }
+    const Eigen::Vector3d correction = mesh.vertices[v] - reach;
+    slots.ring[v].clear();
+    slots.coef[v].clear();
+    for (std::size_t k = 0; k < keep; ++k) {
+      const std::uint32_t g = x.order[k];
+      const double bg = scale * x.weight[g];
+      const Eigen::Vector3d ag = scale * x.moment[g] + bg * (cage.ring_rest[g].rotation.transpose() * correction);
+      slots.set(v, k, g, bg, ag);
+    }
+    stats[v] = {r.min_weight, r.negative_mass, dropped, correction.norm(), keep, r.location};
+    if (rows.empty()) return;
+    rows[v].clear();
+    std::fill(x.is_kept.begin(), x.is_kept.end(), 0);
+    for (std::size_t k = 0; k < keep; ++k) x.is_kept[x.order[k]] = 1;
+    for (std::size_t j = 0; j < n; ++j)
+      if (x.is_kept[cage.vertex_ring[j]] != 0 && x.w[j] != 0.0)
+        rows[v].emplace_back(static_cast<std::uint32_t>(j), scale * x.w[j]);
   }
 };
 
@@ -369,24 +386,35 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
   slots.resize(mesh.vertices.size());
   std::vector<VertexStats> stats(mesh.vertices.size());
   std::vector<std::vector<std::pair<std::uint32_t, double>>> rows(csr != nullptr ? mesh.vertices.size() : 0);
-  const Binder binder{cage, mesh, at_least, weight_left_out, slots, stats, rows};
+  const VertexBinder binder{cage, mesh, at_least, weight_left_out, slots, stats, rows};
 
-  // By weight and distance when bounded, by weight alone otherwise (decision 0048).
+  // By weight and distance when bounded, by weight alone otherwise (decision 0048). Ordered by
+  // distance, this pass also records each vertex's worth for a budget (decision 0090).
   const std::span<const double> by_distance(arc);
-  binder.run(at_most < rings ? by_distance : std::span<const double>(), [&](std::size_t) { return at_most; });
-  // A budget on the mean (decision 0090): where the vertices keep more rings than it allows, the
-  // rings past `at_least` are kept by their worth (weight × distance along the rod) across the whole
-  // mesh: a threshold on worth, so a vertex whose weight lies far along the rod keeps its rings and
-  // one whose left-out rings are next to its kept ones folds them.
+  const bool bounded = at_most < rings;
+  const bool budgeted = mean_rings_per_vertex > 0.0 && weight_left_out > 0.0 && at_least < rings;
+  std::vector<std::vector<double>> worth(budgeted && bounded ? mesh.vertices.size() : 0);
+  binder.run(
+      bounded ? by_distance : std::span<const double>(), [&](std::size_t) { return at_most; },
+      worth.empty() ? nullptr : &worth);
+  // A budget on the mean: where the vertices keep more rings than it allows, the rings past
+  // `at_least` are kept by their worth (weight × distance along the rod) across the whole mesh: a
+  // threshold on worth, so a vertex whose weight lies far along the rod keeps its rings and one
+  // whose left-out rings are next to its kept ones folds them.
   const auto budget = static_cast<std::size_t>(mean_rings_per_vertex * static_cast<double>(mesh.vertices.size()));
   std::size_t kept_total = 0;
   for (const VertexStats& st : stats) kept_total += st.kept;
   double bounded_by = 0.0;
-  if (mean_rings_per_vertex > 0.0 && kept_total > budget && at_least < rings) {
-    std::vector<std::vector<double>> worth(mesh.vertices.size());
-    binder.run(
-        by_distance, [&](std::size_t) { return at_most; }, &worth);
-    const std::vector<std::size_t> extra = extra_rings_within(worth, budget, at_least);
+  if (budgeted && kept_total > budget) {
+    std::vector<std::size_t> extra(mesh.vertices.size(), 0);  // a budget below at_least keeps at_least
+    if (budget > at_least * mesh.vertices.size()) {
+      if (worth.empty()) {  // the first pass ordered by weight alone: the candidates by distance now
+        worth.resize(mesh.vertices.size());
+        binder.run(
+            by_distance, [&](std::size_t) { return at_most; }, &worth);
+      }
+      extra = extra_rings_within(worth, budget, at_least);
+    }
     binder.run(by_distance, [&](std::size_t v) { return at_least + extra[v]; });
     bounded_by = mean_rings_per_vertex;
   }

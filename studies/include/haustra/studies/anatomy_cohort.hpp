@@ -10,6 +10,9 @@
 
 namespace haustra::import {
 
+// Frames each surface runs for after its import (docs/anatomy.md: 2 s at 60 Hz).
+inline constexpr int kCohortFrames = 120;
+
 struct CohortRow {
   std::string name;
   bool imported = false, ran = false;
@@ -25,18 +28,18 @@ struct CohortRow {
   // What skinning costs per vertex (slots, padding included) against fixed K = 4 on the same cages:
   // the whole organ, and its worst piece.
   double skin_cost = 0.0, skin_cost_worst = 0.0;
-  double frame_median = 0.0, frame_p99 = 0.0;  // s per frame, the mesh included, 2 threads
+  double frame_median = 0.0, frame_p99 = 0.0;  // s per frame, the mesh included, on the row's threads
 };
 
 // One surface: imported into `out` (a folder of its own), then run on `threads` threads (the
 // table's are 2; a study's import runs on its cells' threads). Never throws: a failure is the
 // row's error.
-CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::filesystem::path& out, int frames = 120,
-                             int threads = 2);
+CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::filesystem::path& out,
+                             int frames = kCohortFrames, int threads = 2);
 
 // Every .obj of `folder`, in name order.
 std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std::filesystem::path& out,
-                                  int frames = 120, int threads = 2);
+                                  int frames = kCohortFrames, int threads = 2);
 
 // docs/anatomy.md: generated, dated, the machine named.
 std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::filesystem::path& folder);
