@@ -942,23 +942,29 @@ TEST_CASE("C API: an EXP2 segment pulled at its tip stretches to A sigma(eps) = 
   CHECK(says("tissue = 2"));
 }
 
-TEST_CASE(
-    "C API: max_rings_per_vertex and mean_rings_per_vertex give the world of a scene with them, and are checked") {
+TEST_CASE("C API: the localization fields give the world of a scene with them, and are checked") {
   // A cantilever with beads 2 cm apart (rings dense enough that vertices want more than 4) and a
-  // procedural organ, bending under gravity, from definitions and from a scene file. Each bound at
-  // 4 (= rings_per_vertex): every vertex keeps exactly 4 rings, the rest folded.
+  // procedural organ, bending under gravity, from definitions and from a scene file. Each field at
+  // a value that keeps every vertex at exactly 4 rings (= rings_per_vertex), the rest folded.
   struct Field {
     const char* key;
     void (*set)(haustra_segment_def&, double);
+    const char* value;                                    // in the scene file; set() takes its number
     std::vector<std::pair<double, const char*>> refused;  // value, what the message says it got
   };
   const Field fields[] = {
       {"max_rings_per_vertex",
        [](haustra_segment_def& s, double v) { s.max_rings_per_vertex = static_cast<int>(v); },
+       "4",
        {{3, "got 3"}, {-1, "got -1"}, {5000, "got 5000"}}},
       {"mean_rings_per_vertex",
        [](haustra_segment_def& s, double v) { s.mean_rings_per_vertex = v; },
+       "4",
        {{-1, "got -1"}, {5000, "got 5000"}, {std::numeric_limits<double>::quiet_NaN(), "got nan"}}},
+      {"weight_left_out",
+       [](haustra_segment_def& s, double v) { s.weight_left_out = v; },
+       "0",
+       {{-0.5, "got -0.5"}, {1, "got 1"}, {std::numeric_limits<double>::quiet_NaN(), "got nan"}}},
   };
   haustra_world_def def;
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
@@ -966,6 +972,7 @@ TEST_CASE(
   const haustra_segment_def plain = organ_def("organ", 41, 0.4, 20, 1500);
   CHECK(plain.max_rings_per_vertex == 0);  // no bound, as the scene's default
   CHECK(plain.mean_rings_per_vertex == 0.0);
+  CHECK(plain.weight_left_out == 0.02);  // decision 0048's
   auto stepped = [](haustra_world* w) {
     for (int f = 0; f < 20; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
     std::vector<unsigned char> bits = buffer_bits(w);
@@ -978,11 +985,11 @@ TEST_CASE(
   for (const Field& field : fields) {
     CAPTURE(field.key);
     haustra_segment_def seg = plain;
-    field.set(seg, 4);
+    field.set(seg, std::stod(field.value));
     const SceneFile scene(
         std::string("[world]\nthreads = 1\n[[segment]]\nname = \"organ\"\nnodes = 41\n[segment.rest]\nlength = 0.4\n"
                     "[segment.beads]\ncount = 20\n[segment.mesh]\nsource = \"procedural\"\n") +
-        field.key + " = 4\n[segment.mesh.procedural]\nvertices = 1500\n");
+        field.key + " = " + field.value + "\n[segment.mesh.procedural]\nvertices = 1500\n");
     REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
     const std::vector<unsigned char> from_def = stepped(w);
     REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &w) == HAUSTRA_OK);

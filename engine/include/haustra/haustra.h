@@ -186,6 +186,9 @@ typedef struct haustra_segment_def {
   /* A budget on the rings a mesh vertex keeps on average (the scene's mesh.mean_rings_per_vertex,
    * decision 0090): 0 (default): none; else up to 4096. Since ABI 11. */
   double mean_rings_per_vertex;
+  /* More rings per mesh vertex while the weight it leaves out exceeds this fraction (the scene's
+   * mesh.weight_left_out, decision 0048): default 0.02; 0: exactly rings_per_vertex. Since ABI 11. */
+  double weight_left_out;
 } haustra_segment_def;
 
 /* One segment as the world holds it (haustra_world_segment). */
