@@ -318,6 +318,21 @@ TEST_CASE("condensed responses at chosen nodes equal the full back-substitution 
   CHECK(worst < 1e-13);
 }
 
+// The split tests' rods: 61 nodes with stiffness, the base clamped or free, Hooke's or a nodal law,
+// `loads` unit loads.
+namespace {
+Case split_case(std::uint32_t seed, bool free_base, bool nodal, std::size_t loads) {
+  Case c;
+  c.n = 61;
+  c.free_base = free_base;
+  c.stiffness = true;
+  c.nodal = nodal;
+  c.unit_loads = loads;
+  c.seed = seed;
+  return c;
+}
+}  // namespace
+
 TEST_CASE("a rod split at a joint node, its parts condensed apart and joined, equals the whole rod's sweep") {
   double worst = 0.0, worst_responses = 0.0;
   int cases = 0;
@@ -325,14 +340,7 @@ TEST_CASE("a rod split at a joint node, its parts condensed apart and joined, eq
     for (bool free_base : {false, true})
       for (bool nodal : {false, true})
         for (std::size_t loads : {std::size_t{0}, std::size_t{9}}) {
-          Case c;
-          c.n = 61;
-          c.free_base = free_base;
-          c.stiffness = true;
-          c.nodal = nodal;
-          c.unit_loads = loads;
-          c.seed = seed;
-          Problem p(c);
+          Problem p(split_case(seed, free_base, nodal, loads));
           const std::vector<std::uint32_t> nodes = {0, 5, 23, 24, 25, 40, 60};
           const Problem::Condensed whole = p.condensed(nodes);
           for (std::size_t m : {std::size_t{1}, std::size_t{24}, std::size_t{59}}) {
@@ -368,14 +376,7 @@ TEST_CASE("a split rod's tip responses made before the join and folded with y_m 
     for (bool free_base : {false, true})
       for (bool nodal : {false, true})
         for (std::size_t loads : {std::size_t{0}, std::size_t{9}, std::size_t{17}}) {
-          Case c;
-          c.n = 61;
-          c.free_base = free_base;
-          c.stiffness = true;
-          c.nodal = nodal;
-          c.unit_loads = loads;
-          c.seed = seed;
-          Problem p(c);
+          Problem p(split_case(seed, free_base, nodal, loads));
           const std::vector<std::uint32_t> nodes = {0, 5, 23, 24, 25, 25, 40, 59, 60};
           const Problem::Condensed whole = p.condensed(nodes);
           for (std::size_t m : {std::size_t{1}, std::size_t{24}, std::size_t{30}, std::size_t{59}}) {
