@@ -267,25 +267,25 @@ std::vector<BadInput> catalogue(const Scratch& s) {
       // Calls on a world.
       call("external load on a node that does not exist",
            [](World& w) { w.set_external_load(w.node_count(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()); },
-           {"node", "11"}),
+           {"World::set_external_load: node index 11 out of range"}),
       call("a NaN force", [](World& w) { w.set_external_load(0, Eigen::Vector3d(nan, 0, 0), Eigen::Vector3d::Zero()); },
            {"finite"}),
       call("an infinite moment", [](World& w) { w.set_external_load(0, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, inf, 0)); },
            {"finite"}),
       call("an attachment that does not exist", [](World& w) { w.set_attachment_target(0, 5, Eigen::Vector3d::Zero()); },
-           {"segment 'a' has 2 attachments, asked for index 5"}),
+           {"World::set_attachment_target: segment 'a' has 2 attachments, asked for index 5"}),
       call("an attachment of a segment that does not exist",
-           [](World& w) { w.set_attachment_active(3, 0, false); }, {"segment index 3 out of range"}),
+           [](World& w) { w.set_attachment_active(3, 0, false); }, {"World::set_attachment_active: segment index 3 out of range"}),
       call("a NaN attachment target", [](World& w) { w.set_attachment_target(0, 0, Eigen::Vector3d(0, nan, 0)); },
            {"finite"}),
       call("a zero attachment rotation",
            [](World& w) { w.set_attachment_target_rotation(0, 0, Eigen::Quaterniond(0, 0, 0, 0)); }, {"non-zero quaternion"}),
       call("an instrument that does not exist",
            [](World& w) { w.set_instrument_pose(1, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ()); },
-           {"instrument index 1 out of range", "has 1"}),
+           {"World::set_instrument_pose: instrument index 1 out of range", "has 1"}),
       call("an instrument axis of zero length",
            [](World& w) { w.set_instrument_pose(0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()); }, {"non-zero direction"}),
-      call("reading an instrument that does not exist", [](World& w) { (void)w.instrument(7); }, {"instrument index 7"}),
+      call("reading an instrument that does not exist", [](World& w) { (void)w.instrument(7); }, {"World::instrument: instrument index 7"}),
       call("a rod pose with too few strains",
            [](World& w) { w.pose_rod(0, w.base_pose(0), std::vector<double>(5, 0.0)); }, {"needs 44 strains", "got 5"}),
       call("a rod pose with a NaN strain",
@@ -295,9 +295,24 @@ std::vector<BadInput> catalogue(const Scratch& s) {
              w.pose_rod(0, w.base_pose(0), q);
            },
            {"strains must be finite"}),
-      call("the mesh of a segment that does not exist", [](World& w) { (void)w.mesh(2); }, {"segment index 2"}),
-      call("the cage of a segment that does not exist", [](World& w) { (void)w.cage_vertices(9); }, {"segment index 9"}),
-      call("the base pose of a segment that does not exist", [](World& w) { (void)w.base_pose(4); }, {"segment index 4"}),
+      call("the mesh of a segment that does not exist", [](World& w) { (void)w.mesh(2); }, {"World::mesh: segment index 2"}),
+      call("the cage of a segment that does not exist", [](World& w) { (void)w.cage_vertices(9); }, {"World::cage_vertices: segment index 9"}),
+      call("the base pose of a segment that does not exist", [](World& w) { (void)w.base_pose(4); }, {"World::base_pose: segment index 4"}),
+      // Every accessor's range error names the call (the checks take their caller's location).
+      call("the info of a segment that does not exist", [](World& w) { (void)w.segment(6); },
+           {"World::segment: segment index 6 out of range"}),
+      call("the chain of a segment that does not exist", [](World& w) { (void)w.chain_of(6); },
+           {"World::chain_of: segment index 6"}),
+      call("the beads of a segment that does not exist", [](World& w) { (void)w.beads(6); }, {"World::beads: segment index 6"}),
+      call("the ring poses of a segment that does not exist", [](World& w) { (void)w.ring_poses(6); },
+           {"World::ring_poses: segment index 6"}),
+      call("the attachments of a segment that does not exist", [](World& w) { (void)w.attachment_count(6); },
+           {"World::attachment_count: segment index 6"}),
+      call("reading the load of a node that does not exist", [](World& w) { (void)w.external_load(w.node_count()); },
+           {"World::external_load: node index 11 out of range"}),
+      call("the coupling of an instrument that does not exist",
+           [](World& w) { w.set_instrument_coupling(2, 1000.0, 2.0, 8.0); },
+           {"World::set_instrument_coupling: instrument index 2 out of range"}),
       call("a bead with itself", [](World& w) { (void)w.beads_may_collide(1, 1); }, {"two different beads"}),
       {"a world description with an infinite time step",
        [] {
@@ -325,7 +340,7 @@ TEST_CASE("bad-input catalogue: every case fails with its error code and a messa
   const std::vector<BadInput> cases = catalogue(scratch);
   // Exactly the catalogue's cases: one lost in an edit (a list that silently shrinks) fails here;
   // a new case raises the count.
-  CHECK(cases.size() == 113);
+  CHECK(cases.size() == 120);
   for (const BadInput& c : cases) {
     INFO(c.label);
     std::string message;

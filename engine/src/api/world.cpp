@@ -10,6 +10,16 @@
 
 namespace haustra {
 
+std::string_view api_call_name(const std::source_location& where) {
+  // GCC's "const haustra::SegmentInfo& haustra::World::segment(std::size_t) const" → "World::segment".
+  std::string_view name = where.function_name();
+  name = name.substr(0, name.find('('));
+  if (const std::size_t space = name.rfind(' '); space != std::string_view::npos) name.remove_prefix(space + 1);
+  constexpr std::string_view kNamespace = "haustra::";
+  if (name.starts_with(kNamespace)) name.remove_prefix(kNamespace.size());
+  return name;
+}
+
 std::unique_ptr<World> World::create(const WorldDesc& desc) {
   if (desc.jobs.enabled() != (desc.jobs.wait != nullptr))
     throw Error(ErrorCode::invalid_argument, "jobs: a host job system needs both enqueue and wait (or neither)");
@@ -77,9 +87,7 @@ void World::pose_rod(std::size_t segment, const kernels::Pose& base, std::span<c
 }
 
 void World::set_external_load(std::size_t node, const Eigen::Vector3d& force, const Eigen::Vector3d& moment) {
-  if (node >= impl_->model.node_total)
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("node index {} out of range (the world has {} nodes)", node, impl_->model.node_total));
+  impl_->check_node(node);
   if (!force.allFinite() || !moment.allFinite())
     throw Error(ErrorCode::invalid_argument, "external load: force and moment must be finite");
   impl_->state.external_force.view().set(node, force);

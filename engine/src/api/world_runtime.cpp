@@ -41,9 +41,7 @@ void World::set_dt(double dt) {
 }
 
 void World::set_instrument_coupling(std::size_t instrument, double stiffness, double damping, double force_limit) {
-  if (instrument >= impl_->model.instruments.size())
-    throw Error(ErrorCode::invalid_argument, fmt::format("instrument {} out of range (the world has {})", instrument,
-                                                         impl_->model.instruments.size()));
+  impl_->check_instrument(instrument);
   InstrumentDesc next = impl_->desc.instruments[instrument];
   next.coupling_stiffness = stiffness;
   next.coupling_damping = damping;
@@ -65,9 +63,7 @@ void World::set_instrument_coupling(std::size_t instrument, double stiffness, do
 Eigen::Vector3d World::gravity() const { return impl_->model.gravity; }
 
 std::pair<Eigen::Vector3d, Eigen::Vector3d> World::external_load(std::size_t node) const {
-  if (node >= impl_->model.node_total)
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("node index {} out of range (the world has {} nodes)", node, impl_->model.node_total));
+  impl_->check_node(node);
   return {impl_->state.external_force.view().get(node), impl_->state.external_moment.view().get(node)};
 }
 

@@ -4,6 +4,8 @@
 #include <fmt/format.h>
 
 #include <chrono>
+#include <source_location>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -16,6 +18,10 @@
 #include "step/world_state.hpp"
 
 namespace haustra {
+
+// The API call a range check ran for, as a host wrote it ("World::segment"): the checks below take
+// their caller's source location by default, so every accessor's error names it.
+std::string_view api_call_name(const std::source_location& where);
 
 struct World::Impl {
   WorldDesc desc;  // what the model was built from: adding or removing a segment rebuilds it
@@ -59,31 +65,41 @@ struct World::Impl {
   [[nodiscard]] std::pair<std::size_t, std::size_t> piece_of(std::size_t rod, std::size_t node) const;
 
   // The API's segment `segment` (a piece of the model), or an error naming the range.
-  [[nodiscard]] const detail::SegmentPiece& piece(std::size_t segment) const {
+  [[nodiscard]] const detail::SegmentPiece& piece(
+      std::size_t segment, const std::source_location& where = std::source_location::current()) const {
     if (segment >= model.pieces.size())
-      throw Error(ErrorCode::invalid_argument,
-                  fmt::format("segment index {} out of range (the world has {})", segment, model.pieces.size()));
+      throw Error(ErrorCode::invalid_argument, fmt::format("{}: segment index {} out of range (the world has {})",
+                                                           api_call_name(where), segment, model.pieces.size()));
     return model.pieces[segment];
   }
 
-  [[nodiscard]] const detail::SegmentMesh& mesh_of(std::size_t segment) const {
-    (void)piece(segment);  // the range check
+  [[nodiscard]] const detail::SegmentMesh& mesh_of(
+      std::size_t segment, const std::source_location& where = std::source_location::current()) const {
+    (void)piece(segment, where);  // the range check
     return model.meshes_of[segment];
   }
 
-  void check_instrument(std::size_t i) const {
+  void check_instrument(std::size_t i, const std::source_location& where = std::source_location::current()) const {
     if (i >= model.instruments.size())
-      throw Error(ErrorCode::invalid_argument,
-                  fmt::format("instrument index {} out of range (the world has {})", i, model.instruments.size()));
+      throw Error(ErrorCode::invalid_argument, fmt::format("{}: instrument index {} out of range (the world has {})",
+                                                           api_call_name(where), i, model.instruments.size()));
+  }
+
+  void check_node(std::size_t node, const std::source_location& where = std::source_location::current()) const {
+    if (node >= model.node_total)
+      throw Error(ErrorCode::invalid_argument, fmt::format("{}: node index {} out of range (the world has {} nodes)",
+                                                           api_call_name(where), node, model.node_total));
   }
 
   // Attachments belong to rods: every piece of a chain addresses its chain's attachments.
-  [[nodiscard]] std::size_t attachment_index(std::size_t segment, std::size_t attachment) const {
-    const auto& seg = model.segments[piece(segment).rod];
+  [[nodiscard]] std::size_t attachment_index(
+      std::size_t segment, std::size_t attachment,
+      const std::source_location& where = std::source_location::current()) const {
+    const auto& seg = model.segments[piece(segment, where).rod];
     if (attachment >= seg.attachments.size())
       throw Error(ErrorCode::invalid_argument,
-                  fmt::format("segment '{}' has {} attachments, asked for index {}", model.pieces[segment].info.name,
-                              seg.attachments.size(), attachment));
+                  fmt::format("{}: segment '{}' has {} attachments, asked for index {}", api_call_name(where),
+                              model.pieces[segment].info.name, seg.attachments.size(), attachment));
     return seg.attachment_offset + attachment;
   }
 
