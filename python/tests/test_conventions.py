@@ -146,15 +146,16 @@ def bounded_organ(key=None, value=None):
     return desc
 
 
-@pytest.mark.parametrize("key", ["max_rings_per_vertex", "mean_rings_per_vertex"])
-def test_a_dicts_ring_bound_gives_the_scene_files_world(tmp_path, key):
-    # decision 0083's bound and decision 0090's budget, in a dict as in a scene file: the same bits, nodes and mesh.
+@pytest.mark.parametrize("key,value", [("max_rings_per_vertex", 4), ("mean_rings_per_vertex", 4), ("skin_cost_limit", 1)])
+def test_a_dicts_ring_bound_gives_the_scene_files_world(tmp_path, key, value):
+    # decision 0083's bound, decision 0090's budget and decision 0092's cost limit, in a dict as in a scene file: the
+    # same bits, nodes and mesh.
     scene = tmp_path / "bounded.toml"
     with open(scene, "w") as f:
         f.write('[world]\ndt = 0.01\nthreads = 1\n[[segment]]\nname = "rod"\nnodes = 41\nyoungs_modulus = 1e6\n'
                 '[segment.rest]\nlength = 0.4\n[segment.beads]\ncount = 20\n[segment.mesh]\nsource = "procedural"\n'
-                f'{key} = 4\n[segment.mesh.procedural]\nvertices = 1500\n')
-    worlds = [haustra.World(bounded_organ(key, 4)), haustra.World.from_scene(scene), haustra.World(bounded_organ())]
+                f'{key} = {value}\n[segment.mesh.procedural]\nvertices = 1500\n')
+    worlds = [haustra.World(bounded_organ(key, value)), haustra.World.from_scene(scene), haustra.World(bounded_organ())]
     for w in worlds:
         w.step(20)
     bounded, from_file, unbounded = worlds
@@ -170,6 +171,8 @@ def test_a_dicts_ring_bound_gives_the_scene_files_world(tmp_path, key):
     ("max_rings_per_vertex", 5000, "expected 0 (no bound) or a count from rings_per_vertex (4) up to 4096, got 5000"),
     ("mean_rings_per_vertex", -1.5, "expected 0 (no budget) or a mean number of rings up to 4096, got -1.5"),
     ("mean_rings_per_vertex", 5000, "expected 0 (no budget) or a mean number of rings up to 4096, got 5000"),
+    ("skin_cost_limit", 0.5, "expected 0 (no limit) or a factor from 1 to 4096 on the cost of rings_per_vertex rings, "
+                             "got 0.5"),
 ])
 def test_a_bad_ring_bound_is_refused_naming_the_field(key, bad, expected):
     with pytest.raises(haustra.InvalidArgumentError) as error:

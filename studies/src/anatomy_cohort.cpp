@@ -114,6 +114,7 @@ void skin_cost_against_k4(const SceneDesc& scene, const World& world, CohortRow&
   m.weight_left_out = 0.0;
   m.max_rings_per_vertex = 0;
   m.mean_rings_per_vertex = 0.0;
+  m.skin_cost_limit = 0.0;
   const auto fixed = create_world(k4);
   double slots = 0.0, slots_k4 = 0.0;
   for (std::size_t s = 0; s < world.segment_count(); ++s) {
@@ -158,6 +159,7 @@ CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::fi
     full.world.segments[0].mesh.rings_per_vertex = 0;  // every ring: full MVC of the same cage
     full.world.segments[0].mesh.weight_left_out = 0.0;
     full.world.segments[0].mesh.mean_rings_per_vertex = 0.0;
+    full.world.segments[0].mesh.skin_cost_limit = 0.0;
     const auto world = create_world(scene);
     const auto reference = create_world(full);
     skin_cost_against_k4(scene, *world, row);

@@ -945,7 +945,8 @@ TEST_CASE("C API: an EXP2 segment pulled at its tip stretches to A sigma(eps) = 
 TEST_CASE("C API: the localization fields give the world of a scene with them, and are checked") {
   // A cantilever with beads 2 cm apart (rings dense enough that vertices want more than 4) and a
   // procedural organ, bending under gravity, from definitions and from a scene file. Each field at
-  // a value that keeps every vertex at exactly 4 rings (= rings_per_vertex), the rest folded.
+  // a value that keeps every vertex at exactly 4 rings (= rings_per_vertex), the rest folded
+  // (skin_cost_limit: the slots of 4 rings, which blocks of like vertices may share with a few more).
   struct Field {
     const char* key;
     void (*set)(haustra_segment_def&, double);
@@ -965,6 +966,10 @@ TEST_CASE("C API: the localization fields give the world of a scene with them, a
        [](haustra_segment_def& s, double v) { s.weight_left_out = v; },
        "0",
        {{-0.5, "got -0.5"}, {1, "got 1"}, {std::numeric_limits<double>::quiet_NaN(), "got nan"}}},
+      {"skin_cost_limit",
+       [](haustra_segment_def& s, double v) { s.skin_cost_limit = v; },
+       "1",
+       {{0.5, "got 0.5"}, {-1, "got -1"}, {5000, "got 5000"}, {std::numeric_limits<double>::quiet_NaN(), "got nan"}}},
   };
   haustra_world_def def;
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
@@ -973,6 +978,7 @@ TEST_CASE("C API: the localization fields give the world of a scene with them, a
   CHECK(plain.max_rings_per_vertex == 0);  // no bound, as the scene's default
   CHECK(plain.mean_rings_per_vertex == 0.0);
   CHECK(plain.weight_left_out == 0.02);  // decision 0048's
+  CHECK(plain.skin_cost_limit == 0.0);
   auto stepped = [](haustra_world* w) {
     for (int f = 0; f < 20; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
     std::vector<unsigned char> bits = buffer_bits(w);

@@ -335,7 +335,7 @@ void print_mesh_info(std::FILE* out, const World& world, std::size_t segment) {
         "({} vertices); weight left out max {:.3g}, mean {:.3g}; rest correction max {:.2f} mm; rest error {:.2g} m; "
         "{:.2f} s\n",
         k.mean_rings_per_vertex, k.rings_per_vertex,
-        k.mean_rings_budget > 0.0 ? fmt::format("; bounded by a mean of {:g}", k.mean_rings_budget) : std::string(),
+        k.mean_rings_budget > 0.0 ? fmt::format("; bounded by a mean of {:.3g}", k.mean_rings_budget) : std::string(),
         k.slots_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass, k.negative_vertices,
         k.max_dropped_mass, k.mean_dropped_mass, 1e3 * k.max_rest_correction, k.rest_error, k.seconds);
   else

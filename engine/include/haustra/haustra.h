@@ -189,6 +189,9 @@ typedef struct haustra_segment_def {
   /* More rings per mesh vertex while the weight it leaves out exceeds this fraction (the scene's
    * mesh.weight_left_out, decision 0048): default 0.02; 0: exactly rings_per_vertex. Since ABI 11. */
   double weight_left_out;
+  /* At most this many times the skinning cost of rings_per_vertex rings a mesh vertex (the scene's
+   * mesh.skin_cost_limit, decision 0092): 0 (default): no limit; else 1 to 4096. Since ABI 11. */
+  double skin_cost_limit;
 } haustra_segment_def;
 
 /* One segment as the world holds it (haustra_world_segment). */

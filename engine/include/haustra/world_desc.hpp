@@ -175,6 +175,10 @@ struct OrganMeshDesc {
   // the rod across the whole mesh, the others folded. Below rings_per_vertex: rings_per_vertex.
   // 7 holds every anatomy surface under 2× the cost of 4 rings, at up to about 2 mm (2.05) where loops touch.
   double mean_rings_per_vertex = 0.0;
+  // A limit on skinning's cost (decision 0092): 0, none; else at most this many times the cost of
+  // rings_per_vertex rings a vertex (the slots skinning reads), the rings past rings_per_vertex
+  // kept by worth as mean_rings_per_vertex keeps them, as many as the limit allows.
+  double skin_cost_limit = 0.0;
   bool normals = true;  // per-vertex normals every frame
 };
 

@@ -71,7 +71,8 @@ struct SkinReport {
   std::size_t rings_per_vertex = 0;    // rings kept, the vertex that keeps most (all rings when not localized)
   double mean_rings_per_vertex = 0.0;  // over the vertices
   double slots_per_vertex = 0.0;       // what skinning costs: rings × lanes of every block (padding too), per vertex
-  // The mean_rings_per_vertex that bounded the rings kept (decision 0090); 0: none did.
+  // The mean that bounded the rings kept: mean_rings_per_vertex (decision 0090), or the mean
+  // skin_cost_limit allowed where that was less (decision 0092); 0: none did.
   double mean_rings_budget = 0.0;
   double min_weight = 0.0;         // most negative MVC weight of any vertex
   double max_negative_mass = 0.0;  // Σ|w| of negative weights, worst vertex

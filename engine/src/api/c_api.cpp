@@ -198,6 +198,7 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& d, std::size_t i) {
   s.mesh.max_rings_per_vertex = d.max_rings_per_vertex;
   s.mesh.mean_rings_per_vertex = d.mean_rings_per_vertex;
   s.mesh.weight_left_out = d.weight_left_out;
+  s.mesh.skin_cost_limit = d.skin_cost_limit;
   s.chain_pieces = d.chain_pieces;
   switch (d.tissue) {
     case 0: s.material.response = haustra::TissueResponse::hooke; break;
@@ -308,6 +309,7 @@ haustra_status haustra_segment_def_default(haustra_segment_def* def) {
     d.max_rings_per_vertex = s.mesh.max_rings_per_vertex;
     d.mean_rings_per_vertex = s.mesh.mean_rings_per_vertex;
     d.weight_left_out = s.mesh.weight_left_out;
+    d.skin_cost_limit = s.mesh.skin_cost_limit;
     d.chain_pieces = s.chain_pieces;
     d.exp2_alpha = s.material.exp2_alpha;
     d.exp2_beta = s.material.exp2_beta;

@@ -36,7 +36,7 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
                               const std::filesystem::path& scene_dir) {
   r.check_keys(t, path,
                {"source", "file", "scale", "translate", "procedural", "cage", "skinning", "rings_per_vertex",
-                "weight_left_out", "max_rings_per_vertex", "mean_rings_per_vertex", "normals"});
+                "weight_left_out", "max_rings_per_vertex", "mean_rings_per_vertex", "skin_cost_limit", "normals"});
   OrganMeshDesc d;
   d.enabled = true;
   const toml::node* file_node = t.get("file");
@@ -62,6 +62,7 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
       r.integer(t, "max_rings_per_vertex", path + ".max_rings_per_vertex", d.max_rings_per_vertex);
   d.mean_rings_per_vertex =
       r.number(t, "mean_rings_per_vertex", path + ".mean_rings_per_vertex", d.mean_rings_per_vertex);
+  d.skin_cost_limit = r.number(t, "skin_cost_limit", path + ".skin_cost_limit", d.skin_cost_limit);
   d.normals = r.boolean(t, "normals", path + ".normals", d.normals);
   if (const toml::table* p = r.table(t, "procedural", path + ".procedural")) {
     const std::string pp = path + ".procedural";

@@ -223,6 +223,11 @@ void check_mesh_fields(const SegmentDesc& sd, const SegmentModel& seg, std::size
     fail(ErrorCode::invalid_argument, where + ".max_rings_per_vertex",
          fmt::format("expected 0 (no bound) or a count from rings_per_vertex ({}) up to 4096, got {}",
                      d.rings_per_vertex, d.max_rings_per_vertex));
+  if (!std::isfinite(d.skin_cost_limit) || (d.skin_cost_limit != 0.0 && !(d.skin_cost_limit >= 1.0)) ||
+      d.skin_cost_limit > 4096.0)
+    fail(ErrorCode::invalid_argument, where + ".skin_cost_limit",
+         fmt::format("expected 0 (no limit) or a factor from 1 to 4096 on the cost of rings_per_vertex rings, got {}",
+                     d.skin_cost_limit));
   if (!std::isfinite(d.mean_rings_per_vertex) || d.mean_rings_per_vertex < 0.0 || d.mean_rings_per_vertex > 4096.0)
     fail(ErrorCode::invalid_argument, where + ".mean_rings_per_vertex",
          fmt::format("expected 0 (no budget) or a mean number of rings up to 4096, got {}", d.mean_rings_per_vertex));
@@ -311,7 +316,7 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
     }
     out.binding = d.skinning == SkinningMethod::mean_value
                       ? bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, d.weight_left_out, out.info.skin,
-                                        nullptr, d.max_rings_per_vertex, d.mean_rings_per_vertex)
+                                        nullptr, d.max_rings_per_vertex, d.mean_rings_per_vertex, d.skin_cost_limit)
                       : bind_linear_blend(out.cage, meshes[pi], out.info.skin);
 
     append_mesh_buffers(pi, meshes[pi], d.normals, out, m);

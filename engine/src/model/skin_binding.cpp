@@ -41,65 +41,86 @@ struct Slots {
   }
 };
 
-// Packs vertices into blocks of kSkinLanes (decision 0084): vertices sorted by ring set
+// Groups vertices into blocks of kSkinLanes (decision 0084): vertices sorted by ring set
 // (lexicographically, then by index); a block takes the next vertex while the union of their ring
 // sets is at most one ring more than its largest member's and at most `max_rings`, so similar
-// sets share a block instead of padding their own; a vertex's coefficients are zero on the rings
-// of its block it does not keep. Sets of one size never merge unless equal when max_rings is that
-// size (fixed K packs as before).
-SkinBinding pack(const TriangleMesh& mesh, const Slots& slots, std::size_t max_rings) {
-  const std::size_t n = mesh.vertices.size();
+// sets share a block instead of padding their own. Sets of one size never merge unless equal when
+// max_rings is that size (fixed K packs as before). on_block(order, first, end, rings): the block
+// is order[first, end), its rings their union.
+template <class OnBlock>
+void for_each_block(const std::vector<std::vector<std::uint32_t>>& sets, std::size_t max_rings, OnBlock on_block) {
+  const std::size_t n = sets.size();
   std::vector<std::uint32_t> order(n);
   std::iota(order.begin(), order.end(), 0U);
   std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return slots.ring[a] < slots.ring[b];  // lexicographic: a set next to the sets it begins
+    return sets[a] < sets[b];  // lexicographic: a set next to the sets it begins
   });
   std::vector<std::uint32_t> merged;
   // Whether a vertex of ring set `add` may join a block of rings `set` whose largest member keeps
   // `largest` rings: the union then has at most one ring more than its largest member's.
-  const auto fits = [&](const std::vector<std::uint32_t>& set, std::size_t largest, const std::vector<std::uint32_t>& add) {
+  const auto fits = [&](const std::vector<std::uint32_t>& set, std::size_t largest,
+                        const std::vector<std::uint32_t>& add) {
     merged.clear();
     std::set_union(set.begin(), set.end(), add.begin(), add.end(), std::back_inserter(merged));
     const std::size_t most = std::max(largest, add.size());
     return merged.size() == most || merged.size() <= std::min(max_rings, most + 1);
   };
-  SkinBinding b;
-  b.vertices = n;
-  b.slot_start.push_back(0);
   std::size_t i = 0;
   while (i < n) {
-    // The block: up to kSkinLanes vertices from i, its rings the union of theirs.
-    std::vector<std::uint32_t> set = slots.ring[order[i]];
+    std::vector<std::uint32_t> set = sets[order[i]];
     std::size_t largest = set.size();
     std::size_t j = i + 1;
-    while (j < n && j - i < kSkinLanes && fits(set, largest, slots.ring[order[j]])) {
-      largest = std::max(largest, slots.ring[order[j]].size());
+    while (j < n && j - i < kSkinLanes && fits(set, largest, sets[order[j]])) {
+      largest = std::max(largest, sets[order[j]].size());
       set = merged;
       ++j;
     }
-    const std::size_t slot0 = b.ring.size();
-    b.ring.insert(b.ring.end(), set.begin(), set.end());
-    b.slot_start.push_back(static_cast<std::uint32_t>(b.ring.size()));
-    b.coefficient.resize(b.ring.size() * kSkinCoefficients * kSkinLanes, 0.0f);
-    for (std::size_t l = 0; l < kSkinLanes; ++l) {
-      const bool real = i + l < j;
-      const std::uint32_t v = real ? order[i + l] : kernels::kNoVertex;
-      b.vertex.push_back(v);
-      b.rest_x.push_back(real ? static_cast<float>(mesh.vertices[v].x()) : 0.0f);
-      b.rest_y.push_back(real ? static_cast<float>(mesh.vertices[v].y()) : 0.0f);
-      b.rest_z.push_back(real ? static_cast<float>(mesh.vertices[v].z()) : 0.0f);
-      if (!real) continue;
-      const std::vector<std::uint32_t>& own = slots.ring[v];
-      for (std::size_t k = 0; k < own.size(); ++k) {
-        const auto s = static_cast<std::size_t>(std::lower_bound(set.begin(), set.end(), own[k]) - set.begin());
-        for (std::size_t c = 0; c < kSkinCoefficients; ++c)
-          b.coefficient[((slot0 + s) * kSkinCoefficients + c) * kSkinLanes + l] =
-              static_cast<float>(slots.coef[v][4 * k + c]);
-      }
-    }
+    on_block(order, i, j, set);
     i = j;
   }
+}
+
+// Packs the vertices' kept rings and coefficients in for_each_block's blocks; a vertex's
+// coefficients are zero on the rings of its block it does not keep.
+SkinBinding pack(const TriangleMesh& mesh, const Slots& slots, std::size_t max_rings) {
+  SkinBinding b;
+  b.vertices = mesh.vertices.size();
+  b.slot_start.push_back(0);
+  for_each_block(slots.ring, max_rings,
+                 [&](const std::vector<std::uint32_t>& order, std::size_t i, std::size_t j,
+                     const std::vector<std::uint32_t>& set) {
+                   const std::size_t slot0 = b.ring.size();
+                   b.ring.insert(b.ring.end(), set.begin(), set.end());
+                   b.slot_start.push_back(static_cast<std::uint32_t>(b.ring.size()));
+                   b.coefficient.resize(b.ring.size() * kSkinCoefficients * kSkinLanes, 0.0f);
+                   for (std::size_t l = 0; l < kSkinLanes; ++l) {
+                     const bool real = i + l < j;
+                     const std::uint32_t v = real ? order[i + l] : kernels::kNoVertex;
+                     b.vertex.push_back(v);
+                     b.rest_x.push_back(real ? static_cast<float>(mesh.vertices[v].x()) : 0.0f);
+                     b.rest_y.push_back(real ? static_cast<float>(mesh.vertices[v].y()) : 0.0f);
+                     b.rest_z.push_back(real ? static_cast<float>(mesh.vertices[v].z()) : 0.0f);
+                     if (!real) continue;
+                     const std::vector<std::uint32_t>& own = slots.ring[v];
+                     for (std::size_t k = 0; k < own.size(); ++k) {
+                       const auto s =
+                           static_cast<std::size_t>(std::lower_bound(set.begin(), set.end(), own[k]) - set.begin());
+                       for (std::size_t c = 0; c < kSkinCoefficients; ++c)
+                         b.coefficient[((slot0 + s) * kSkinCoefficients + c) * kSkinLanes + l] =
+                             static_cast<float>(slots.coef[v][4 * k + c]);
+                     }
+                   }
+                 });
   return b;
+}
+
+// The slots pack would give these ring sets (each ascending): the cost of a binding before it is made.
+std::size_t slots_of(const std::vector<std::vector<std::uint32_t>>& sets, std::size_t max_rings) {
+  std::size_t slots = 0;
+  for_each_block(sets, max_rings,
+                 [&](const std::vector<std::uint32_t>&, std::size_t, std::size_t,
+                     const std::vector<std::uint32_t>& set) { slots += set.size() * kSkinLanes; });
+  return slots;
 }
 
 double rest_error(const SkinBinding& b, const TriangleMesh& mesh) {
@@ -133,11 +154,13 @@ struct VertexStats {
 // the weight mass the others carry.
 // values: when given, the worth of each ring kept past `at_least`, in the order kept: its mass times
 // its gap when kept, made non-increasing (each the least so far), so that keeping the rings worth
-// more than a threshold keeps a prefix (decision 0090's budget).
+// more than a threshold keeps a prefix (decision 0090's budget). ranked: when given, the kept rings
+// in the order chosen (the `at_least` by mass, then by worth), before they are sorted.
 std::pair<std::size_t, double> choose_rings(const std::vector<double>& mass, std::span<const double> arc,
                                             std::size_t at_least, std::size_t at_most, double weight_left_out,
                                             std::vector<std::uint32_t>& order, std::vector<double>& gap,
-                                            std::vector<double>* values = nullptr) {
+                                            std::vector<double>* values = nullptr,
+                                            std::vector<std::uint32_t>* ranked = nullptr) {
   const std::size_t rings = mass.size();
   std::iota(order.begin(), order.end(), 0U);
   std::sort(order.begin(), order.end(),
@@ -171,6 +194,7 @@ std::pair<std::size_t, double> choose_rings(const std::vector<double>& mass, std
       ++keep;
     }
   }
+  if (ranked != nullptr) ranked->assign(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep));
   std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep));
   return {keep, dropped};
 }
@@ -271,6 +295,33 @@ std::vector<std::size_t> extra_rings_within(const std::vector<std::vector<double
   return extra;
 }
 
+// The most rings in all (a budget for extra_rings_within) whose binding packs into at most
+// `allowed` slots (decision 0092): the budget bisected on the slots the ring sets would pack into
+// (ranked: per vertex, its rings in the order they are chosen; worth: of those past at_least).
+std::size_t rings_within_cost(const std::vector<std::vector<double>>& worth,
+                              const std::vector<std::vector<std::uint32_t>>& ranked, std::size_t at_least,
+                              std::size_t pack_rings, double allowed) {
+  const std::size_t n = ranked.size();
+  std::vector<std::vector<std::uint32_t>> sets(n);
+  const auto cost = [&](std::size_t budget) {
+    const std::vector<std::size_t> extra = extra_rings_within(worth, budget, at_least);
+    for (std::size_t v = 0; v < n; ++v) {
+      const std::size_t keep = std::min(ranked[v].size(), at_least + extra[v]);
+      sets[v].assign(ranked[v].begin(), ranked[v].begin() + static_cast<std::ptrdiff_t>(keep));
+      std::sort(sets[v].begin(), sets[v].end());
+    }
+    return static_cast<double>(slots_of(sets, pack_rings));
+  };
+  std::size_t lo = at_least * n, hi = 0;  // lo fits (the fixed rings' own slots, or fewer)
+  for (const auto& r : ranked) hi += r.size();
+  if (cost(hi) <= allowed) return hi;
+  while (hi - lo > std::max<std::size_t>(1, n / 100)) {  // to 1 % of a ring a vertex
+    const std::size_t mid = lo + (hi - lo) / 2;
+    (cost(mid) <= allowed ? lo : hi) = mid;
+  }
+  return lo;
+}
+
 // Per thread: a vertex's MVC weights and its rings' sums.
 struct VertexScratch {
   std::vector<double> mvc, w, mass, weight, gap;
@@ -302,21 +353,22 @@ struct VertexBinder {
   std::vector<std::vector<std::pair<std::uint32_t, double>>>& rows;
 
   template <class RingsAtMost>
-  void run(std::span<const double> arc, RingsAtMost rings_at_most,
-           std::vector<std::vector<double>>* worth = nullptr) const {
+  void run(std::span<const double> arc, RingsAtMost rings_at_most, std::vector<std::vector<double>>* worth = nullptr,
+           std::vector<std::vector<std::uint32_t>>* ranked = nullptr) const {
     // Weights in the binding pose, where the cage embeds the mesh without folds.
     const kernels::CageView view{cage.binding_vertices, cage.triangles};
     const kernels::CageFrame frame = kernels::cage_frame(cage.binding_vertices);
     parallel_blocks(mesh.vertices.size(), 64, [&](std::size_t first, std::size_t last) {
       VertexScratch x(cage.rest_vertices.size(), cage.ring_station.size());
       for (std::size_t v = first; v != last; ++v)
-        bind_vertex(v, view, frame, arc, rings_at_most(v), worth != nullptr ? &(*worth)[v] : nullptr, x);
+        bind_vertex(v, view, frame, arc, rings_at_most(v), worth != nullptr ? &(*worth)[v] : nullptr,
+                    ranked != nullptr ? &(*ranked)[v] : nullptr, x);
     });
   }
 
   void bind_vertex(std::size_t v, const kernels::CageView& view, const kernels::CageFrame& frame,
                    std::span<const double> arc, std::size_t at_most, std::vector<double>* worth,
-                   VertexScratch& x) const {
+                   std::vector<std::uint32_t>* ranked, VertexScratch& x) const {
     const std::size_t rings = cage.ring_station.size();
     const std::size_t n = cage.rest_vertices.size();
     const kernels::MvcResult r = kernels::mean_value_coordinates(cage.mesh_binding[v], view, frame, x.mvc, x.w);
@@ -329,7 +381,9 @@ struct VertexBinder {
       x.weight[g] += x.w[j];
       x.moment[g] += x.w[j] * cage.offset[j];
     }
-    const auto [keep, dropped] = choose_rings(x.mass, arc, at_least, at_most, weight_left_out, x.order, x.gap, worth);
+    if (worth != nullptr) worth->clear();
+    const auto [keep, dropped] =
+        choose_rings(x.mass, arc, at_least, at_most, weight_left_out, x.order, x.gap, worth, ranked);
     if (keep < rings) fold_left_out(cage, std::span(x.order).first(keep), x.weight, x.moment, x.is_kept);
     double kept = 0.0;
     for (std::size_t k = 0; k < keep; ++k) kept += x.weight[x.order[k]];
@@ -369,9 +423,10 @@ struct VertexBinder {
 
 SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int rings_per_vertex,
                             double weight_left_out, SkinReport& report, CageWeights* csr, int max_rings_per_vertex,
-                            double mean_rings_per_vertex) {
+                            double mean_rings_per_vertex, double skin_cost_limit) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t rings = cage.ring_station.size();
+  const std::size_t vertices = mesh.vertices.size();
   const std::size_t at_least =
       rings_per_vertex <= 0 ? rings : std::min(rings, static_cast<std::size_t>(rings_per_vertex));
   // At most max_rings_per_vertex (decision 0083): what a vertex's weight would want beyond them is
@@ -380,48 +435,70 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
       max_rings_per_vertex <= 0
           ? rings
           : std::max(at_least, std::min(rings, static_cast<std::size_t>(max_rings_per_vertex)));
+  const std::size_t pack_rings = weight_left_out > 0.0 ? at_most : at_least;
   std::vector<double> arc(rings);  // along the rod: the binding pose is straight along z
   for (std::size_t g = 0; g < rings; ++g) arc[g] = cage.ring_binding[g].centre.z();
   Slots slots;
-  slots.resize(mesh.vertices.size());
-  std::vector<VertexStats> stats(mesh.vertices.size());
-  std::vector<std::vector<std::pair<std::uint32_t, double>>> rows(csr != nullptr ? mesh.vertices.size() : 0);
+  slots.resize(vertices);
+  std::vector<VertexStats> stats(vertices);
+  std::vector<std::vector<std::pair<std::uint32_t, double>>> rows(csr != nullptr ? vertices : 0);
   const VertexBinder binder{cage, mesh, at_least, weight_left_out, slots, stats, rows};
 
   // By weight and distance when bounded, by weight alone otherwise (decision 0048). Ordered by
-  // distance, this pass also records each vertex's worth for a budget (decision 0090).
+  // distance, this pass also records each vertex's worth for a budget (decisions 0090, 0092).
   const std::span<const double> by_distance(arc);
   const bool bounded = at_most < rings;
-  const bool budgeted = mean_rings_per_vertex > 0.0 && weight_left_out > 0.0 && at_least < rings;
-  std::vector<std::vector<double>> worth(budgeted && bounded ? mesh.vertices.size() : 0);
+  const bool costed = skin_cost_limit > 0.0;
+  const bool budgeted = (mean_rings_per_vertex > 0.0 || costed) && weight_left_out > 0.0 && at_least < rings;
+  std::vector<std::vector<double>> worth(budgeted && bounded ? vertices : 0);
+  std::vector<std::vector<std::uint32_t>> ranked(budgeted && costed ? vertices : 0);
   binder.run(
       bounded ? by_distance : std::span<const double>(), [&](std::size_t) { return at_most; },
-      worth.empty() ? nullptr : &worth);
-  // A budget on the mean: where the vertices keep more rings than it allows, the rings past
-  // `at_least` are kept by their worth (weight × distance along the rod) across the whole mesh: a
-  // threshold on worth, so a vertex whose weight lies far along the rod keeps its rings and one
-  // whose left-out rings are next to its kept ones folds them.
-  const auto budget = static_cast<std::size_t>(mean_rings_per_vertex * static_cast<double>(mesh.vertices.size()));
+      worth.empty() ? nullptr : &worth, ranked.empty() ? nullptr : &ranked);
   std::size_t kept_total = 0;
   for (const VertexStats& st : stats) kept_total += st.kept;
-  double bounded_by = 0.0;
-  if (budgeted && kept_total > budget) {
-    std::vector<std::size_t> extra(mesh.vertices.size(), 0);  // a budget below at_least keeps at_least
-    if (budget > at_least * mesh.vertices.size()) {
-      if (worth.empty()) {  // the first pass ordered by weight alone: the candidates by distance now
-        worth.resize(mesh.vertices.size());
-        binder.run(
-            by_distance, [&](std::size_t) { return at_most; }, &worth);
-      }
-      extra = extra_rings_within(worth, budget, at_least);
+  const std::size_t floor = at_least * vertices;
+  // A budget on the mean (decision 0090): where the vertices keep more rings than it allows, the
+  // rings past `at_least` are kept by their worth (weight × distance along the rod) across the
+  // whole mesh: a threshold on worth, so a vertex whose weight lies far along the rod keeps its
+  // rings and one whose left-out rings are next to its kept ones folds them.
+  std::size_t budget = mean_rings_per_vertex > 0.0
+                           ? static_cast<std::size_t>(mean_rings_per_vertex * static_cast<double>(vertices))
+                           : kept_total;
+  const std::size_t mean_budget = budget;
+  const bool over_mean = mean_rings_per_vertex > 0.0 && kept_total > budget;
+  // A limit on the cost (decision 0092): the same choice by worth, with as many rings as the slots
+  // allow; a binding within the limit stays as it is.
+  double allowed = 0.0;
+  bool over_cost = false;
+  if (budgeted && costed) {
+    std::vector<std::vector<std::uint32_t>> fixed(vertices);  // the `at_least` of largest mass
+    for (std::size_t v = 0; v < vertices; ++v) {
+      fixed[v].assign(ranked[v].begin(), ranked[v].begin() + static_cast<std::ptrdiff_t>(at_least));
+      std::sort(fixed[v].begin(), fixed[v].end());
     }
+    allowed = skin_cost_limit * static_cast<double>(slots_of(fixed, at_least));
+    over_cost = static_cast<double>(slots_of(slots.ring, pack_rings)) > allowed;
+  }
+  double bounded_by = 0.0;
+  if (budgeted && (over_mean || over_cost)) {
+    if ((over_cost || budget > floor) && (worth.empty() || !bounded)) {  // ordered by weight alone so far
+      worth.assign(vertices, {});
+      binder.run(
+          by_distance, [&](std::size_t) { return at_most; }, &worth, costed ? &ranked : nullptr);
+    }
+    if (over_cost) budget = std::min(budget, rings_within_cost(worth, ranked, at_least, pack_rings, allowed));
+    std::vector<std::size_t> extra(vertices, 0);  // a budget below at_least keeps at_least
+    if (budget > floor) extra = extra_rings_within(worth, budget, at_least);
     binder.run(by_distance, [&](std::size_t v) { return at_least + extra[v]; });
-    bounded_by = mean_rings_per_vertex;
+    bounded_by = budget < mean_budget || mean_rings_per_vertex <= 0.0
+                     ? static_cast<double>(budget) / static_cast<double>(std::max<std::size_t>(vertices, 1))
+                     : mean_rings_per_vertex;
   }
 
   report = skin_report_of(stats);
   report.mean_rings_budget = bounded_by;
-  SkinBinding b = pack(mesh, slots, weight_left_out > 0.0 ? at_most : at_least);
+  SkinBinding b = pack(mesh, slots, pack_rings);
   report.rest_error = rest_error(b, mesh);
   report.slots_per_vertex = slots_per_vertex(b);
   if (csr != nullptr) pack_rows(rows, *csr);
