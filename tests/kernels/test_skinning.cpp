@@ -472,6 +472,18 @@ TEST_CASE(
   }
   test::measured("dense cage, a skin cost limit of 1.5: the largest distance from full MVC, random bends", worst, 1e-3,
                  "m");
+  // With a bound per vertex, with a mean budget, and at 1 (the cost of fixed K itself): within the
+  // limit each time, and the smaller of the two budgets holds.
+  SkinReport with_bound, with_mean, at_one;
+  (void)detail::bind_mean_value(mesh.cage, input, 4, 0.02, with_bound, nullptr, 9, 0.0, 1.5);
+  (void)detail::bind_mean_value(mesh.cage, input, 4, 0.02, with_mean, nullptr, 0, 5.0, 3.0);
+  (void)detail::bind_mean_value(mesh.cage, input, 4, 0.02, at_one, nullptr, 0, 0.0, 1.0);
+  CHECK(with_bound.slots_per_vertex / k4.slots_per_vertex <= 1.5);
+  CHECK(with_bound.rings_per_vertex <= 9);
+  CHECK(with_mean.slots_per_vertex / k4.slots_per_vertex <= 3.0);
+  CHECK(with_mean.mean_rings_per_vertex <= 5.0);
+  CHECK(with_mean.mean_rings_budget == 5.0);
+  CHECK(at_one.slots_per_vertex <= k4.slots_per_vertex);
   // Through the scene's field, on 1 and 2 threads: the same binding, bit for bit.
   WorldDesc one = d;
   one.threads = 1;

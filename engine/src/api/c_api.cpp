@@ -485,10 +485,7 @@ haustra_status haustra_world_set_node_load(haustra_world* world, size_t node, co
     haustra::World& w = live(world);
     const Eigen::Vector3d f = finite_vec3(force, "force");
     const Eigen::Vector3d m = finite_vec3(moment, "moment");
-    if (node >= w.node_count())
-      throw Error(ErrorCode::invalid_argument,
-                  fmt::format("node {} out of range (the world has {})", node, w.node_count()));
-    w.set_external_load(node, f, m);
+    w.set_external_load(node, f, m);  // checks the node
   });
 }
 

@@ -295,29 +295,42 @@ std::vector<std::size_t> extra_rings_within(const std::vector<std::vector<double
   return extra;
 }
 
-// The most rings in all (a budget for extra_rings_within) whose binding packs into at most
-// `allowed` slots (decision 0092): the budget bisected on the slots the ring sets would pack into
-// (ranked: per vertex, its rings in the order they are chosen; worth: of those past at_least).
+// Each vertex's first keep(v) rings of `ranked` (its rings in the order chosen), ascending: the ring
+// sets a binding keeping those would pack.
+template <class Keep>
+void ranked_prefixes(const std::vector<std::vector<std::uint32_t>>& ranked, Keep keep,
+                     std::vector<std::vector<std::uint32_t>>& sets) {
+  sets.resize(ranked.size());
+  for (std::size_t v = 0; v < ranked.size(); ++v) {
+    const std::size_t k = std::min(ranked[v].size(), keep(v));
+    sets[v].assign(ranked[v].begin(), ranked[v].begin() + static_cast<std::ptrdiff_t>(k));
+    std::sort(sets[v].begin(), sets[v].end());
+  }
+}
+
+// The most rings in all, up to `most` (a budget for extra_rings_within), whose binding packs into at
+// most `allowed` slots (decision 0092): bisected on the slots the ring sets would pack into. The
+// least, at_least a vertex, is taken to fit: it is the fixed binding `allowed` was measured on,
+// which the caller then packs as fixed K packs (at most at_least rings a block).
 std::size_t rings_within_cost(const std::vector<std::vector<double>>& worth,
                               const std::vector<std::vector<std::uint32_t>>& ranked, std::size_t at_least,
-                              std::size_t pack_rings, double allowed) {
+                              std::size_t pack_rings, double allowed, std::size_t most) {
   const std::size_t n = ranked.size();
-  std::vector<std::vector<std::uint32_t>> sets(n);
-  const auto cost = [&](std::size_t budget) {
+  std::vector<std::vector<std::uint32_t>> sets;
+  const auto fits = [&](std::size_t budget) {
     const std::vector<std::size_t> extra = extra_rings_within(worth, budget, at_least);
-    for (std::size_t v = 0; v < n; ++v) {
-      const std::size_t keep = std::min(ranked[v].size(), at_least + extra[v]);
-      sets[v].assign(ranked[v].begin(), ranked[v].begin() + static_cast<std::ptrdiff_t>(keep));
-      std::sort(sets[v].begin(), sets[v].end());
-    }
-    return static_cast<double>(slots_of(sets, pack_rings));
+    ranked_prefixes(
+        ranked, [&](std::size_t v) { return at_least + extra[v]; }, sets);
+    return static_cast<double>(slots_of(sets, pack_rings)) <= allowed;
   };
-  std::size_t lo = at_least * n, hi = 0;  // lo fits (the fixed rings' own slots, or fewer)
+  std::size_t lo = at_least * n, hi = 0;
   for (const auto& r : ranked) hi += r.size();
-  if (cost(hi) <= allowed) return hi;
+  hi = std::min(hi, most);
+  if (hi <= lo) return lo;
+  if (fits(hi)) return hi;
   while (hi - lo > std::max<std::size_t>(1, n / 100)) {  // to 1 % of a ring a vertex
     const std::size_t mid = lo + (hi - lo) / 2;
-    (cost(mid) <= allowed ? lo : hi) = mid;
+    (fits(mid) ? lo : hi) = mid;
   }
   return lo;
 }
@@ -381,7 +394,6 @@ struct VertexBinder {
       x.weight[g] += x.w[j];
       x.moment[g] += x.w[j] * cage.offset[j];
     }
-    if (worth != nullptr) worth->clear();
     const auto [keep, dropped] =
         choose_rings(x.mass, arc, at_least, at_most, weight_left_out, x.order, x.gap, worth, ranked);
     if (keep < rings) fold_left_out(cage, std::span(x.order).first(keep), x.weight, x.moment, x.is_kept);
@@ -468,26 +480,29 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
   const std::size_t mean_budget = budget;
   const bool over_mean = mean_rings_per_vertex > 0.0 && kept_total > budget;
   // A limit on the cost (decision 0092): the same choice by worth, with as many rings as the slots
-  // allow; a binding within the limit stays as it is.
+  // allow (and the mean budget, if it is less); a binding within both stays as it is.
   double allowed = 0.0;
   bool over_cost = false;
   if (budgeted && costed) {
-    std::vector<std::vector<std::uint32_t>> fixed(vertices);  // the `at_least` of largest mass
-    for (std::size_t v = 0; v < vertices; ++v) {
-      fixed[v].assign(ranked[v].begin(), ranked[v].begin() + static_cast<std::ptrdiff_t>(at_least));
-      std::sort(fixed[v].begin(), fixed[v].end());
-    }
-    allowed = skin_cost_limit * static_cast<double>(slots_of(fixed, at_least));
+    std::vector<std::vector<std::uint32_t>> sets;  // the `at_least` of largest mass, then the rule's
+    ranked_prefixes(
+        ranked, [&](std::size_t) { return at_least; }, sets);
+    allowed = skin_cost_limit * static_cast<double>(slots_of(sets, at_least));
     over_cost = static_cast<double>(slots_of(slots.ring, pack_rings)) > allowed;
   }
   double bounded_by = 0.0;
+  std::size_t packed_as = pack_rings;
   if (budgeted && (over_mean || over_cost)) {
-    if ((over_cost || budget > floor) && (worth.empty() || !bounded)) {  // ordered by weight alone so far
+    if ((costed || budget > floor) && worth.empty()) {  // ordered by weight alone so far
       worth.assign(vertices, {});
       binder.run(
           by_distance, [&](std::size_t) { return at_most; }, &worth, costed ? &ranked : nullptr);
     }
-    if (over_cost) budget = std::min(budget, rings_within_cost(worth, ranked, at_least, pack_rings, allowed));
+    if (costed) {
+      const std::size_t most = over_mean ? budget : std::numeric_limits<std::size_t>::max();
+      budget = rings_within_cost(worth, ranked, at_least, pack_rings, allowed, most);
+      if (budget <= floor) packed_as = at_least;  // the fixed binding the limit was measured on
+    }
     std::vector<std::size_t> extra(vertices, 0);  // a budget below at_least keeps at_least
     if (budget > floor) extra = extra_rings_within(worth, budget, at_least);
     binder.run(by_distance, [&](std::size_t v) { return at_least + extra[v]; });
@@ -498,7 +513,7 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
 
   report = skin_report_of(stats);
   report.mean_rings_budget = bounded_by;
-  SkinBinding b = pack(mesh, slots, pack_rings);
+  SkinBinding b = pack(mesh, slots, packed_as);
   report.rest_error = rest_error(b, mesh);
   report.slots_per_vertex = slots_per_vertex(b);
   if (csr != nullptr) pack_rows(rows, *csr);

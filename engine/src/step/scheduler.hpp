@@ -46,9 +46,14 @@ class TaskOrder {
   // oneTBB's enqueue builds its task object (vtable, allocator, the closure's copy) in header code
   // after dispatched() has released, and a worker already awake may run it before this thread
   // releases again. Those writes are ordered by oneTBB's queue, which TSan cannot see, so they are
-  // left unrecorded — only between these two calls, only on the enqueuing thread.
-  static void unseen_begin() { __tsan_ignore_thread_begin(); }
-  static void unseen_end() { __tsan_ignore_thread_end(); }
+  // left unrecorded — only while an Unseen lives, only on the enqueuing thread (ended even if the
+  // enqueue throws).
+  struct Unseen {
+    Unseen() { __tsan_ignore_thread_begin(); }
+    ~Unseen() { __tsan_ignore_thread_end(); }
+    Unseen(const Unseen&) = delete;
+    Unseen& operator=(const Unseen&) = delete;
+  };
 
  private:
   static constexpr std::size_t kAddresses = 4096;
@@ -60,8 +65,7 @@ struct TaskOrder {
   static void begin() {}
   void end(std::size_t) {}
   void joined(std::size_t) {}
-  static void unseen_begin() {}
-  static void unseen_end() {}
+  struct Unseen {};
 };
 #endif
 
@@ -159,12 +163,11 @@ class Scheduler {
       return;
     }
     BackgroundJob* const pointer = &job;
-    TaskOrder::unseen_begin();
+    [[maybe_unused]] const TaskOrder::Unseen unseen;
     arena_.enqueue([pointer] {
       TaskOrder::begin();
       BackgroundJob::task(*pointer);
     });
-    TaskOrder::unseen_end();
   }
 
   // Waits until a launched job has run (or runs it here, on oneTBB, if no worker has taken it).
