@@ -138,7 +138,7 @@ void bind_segments(py::class_<PyWorld>& c) {
       "Views taken before keep the old buffers (valid memory, no longer updated).");
   c.def(
       "remove_segment",
-      [](PyWorld& w, std::int64_t segment) {
+      [](PyWorld& w, IndexArg segment) {
         auto world = w.locked();
         world->remove_segment(segment_index(world.world, segment, "remove_segment"));
         w.mark_rebuilt();

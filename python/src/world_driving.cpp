@@ -27,7 +27,7 @@ Eigen::Vector3d vector_or_zero(const py::object& value, const char* what) {
 void bind_loads(WorldClass& c) {
   c.def(
       "set_external_load",
-      [](PyWorld& w, std::int64_t node, const ArrayLike& force, const ArrayLike& moment) {
+      [](PyWorld& w, IndexArg node, const ArrayLike& force, const ArrayLike& moment) {
         auto world = w.locked();
         world->set_external_load(node_index(world.world, node, "set_external_load"), vector3(force, "force"),
                                  vector_or_zero(moment, "moment"));
@@ -38,7 +38,7 @@ void bind_loads(WorldClass& c) {
       "add_external_load adds to it.");
   c.def(
       "add_external_load",
-      [](PyWorld& w, std::int64_t node, const ArrayLike& force, const ArrayLike& moment) {
+      [](PyWorld& w, IndexArg node, const ArrayLike& force, const ArrayLike& moment) {
         auto world = w.locked();
         const std::size_t k = node_index(world.world, node, "add_external_load");
         const auto [f, m] = world->external_load(k);
@@ -48,7 +48,7 @@ void bind_loads(WorldClass& c) {
       "Adds a force (N) and moment (N·m) to what the node holds (a scene's load, an earlier call), world frame.");
   c.def(
       "external_load",
-      [](PyWorld& w, std::int64_t node) {
+      [](PyWorld& w, IndexArg node) {
         auto world = w.locked();
         const auto [f, m] = world->external_load(node_index(world.world, node, "external_load"));
         return std::make_pair(Float64Array(array3(f)), Float64Array(array3(m)));
@@ -59,7 +59,7 @@ void bind_loads(WorldClass& c) {
 void bind_attachments(WorldClass& c) {
   c.def(
       "set_attachment_target",
-      [](PyWorld& w, std::int64_t segment, std::int64_t attachment, const ArrayLike& position) {
+      [](PyWorld& w, IndexArg segment, IndexArg attachment, const ArrayLike& position) {
         auto world = w.locked();
         const std::size_t s = segment_index(world.world, segment, "set_attachment_target");
         world->set_attachment_target(s, attachment_index(world.world, s, attachment, "set_attachment_target"),
@@ -69,7 +69,7 @@ void bind_attachments(WorldClass& c) {
       "Moves an attachment's target (m, world frame); it pulls its node there from the next step.");
   c.def(
       "set_attachment_active",
-      [](PyWorld& w, std::int64_t segment, std::int64_t attachment, bool active) {
+      [](PyWorld& w, IndexArg segment, IndexArg attachment, bool active) {
         auto world = w.locked();
         const std::size_t s = segment_index(world.world, segment, "set_attachment_active");
         world->set_attachment_active(s, attachment_index(world.world, s, attachment, "set_attachment_active"), active);
@@ -77,7 +77,7 @@ void bind_attachments(WorldClass& c) {
       py::arg("segment"), py::arg("attachment"), py::arg("active"), "Switches an attachment on or off.");
   c.def(
       "attachment_force",
-      [](PyWorld& w, std::int64_t segment, std::int64_t attachment) {
+      [](PyWorld& w, IndexArg segment, IndexArg attachment) {
         auto world = w.locked();
         const std::size_t s = segment_index(world.world, segment, "attachment_force");
         return Float64Array(
@@ -89,7 +89,7 @@ void bind_attachments(WorldClass& c) {
 void bind_instruments(WorldClass& c) {
   c.def(
       "set_instrument_pose",
-      [](PyWorld& w, std::int64_t instrument, const ArrayLike& tip, const ArrayLike& axis) {
+      [](PyWorld& w, IndexArg instrument, const ArrayLike& tip, const ArrayLike& axis) {
         auto world = w.locked();
         world->set_instrument_pose(instrument_index(world.world, instrument, "set_instrument_pose"),
                                    vector3(tip, "tip"), vector3(axis, "axis"));
@@ -98,21 +98,21 @@ void bind_instruments(WorldClass& c) {
       "Moves an instrument (m; the axis is normalized). Hands it from its script to the caller for good.");
   c.def(
       "grasp",
-      [](PyWorld& w, std::int64_t instrument) {
+      [](PyWorld& w, IndexArg instrument) {
         auto world = w.locked();
         world->set_instrument_grasp(instrument_index(world.world, instrument, "grasp"), true);
       },
       py::arg("instrument") = 0, "Closes the instrument's jaws: it grasps the nearest bead in reach at the next step.");
   c.def(
       "release",
-      [](PyWorld& w, std::int64_t instrument) {
+      [](PyWorld& w, IndexArg instrument) {
         auto world = w.locked();
         world->set_instrument_grasp(instrument_index(world.world, instrument, "release"), false);
       },
       py::arg("instrument") = 0, "Opens the jaws: the grasped node is let go at the next step.");
   c.def(
       "set_instrument_coupling",
-      [](PyWorld& w, std::int64_t instrument, double stiffness, double damping, double force_limit) {
+      [](PyWorld& w, IndexArg instrument, double stiffness, double damping, double force_limit) {
         auto world = w.locked();
         world->set_instrument_coupling(instrument_index(world.world, instrument, "set_instrument_coupling"), stiffness,
                                        damping, force_limit);
@@ -141,7 +141,7 @@ void bind_parameters(WorldClass& c) {
       "s: a frame that takes longer is counted (profile['late'], late_frames); 0 turns it off (decision 0061).");
   c.def(
       "set_material",
-      [](PyWorld& w, std::int64_t index, std::optional<double> youngs_modulus, std::optional<double> poisson_ratio,
+      [](PyWorld& w, IndexArg index, std::optional<double> youngs_modulus, std::optional<double> poisson_ratio,
          std::optional<double> density, std::optional<double> relaxation_time) {
         auto world = w.locked();
         const std::size_t segment = segment_index(world.world, index, "set_material");

@@ -67,7 +67,7 @@ void bind_world_readings(WorldClass& c) {
       "The last frame's contact summary (haustra.types.ContactSummary); contact_records has each contact.");
   c.def(
       "instrument",
-      [](PyWorld& w, std::int64_t i) {
+      [](PyWorld& w, IndexArg i) {
         auto world = w.locked();
         return instrument_dict(world->instrument(instrument_index(world.world, i, "instrument")));
       },

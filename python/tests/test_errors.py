@@ -104,6 +104,15 @@ def held_rod_with_a_grasper():
     ("set_attachment_target", (-1, 7, [0, 0, 0]),
      "set_attachment_target: attachment 7 is out of range (segment 0 ('rod') has 2 attachments: 0 to 1, or -2 to -1 "
      "from the end; the last is the instrument's grasp slot)"),
+    # Beyond 64 bits (once pybind11's TypeError): the same error, the int's digits whole.
+    ("grasp", (2 ** 64,),
+     "grasp: instrument 18446744073709551616 is out of range (the world has 1 instrument: 0, or -1 from the end)"),
+    ("external_load", (-(10 ** 30),),
+     "external_load: node -1000000000000000000000000000000 is out of range (the world has 21 nodes: 0 to 20, or -21 "
+     "to -1 from the end)"),
+    ("attachment_force", (0, 2 ** 63),
+     "attachment_force: attachment 9223372036854775808 is out of range (segment 0 ('rod') has 2 attachments: 0 to 1, "
+     "or -2 to -1 from the end; the last is the instrument's grasp slot)"),
 ])
 def test_an_index_out_of_range_names_call_argument_value_and_range(call, arguments, message):
     # Negative ints once gave pybind11's TypeError, indices past the end a message without the call (decision 0088).
@@ -113,6 +122,16 @@ def test_an_index_out_of_range_names_call_argument_value_and_range(call, argumen
     assert str(info.value) == message
     assert isinstance(info.value, IndexError) and isinstance(info.value, haustra.InvalidArgumentError)
     assert info.value.code == "invalid_argument" and info.value.field is None
+
+
+def test_an_index_that_is_not_an_int_is_a_type_error_and_numpy_ints_are_indices():
+    w = haustra.World(held_rod_with_a_grasper())
+    with pytest.raises(TypeError):
+        w.external_load(1.0)
+    with pytest.raises(TypeError):
+        w.external_load("1")
+    force, _ = w.external_load(np.int64(-1))  # __index__, as pybind11's int took
+    assert force.shape == (3,)
 
 
 def test_a_world_without_instruments_says_it_has_none():
