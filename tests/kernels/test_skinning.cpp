@@ -362,6 +362,44 @@ TEST_CASE(
                  "m");
 }
 
+// The largest distance of each binding's skinning from `reference`'s over four random bends of the
+// piece (the same bends for all of them).
+std::vector<double> largest_from(const detail::WorldModel& m, const TriangleMesh& input,
+                                 const detail::SkinBinding& reference,
+                                 const std::vector<const detail::SkinBinding*>& bindings, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::vector<double> worst(bindings.size(), 0.0);
+  for (int trial = 0; trial < 4; ++trial) {
+    std::vector<kernels::RingPose> now;
+    const std::vector<double> q = random_strains(m.segments[0].node_count, 10.0 + 5.0 * trial, rng);
+    const std::vector<float> delta = posed_deltas(m, m.segments[0].initial_base, q, now);
+    Skinned c(input.vertices.size());
+    kernels::skin_rigid_groups(reference.view(), delta, 0, reference.blocks(), c.out());
+    for (std::size_t i = 0; i < bindings.size(); ++i) {
+      Skinned a(input.vertices.size());
+      kernels::skin_rigid_groups(bindings[i]->view(), delta, 0, bindings[i]->blocks(), a.out());
+      for (std::size_t v = 0; v < input.vertices.size(); ++v) worst[i] = std::max(worst[i], (a.at(v) - c.at(v)).norm());
+    }
+  }
+  return worst;
+}
+
+// The piece's world built with `set` applied to its mesh fields, on 1 and on 2 threads (the world's
+// own, decision 0091): its binding is `expected`, bit for bit; reported: the budget it reports.
+template <class Set>
+void check_built_on_one_and_two_threads(WorldDesc d, Set set, const detail::SkinBinding& expected, double reported) {
+  set(d.segments[0].mesh);
+  for (const int threads : {1, 2}) {
+    d.threads = threads;
+    const detail::WorldModel built = detail::build_world_model(d);
+    const detail::SegmentMesh& b = built.meshes_of[0];
+    CHECK(b.info.skin.mean_rings_budget == doctest::Approx(reported));
+    CHECK(b.binding.coefficient == expected.coefficient);
+    CHECK(b.binding.ring == expected.ring);
+    CHECK(b.binding.slot_start == expected.slot_start);
+  }
+}
+
 TEST_CASE(
     "mean_rings_per_vertex: a budget the vertices keep within changes nothing, one they exceed bounds the mean near "
     "full MVC") {
@@ -392,39 +430,13 @@ TEST_CASE(
   CHECK(tight.mean_rings_per_vertex > 4.4);  // the budget is used, not undershot
   CHECK(tight.slots_per_vertex < rule.slots_per_vertex);
   CHECK(tight.rings_per_vertex > 5);  // some vertices keep more than the mean, others fold
-  std::mt19937 rng(31);
-  double worst = 0.0, worst_rule = 0.0;
-  for (int trial = 0; trial < 4; ++trial) {
-    std::vector<kernels::RingPose> now;
-    const std::vector<double> q = random_strains(m.segments[0].node_count, 10.0 + 5.0 * trial, rng);
-    const std::vector<float> delta = posed_deltas(m, m.segments[0].initial_base, q, now);
-    Skinned a(input.vertices.size()), b(input.vertices.size()), c(input.vertices.size());
-    kernels::skin_rigid_groups(bounded.view(), delta, 0, bounded.blocks(), a.out());
-    kernels::skin_rigid_groups(by_rule.view(), delta, 0, by_rule.blocks(), b.out());
-    kernels::skin_rigid_groups(all.view(), delta, 0, all.blocks(), c.out());
-    for (std::size_t v = 0; v < input.vertices.size(); ++v) {
-      worst = std::max(worst, (a.at(v) - c.at(v)).norm());
-      worst_rule = std::max(worst_rule, (b.at(v) - c.at(v)).norm());
-    }
-  }
-  MESSAGE("vs full MVC in random bends: budget 4.5 " << worst << " m, the rule " << worst_rule << " m");
-  test::measured("dense cage, a mean budget of 4.5 rings: the largest distance from full MVC, random bends", worst,
+  const std::vector<double> worst = largest_from(m, input, all, {&bounded, &by_rule}, 31);
+  MESSAGE("vs full MVC in random bends: budget 4.5 " << worst[0] << " m, the rule " << worst[1] << " m");
+  test::measured("dense cage, a mean budget of 4.5 rings: the largest distance from full MVC, random bends", worst[0],
                  1e-3, "m");
-  // Built on 1 and on 2 threads (the world's own, decision 0091), through the scene's field: the
-  // same binding, bit for bit, as the one bound here.
-  WorldDesc one = d;
-  one.threads = 1;
-  one.segments[0].mesh.mean_rings_per_vertex = 4.5;
-  WorldDesc two = one;
-  two.threads = 2;
-  const detail::WorldModel m1 = detail::build_world_model(one), m2 = detail::build_world_model(two);
-  for (const detail::WorldModel* built : {&m1, &m2}) {
-    const detail::SegmentMesh& b = built->meshes_of[0];
-    CHECK(b.info.skin.mean_rings_budget == 4.5);
-    CHECK(b.binding.coefficient == bounded.coefficient);
-    CHECK(b.binding.ring == bounded.ring);
-    CHECK(b.binding.slot_start == bounded.slot_start);
-  }
+  // Through the scene's field: the same binding, bit for bit, as the one bound here.
+  check_built_on_one_and_two_threads(
+      d, [](OrganMeshDesc& mesh_desc) { mesh_desc.mean_rings_per_vertex = 4.5; }, bounded, 4.5);
 }
 
 TEST_CASE(
@@ -459,19 +471,8 @@ TEST_CASE(
   CHECK(cost > 1.45);
   CHECK(tight.mean_rings_budget == doctest::Approx(tight.mean_rings_per_vertex).epsilon(0.02));
   CHECK(tight.rings_per_vertex > 5);  // chosen by worth: some vertices keep more than the mean
-  std::mt19937 rng(37);
-  double worst = 0.0;
-  for (int trial = 0; trial < 4; ++trial) {
-    std::vector<kernels::RingPose> now;
-    const std::vector<double> q = random_strains(m.segments[0].node_count, 10.0 + 5.0 * trial, rng);
-    const std::vector<float> delta = posed_deltas(m, m.segments[0].initial_base, q, now);
-    Skinned a(input.vertices.size()), c(input.vertices.size());
-    kernels::skin_rigid_groups(limited.view(), delta, 0, limited.blocks(), a.out());
-    kernels::skin_rigid_groups(all.view(), delta, 0, all.blocks(), c.out());
-    for (std::size_t v = 0; v < input.vertices.size(); ++v) worst = std::max(worst, (a.at(v) - c.at(v)).norm());
-  }
-  test::measured("dense cage, a skin cost limit of 1.5: the largest distance from full MVC, random bends", worst, 1e-3,
-                 "m");
+  test::measured("dense cage, a skin cost limit of 1.5: the largest distance from full MVC, random bends",
+                 largest_from(m, input, all, {&limited}, 37)[0], 1e-3, "m");
   // With a bound per vertex, with a mean budget, and at 1 (the cost of fixed K itself): within the
   // limit each time, and the smaller of the two budgets holds.
   SkinReport with_bound, with_mean, at_one;
@@ -485,18 +486,8 @@ TEST_CASE(
   CHECK(with_mean.mean_rings_budget == 5.0);
   CHECK(at_one.slots_per_vertex <= k4.slots_per_vertex);
   // Through the scene's field, on 1 and 2 threads: the same binding, bit for bit.
-  WorldDesc one = d;
-  one.threads = 1;
-  one.segments[0].mesh.skin_cost_limit = 1.5;
-  WorldDesc two = one;
-  two.threads = 2;
-  const detail::WorldModel m1 = detail::build_world_model(one), m2 = detail::build_world_model(two);
-  for (const detail::WorldModel* built : {&m1, &m2}) {
-    const detail::SegmentMesh& b = built->meshes_of[0];
-    CHECK(b.binding.coefficient == limited.coefficient);
-    CHECK(b.binding.ring == limited.ring);
-    CHECK(b.binding.slot_start == limited.slot_start);
-  }
+  check_built_on_one_and_two_threads(
+      d, [](OrganMeshDesc& mesh_desc) { mesh_desc.skin_cost_limit = 1.5; }, limited, tight.mean_rings_budget);
 }
 
 TEST_CASE("skin_cost_limit below 1, negative or not finite is refused naming the field") {
