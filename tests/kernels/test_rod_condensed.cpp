@@ -318,12 +318,12 @@ TEST_CASE("condensed responses at chosen nodes equal the full back-substitution 
   CHECK(worst < 1e-13);
 }
 
-// The split tests' rods: 61 nodes with stiffness, the base clamped or free, Hooke's or a nodal law,
-// `loads` unit loads.
+// A rod of `n` nodes with stiffness, the base clamped or free, Hooke's or a nodal law, `loads` unit
+// loads (the split tests' at 61 nodes, the chord replay's at 33).
 namespace {
-Case split_case(std::uint32_t seed, bool free_base, bool nodal, std::size_t loads) {
+Case stiff_case(std::uint32_t seed, bool free_base, bool nodal, std::size_t loads, std::size_t n = 61) {
   Case c;
-  c.n = 61;
+  c.n = n;
   c.free_base = free_base;
   c.stiffness = true;
   c.nodal = nodal;
@@ -340,7 +340,7 @@ TEST_CASE("a rod split at a joint node, its parts condensed apart and joined, eq
     for (bool free_base : {false, true})
       for (bool nodal : {false, true})
         for (std::size_t loads : {std::size_t{0}, std::size_t{9}}) {
-          Problem p(split_case(seed, free_base, nodal, loads));
+          Problem p(stiff_case(seed, free_base, nodal, loads));
           const std::vector<std::uint32_t> nodes = {0, 5, 23, 24, 25, 40, 60};
           const Problem::Condensed whole = p.condensed(nodes);
           for (std::size_t m : {std::size_t{1}, std::size_t{24}, std::size_t{59}}) {
@@ -376,7 +376,7 @@ TEST_CASE("a split rod's tip responses made before the join and folded with y_m 
     for (bool free_base : {false, true})
       for (bool nodal : {false, true})
         for (std::size_t loads : {std::size_t{0}, std::size_t{9}, std::size_t{17}}) {
-          Problem p(split_case(seed, free_base, nodal, loads));
+          Problem p(stiff_case(seed, free_base, nodal, loads));
           const std::vector<std::uint32_t> nodes = {0, 5, 23, 24, 25, 25, 40, 59, 60};
           const Problem::Condensed whole = p.condensed(nodes);
           for (std::size_t m : {std::size_t{1}, std::size_t{24}, std::size_t{30}, std::size_t{59}}) {
@@ -409,12 +409,7 @@ TEST_CASE("a chord iteration's replay solves the recorded Jacobian with a new re
   for (std::uint32_t seed : {6u, 7u})
     for (bool free_base : {false, true})
       for (std::size_t loads : {std::size_t{0}, std::size_t{5}}) {
-        Case c;
-        c.n = 33;
-        c.free_base = free_base;
-        c.stiffness = true;
-        c.unit_loads = loads;
-        c.seed = seed;
+        const Case c = stiff_case(seed, free_base, false, loads, 33);
         Problem p(c);
         const std::size_t n = c.n;
         const int cols = p.columns();

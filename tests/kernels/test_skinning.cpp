@@ -362,6 +362,14 @@ TEST_CASE(
                  "m");
 }
 
+// The dense piece, straight, with 1,500 vertices (the binding is most of these tests' time): its
+// description, model and the mesh it was bound from.
+struct DensePiece {
+  WorldDesc desc = dense_piece(1500);
+  detail::WorldModel model = detail::build_world_model(desc);
+  TriangleMesh input = regenerate(model, desc);
+};
+
 // The largest distance of each binding's skinning from `reference`'s over four random bends of the
 // piece (the same bends for all of them).
 std::vector<double> largest_from(const detail::WorldModel& m, const TriangleMesh& input,
@@ -405,10 +413,9 @@ TEST_CASE(
     "full MVC") {
   // The dense piece, straight, with fewer vertices (the binding is most of this test's time): by
   // decision 0048's rule its vertices keep about 11 rings on average.
-  const WorldDesc d = dense_piece(1500);
-  const detail::WorldModel m = detail::build_world_model(d);
+  const DensePiece piece;
+  const auto& [d, m, input] = piece;
   const detail::SegmentMesh& mesh = m.meshes_of[0];
-  const TriangleMesh input = regenerate(m, d);
   SkinReport rule, roomy, tight, full;
   const detail::SkinBinding by_rule = detail::bind_mean_value(mesh.cage, input, 4, 0.02, rule);
   const detail::SkinBinding within =
@@ -444,10 +451,9 @@ TEST_CASE(
     "rings chosen by worth") {
   // The dense piece again (about 11 rings a vertex by decision 0048's rule). The oracle of the cost
   // is a binding of fixed K = 4 (the slots skinning reads), made on its own.
-  const WorldDesc d = dense_piece(1500);
-  const detail::WorldModel m = detail::build_world_model(d);
+  const DensePiece piece;
+  const auto& [d, m, input] = piece;
   const detail::SegmentMesh& mesh = m.meshes_of[0];
-  const TriangleMesh input = regenerate(m, d);
   SkinReport rule, k4, roomy, tight, full;
   const detail::SkinBinding by_rule = detail::bind_mean_value(mesh.cage, input, 4, 0.02, rule);
   (void)detail::bind_mean_value(mesh.cage, input, 4, 0.0, k4);

@@ -308,6 +308,15 @@ void ranked_prefixes(const std::vector<std::vector<std::uint32_t>>& ranked, Keep
   }
 }
 
+// Decision 0092's allowance: `limit` times the slots of each vertex's `at_least` rings of largest
+// mass (the first of `ranked`), packed as fixed K packs them.
+double slots_allowed(const std::vector<std::vector<std::uint32_t>>& ranked, std::size_t at_least, double limit) {
+  std::vector<std::vector<std::uint32_t>> sets;
+  ranked_prefixes(
+      ranked, [&](std::size_t) { return at_least; }, sets);
+  return limit * static_cast<double>(slots_of(sets, at_least));
+}
+
 // The most rings in all, up to `most` (a budget for extra_rings_within), whose binding packs into at
 // most `allowed` slots (decision 0092): bisected on the slots the ring sets would pack into. The
 // least, at_least a vertex, is taken to fit: it is the fixed binding `allowed` was measured on,
@@ -481,15 +490,9 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
   const bool over_mean = mean_rings_per_vertex > 0.0 && kept_total > budget;
   // A limit on the cost (decision 0092): the same choice by worth, with as many rings as the slots
   // allow (and the mean budget, if it is less); a binding within both stays as it is.
-  double allowed = 0.0;
-  bool over_cost = false;
-  if (budgeted && costed) {
-    std::vector<std::vector<std::uint32_t>> sets;  // the `at_least` of largest mass, then the rule's
-    ranked_prefixes(
-        ranked, [&](std::size_t) { return at_least; }, sets);
-    allowed = skin_cost_limit * static_cast<double>(slots_of(sets, at_least));
-    over_cost = static_cast<double>(slots_of(slots.ring, pack_rings)) > allowed;
-  }
+  const bool limited = budgeted && costed;
+  const double allowed = limited ? slots_allowed(ranked, at_least, skin_cost_limit) : 0.0;
+  const bool over_cost = limited && static_cast<double>(slots_of(slots.ring, pack_rings)) > allowed;
   double bounded_by = 0.0;
   std::size_t packed_as = pack_rings;
   if (budgeted && (over_mean || over_cost)) {
