@@ -580,13 +580,15 @@ void stage_snapshot(const WorldModel& model, WorldState& state, std::size_t segm
   const auto off = static_cast<std::ptrdiff_t>(seg.node_offset);
   const auto cnt = static_cast<std::ptrdiff_t>(seg.node_count);
   std::copy_n(state.now.strain.begin() + 4 * off, 4 * cnt, state.strain_substep_start.begin() + 4 * off);
+  const auto copy = [&](std::span<const double> from, std::span<double> to) {
+    std::copy_n(from.begin() + off, cnt, to.begin() + off);
+  };
+  // Every velocity of a substep is measured from here: the medium's drag, but also the dampers of
+  // grasps and anchors, which a rod without drag has as well.
+  copy(state.now.position.x, state.position_substep_start.x);
+  copy(state.now.position.y, state.position_substep_start.y);
+  copy(state.now.position.z, state.position_substep_start.z);
   if (newton && seg.has_drag) {
-    const auto copy = [&](std::span<const double> from, std::span<double> to) {
-      std::copy_n(from.begin() + off, cnt, to.begin() + off);
-    };
-    copy(state.now.position.x, state.position_substep_start.x);
-    copy(state.now.position.y, state.position_substep_start.y);
-    copy(state.now.position.z, state.position_substep_start.z);
     copy(state.now.rotation.w, state.rotation_substep_start.w);
     copy(state.now.rotation.x, state.rotation_substep_start.x);
     copy(state.now.rotation.y, state.rotation_substep_start.y);
