@@ -205,9 +205,16 @@ void World::Impl::mesh_from_rings(const detail::MeshTarget& target) const {
 
 // ---- The stages, one verb each ---------------------------------------------------------------------
 
+// The instruments to this frame's poses (their scripts, or the host's), grasping and releasing;
+// an instrument that cuts takes the tissue within its reach first (decision 0095).
 void World::Impl::move_instruments() {
-  if (!model.instruments.empty())
-    timed(Stage::instruments, [&] { detail::stage_instruments(model, state, state.time + model.dt); });
+  if (model.instruments.empty()) return;
+  timed(Stage::instruments, [&] {
+    detail::stage_instruments(model, state, state.time + model.dt);
+    if (model.anchors.size() == 0) return;
+    for (std::size_t i = 0; i < model.instruments.size(); ++i)
+      if (state.instruments[i].cutting) cut_tissue(state.instruments[i].tip, model.instruments[i].cut_radius);
+  });
 }
 
 void World::Impl::snapshot(bool newton) {
@@ -258,12 +265,19 @@ std::size_t World::Impl::guard_segments(const SubstepParameters& p) {
   return model.segments.size();
 }
 
+// What the frame did to the instruments and the tissue: forces on the instruments, grasps that
+// slipped, anchors torn past their strength (decision 0095), the contact report.
 void World::Impl::report() {
-  if (model.beads.size() > 0 || !model.instruments.empty())
+  if (model.beads.size() > 0 || !model.instruments.empty() || model.anchors.size() > 0)
     timed(Stage::report, [&] {
       slipped.clear();
       detail::instrument_forces(model, state, model.dt, slipped);
       for (const std::size_t i : slipped) record(slipped_event(i));
+      if (model.anchors.size() > 0) {
+        torn.clear();
+        detail::tear_anchors(model, state, torn);
+        record_anchors(Event::Kind::torn, torn);
+      }
       if (model.beads.size() > 0) detail::stage_contact_report(model, state);
     });
 }

@@ -124,6 +124,7 @@ void stage_instruments(const WorldModel& model, WorldState& state, double time) 
                             axis.norm() > 1e-9 ? axis : kf[k + 1].axis);  // opposite axes: take the next one
       }
       s.closed = time >= kf.front().time ? kf[k].grasp : kf.front().grasp;
+      s.cutting = time >= kf.front().time ? kf[k].cut : kf.front().cut;
     }
     if (!s.closed) s.slipped = false;  // opened: the next close grasps anew
     if (s.closed && !s.grasping && !s.slipped) grasp(model, state, i);

@@ -11,6 +11,7 @@
 #include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/strain_update.hpp"
 #include "haustra/kernels/tissue_law.hpp"
+#include "step/anchors.hpp"
 #include "step/collision.hpp"
 #include "step/instruments.hpp"
 #include "step/segment_law.hpp"
@@ -77,6 +78,11 @@ void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment
         grasp_coupling(model.instruments[i], state.instruments[i], pos.get(node), start.get(node), p.dt, model.dt);
     const std::size_t k = node - seg.node_offset;
     v.force.set(k, v.force.get(k) + c.force);
+  });
+  // Connective tissue pulls its nodes towards where the anatomy holds them (likewise).
+  for_each_intact_anchor(model, state, segment, [&](std::size_t a, std::size_t node) {
+    const std::size_t k = node - seg.node_offset;
+    v.force.set(k, v.force.get(k) + anchor_response(model, state, a, p.dt).force);
   });
   if (!p.newton) return;
   // Newton solves for increments of the constraint forces; their current totals are loads.
@@ -323,8 +329,8 @@ double attachment_miss(const WorldModel& model, const WorldState& state, std::si
   return worst;
 }
 
-Energy segment_energy(const WorldModel& model, std::span<const double> strain, kernels::Vec3View<const double> position,
-                      std::size_t segment) {
+Energy segment_energy(const WorldModel& model, const WorldState& state, std::span<const double> strain,
+                      kernels::Vec3View<const double> position, std::size_t segment) {
   const SegmentModel& seg = model.segments[segment];
   const std::size_t off = seg.node_offset, n = seg.node_count;
   Energy e;
@@ -350,6 +356,7 @@ Energy segment_energy(const WorldModel& model, std::span<const double> strain, k
         std::span<const double>(model.section_length).subspan(off, n), law);
   }
   for (std::size_t k = 0; k < n; ++k) e.gravity -= model.node_mass[off + k] * model.gravity.dot(position.get(off + k));
+  e.tissue = anchor_energy(model, state, position, segment);
   return e;
 }
 
@@ -519,8 +526,8 @@ GuardResult guard_energy(const WorldModel& model, const WorldState& state, std::
     const double work = outside_work_bound(model, state, segment);
     if (work >= 0.0) {
       const double before =
-          segment_energy(model, state.frame_start.strain, state.frame_start.position.view(), segment).total();
-      const double after = segment_energy(model, state.now.strain, state.now.position.view(), segment).total();
+          segment_energy(model, state, state.frame_start.strain, state.frame_start.position.view(), segment).total();
+      const double after = segment_energy(model, state, state.now.strain, state.now.position.view(), segment).total();
       double weight = 0.0;
       for (std::size_t node = off; node < off + n; ++node) weight += model.node_mass[node];
       const double allowance =

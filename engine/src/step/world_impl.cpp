@@ -15,6 +15,7 @@ World::Impl::Impl(WorldDesc d, detail::WorldModel m)
   guard.resize(model.segments.size());
   reserve_events();
   slipped.reserve(model.instruments.size());
+  torn.reserve(model.anchors.size());
   base = {model.solver.substeps, model.solver.mode != SolverMode::lagged};
   state.robust_substeps = base.substeps;
   state.robust_newton = base.newton;

@@ -12,6 +12,7 @@
 #include "haustra/error.hpp"
 #include "haustra/world.hpp"
 #include "model/world_model.hpp"
+#include "step/anchors.hpp"
 #include "step/mesh_stages.hpp"
 #include "step/rod_stages.hpp"
 #include "step/scheduler.hpp"
@@ -31,6 +32,7 @@ struct World::Impl {
   FrameProfile profile;
   std::vector<Event> events;
   std::vector<std::size_t> slipped;  // instruments whose grasp slipped this frame (capacity: all of them)
+  std::vector<detail::TornAnchor> torn;  // anchors torn or cut this frame (capacity: all of them)
   std::vector<detail::GuardResult> guard;
   // A rung of the robust mode's ladder: how a frame is attempted.
   struct Rung {
@@ -148,6 +150,15 @@ struct World::Impl {
   [[nodiscard]] Event unstable_event(std::size_t failed, const detail::GuardResult& g, const Rung& rung) const;
   [[nodiscard]] Event recovered_event(const Failure& first, const Rung& rung) const;
   [[nodiscard]] Event slipped_event(std::size_t instrument) const;
+  [[nodiscard]] Event anchors_event(Event::Kind kind, std::size_t first, std::size_t count, double largest) const;
+
+ public:
+  // Torn or cut anchors (in anchor order) as events, one per range.
+  void record_anchors(Event::Kind kind, std::span<const detail::TornAnchor> anchors);
+  // Cuts the anchors whose tissue passes within `radius` of `centre`, with events; how many.
+  std::size_t cut_tissue(const Eigen::Vector3d& centre, double radius);
+
+ private:
   void record(const Event& e);
   void reserve_events();
 };

@@ -137,6 +137,7 @@ struct PersistentState {
   RotationBuffer mid_rotation;
   std::vector<kernels::Pose> base;
   std::vector<AttachmentState> attachment;
+  std::vector<std::uint8_t> anchor_intact;  // per anchor: 1 while it holds, 0 once torn or cut
 
   void copy_from(const PersistentState& o);  // no allocation: sizes already match
 };
@@ -282,6 +283,7 @@ struct InstrumentState {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   Eigen::Quaterniond frame = Eigen::Quaterniond::Identity();  // d3 along the axis
   bool closed = false;
+  bool cutting = false;  // cuts the tissue within its cut radius every frame (decision 0095)
   bool scripted = true;  // follows its keyframes until the host sets a pose
   bool grasping = false;
   std::size_t grasp_segment = 0;
