@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "haustra/error.hpp"
+#include "haustra/world_desc.hpp"
 
 namespace haustra::import {
 namespace {
@@ -92,6 +93,23 @@ void write_centreline(const std::filesystem::path& file, const Polyline& p, cons
   if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write the centreline", file.string()));
 }
 
+namespace {
+
+// The organ's connective tissue (decision 0095): anchors to its rest place along its whole length,
+// the engine's defaults written out so a user sees what holds the organ.
+std::string tissue_table(const ImportOptions& o) {
+  if (o.tissue == "none") return "";
+  const AnchorsDesc a;
+  return fmt::format(
+                    "[[segment.anchors]]          # connective tissue: the organ held where the surface put it\n"
+                    "name = \"tissue\"\nfrom = 0.0\nto = 1.0\ntarget = \"rest\"\n"
+                    "stiffness = {}           # N/m per metre of organ\ndamping = {}              # N·s/m per metre\n"
+                    "slack = {}\nstrength = {}            # N per metre of organ: past it an anchor tears\n",
+                    a.stiffness, a.damping, a.slack, a.strength);
+}
+
+}  // namespace
+
 void write_scene(const SceneFileInputs& in) {
   const ImportOptions& o = in.options;
   const ImportReport& r = in.report;
@@ -111,7 +129,7 @@ void write_scene(const SceneFileInputs& in) {
       "[scene]\nname = {}\ndescription = {}\nframes = 240\n\n"
       "[world]\ndt = 0.016666666666666666\ngravity = [0.0, 0.0, -9.81]\n\n"
       "[solver]\nmode = \"newton\"\niterations = 2\n\n"
-      "[[segment]]\nname = {}\nnodes = {}{}\nradius = {:.6g}\nwall_thickness = {:.6g}{}\nbase = \"{}\"\n{}"
+      "[[segment]]\nname = {}\nnodes = {}{}\nradius = {:.6g}\nwall_thickness = {:.6g}{}\nbase = \"{}\n{}"
       "[segment.rest]\nshape = \"centreline\"\nfile = {}\n"
       "[segment.beads]\ncount = {}{}\n# each bead as wide as the outer wall around its node (16 rays, smoothed)\n"
       "radius_profile = [\n  {}]\n"
@@ -121,12 +139,15 @@ void write_scene(const SceneFileInputs& in) {
       toml_string(fmt::format("{} imported: {:.3f} m of centreline, {} vertices", name, r.length, r.repaired_vertices)),
       toml_string(name), pieces > 1 ? (r.nodes - 1) / pieces + 1 : r.nodes,
       pieces > 1 ? fmt::format("   # per piece: {} in all", r.nodes) : "", r.median_radius, wall,
-      r.wall_thickness > 0.0 ? "   # measured between the shells" : "", o.ends == "free" ? "free" : "clamped",
+      r.wall_thickness > 0.0 ? "   # measured between the shells" : "",
+      // A free base moves against a little drag of the medium; the tissue does the holding.
+      o.ends == "free" ? "free\"\ndrag = 1.0   # N·s/m², the medium's" : "clamped\"",
       pieces > 1 ? fmt::format("[segment.chain]\npieces = {}   # one rod; each piece its own mesh and cage\n", pieces)
                  : "",
       toml_string(toml_path(r.centreline_file, dir)), pieces > 1 ? (r.beads + pieces - 1) / pieces : r.beads,
       pieces > 1 ? "   # per piece" : "", profile, toml_string(toml_path(r.surface_file, dir)), r.ring_vertices);
   if (o.ends == "held") text += "[[segment.attachment]]\nnode = -1                   # the far end stays where it is\n";
+  text += tissue_table(o);
   std::ofstream out(r.scene);
   out << text;
   if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write the scene", r.scene.string()));

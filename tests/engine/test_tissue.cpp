@@ -124,7 +124,7 @@ TEST_CASE("tissue: an anchor tears at its strength, with an event, and frees its
   CHECK(tension[0] == 0.0);
 }
 
-TEST_CASE("tissue: a cut frees the organ in a sphere and holds it elsewhere; checkpoints keep what was cut") {
+TEST_CASE("tissue: a cut frees the organ in a sphere and holds it elsewhere, and checkpoints keep what was cut") {
   WorldDesc d = rod_on_tissue(101, BaseMode::free);
   d.segments[0].law = {StrainLaw::viscous, StrainLaw::viscous, StrainLaw::viscous, StrainLaw::elastic};
   auto w = World::create(d);

@@ -97,7 +97,9 @@ class World {
   // `radius` of `centre` (m), records a `cut` event per range, and returns how many it cut.
   std::size_t cut_tissue(const Eigen::Vector3d& centre, double radius);
 
-  // Instruments. Setting a pose hands the instrument from its script to the host for good.
+  // Instruments. Setting a pose hands the instrument from its script to the host for good. A proxy
+  // instrument (decision 0096) follows its commanded pose through its coupling from the next step
+  // (placed there at once before the first step); instrument(i).tip is where its capsule is.
   [[nodiscard]] std::size_t instrument_count() const;
   void set_instrument_pose(std::size_t instrument, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis);
   void set_instrument_grasp(std::size_t instrument, bool closed);

@@ -304,6 +304,12 @@ struct InstrumentDesc {
   // reported is the coupling's. coupling_stiffness = 0: a rigid grasp (a constraint, hold_frame
   // honoured), as before the coupling.
   double coupling_stiffness = 1000.0;  // N/m
+  // The instrument as a proxy (decision 0096, haptic rendering's god-object): its capsule is not
+  // where it is commanded but where the same capped spring–damper from the commanded pose balances
+  // what the capsule meets (beads, the floor, walls, obstacles); the force reported for it — the
+  // grasp's and the capsule's together — never exceeds force_limit. false (or a rigid grasp,
+  // coupling_stiffness = 0): a kinematic capsule at the commanded pose, its contacts unbounded.
+  bool proxy = true;
   double coupling_damping = 2.0;       // N·s/m, on the node's velocity relative to the grasp point's
   double force_limit = 8.0;            // N
   // A grasp pulled harder than this lets go (the tissue slips out of the jaws: an event, decision

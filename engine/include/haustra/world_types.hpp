@@ -126,7 +126,10 @@ struct ContactReport {
 // An instrument's state after the last frame. Force and torque are what the tissue exerts on the
 // instrument (the negative of what the instrument exerts on the rod), torque about the tip.
 struct InstrumentReading {
+  // Where the capsule is; for a proxy (decision 0096) where its coupling and what it meets
+  // balance, which may fall short of where it is commanded.
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d commanded_tip = Eigen::Vector3d::Zero();
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   bool closed = false;
   bool cutting = false;  // cuts the connective tissue within its cut radius (decision 0095)

@@ -153,6 +153,9 @@ void World::set_instrument_pose(std::size_t instrument, const Eigen::Vector3d& t
   detail::InstrumentState& s = impl_->state.instruments[instrument];
   s.scripted = false;
   detail::set_instrument_pose(s, tip, axis);
+  // Before the first frame a proxy is placed where it is commanded; after, it gets there as its
+  // coupling and what it meets on the way let it (decision 0096).
+  if (impl_->state.frame == 0) s.tip = s.command_start = s.proxy_start = s.command_tip;
 }
 
 void World::set_instrument_grasp(std::size_t instrument, bool closed) {
@@ -172,6 +175,7 @@ InstrumentReading World::instrument(std::size_t instrument) const {
   const detail::InstrumentState& s = impl_->state.instruments[instrument];
   InstrumentReading r;
   r.tip = s.tip;
+  r.commanded_tip = s.command_tip;
   r.axis = s.axis;
   r.closed = s.closed;
   r.cutting = s.cutting;

@@ -22,7 +22,7 @@ namespace {
 
 constexpr std::array<char, 8> kMagic = {'H', 'A', 'U', 'S', 'T', 'R', 'C', 'K'};
 // 2: fast mode's chord state; 3: the instruments' coupling; 4: fast mode's prefactor; 5: anchors
-// of connective tissue (which still hold).
+// of connective tissue (which still hold), instruments' proxies and cutting.
 constexpr std::uint32_t kFormatVersion = 5;
 
 std::uint64_t fnv1a(std::span<const std::byte> bytes, std::uint64_t h = 0xcbf29ce484222325ull) {
@@ -93,7 +93,8 @@ void visit_members(Io& io, I& in) {
   io(in.tip), io(in.axis), io(in.frame), io(in.closed), io(in.cutting), io(in.scripted), io(in.grasping), io(in.grasp_segment),
       io(in.grasp_attachment), io(in.grasp_bead), io(in.grasp_offset), io(in.grasp_rotation), io(in.force),
       io(in.torque), io(in.filtered_force), io(in.filtered_torque), io(in.coupled), io(in.grasp_node),
-      io(in.grasp_target), io(in.target_start), io(in.coupling_force), io(in.slipped);
+      io(in.grasp_target), io(in.target_start), io(in.coupling_force), io(in.slipped), io(in.command_tip),
+      io(in.command_start), io(in.proxy_start), io(in.proxy_force), io(in.reach);
 }
 template <class Io, StateOf<ContactReport> R>
 void visit_members(Io& io, R& r) {

@@ -42,6 +42,7 @@ struct World::Impl {
   Rung base{1, false};  // what the scene asked for; the rung it runs now is in the state
   bool any_free_base = false;
   bool any_constraints = false;
+  bool any_proxy = false;  // an instrument is a proxy (decision 0096)
   // The last frame's dt while frame_start still holds that frame's start (World::node_velocities); 0
   // before the first frame and after a pose or a restore.
   double motion_dt = 0.0;
@@ -121,6 +122,7 @@ struct World::Impl {
   void lagged_iteration(const detail::SubstepParameters& p);
   void move_instruments();
   void snapshot(bool newton);
+  double proxies(const detail::SubstepParameters& p);
   void collide();
   void contacts();
   void loads(const detail::SubstepParameters& p);

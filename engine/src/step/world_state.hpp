@@ -279,7 +279,14 @@ inline constexpr std::size_t kBandFallbackNodes = 4096;
 using ContactCandidate = Contact;
 
 struct InstrumentState {
+  // Where the capsule is: its commanded tip, or a proxy's (decision 0096), which the commanded one
+  // pulls through a capped spring–damper. The axis is commanded either way.
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d command_tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d command_start = Eigen::Vector3d::Zero();  // at the frame's start
+  Eigen::Vector3d proxy_start = Eigen::Vector3d::Zero();    // the proxy's tip at the substep's start
+  Eigen::Vector3d proxy_force = Eigen::Vector3d::Zero();    // the coupling's pull on the proxy, N
+  double reach = 0.0;  // m the proxy may still travel towards its command: its contacts' margin
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   Eigen::Quaterniond frame = Eigen::Quaterniond::Identity();  // d3 along the axis
   bool closed = false;
