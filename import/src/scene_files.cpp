@@ -4,6 +4,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
+#include <numbers>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -95,17 +97,25 @@ void write_centreline(const std::filesystem::path& file, const Polyline& p, cons
 
 namespace {
 
-// The organ's connective tissue (decision 0095): anchors to its rest place along its whole length,
-// the engine's defaults written out so a user sees what holds the organ.
-std::string tissue_table(const ImportOptions& o) {
+// How far the organ's own weight may sink it into what lies below (decision 0095): the support's
+// stiffness is its weight per length over this.
+constexpr double kWeightSag = 5e-4;  // m
+
+// The organ's connective tissue (decision 0095): along its whole length, the tether (the engine's
+// defaults) and the support under it, written out so a user sees what holds the organ. weight: N
+// per metre of organ.
+std::string tissue_table(const ImportOptions& o, double weight) {
   if (o.tissue == "none") return "";
-  const AnchorsDesc a;
+  AnchorsDesc a;
+  a.support = std::ceil(weight / kWeightSag / 100.0) * 100.0;
   return fmt::format(
-                    "[[segment.anchors]]          # connective tissue: the organ held where the surface put it\n"
-                    "name = \"tissue\"\nfrom = 0.0\nto = 1.0\ntarget = \"rest\"\n"
-                    "stiffness = {}           # N/m per metre of organ\ndamping = {}              # N·s/m per metre\n"
-                    "slack = {}\nstrength = {}            # N per metre of organ: past it an anchor tears\n",
-                    a.stiffness, a.damping, a.slack, a.strength);
+      "[[segment.anchors]]          # connective tissue: the organ held where the surface put it\n"
+      "name = \"tissue\"\nfrom = 0.0\nto = 1.0\ntarget = \"rest\"\n"
+      "stiffness = {}           # N/m per metre of organ: the tether, from any side\n"
+      "damping = {}              # N·s/m per metre\nslack = {}\n"
+      "strength = {}            # N per metre of organ: past it an anchor tears\n"
+      "support = {}             # N/m per metre, against sinking only: its weight sinks it 0.5 mm\n",
+      a.stiffness, a.damping, a.slack, a.strength, a.support);
 }
 
 }  // namespace
@@ -131,6 +141,8 @@ void write_scene(const SceneFileInputs& in) {
       "[solver]\nmode = \"newton\"\niterations = 2\n\n"
       "[[segment]]\nname = {}\nnodes = {}{}\nradius = {:.6g}\nwall_thickness = {:.6g}{}\nbase = \"{}\n{}"
       "[segment.rest]\nshape = \"centreline\"\nfile = {}\n"
+      // A solid wall: the shape the segmentation found is the one it goes back to (decision 0095).
+      "[segment.law]\nbending = \"kelvin-voigt\"\ntorsion = \"kelvin-voigt\"\n"
       "[segment.beads]\ncount = {}{}\n# each bead as wide as the outer wall around its node (16 rays, smoothed)\n"
       "radius_profile = [\n  {}]\n"
       "[segment.mesh]\nfile = {}   # repaired, in metres\n"
@@ -147,7 +159,8 @@ void write_scene(const SceneFileInputs& in) {
       toml_string(toml_path(r.centreline_file, dir)), pieces > 1 ? (r.beads + pieces - 1) / pieces : r.beads,
       pieces > 1 ? "   # per piece" : "", profile, toml_string(toml_path(r.surface_file, dir)), r.ring_vertices);
   if (o.ends == "held") text += "[[segment.attachment]]\nnode = -1                   # the far end stays where it is\n";
-  text += tissue_table(o);
+  // The organ's weight per length as the engine will take it: the default density, the wall written.
+  text += tissue_table(o, SegmentDesc{}.material.density * 2.0 * std::numbers::pi * r.median_radius * wall * 9.81);
   std::ofstream out(r.scene);
   out << text;
   if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write the scene", r.scene.string()));

@@ -4,20 +4,39 @@
 #include <Eigen/Dense>
 #include <cmath>
 
+#include "haustra/kernels/pose.hpp"
+
 namespace haustra::kernels {
+
+AnchorTurn tissue_anchor_turn(const Eigen::Quaterniond& rotation, const Eigen::Quaterniond& rotation_start,
+                              const Eigen::Quaterniond& rest, double k, double damping_rate) {
+  AnchorTurn t;
+  const Eigen::Vector3d off = rotation_log(rotation * rest.conjugate());
+  const Eigen::Vector3d turned = rotation_log(rotation * rotation_start.conjugate());
+  t.moment = -k * off - damping_rate * turned;
+  t.stiffness = k + damping_rate;
+  t.energy = 0.5 * k * off.squaredNorm() + 0.5 * damping_rate * turned.squaredNorm();
+  return t;
+}
 
 double tissue_anchor_tension(const Eigen::Vector3d& x, const Eigen::Vector3d& target, double k, double slack) {
   return k * std::max(0.0, (x - target).norm() - slack);
 }
 
 AnchorResponse tissue_anchor(const Eigen::Vector3d& x, const Eigen::Vector3d& x_start, const Eigen::Vector3d& target,
-                             double k, double slack, double damping_rate) {
+                             double k, double slack, double damping_rate, double support,
+                             const Eigen::Vector3d& down) {
   AnchorResponse r;
   const Eigen::Vector3d moved = x - x_start;
   r.force = -damping_rate * moved;
   r.stiffness = damping_rate * Eigen::Matrix3d::Identity();
   r.energy = 0.5 * damping_rate * moved.squaredNorm();
   const Eigen::Vector3d d = x - target;
+  if (const double sunk = d.dot(down); support > 0.0 && sunk > 0.0) {
+    r.force -= support * sunk * down;
+    r.stiffness += support * down * down.transpose();
+    r.energy += 0.5 * support * sunk * sunk;
+  }
   if (slack == 0.0) {  // a plain spring: linear, its stiffness k I wherever the node is
     r.force -= k * d;
     r.stiffness += k * Eigen::Matrix3d::Identity();

@@ -579,8 +579,10 @@ int dispatch(Commands& c) {
     return 0;
   }
   if (*c.anatomy_cmd) {
-    const auto rows = import::run_cohort(c.anatomy_folder, c.anatomy_out, import::kCohortFrames, c.anatomy_threads);
-    fmt::print("{}", import::cohort_markdown(rows, c.anatomy_folder));
+    import::OrganProtocol protocol;
+    protocol.threads = c.anatomy_threads;
+    const auto rows = import::run_cohort(c.anatomy_folder, c.anatomy_out, protocol);
+    fmt::print("{}", import::cohort_markdown(rows, c.anatomy_folder, protocol));
     std::size_t ok = 0;
     for (const auto& r : rows) ok += r.ran ? 1 : 0;
     return ok == rows.size() ? 0 : kExitFailedCase;

@@ -22,6 +22,7 @@ struct FrameDetails {
   std::vector<Contact> contacts;
   std::vector<InstrumentReading> instruments;
   std::vector<std::vector<Eigen::Vector3d>> cages;  // per segment: cage vertices (when wanted)
+  std::vector<std::uint8_t> anchors_intact;        // per anchor of connective tissue: 1 while it holds
   FrameProfile profile;
 };
 

@@ -197,12 +197,14 @@ typedef struct haustra_segment_def {
    * mesh.skin_cost_limit, decision 0092): 0 (default): no limit; else 1 to 4096. Since ABI 11. */
   double skin_cost_limit;
   /* Connective tissue along the whole segment, holding each node where it rests (the scene's
-   * [[segment.anchors]] from 0 to 1, target "rest"; decision 0095). Since ABI 12.
-   * anchor_stiffness: N/m per metre of organ; 0 (default): no tissue. */
+   * [[segment.anchors]] from 0 to 1, target "rest"; decision 0095). Since ABI 12. No tissue unless
+   * anchor_stiffness or anchor_support is above 0 (both 0 by default).
+   * anchor_stiffness: the tether, N/m per metre of organ. */
   double anchor_stiffness;
   double anchor_damping;  /* N·s/m per metre of organ; default 50 */
   double anchor_slack;    /* m of free play; default 0 */
   double anchor_strength; /* N per metre of organ: an anchor pulled past it tears; default 1000; 0: never */
+  double anchor_support;  /* N/m per metre of organ, against sinking along gravity only; default 0 */
 } haustra_segment_def;
 
 /* One segment as the world holds it (haustra_world_segment). */

@@ -93,8 +93,9 @@ class World {
   [[nodiscard]] std::span<const std::uint8_t> anchors_intact() const;  // 1 while it holds
   // Each anchor's tension now, N (0 once torn or cut), into out (anchor_count() values).
   void anchor_tensions(std::span<double> out) const;
-  // Dissection: cuts every intact anchor whose tissue (from its node to its target) passes within
-  // `radius` of `centre` (m), records a `cut` event per range, and returns how many it cut.
+  // Dissection: cuts every intact anchor whose tissue (from the tube's wall round its node to its
+  // target) passes within `radius` of `centre` (m), records a `cut` event per range, and returns how
+  // many it cut.
   std::size_t cut_tissue(const Eigen::Vector3d& centre, double radius);
 
   // Instruments. Setting a pose hands the instrument from its script to the host for good. A proxy

@@ -68,6 +68,10 @@ struct MaterialDesc {
   double exp2_alpha = 8.0;
   double exp2_beta = 6.7e3;    // Pa
   double exp2_gamma = 20.0e3;  // Pa
+  // The axial strain at which the wall tears (Egorov et al. 2002: 1.4 for small, 1.8 for large
+  // bowel, the smaller taken): a coupled grasp pulling its organ past it anywhere lets go, the
+  // tissue torn out of its jaws (an event, decision 0096), where the pull would go on stretching it.
+  double failure_strain = 1.4;
 };
 
 struct CrossSectionDesc {
@@ -116,12 +120,16 @@ struct AnchorsDesc {
   double from = 0.0, to = 1.0;  // fractions of the rod's rest length (a chain's: of the whole chain)
   AnchorTarget target = AnchorTarget::rest;
   std::vector<Eigen::Vector3d> root;  // m, two points or more (target = root)
-  // Defaults: decision 0095 (porcine mesentery and peritoneum, White et al. 2018, as a sheet of
-  // ~1 mm): 5 kN/m² holds a 0.33 kg/m bowel within 0.7 mm of its place.
-  double stiffness = 5000.0;  // N/m per metre of organ (N/m²)
+  // The tether (the mesentery, the peritoneal attachments; decision 0095 for the defaults: porcine
+  // mesentery, White et al. 2018, as a sheet ~1 mm thick in its toe region): pulls the node back
+  // from any side, and holds its frame (× the tube's radius²).
+  double stiffness = 1000.0;  // N/m per metre of organ (N/m²)
   double damping = 50.0;      // N·s/m per metre of organ (N·s/m²), on the node's velocity
   double slack = 0.0;         // m of free play before the spring pulls (beyond the rest distance)
   double strength = 1000.0;   // N per metre of organ: an anchor tears past this times its length; 0: never
+  // The support (the organs and the wall below): against sinking along gravity only, so the organ
+  // rests on it and a grasper lifts it freely. 0: none (the tether alone carries the weight).
+  double support = 0.0;  // N/m per metre of organ (N/m²)
 };
 
 // Beads: rigid spheres centred on chosen nodes, for collision (the paper: 55 beads on 167 nodes).

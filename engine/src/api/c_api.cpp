@@ -210,9 +210,10 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& d, std::size_t i) {
   s.material.exp2_alpha = d.exp2_alpha;
   s.material.exp2_beta = d.exp2_beta;
   s.material.exp2_gamma = d.exp2_gamma;
-  if (d.anchor_stiffness != 0.0) {  // checked with the scene's fields, a negative one refused by name
+  if (d.anchor_stiffness != 0.0 || d.anchor_support != 0.0) {  // checked as the scene's fields
     haustra::AnchorsDesc a;
     a.stiffness = d.anchor_stiffness;
+    a.support = d.anchor_support;
     a.damping = d.anchor_damping;
     a.slack = d.anchor_slack;
     a.strength = d.anchor_strength;

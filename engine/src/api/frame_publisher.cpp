@@ -25,6 +25,7 @@ void FramePublisher::size_slot(Slot& s, const World& w) const {
   s.details.rest_strain.resize(4 * w.node_count());
   s.details.instruments.resize(w.instrument_count());
   s.details.cages.resize(w.segment_count());
+  s.details.anchors_intact.resize(w.anchor_count());
 }
 
 void FramePublisher::publish(const World& world) {
@@ -97,6 +98,8 @@ void FramePublisher::fill(Slot& s, const World& w) const {
   const auto contacts = w.contact_list();
   d.contacts.assign(contacts.begin(), contacts.end());  // grows once to the largest pile
   for (std::size_t i = 0; i < w.instrument_count(); ++i) d.instruments[i] = w.instrument(i);
+  const auto intact = w.anchors_intact();
+  std::copy(intact.begin(), intact.end(), d.anchors_intact.begin());
   for (std::size_t g = 0; g < w.segment_count(); ++g) {
     if (cages_ && w.mesh(g).enabled)
       d.cages[g] = w.cage_vertices(g);

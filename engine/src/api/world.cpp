@@ -264,7 +264,7 @@ Energy World::energy() const {
   Energy e;
   for (std::size_t s = 0; s < impl_->model.segments.size(); ++s) {
     const Energy es = detail::segment_energy(impl_->model, impl_->state, impl_->state.now.strain,
-                                             impl_->state.now.position.view(), s);
+                                             impl_->state.now.position.view(), impl_->state.now.rotation.view(), s);
     e.elastic += es.elastic;
     e.gravity += es.gravity;
     e.tissue += es.tissue;

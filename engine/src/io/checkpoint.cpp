@@ -65,6 +65,7 @@ ModelHeader header_of(const WorldModel& m) {
   f = hash_doubles(f, m.anchors.damping);
   f = hash_doubles(f, m.anchors.slack);
   f = hash_doubles(f, m.anchors.strength);
+  f = hash_doubles(f, m.anchors.support);
   for (const Eigen::Vector3d& t : m.anchors.target) f = fnv1a(std::as_bytes(std::span(t.data(), 3)), f);
   h.fingerprint = f;
   return h;

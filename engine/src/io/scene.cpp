@@ -198,7 +198,8 @@ void read_anchors(const Reader& r, const toml::table& t, const std::string& path
   for (std::size_t i = 0; i < ranges.size(); ++i) {
     const toml::table& a = *ranges[i];
     const std::string ap = fmt::format("{}.anchors[{}]", path, i);
-    r.check_keys(a, ap, {"name", "from", "to", "target", "root", "stiffness", "damping", "slack", "strength"});
+    r.check_keys(a, ap,
+                 {"name", "from", "to", "target", "root", "stiffness", "damping", "slack", "strength", "support"});
     AnchorsDesc d;
     d.name = r.string(a, "name", ap + ".name", d.name);
     d.from = r.number(a, "from", ap + ".from", d.from);
@@ -211,6 +212,7 @@ void read_anchors(const Reader& r, const toml::table& t, const std::string& path
     d.damping = r.number(a, "damping", ap + ".damping", d.damping);
     d.slack = r.number(a, "slack", ap + ".slack", d.slack);
     d.strength = r.number(a, "strength", ap + ".strength", d.strength);
+    d.support = r.number(a, "support", ap + ".support", d.support);
     s.anchors.push_back(std::move(d));
   }
 }
@@ -222,7 +224,7 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
                          "drag",          "radius",        "wall_thickness", "youngs_modulus",
                          "poisson_ratio", "density",       "linear_density", "relaxation_time",
                          "attachment",    "load",          "beads",          "mesh",
-                         "chain",         "tissue",        "anchors"});
+                         "chain",         "tissue",        "anchors",        "failure_strain"});
   SegmentDesc s;
   s.name = r.string(t, "name", path + ".name", path);
   s.nodes = r.integer(t, "nodes", path + ".nodes", s.nodes);
@@ -240,6 +242,7 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
   s.material.density = r.number(t, "density", path + ".density", s.material.density);
   s.linear_density = r.optional_number(t, "linear_density", path + ".linear_density");
   s.relaxation_time = r.number(t, "relaxation_time", path + ".relaxation_time", s.relaxation_time);
+  s.material.failure_strain = r.number(t, "failure_strain", path + ".failure_strain", s.material.failure_strain);
 
   read_rest(r, t, path, scene_dir, s);
   read_tissue_and_law(r, t, path, s);

@@ -44,8 +44,9 @@ void check_anchors(const SegmentDesc& d, const std::string& where) {
     check_range(w + ".damping", a.damping, 0.0, 1e9, "a damping per length of organ in N·s/m²");
     check_range(w + ".slack", a.slack, 0.0, 10.0, "a slack in m");
     check_range(w + ".strength", a.strength, 0.0, 1e9, "a strength per length of organ in N/m (0: never tears)");
-    if (a.stiffness == 0.0 && a.damping == 0.0)
-      fail(w + ".stiffness", "an anchor with neither stiffness nor damping holds nothing");
+    check_range(w + ".support", a.support, 0.0, 1e9, "a support stiffness per length of organ in N/m² (0: none)");
+    if (a.stiffness == 0.0 && a.damping == 0.0 && a.support == 0.0)
+      fail(w + ".stiffness", "an anchor with neither stiffness, damping nor support holds nothing");
     if (a.target == AnchorTarget::root) {
       if (a.root.size() < 2)
         fail(w + ".root", fmt::format("expected a root line of two points or more, [[x, y, z], ...] in m, got {}",
@@ -86,6 +87,7 @@ void check_segment_desc(const WorldDesc& desc, const SegmentDesc& d, const std::
   check_positive(where + ".youngs_modulus", d.material.youngs_modulus, "Pa", 1e12);
   check_range(where + ".poisson_ratio", d.material.poisson_ratio, 0.0, 0.4999, "a Poisson ratio");
   check_positive(where + ".density", d.material.density, "kg/m³", 1e5);
+  check_positive(where + ".failure_strain", d.material.failure_strain, "(axial strain)", 1e3);
   if (d.linear_density) check_positive(where + ".linear_density", *d.linear_density, "kg/m", 1e4);
   if (d.material.response == TissueResponse::exp2) {
     check_range(where + ".tissue.alpha", d.material.exp2_alpha, 0.0, 1e3, "α ≥ 0 (it multiplies ε²)");

@@ -71,6 +71,7 @@ void set_material(const WorldDesc& desc, const SegmentDesc& d, SegmentModel& seg
   seg.exp2 = d.material.response == TissueResponse::exp2;
   seg.tissue = {d.material.exp2_alpha, d.material.exp2_beta, d.material.exp2_gamma};
   seg.tube = {r, hw};
+  seg.failure_strain = d.material.failure_strain;
 }
 
 // The rod's per-node arrays: sections, rest strains, lumped masses and drags, the mass matrix's
@@ -182,7 +183,8 @@ Eigen::Vector3d nearest_on_polyline(const std::vector<Eigen::Vector3d>& line, co
 
 // The segment's connective tissue: an anchor on every node whose rest arc length lies in a range,
 // holding the node's share of the rod (half of each section beside it) with the range's stiffness,
-// damping and strength per length, towards its rest place or the nearest point of the root line.
+// damping and strength per length, towards its rest place (and rest frame) or the nearest point of
+// the root line.
 void append_anchors(const SegmentDesc& d, const std::string& where, const RestShape& rest,
                     const kernels::RodPoses<double>& poses, SegmentModel& seg, WorldModel& m) {
   const std::size_t n = seg.node_count;
@@ -206,6 +208,13 @@ void append_anchors(const SegmentDesc& d, const std::string& where, const RestSh
       m.anchors.damping.push_back(a.damping * share);
       m.anchors.slack.push_back(a.slack + (target - at).norm());
       m.anchors.strength.push_back(a.strength > 0.0 ? a.strength * share : std::numeric_limits<double>::infinity());
+      m.anchors.support.push_back(a.support * share);
+      m.anchors.wall.push_back(d.cross_section.radius);
+      // Held round the wall: a turn of the tube by θ stretches the tissue by R θ.
+      const double lever2 = a.target == AnchorTarget::rest ? d.cross_section.radius * d.cross_section.radius : 0.0;
+      m.anchors.rest_rotation.push_back(poses.node_rotation.get(k));
+      m.anchors.turn_stiffness.push_back(a.stiffness * share * lever2);
+      m.anchors.turn_damping.push_back(a.damping * share * lever2);
       range.count += 1;
     }
     if (range.count == 0)

@@ -51,6 +51,7 @@ struct SegmentModel {
   kernels::Exp2Tissue tissue;
   kernels::TubeSection tube;
   BaseMode base_mode = BaseMode::clamped;
+  double failure_strain = 0.0;  // axial: a coupled grasp pulling past it lets go
   bool has_drag = false;
   kernels::Pose initial_base;
   std::vector<AttachmentModel> attachments;
@@ -114,6 +115,13 @@ struct AnchorModel {
   std::vector<double> damping;          // N·s/m, likewise
   std::vector<double> slack;            // m; a root anchor's rest distance included
   std::vector<double> strength;         // N; infinity: never tears
+  std::vector<double> support;          // N/m against sinking along gravity
+  std::vector<double> wall;             // m from the node to the wall, where the tissue holds the tube
+  // Its hold on the node's frame towards the rest frame (a rest anchor's: stiffness and damping
+  // per length × the tube's radius², as tissue fixed round the wall; a root's tether holds none).
+  std::vector<Eigen::Quaterniond> rest_rotation;
+  std::vector<double> turn_stiffness;  // N·m/rad
+  std::vector<double> turn_damping;    // N·m·s/rad
   [[nodiscard]] std::size_t size() const { return node.size(); }
 };
 

@@ -1,25 +1,48 @@
 // Connective tissue in the frame: anchors' responses and energy, tearing, cutting.
 #include "step/anchors.hpp"
 
+#include "haustra/kernels/pose.hpp"
+
 #include <algorithm>
 #include <cmath>
 
 namespace haustra::detail {
+namespace {
+
+// Gravity's direction (what the support carries against), or none in a world without it.
+Eigen::Vector3d down(const WorldModel& model) {
+  const double g = model.gravity.norm();
+  return g > 0.0 ? Eigen::Vector3d(model.gravity / g) : Eigen::Vector3d::Zero();
+}
+
+}  // namespace
 
 kernels::AnchorResponse anchor_response(const WorldModel& model, const WorldState& state, std::size_t a, double dt) {
   const AnchorModel& an = model.anchors;
   const std::size_t node = an.node[a];
   return kernels::tissue_anchor(state.now.position.view().get(node), state.position_substep_start.view().get(node),
-                                an.target[a], an.stiffness[a], an.slack[a], an.damping[a] / dt);
+                                an.target[a], an.stiffness[a], an.slack[a], an.damping[a] / dt, an.support[a],
+                                down(model));
+}
+
+kernels::AnchorTurn anchor_turn(const WorldModel& model, const WorldState& state, std::size_t a, double dt) {
+  const AnchorModel& an = model.anchors;
+  const std::size_t node = an.node[a];
+  return kernels::tissue_anchor_turn(state.now.rotation.view().get(node), state.rotation_substep_start.view().get(node),
+                                     an.rest_rotation[a], an.turn_stiffness[a], an.turn_damping[a] / dt);
 }
 
 double anchor_energy(const WorldModel& model, const WorldState& state, kernels::Vec3View<const double> position,
-                     std::size_t rod) {
+                     kernels::RotationView<const double> rotation, std::size_t rod) {
   const AnchorModel& an = model.anchors;
   double energy = 0.0;
   for_each_intact_anchor(model, state, rod, [&](std::size_t a, std::size_t node) {
-    const double stretch = std::max(0.0, (position.get(node) - an.target[a]).norm() - an.slack[a]);
-    energy += 0.5 * an.stiffness[a] * stretch * stretch;
+    const Eigen::Vector3d d = position.get(node) - an.target[a];
+    const double stretch = std::max(0.0, d.norm() - an.slack[a]), sunk = std::max(0.0, d.dot(down(model)));
+    energy += 0.5 * an.stiffness[a] * stretch * stretch + 0.5 * an.support[a] * sunk * sunk;
+    if (an.turn_stiffness[a] > 0.0)
+      energy += 0.5 * an.turn_stiffness[a] *
+                kernels::rotation_angle_squared(rotation.get(node) * an.rest_rotation[a].conjugate());
   });
   return energy;
 }
@@ -53,8 +76,9 @@ void cut_anchors(const WorldModel& model, WorldState& state, const Eigen::Vector
   const AnchorModel& an = model.anchors;
   const auto pos = state.now.position.view();
   for (std::size_t a = 0; a < an.size(); ++a) {
-    // The tissue runs from the node to where it is held: cut where the sphere meets it.
-    if (state.now.anchor_intact[a] == 0 || distance_to_segment(centre, pos.get(an.node[a]), an.target[a]) > radius)
+    // The tissue runs from the tube's wall to where it is held: cut where the sphere meets it.
+    if (state.now.anchor_intact[a] == 0 ||
+        distance_to_segment(centre, pos.get(an.node[a]), an.target[a]) > radius + an.wall[a])
       continue;
     state.now.anchor_intact[a] = 0;
     cut.push_back({a, 0.0});

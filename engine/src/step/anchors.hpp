@@ -23,12 +23,14 @@ void for_each_intact_anchor(const WorldModel& model, const WorldState& state, st
 }
 
 // Anchor a at the current iterate: spring towards its target and damper on the node's motion over
-// the substep (dt: the substep's).
+// the substep (dt: the substep's); and its hold on the node's frame.
 kernels::AnchorResponse anchor_response(const WorldModel& model, const WorldState& state, std::size_t a, double dt);
+kernels::AnchorTurn anchor_turn(const WorldModel& model, const WorldState& state, std::size_t a, double dt);
 
-// The springs' stored energy of `rod`'s intact anchors at `position` (the guard's energy balance).
+// The springs' stored energy of `rod`'s intact anchors at `position` and `rotation` (the guard's
+// energy balance).
 double anchor_energy(const WorldModel& model, const WorldState& state, kernels::Vec3View<const double> position,
-                     std::size_t rod);
+                     kernels::RotationView<const double> rotation, std::size_t rod);
 
 // After an accepted frame: every intact anchor whose tension exceeds its strength tears. Appends
 // each torn anchor and its tension to `torn` (capacity: every anchor, so nothing allocates).
@@ -38,8 +40,8 @@ struct TornAnchor {
 };
 void tear_anchors(const WorldModel& model, WorldState& state, std::vector<TornAnchor>& torn);
 
-// Cuts every intact anchor whose tissue (from its node to its target) passes within `radius` of
-// `centre`, appending each to `cut` (capacity: every anchor).
+// Cuts every intact anchor whose tissue (from the tube's wall round its node to its target)
+// passes within `radius` of `centre`, appending each to `cut` (capacity: every anchor).
 void cut_anchors(const WorldModel& model, WorldState& state, const Eigen::Vector3d& centre, double radius,
                  std::vector<TornAnchor>& cut);
 

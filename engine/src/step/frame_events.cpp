@@ -82,11 +82,15 @@ Event World::Impl::slipped_event(std::size_t instrument) const {
   std::tie(e.segment, e.node) = piece_of(s.grasp_segment, node);
   e.stage = Stage::report;
   const auto name = std::string_view(model.pieces[e.segment].info.name);
-  char* it =
-      append(e, e.text.data(),
-             "frame {}: instrument '{}' ({}) lost its grasp on segment '{}' ({}), node {}: pulled with {:.3g} N, "
-             "more than its holding force {:.3g} N; close it again to grasp anew",
-             state.frame, d.name, instrument, name, e.segment, e.node, s.slip_pull, d.holding_force);
+  char* it = append(e, e.text.data(), "frame {}: instrument '{}' ({}) lost its grasp on segment '{}' ({}), node {}: ",
+                    state.frame, d.name, instrument, name, e.segment, e.node);
+  if (s.slip_strain > 0.0)
+    it = append(e, it, "the organ it pulled stretched to {:.3g}, past the strain its wall takes ({:.3g}): torn out of "
+                "its jaws",
+                s.slip_strain, model.segments[s.grasp_segment].failure_strain);
+  else
+    it = append(e, it, "pulled with {:.3g} N, more than its holding force {:.3g} N", s.slip_pull, d.holding_force);
+  it = append(e, it, "; close it again to grasp anew");
   terminate_text(e, it);
   return e;
 }

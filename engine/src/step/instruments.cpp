@@ -76,6 +76,15 @@ void grasp(const WorldModel& model, WorldState& state, std::size_t i) {
   s.grasp_bead = static_cast<std::uint32_t>(chosen);
 }
 
+// The largest axial strain of a rod's nodes.
+double largest_axial_strain(const WorldModel& model, const WorldState& state, std::size_t rod) {
+  const SegmentModel& seg = model.segments[rod];
+  double largest = 0.0;
+  for (std::size_t k = seg.node_offset; k < seg.node_offset + seg.node_count; ++k)
+    largest = std::max(largest, state.now.strain[4 * k + 3]);
+  return largest;
+}
+
 void release(WorldState& state, std::size_t i) {
   InstrumentState& s = state.instruments[i];
   AttachmentState& as = state.now.attachment[s.grasp_attachment];
@@ -179,11 +188,15 @@ void instrument_forces(const WorldModel& model, WorldState& state, double dt, st
       force += s.coupling_force;
       torque += (x - s.tip).cross(s.coupling_force);
       // Pulled harder than the jaws hold: the tissue slips out (the spring's own force, before the
-      // limit caps it, so that a limit above the holding force still lets go).
-      if (d.holding_force > 0.0 && c.unsaturated > d.holding_force) {
+      // limit caps it, so that a limit above the holding force still lets go). Or pulled past
+      // what the wall takes: it tears out of the jaws.
+      const double stretched = largest_axial_strain(model, state, s.grasp_segment);
+      const bool slips = d.holding_force > 0.0 && c.unsaturated > d.holding_force;
+      if (slips || stretched > model.segments[s.grasp_segment].failure_strain) {
         release(state, i);
         s.slipped = true;
         s.slip_pull = c.unsaturated;
+        s.slip_strain = slips ? 0.0 : stretched;
         slipped.push_back(i);
       }
     } else if (s.grasping) {

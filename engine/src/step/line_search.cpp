@@ -123,7 +123,9 @@ double part_potential(const WorldModel& model, const WorldState& state, std::siz
         grasp_coupling(model.instruments[i], state.instruments[i], pos.get(node), r0.get(node), p.dt, model.dt).energy;
   });
   for_each_intact_anchor(model, state, rod, [&](std::size_t anchor, std::size_t node) {
-    if (node >= off + r.first && node < off + r.end) loads += anchor_response(model, state, anchor, p.dt).energy;
+    if (node < off + r.first || node >= off + r.end) return;
+    loads += anchor_response(model, state, anchor, p.dt).energy;
+    if (model.anchors.turn_stiffness[anchor] > 0.0) loads += anchor_turn(model, state, anchor, p.dt).energy;
   });
   return law + loads;
 }

@@ -82,6 +82,7 @@ void linearize(const WorldModel& model, WorldState& state, std::size_t segment, 
     });
     for_each_intact_anchor(model, state, segment, [&](std::size_t a, std::size_t node) {
       ws.force_stiffness[node - seg.node_offset] += anchor_response(model, state, a, p.dt).stiffness;
+      ws.drag_moment_rate[node - seg.node_offset] += anchor_turn(model, state, a, p.dt).stiffness;
     });
   }
   // q* = (k q̂ + (η/Δt) q_start) / a: the linear law's centre (and the line search's).

@@ -83,6 +83,8 @@ void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment
   for_each_intact_anchor(model, state, segment, [&](std::size_t a, std::size_t node) {
     const std::size_t k = node - seg.node_offset;
     v.force.set(k, v.force.get(k) + anchor_response(model, state, a, p.dt).force);
+    if (model.anchors.turn_stiffness[a] > 0.0)
+      v.moment.set(k, v.moment.get(k) + anchor_turn(model, state, a, p.dt).moment);
   });
   if (!p.newton) return;
   // Newton solves for increments of the constraint forces; their current totals are loads.
@@ -330,7 +332,8 @@ double attachment_miss(const WorldModel& model, const WorldState& state, std::si
 }
 
 Energy segment_energy(const WorldModel& model, const WorldState& state, std::span<const double> strain,
-                      kernels::Vec3View<const double> position, std::size_t segment) {
+                      kernels::Vec3View<const double> position, kernels::RotationView<const double> rotation,
+                      std::size_t segment) {
   const SegmentModel& seg = model.segments[segment];
   const std::size_t off = seg.node_offset, n = seg.node_count;
   Energy e;
@@ -356,7 +359,7 @@ Energy segment_energy(const WorldModel& model, const WorldState& state, std::spa
         std::span<const double>(model.section_length).subspan(off, n), law);
   }
   for (std::size_t k = 0; k < n; ++k) e.gravity -= model.node_mass[off + k] * model.gravity.dot(position.get(off + k));
-  e.tissue = anchor_energy(model, state, position, segment);
+  e.tissue = anchor_energy(model, state, position, rotation, segment);
   return e;
 }
 
@@ -526,8 +529,12 @@ GuardResult guard_energy(const WorldModel& model, const WorldState& state, std::
     const double work = outside_work_bound(model, state, segment);
     if (work >= 0.0) {
       const double before =
-          segment_energy(model, state, state.frame_start.strain, state.frame_start.position.view(), segment).total();
-      const double after = segment_energy(model, state, state.now.strain, state.now.position.view(), segment).total();
+          segment_energy(model, state, state.frame_start.strain, state.frame_start.position.view(),
+                         state.frame_start.rotation.view(), segment)
+              .total();
+      const double after = segment_energy(model, state, state.now.strain, state.now.position.view(),
+                                          state.now.rotation.view(), segment)
+                               .total();
       double weight = 0.0;
       for (std::size_t node = off; node < off + n; ++node) weight += model.node_mass[node];
       const double allowance =
@@ -595,7 +602,7 @@ void stage_snapshot(const WorldModel& model, WorldState& state, std::size_t segm
   copy(state.now.position.x, state.position_substep_start.x);
   copy(state.now.position.y, state.position_substep_start.y);
   copy(state.now.position.z, state.position_substep_start.z);
-  if (newton && seg.has_drag) {
+  if (seg.has_drag || seg.anchor_count > 0) {  // the spin drag's and the anchors' turn dampers
     copy(state.now.rotation.w, state.rotation_substep_start.w);
     copy(state.now.rotation.x, state.rotation_substep_start.x);
     copy(state.now.rotation.y, state.rotation_substep_start.y);

@@ -47,7 +47,8 @@ void stage_filter(const WorldModel& model, WorldState& state, std::size_t segmen
 // world's arrays): what its elastic and Kelvin–Voigt components store, ½ Σ k_c Δqᵀ M Δq, its
 // weight's −Σ m_k g·r_k, and what its intact anchors' springs store (state: which hold).
 Energy segment_energy(const WorldModel& model, const WorldState& state, std::span<const double> strain,
-                      kernels::Vec3View<const double> position, std::size_t segment);
+                      kernels::Vec3View<const double> position, kernels::RotationView<const double> rotation,
+                      std::size_t segment);
 
 struct GuardResult {
   bool ok = true;

@@ -305,7 +305,8 @@ struct InstrumentState {
   Eigen::Vector3d grasp_target = Eigen::Vector3d::Zero(), target_start = Eigen::Vector3d::Zero();
   Eigen::Vector3d coupling_force = Eigen::Vector3d::Zero();
   bool slipped = false;
-  double slip_pull = 0.0;  // N: the spring's force when it slipped (for the event's text)
+  double slip_pull = 0.0;    // N: the spring's force when it slipped (for the event's text)
+  double slip_strain = 0.0;  // the organ's axial strain when it tore out of the jaws (0: it slipped)
   Eigen::Vector3d force = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
   Eigen::Vector3d filtered_force = Eigen::Vector3d::Zero(), filtered_torque = Eigen::Vector3d::Zero();
 };

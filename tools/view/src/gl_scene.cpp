@@ -118,6 +118,8 @@ const Rgb kBead{0.55f, 0.62f, 0.85f};
 const Rgb kCage{0.15f, 0.35f, 0.95f};
 const Rgb kCentreline{0.95f, 0.80f, 0.10f};
 const Rgb kContact{0.95f, 0.10f, 0.08f};
+const Rgb kAnchor{0.25f, 0.70f, 0.30f};  // connective tissue that holds
+const Rgb kTorn{0.85f, 0.05f, 0.55f};    // where it tore or was cut
 const Rgb kInstrument{0.55f, 0.57f, 0.60f};
 const Rgb kObstacle{0.60f, 0.63f, 0.55f};
 const Rgb kFloor{0.78f, 0.78f, 0.76f};
@@ -248,6 +250,19 @@ void GlScene::build_overlays(const FramePublisher::Slot& f, const ModelInfo& m, 
           if (a < b && a < cv.size() && b < cv.size()) line(lines_, cv[a], cv[b], kCage);
         }
     }
+  if (o.anchors) {
+    // Intact anchors as lines from their node to where they hold it (long ones are pulled hard);
+    // torn or cut ones as a dot where the tissue was, so a surgeon sees what let go.
+    const double dot = 0.006 * subject_size_;
+    render::Soup torn;
+    for (std::size_t a = 0; a < m.anchor_nodes.size() && a < d.anchors_intact.size(); ++a) {
+      if (d.anchors_intact[a] != 0)
+        line(lines_, node(f, m.anchor_nodes[a]), m.anchor_targets[a], kAnchor);
+      else
+        render::add_sphere(torn, m.anchor_targets[a], dot, 4);
+    }
+    append(opaque_, torn, kTorn);
+  }
   if (o.contacts) {
     const double r = 0.01 * subject_size_;
     for (const Contact& c : d.contacts)

@@ -16,6 +16,7 @@ enum class Colouring : int { tissue = 0, strain = 1, penetration = 2 };
 
 struct DrawOptions {
   bool beads = false, cage = false, centreline = false, contacts = false;
+  bool anchors = true;  // connective tissue: intact anchors as lines to their targets, torn ones marked
   Colouring colour = Colouring::tissue;
   double strain_range = 10.0;  // 1/m at the top of the colour map
   bool show_mouse = false;     // the mouse's grasper (while it holds or presses)

@@ -7,6 +7,11 @@
 #include <numbers>
 
 namespace haustra::view {
+namespace {
+
+constexpr double kCutRadius = 0.01;  // m: the dissection tool cuts the tissue within this of the pointer
+
+}  // namespace
 
 std::optional<BeadHit> pick_bead(const Ray& ray, const std::vector<Eigen::Vector3d>& centres,
                                  const std::vector<double>& radii) {
@@ -40,6 +45,17 @@ void mouse_press(ViewerState& v, Button button, double x, double y) {
   if (!hit) {
     m.mode = MouseState::Mode::orbiting;
     v.events.push_back(e);
+    return;
+  }
+  if (m.shift) {  // the dissection tool: cut the tissue where the press meets the organ, and along the drag
+    m.mode = MouseState::Mode::cutting;
+    m.hit = hit->point;
+    v.sim.post(CutAt{m.hit, kCutRadius});
+    e.on_organ = true;
+    e.bead = hit->bead;
+    e.hit = hit->point;
+    v.events.push_back(e);
+    v.note(fmt::format("cutting at bead {} (node {})", hit->bead, v.model->bead_nodes[hit->bead]));
     return;
   }
   // The grasper's tip just outside the bead, its shaft towards the eye: the engine's grasp takes
@@ -76,6 +92,10 @@ void mouse_move(ViewerState& v, double x, double y) {
       v.sim.post(MoveTip{m.hit + m.offset});
       break;
     }
+    case MouseState::Mode::cutting:
+      m.hit = intersect_plane(v.camera.ray(x, y), m.hit, v.camera.forward());
+      v.sim.post(CutAt{m.hit, kCutRadius});
+      break;
     case MouseState::Mode::orbiting: v.camera.orbit(dx, dy); break;
     case MouseState::Mode::panning: v.camera.pan(dx, dy); break;
     case MouseState::Mode::idle: break;

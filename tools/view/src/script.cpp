@@ -24,7 +24,8 @@ const Shape* shape_of(const std::string& command) {
                                                          {"move", {2, 4, "move X Y [FRAMES] | move by DX DY [FRAMES]"}},
                                                          {"release", {0, 0, "release"}},
                                                          {"ctrl", {1, 1, "ctrl down|up"}},
-                                                         {"toggle", {1, 1, "toggle beads|cage|centreline|contacts"}},
+                                                         {"shift", {1, 1, "shift down|up"}},
+                                                         {"toggle", {1, 1, "toggle beads|cage|centreline|contacts|tissue"}},
                                                          {"colour", {1, 1, "colour tissue|strain|penetration"}},
                                                          {"knob", {2, 4, "knob NAME VALUE"}},
                                                          {"pause", {0, 0, "pause"}},
@@ -71,7 +72,7 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
     const Shape* shape = shape_of(l.command);
     if (shape == nullptr)
       throw Error(ErrorCode::parse,
-                  fmt::format("{}: unknown command '{}' (wait, press, move, release, ctrl, toggle, "
+                  fmt::format("{}: unknown command '{}' (wait, press, move, release, ctrl, shift, toggle, "
                               "colour, knob, pause, resume, step, reset, save, restore, screenshot, quit)",
                               where, l.command));
     if (l.words.size() < shape->min_words || l.words.size() > shape->max_words)
@@ -93,8 +94,8 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
     if ((l.command == "wait" || l.command == "move") && l.frames < (l.command == "move" ? 1 : 0))
       throw Error(ErrorCode::parse, fmt::format("{}: the number of frames must be {}", where,
                                                 l.command == "move" ? "at least 1" : "0 or more"));
-    if (l.command == "ctrl") check_word(l.words[0], {"down", "up"}, where);
-    if (l.command == "toggle") check_word(l.words[0], {"beads", "cage", "centreline", "contacts"}, where);
+    if (l.command == "ctrl" || l.command == "shift") check_word(l.words[0], {"down", "up"}, where);
+    if (l.command == "toggle") check_word(l.words[0], {"beads", "cage", "centreline", "contacts", "tissue"}, where);
     if (l.command == "colour") check_word(l.words[0], {"tissue", "strain", "penetration"}, where);
     if (l.command == "knob" && l.words.size() > 2) {  // gravity takes three numbers
       l.words[1] = fmt::format("{}", fmt::join(l.words.begin() + 1, l.words.end(), " "));

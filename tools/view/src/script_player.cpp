@@ -49,11 +49,14 @@ bool ScriptPlayer::tick(ViewerState& v) {
       mouse_release(v, Button::left);
     } else if (l.command == "ctrl") {
       v.mouse.ctrl = l.words[0] == "down";
+    } else if (l.command == "shift") {
+      v.mouse.shift = l.words[0] == "down";
     } else if (l.command == "toggle") {
       const std::string& w = l.words[0];
       bool& flag = w == "beads"        ? v.draw.beads
                    : w == "cage"       ? v.draw.cage
                    : w == "centreline" ? v.draw.centreline
+                   : w == "tissue"     ? v.draw.anchors
                                        : v.draw.contacts;
       flag = !flag;
       if (w == "cage") v.sim.frames().want_cages(flag);

@@ -140,6 +140,8 @@ void Simulation::publish_model() {
   info->vertex_node = render::nearest_nodes(w);
   info->bead_nodes.assign(w.bead_nodes().begin(), w.bead_nodes().end());
   info->bead_radii.assign(w.bead_radii().begin(), w.bead_radii().end());
+  info->anchor_nodes.assign(w.anchor_nodes().begin(), w.anchor_nodes().end());
+  info->anchor_targets.assign(w.anchor_targets().begin(), w.anchor_targets().end());
   info->mouse = w.instrument_count() - 1;
   std::lock_guard lock(model_mutex_);
   model_ = std::move(info);
@@ -187,6 +189,9 @@ void Simulation::apply(Command& command) {
         } else if constexpr (std::is_same_v<T, Release>) {
           w.set_instrument_grasp(mouse, false);
           park_after_step_ = true;
+        } else if constexpr (std::is_same_v<T, CutAt>) {
+          const std::size_t cut = w.cut_tissue(c.centre, c.radius);
+          if (cut > 0) log(fmt::format("cut {} anchor{} of connective tissue", cut, cut == 1 ? "" : "s"));
         } else if constexpr (std::is_same_v<T, SetPaused>) {
           if (!c.paused && unstable_) {  // Run after a stop: say why it does not
             log(fmt::format("cannot run: {} (reset, restore a checkpoint or change a knob)", stop_reason_));

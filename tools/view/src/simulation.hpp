@@ -33,6 +33,8 @@ struct ModelInfo {
   std::vector<std::vector<std::array<std::uint32_t, 3>>> cage_triangles;  // per segment
   std::vector<std::uint32_t> bead_nodes;
   std::vector<double> bead_radii;
+  std::vector<std::uint32_t> anchor_nodes;  // connective tissue: the node each anchor holds ...
+  std::vector<Eigen::Vector3d> anchor_targets;  // ... and where
   std::size_t mouse = 0;  // the instrument the mouse drives (the viewer adds it to the scene)
 };
 
@@ -43,6 +45,11 @@ struct MoveTip {
   Eigen::Vector3d tip;
 };
 struct Release {};
+// The dissection tool: cut the connective tissue within `radius` of `centre` (decision 0095).
+struct CutAt {
+  Eigen::Vector3d centre;
+  double radius;
+};
 struct SetPaused {
   bool paused;
 };
@@ -56,7 +63,8 @@ struct Reconfigure {
   std::string knob, value;
 };
 using Command =
-    std::variant<GraspAt, MoveTip, Release, SetPaused, StepOnce, Reset, SaveCheckpoint, RestoreCheckpoint, Reconfigure>;
+    std::variant<GraspAt, MoveTip, Release, CutAt, SetPaused, StepOnce, Reset, SaveCheckpoint, RestoreCheckpoint,
+                 Reconfigure>;
 
 struct SimulationStats {
   double real_time_factor = 0.0;  // simulated seconds per wall second over the last half second

@@ -45,6 +45,7 @@ void install_input(GLFWwindow* window) {
                      : button == GLFW_MOUSE_BUTTON_MIDDLE ? Button::middle
                                                           : Button::left;
     v.mouse.ctrl = (mods & GLFW_MOD_CONTROL) != 0;
+    v.mouse.shift = (mods & GLFW_MOD_SHIFT) != 0;
     if (action == GLFW_PRESS && !imgui_has_mouse()) mouse_press(v, b, v.mouse.x, v.mouse.y);
     if (action == GLFW_RELEASE) mouse_release(v, b);
   });
@@ -60,6 +61,7 @@ void install_input(GLFWwindow* window) {
     if (key == GLFW_KEY_RIGHT) v.sim.post(StepOnce{});
     if (key == GLFW_KEY_TAB) v.show_panels = !v.show_panels;
     if (key == GLFW_KEY_B) v.draw.beads = !v.draw.beads;
+    if (key == GLFW_KEY_T) v.draw.anchors = !v.draw.anchors;
     if (key == GLFW_KEY_F) v.camera_fitted = false;  // fit the camera to the organ again
     if (key == GLFW_KEY_ESCAPE) glfwSetWindowShouldClose(w, GLFW_TRUE);
   });

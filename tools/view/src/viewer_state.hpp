@@ -31,10 +31,11 @@ struct ForcePlot {
 };
 
 struct MouseState {
-  enum class Mode { idle, grasping, orbiting, panning };
+  enum class Mode { idle, grasping, cutting, orbiting, panning };
   Mode mode = Mode::idle;
   double x = 0, y = 0;  // the pointer, window coordinates
   bool ctrl = false;
+  bool shift = false;  // held with the left button: the dissection tool cuts instead of grasping
   Eigen::Vector3d hit = Eigen::Vector3d::Zero();     // where the press met the bead, then where it is dragged
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // tip − hit
   std::size_t bead = 0;
