@@ -140,8 +140,9 @@ study: build
 	@/usr/bin/python3 scripts/plots.py tradeoff out/tradeoff.csv docs/figures/tradeoff.png
 	@echo "wrote $(abspath docs/tradeoff.md) and $(abspath docs/figures/tradeoff.png)"
 
-# docs/anatomy.md: every surface of ANATOMY imported with the defaults, grasped at the middle and
-# lifted (decision 0052). The surfaces: ../shared/data/anatomy (25 real intestines, its README).
+# docs/anatomy.md: every surface of ANATOMY imported with the defaults and put through the organ
+# protocol: left alone, grasped, pulled 5 cm, released (decision 0097). The surfaces:
+# ../shared/data/anatomy (25 real intestines, its README). About half a minute.
 # The table replaces the old one only when it is whole (its closing "Columns:" note written and no
 # crash): a surface that fails is a row; a crash keeps the old table.
 ANATOMY ?= ../shared/data/anatomy

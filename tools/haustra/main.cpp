@@ -556,7 +556,9 @@ void declare_import(CLI::App& app, Commands& c) {
   c.import_cmd->add_flag("--reverse", c.import_options.reverse, "run the rod from the other end");
 
   c.anatomy_cmd = app.add_subcommand(
-      "anatomy", "import every surface of a folder with the defaults, grasp and lift each: docs/anatomy.md's table");
+            "anatomy",
+      "import every surface of a folder with the defaults and put each through the organ protocol (left alone, "
+      "grasped, pulled 5 cm, released): docs/anatomy.md's table");
   c.anatomy_cmd->add_option("folder", c.anatomy_folder, "folder of surfaces (.obj)")
       ->required()
       ->check(CLI::ExistingDirectory);
@@ -584,7 +586,7 @@ int dispatch(Commands& c) {
     const auto rows = import::run_cohort(c.anatomy_folder, c.anatomy_out, protocol);
     fmt::print("{}", import::cohort_markdown(rows, c.anatomy_folder, protocol));
     std::size_t ok = 0;
-    for (const auto& r : rows) ok += r.ran ? 1 : 0;
+    for (const auto& r : rows) ok += r.holds ? 1 : 0;
     return ok == rows.size() ? 0 : kExitFailedCase;
   }
   if (*c.validate_cmd) return validate(c.json, c.validate_markdown, c.assets);

@@ -320,7 +320,7 @@ void read_environment(const Reader& r, const toml::table& t, const std::filesyst
 InstrumentDesc read_instrument(const Reader& r, const toml::table& t, const std::string& path) {
   r.check_keys(t, path,
                {"name", "radius", "length", "grasp_reach", "hold_frame", "force_filter", "tip", "axis", "keyframe",
-                "coupling_stiffness", "coupling_damping", "force_limit", "holding_force", "cut_radius"});
+                "coupling_stiffness", "coupling_damping", "force_limit", "holding_force", "cut_radius", "proxy"});
   InstrumentDesc d;
   d.name = r.string(t, "name", path + ".name", path);
   d.radius = r.number(t, "radius", path + ".radius", d.radius);
@@ -333,6 +333,7 @@ InstrumentDesc read_instrument(const Reader& r, const toml::table& t, const std:
   d.force_limit = r.number(t, "force_limit", path + ".force_limit", d.force_limit);
   d.holding_force = r.number(t, "holding_force", path + ".holding_force", d.holding_force);
   d.cut_radius = r.number(t, "cut_radius", path + ".cut_radius", d.cut_radius);
+  d.proxy = r.boolean(t, "proxy", path + ".proxy", d.proxy);
   d.tip = r.vec3(t, "tip", path + ".tip", d.tip);
   d.axis = r.vec3(t, "axis", path + ".axis", d.axis);
   const auto keyframes = r.tables(t, "keyframe", path + ".keyframe");
