@@ -283,10 +283,9 @@ void World::Impl::report() {
   if (model.beads.size() > 0 || !model.instruments.empty() || model.anchors.size() > 0)
     timed(Stage::report, [&] {
       slipped.clear();
-      // The proxies once more for where the frame left the beads and the grasps: the force each
-      // reports is its coupling's, within what its grasp leaves of the limit.
-      if (any_proxy)
-        (void)detail::stage_instrument_proxies(model, state, model.dt / state.robust_substeps, model.dt, true);
+      // The proxies once more for where the frame left the beads: the force each reports is its
+      // capsule's spring and its grasp's, within what the capsule leaves it.
+      if (any_proxy) (void)detail::stage_instrument_proxies(model, state, model.dt / state.robust_substeps, model.dt);
       detail::instrument_forces(model, state, model.dt, slipped);
       for (const std::size_t i : slipped) record(slipped_event(i));
       if (model.anchors.size() > 0) {

@@ -113,27 +113,17 @@ Eigen::Vector3d minimize(const ProxyProblem& problem, Eigen::Vector3d p) {
   return p;
 }
 
-// The force the instrument's grasp pulls with now (0 when it holds nothing or holds rigidly): over
-// the substep, or at the frame's end over the whole frame (as instrument_forces reports it).
-double grasp_pull(const WorldModel& model, const WorldState& state, std::size_t i, double dt, double frame_dt,
-                  bool frame_end) {
-  const InstrumentState& s = state.instruments[i];
-  if (!s.grasping || !s.coupled) return 0.0;
-  const auto pos = state.now.position.view();
-  const auto start = frame_end ? state.frame_start.position.view() : state.position_substep_start.view();
-  return grasp_coupling(model.instruments[i], s, pos.get(s.grasp_node), start.get(s.grasp_node),
-                        frame_end ? frame_dt : dt, frame_dt)
-      .force.norm();
-}
-
 }  // namespace
+
+double grasp_limit(const InstrumentDesc& d, const InstrumentState& s) {
+  return is_proxy(d) ? std::max(0.0, d.force_limit - s.proxy_force.norm()) : d.force_limit;
+}
 
 void snapshot_instrument_proxies(WorldState& state) {
   for (InstrumentState& s : state.instruments) s.proxy_start = s.tip;
 }
 
-double stage_instrument_proxies(const WorldModel& model, WorldState& state, double dt, double frame_dt,
-                                bool frame_end) {
+double stage_instrument_proxies(const WorldModel& model, WorldState& state, double dt, double frame_dt) {
   double moved = 0.0;
   for (std::size_t i = 0; i < model.instruments.size(); ++i) {
     const InstrumentDesc& d = model.instruments[i];
@@ -148,12 +138,13 @@ double stage_instrument_proxies(const WorldModel& model, WorldState& state, doub
                                i,
                                (spring * s.command_tip + damper * moved_with) / (spring + damper),
                                spring + damper,
-                               std::max(0.0, d.force_limit - grasp_pull(model, state, i, dt, frame_dt, frame_end)),
+                               d.force_limit,
                                kEnvironmentStiffness * spring};
     const Eigen::Vector3d p = minimize(problem, s.tip);
     moved = std::max(moved, (p - s.tip).norm());
     s.tip = p;
     s.proxy_force = problem.evaluate(p).coupling_force;
+    s.grasp_limit = grasp_limit(d, s);
   }
   return moved;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "haustra/kernels/pose.hpp"
+#include "step/instrument_proxy.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -115,6 +116,7 @@ void init_instruments(const WorldModel& model, WorldState& state) {
     else
       set_instrument_pose(s, d.tip, d.axis);
     s.tip = s.command_start = s.proxy_start = s.command_tip;
+    s.grasp_limit = d.force_limit;
   }
 }
 
@@ -142,6 +144,7 @@ void stage_instruments(const WorldModel& model, WorldState& state, double time) 
     // and what it meets let it (stage_instrument_proxies), its capsule swept that far for contacts.
     if (!is_proxy(d)) s.tip = s.command_tip;
     s.reach = (s.command_tip - s.tip).norm();
+    s.grasp_limit = grasp_limit(d, s);  // until its proxy is solved again this frame
     if (!s.closed) s.slipped = false;  // opened: the next close grasps anew
     if (s.closed && !s.grasping && !s.slipped) grasp(model, state, i);
     if (!s.closed && s.grasping) release(state, i);
@@ -161,7 +164,7 @@ kernels::CouplingResponse grasp_coupling(const InstrumentDesc& d, const Instrume
   // The damper pulls the node's displacement over the substep towards the grasp point's.
   const Eigen::Vector3d moved_with_grasp = x_start + (s.grasp_target - s.target_start) * (dt / frame_dt);
   const Eigen::Vector3d target = (spring * s.grasp_target + damper * moved_with_grasp) / (spring + damper);
-  return kernels::virtual_coupling(x, target, spring + damper, d.force_limit);
+  return kernels::virtual_coupling(x, target, spring + damper, s.grasp_limit);
 }
 
 void instrument_forces(const WorldModel& model, WorldState& state, double dt, std::vector<std::size_t>& slipped) {

@@ -286,6 +286,7 @@ struct InstrumentState {
   Eigen::Vector3d command_start = Eigen::Vector3d::Zero();  // at the frame's start
   Eigen::Vector3d proxy_start = Eigen::Vector3d::Zero();    // the proxy's tip at the substep's start
   Eigen::Vector3d proxy_force = Eigen::Vector3d::Zero();    // the coupling's pull on the proxy, N
+  double grasp_limit = 0.0;  // N the grasp may pull with: the force limit less the capsule's push
   double reach = 0.0;  // m the proxy may still travel towards its command: its contacts' margin
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   Eigen::Quaterniond frame = Eigen::Quaterniond::Identity();  // d3 along the axis
