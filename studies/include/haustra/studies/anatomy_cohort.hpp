@@ -38,8 +38,8 @@ struct CohortRow {
   double force_limit = 0.0;    // N, the grasper's
   double pulled = 0.0;         // m the grasped node moved sideways by the end of the hold
   double after_median = 0.0, after_max = 0.0;  // m from where the segmentation put them, at the end
-  // The skin: the largest ratio of a mesh edge's length to its rest length over the run, and how
-  // many edges passed twice their rest length at some frame.
+  // The skin: the largest ratio of a mesh edge's length to its rest length, over the rod's own
+  // stretch where it is, over the run, and how many edges passed twice that at some measure.
   double stretch_worst = 0.0;
   std::size_t stretch_edges = 0;
   int frames_late = 0;                         // frames (with the mesh) over the frame's dt
