@@ -248,6 +248,10 @@ struct MeshObstacleDesc {
   std::string source;                     // file it came from, for messages
   std::vector<Eigen::Vector3d> vertices;  // m
   std::vector<std::array<std::uint32_t, 3>> triangles;
+  // A container (the body's boundary, a cavity) keeps beads inside it: a bead touches when its
+  // centre is within its radius of the surface from inside, or anywhere outside, and is pushed
+  // inward. It must be closed (decision 0093). false: an obstacle that keeps beads out.
+  bool container = false;
 };
 
 struct EnvironmentDesc {

@@ -268,7 +268,7 @@ void read_environment(const Reader& r, const toml::table& t, const std::filesyst
     return d;
   });
   read_obstacles(r, t, "mesh", env.meshes, [&](const toml::table& o, const std::string& p) {
-    r.check_keys(o, p, {"name", "file", "scale", "translate"});
+    r.check_keys(o, p, {"name", "file", "scale", "translate", "container"});
     const toml::node* file_node = o.get("file");
     if (file_node == nullptr) r.fail(&o, p + ".file", "a mesh obstacle needs file = \"path\"");
     MeshObstacleDesc d;
@@ -277,6 +277,7 @@ void read_environment(const Reader& r, const toml::table& t, const std::filesyst
     const double scale = r.number(o, "scale", p + ".scale", 1.0);
     if (!(scale > 0.0)) r.fail(o.get("scale"), p + ".scale", "expected a positive scale (e.g. 0.001 for millimetres)");
     const Eigen::Vector3d translate = r.vec3(o, "translate", p + ".translate", Eigen::Vector3d::Zero());
+    d.container = r.boolean(o, "container", p + ".container", d.container);
     try {
       TriangleMesh mesh = load_mesh(f);
       for (auto& v : mesh.vertices) v = scale * v + translate;

@@ -1,4 +1,4 @@
-// Static obstacle meshes of the environment: loaded, checked and put in an Embree scene.
+// Static meshes of the environment, obstacles and containers: loaded, checked and put in Embree scenes.
 #include "model/static_meshes.hpp"
 
 #include <fmt/format.h>
@@ -15,13 +15,16 @@ namespace haustra::detail {
 
 StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
   if (descs.empty()) return;
-  embree_ = std::make_unique<EmbreeScene>();
   for (std::size_t m = 0; m < descs.size(); ++m) {
     const MeshObstacleDesc& d = descs[m];
     Mesh mesh;
     mesh.vertices = d.vertices;
     mesh.triangles = d.triangles;
     mesh.closed = is_closed(TriangleMesh{d.vertices, d.triangles});
+    // A container's inside is where its volume is: wound inward, it is turned (the pseudo-normals
+    // and the inside test both read the winding as outward).
+    if (d.container && mesh_volume(mesh.vertices, mesh.triangles) < 0.0)
+      for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
     mesh.vertex_normal.assign(mesh.vertices.size(), Eigen::Vector3d::Zero());
     for (const auto& t : mesh.triangles) {
       const Eigen::Vector3d& a = mesh.vertices[t[0]];
@@ -43,31 +46,35 @@ StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
             .first->second += mesh.face_normal.back();
       }
     }
-    embree_->add_triangles(mesh.vertices, mesh.triangles);
+    if (d.container) {
+      auto scene = std::make_unique<EmbreeScene>();
+      scene->add_triangles(mesh.vertices, mesh.triangles);
+      scene->commit();
+      containers_.push_back(std::move(scene));
+      container_mesh_.push_back(static_cast<std::uint32_t>(m));
+    } else {
+      if (!obstacles_) obstacles_ = std::make_unique<EmbreeScene>();
+      obstacles_->add_triangles(mesh.vertices, mesh.triangles);
+      obstacle_mesh_.push_back(static_cast<std::uint32_t>(m));
+    }
     meshes_.push_back(std::move(mesh));
   }
-  embree_->commit();
+  if (obstacles_) obstacles_->commit();
 }
 
 StaticMeshes::~StaticMeshes() = default;
 
-StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius) const {
-  Hit hit;
-  if (!embree_) return hit;
-  const EmbreeScene::Hit found = embree_->closest(p, radius);
-  if (!found.found) return hit;
-  const Mesh& mesh = meshes_[found.geometry];
-  const auto& t = mesh.triangles[found.triangle];
-  const Eigen::Vector3d point =
-      kernels::closest_point_on_triangle(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
-  const double distance = found.distance;
-  // Which feature holds the closest point: the pseudo-normal of that feature tells the side.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> StaticMeshes::closest_feature(const Mesh& mesh, std::uint32_t triangle,
+                                                                          const Eigen::Vector3d& p) {
+  const auto& t = mesh.triangles[triangle];
   const Eigen::Vector3d& a = mesh.vertices[t[0]];
   const Eigen::Vector3d& b = mesh.vertices[t[1]];
   const Eigen::Vector3d& c = mesh.vertices[t[2]];
+  const Eigen::Vector3d point = kernels::closest_point_on_triangle(p, a, b, c);
+  // Which feature holds the closest point: the pseudo-normal of that feature tells the side.
   const double scale = std::max({(b - a).norm(), (c - a).norm(), 1e-300});
   const double tol = 1e-9 * scale;
-  Eigen::Vector3d normal = mesh.face_normal[found.triangle];
+  Eigen::Vector3d normal = mesh.face_normal[triangle];
   const Eigen::Vector3d corners[3] = {a, b, c};
   bool on_vertex = false;
   for (int i = 0; i < 3; ++i)
@@ -85,10 +92,24 @@ StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius)
         if (it != mesh.edge_normal.end()) normal = it->second;
       }
     }
-  normal.normalize();
+  return {point, normal.normalized()};
+}
+
+StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius) const {
+  Hit hit;
+  if (!obstacles_) return hit;
+  const EmbreeScene::Hit found = obstacles_->closest(p, radius);
+  if (!found.found) return hit;
+  const std::uint32_t index = obstacle_mesh_[found.geometry];
+  const Mesh& mesh = meshes_[index];
+  const auto [point, normal] = closest_feature(mesh, found.triangle, p);
+  const auto& t = mesh.triangles[found.triangle];
+  const double tol = 1e-9 * std::max({(mesh.vertices[t[1]] - mesh.vertices[t[0]]).norm(),
+                                      (mesh.vertices[t[2]] - mesh.vertices[t[0]]).norm(), 1e-300});
+  const double distance = found.distance;
   const Eigen::Vector3d away = p - point;
   hit.found = true;
-  hit.mesh = found.geometry;
+  hit.mesh = index;
   hit.point = point;
   if (mesh.closed) {
     const bool inside = away.dot(normal) < 0.0;
@@ -98,6 +119,34 @@ StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius)
     hit.push = distance > tol ? Eigen::Vector3d(away / distance) : normal;
     hit.signed_distance = distance;
   }
+  return hit;
+}
+
+StaticMeshes::Hit StaticMeshes::container_contact(std::size_t c, const Eigen::Vector3d& p, double reach) const {
+  Hit hit;
+  const EmbreeScene& scene = *containers_[c];
+  EmbreeScene::Hit found = scene.closest(p, reach);
+  if (!found.found) {
+    // Farther than `reach` from the wall: deep inside (free), or out, however far (held back).
+    if (scene.inside(p)) return hit;
+    found = scene.closest(p, std::numeric_limits<double>::infinity());
+    if (!found.found) return hit;
+  }
+  const std::uint32_t index = container_mesh_[c];
+  const Mesh& mesh = meshes_[index];
+  const auto [point, normal] = closest_feature(mesh, found.triangle, p);
+  const auto& t = mesh.triangles[found.triangle];
+  const double tol = 1e-9 * std::max({(mesh.vertices[t[1]] - mesh.vertices[t[0]]).norm(),
+                                      (mesh.vertices[t[2]] - mesh.vertices[t[0]]).norm(), 1e-300});
+  const double distance = found.distance;
+  const Eigen::Vector3d away = p - point;
+  const bool inside = away.dot(normal) < 0.0;
+  hit.found = true;
+  hit.mesh = index;
+  hit.point = point;
+  // Inward: from the wall towards p inside, from p towards the wall outside.
+  hit.push = distance > tol ? Eigen::Vector3d((inside ? away : -away) / distance) : Eigen::Vector3d(-normal);
+  hit.signed_distance = inside ? distance : -distance;
   return hit;
 }
 
