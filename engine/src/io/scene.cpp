@@ -383,7 +383,7 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
   for (std::size_t i = 0; i < segments.size(); ++i)
     w.segments.push_back(read_segment(r, *segments[i], fmt::format("segment[{}]", i), file.parent_path()));
   if (const toml::table* t = r.table(root, "contact", "contact")) {
-    r.check_keys(*t, "contact", {"coefficient", "exponent", "margin", "broad_phase", "self"});
+    r.check_keys(*t, "contact", {"coefficient", "exponent", "margin", "broad_phase", "self", "rest_exclusions"});
     ContactDesc& c = w.contact;
     c.coefficient = r.number(*t, "coefficient", "contact.coefficient", c.coefficient);
     c.exponent = r.number(*t, "exponent", "contact.exponent", c.exponent);
@@ -394,6 +394,8 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
                                           {"sweep", BroadPhase::sweep},
                                           {"brute", BroadPhase::brute}});
     c.self = r.boolean(*t, "self", "contact.self", c.self);
+    c.rest_exclusions = r.choice<RestExclusions>(*t, "rest_exclusions", "contact.rest_exclusions", c.rest_exclusions,
+                                                 {{"segment", RestExclusions::segment}, {"world", RestExclusions::world}});
   }
   if (const toml::table* t = r.table(root, "environment", "environment"))
     read_environment(r, *t, file.parent_path(), w.environment);

@@ -320,7 +320,8 @@ void assign_piece_beads(const BeadModel& beads, const SegmentModel& seg, std::ve
   }
 }
 
-// Rest-pose exclusions: pairs of one segment whose spheres overlap or touch at rest; and the
+// Rest-pose exclusions: pairs of one segment (or of any two: contact.rest_exclusions) whose spheres
+// overlap or touch at rest; and the
 // contact margin (half the smallest bead unless given).
 void build_rest_exclusions(const std::vector<Eigen::Vector3d>& initial_positions, WorldModel& m) {
   BeadModel& beads = m.beads;
@@ -344,14 +345,16 @@ void build_rest_exclusions(const std::vector<Eigen::Vector3d>& initial_positions
     pairs.resize(count);
     count = grid.query(set, 0, nb, pairs);
   }
+  const bool across = m.contact.rest_exclusions == RestExclusions::world;
+  auto kept = [&](const kernels::SpherePair& pair) { return across || beads.segment[pair.a] == beads.segment[pair.b]; };
   beads.exclusion_start.assign(nb + 1, 0);
   for (std::size_t p = 0; p < count; ++p)
-    if (beads.segment[pairs[p].a] == beads.segment[pairs[p].b]) ++beads.exclusion_start[pairs[p].a + 1];
+    if (kept(pairs[p])) ++beads.exclusion_start[pairs[p].a + 1];
   for (std::size_t i = 0; i < nb; ++i) beads.exclusion_start[i + 1] += beads.exclusion_start[i];
   beads.exclusion.assign(beads.exclusion_start[nb], 0);
   std::vector<std::uint32_t> fill(beads.exclusion_start.begin(), beads.exclusion_start.end() - 1);
   for (std::size_t p = 0; p < count; ++p)  // pairs come in ascending (a, b): lists come sorted
-    if (beads.segment[pairs[p].a] == beads.segment[pairs[p].b]) beads.exclusion[fill[pairs[p].a]++] = pairs[p].b;
+    if (kept(pairs[p])) beads.exclusion[fill[pairs[p].a]++] = pairs[p].b;
   m.contact_margin = m.contact.margin >= 0.0 ? m.contact.margin : (nb > 0 ? 0.5 * smallest : 0.0);
 }
 

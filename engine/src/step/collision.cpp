@@ -218,6 +218,9 @@ void stage_collide(const WorldModel& model, WorldState& state, Scheduler& schedu
   for (std::size_t p = 0; p < pair_count; ++p) {
     const kernels::SpherePair& pr = cs.pairs[p];
     if (beads.segment[pr.a] == beads.segment[pr.b] && (!model.contact.self || beads.excluded(pr.a, pr.b))) continue;
+    if (beads.segment[pr.a] != beads.segment[pr.b] && model.contact.rest_exclusions == RestExclusions::world &&
+        beads.excluded(pr.a, pr.b))
+      continue;
     ContactCandidate k;
     k.bead = pr.a;
     k.other = pr.b;
