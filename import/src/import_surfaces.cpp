@@ -152,7 +152,9 @@ Organs make_organs(const ImportOptions& o, Surfaces& s, SurfacesReport& out, con
     std::vector<std::pair<double, double>> profile;
     const Polyline line = organ_rod(oi, layout, r, profile, phase);
     TriangleMesh surface = surface_along(layout, line, r, oi.mesh.string());
-    write_surface_and_centreline(layouts.size() == 1 ? stem : stem + "-" + organ.name, surface, line, organ.name, r);
+    std::string from;  // its surfaces' names
+    for (const fs::path& f : organ.surfaces) from += (from.empty() ? "" : ", ") + f.filename().string();
+    write_surface_and_centreline(layouts.size() == 1 ? stem : stem + "-" + organ.name, surface, line, from, r);
     organs.options.push_back(oi);
     organs.profiles.push_back(std::move(profile));
     organs.surfaces.push_back(std::move(surface));
@@ -225,6 +227,7 @@ void build_surfaces_once(const SurfacesSceneInputs& in, SurfacesReport& out, std
     }
   }
   out.build_seconds = seconds_since(t);
+  for (auto& organ : out.organs) organ.report.build_seconds = out.build_seconds;  // built together
   phase("built", t);
 }
 
@@ -263,6 +266,10 @@ SurfacesReport import_surfaces(const ImportOptions& o) {
   const auto started = Clock::now();
   check_surfaces_options(o);
   const GravityChoice gravity = parse_gravity(o.gravity.empty() ? (o.body.empty() ? "-z" : "supine") : o.gravity);
+  if (gravity.kind != GravityChoice::Kind::direction && o.body.empty()) {  // refused before any work
+    std::string unused;
+    (void)resolve_gravity(gravity, nullptr, {}, unused);
+  }
   const Phase phase = [&](const std::string& what, Clock::time_point since) {
     if (o.progress) o.progress(fmt::format("{} ({:.1f} s)", what, seconds_since(since)));
   };

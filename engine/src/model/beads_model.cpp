@@ -49,13 +49,15 @@ void check_container(const MeshObstacleDesc& mesh, const std::string& where) {
   }
   const std::string file = mesh.source.empty() ? mesh.name : mesh.source;
   if (open > 0)
-    fail(where + ".container",
-         fmt::format("{} is not closed ({} edges are not shared by exactly two triangles): a container must be a "
+    throw FieldError(
+        ErrorCode::invalid_geometry, where + ".container",
+        fmt::format("{} is not closed ({} edges are not shared by exactly two triangles): a container must be a "
                      "closed surface, the boundary of the volume that holds the beads",
                      file, open));
   if (against > 0)
-    fail(where + ".container",
-         fmt::format("{} is not wound one way ({} edges shared by neighbours facing opposite ways): a container's "
+    throw FieldError(
+        ErrorCode::invalid_geometry, where + ".container",
+        fmt::format("{} is not wound one way ({} edges shared by neighbours facing opposite ways): a container's "
                      "inside is read from its winding",
                      file, against));
 }
