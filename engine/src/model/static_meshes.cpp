@@ -52,6 +52,9 @@ StaticMeshes::StaticMeshes(const std::vector<MeshObstacleDesc>& descs) {
       scene->commit();
       containers_.push_back(std::move(scene));
       container_mesh_.push_back(static_cast<std::uint32_t>(m));
+      meshes_.push_back(std::move(mesh));
+      container_grid_.push_back(depth_grid(containers_.size() - 1));
+      continue;
     } else {
       if (!obstacles_) obstacles_ = std::make_unique<EmbreeScene>();
       obstacles_->add_triangles(mesh.vertices, mesh.triangles);
@@ -122,13 +125,65 @@ StaticMeshes::Hit StaticMeshes::closest(const Eigen::Vector3d& p, double radius)
   return hit;
 }
 
+// p's depth inside container c (< 0 outside), its distance to the surface known to be below `bound`.
+double StaticMeshes::signed_depth(std::size_t c, const Eigen::Vector3d& p, double bound) const {
+  const EmbreeScene::Hit found = containers_[c]->closest(p, bound);
+  if (!found.found) return 0.0;  // (bound is an upper bound: never here)
+  const auto [point, normal] = closest_feature(meshes_[container_mesh_[c]], found.triangle, p);
+  return (p - point).dot(normal) < 0.0 ? found.distance : -found.distance;
+}
+
+// Cells a 32nd of the box's longest side; each centre's depth found within its neighbour's
+// distance plus their spacing (a distance is 1-Lipschitz), so each query is short.
+StaticMeshes::DepthGrid StaticMeshes::depth_grid(std::size_t c) const {
+  const Mesh& mesh = meshes_[container_mesh_[c]];
+  Eigen::Vector3d lo = mesh.vertices.front(), hi = lo;
+  for (const auto& v : mesh.vertices) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  DepthGrid g;
+  g.cell = std::max((hi - lo).maxCoeff(), 1e-9) / 32.0;
+  g.lo = lo;
+  for (int i = 0; i < 3; ++i) g.n[static_cast<std::size_t>(i)] = std::max(1, static_cast<int>(std::ceil((hi[i] - lo[i]) / g.cell)));
+  g.depth.reserve(static_cast<std::size_t>(g.n[0]) * static_cast<std::size_t>(g.n[1]) * static_cast<std::size_t>(g.n[2]));
+  double last = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < g.n[2]; ++k)
+    for (int j = 0; j < g.n[1]; ++j)
+      for (int i = 0; i < g.n[0]; ++i) {
+        const Eigen::Vector3d centre = lo + g.cell * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5);
+        // The previous centre is at most a row's or a layer's length away: its distance plus that bounds this one's.
+        const double reach = std::abs(last) + g.cell * (2.0 + g.n[0] + g.n[1]);
+        last = signed_depth(c, centre, std::isfinite(reach) ? reach : std::numeric_limits<double>::infinity());
+        g.depth.push_back(last);
+      }
+  return g;
+}
+
+double StaticMeshes::DepthGrid::deeper_than(const Eigen::Vector3d& p) const {
+  std::array<int, 3> at{};
+  for (std::size_t i = 0; i < 3; ++i) {
+    const double x = std::floor((p[static_cast<int>(i)] - lo[static_cast<int>(i)]) / cell);
+    if (!(x >= 0.0 && x < n[i])) return -std::numeric_limits<double>::infinity();  // off the grid
+    at[i] = static_cast<int>(x);
+  }
+  const Eigen::Vector3d centre = lo + cell * Eigen::Vector3d(at[0] + 0.5, at[1] + 0.5, at[2] + 0.5);
+  const std::size_t index = (static_cast<std::size_t>(at[2]) * static_cast<std::size_t>(n[1]) +
+                             static_cast<std::size_t>(at[1])) * static_cast<std::size_t>(n[0]) + static_cast<std::size_t>(at[0]);
+  return depth[index] - (p - centre).norm();
+}
+
 StaticMeshes::Hit StaticMeshes::container_contact(std::size_t c, const Eigen::Vector3d& p, double reach) const {
   Hit hit;
+  // Deeper than the reach everywhere around p's cell: free, as the queries below would say.
+  const double deeper_than = container_grid_[c].deeper_than(p);
+  if (deeper_than > reach) return hit;
   const EmbreeScene& scene = *containers_[c];
   EmbreeScene::Hit found = scene.closest(p, reach);
   if (!found.found) {
-    // Farther than `reach` from the wall: deep inside (free), or out, however far (held back).
-    if (scene.inside(p)) return hit;
+    // Farther than `reach` from the wall: deep inside (free: the grid or the rays say inside), or
+    // out, however far (held back).
+    if (deeper_than > 0.0 || scene.inside(p)) return hit;
     found = scene.closest(p, std::numeric_limits<double>::infinity());
     if (!found.found) return hit;
   }

@@ -7,6 +7,7 @@
 // a bead is pushed inward (decision 0093). Built once with the model; queries are thread-safe.
 #include <embree3/rtcore.h>
 
+#include <array>
 #include <memory>
 
 #include <Eigen/Core>
@@ -62,9 +63,23 @@ class StaticMeshes {
   std::vector<Mesh> meshes_;                // in the description's order
   std::unique_ptr<EmbreeScene> obstacles_;  // its geometry g is meshes_[obstacle_mesh_[g]]
   std::vector<std::uint32_t> obstacle_mesh_;
+  // A container's signed distance (inside > 0) at the centres of a coarse grid over its box: a
+  // distance is 1-Lipschitz, so a point whose cell says it lies deeper than a reach everywhere
+  // near is free without a query — the same answer, found in nanoseconds.
+  struct DepthGrid {
+    Eigen::Vector3d lo = Eigen::Vector3d::Zero();
+    double cell = 1.0;
+    std::array<int, 3> n{0, 0, 0};
+    std::vector<double> depth;
+    [[nodiscard]] double deeper_than(const Eigen::Vector3d& p) const;  // a lower bound of p's depth
+  };
+  DepthGrid depth_grid(std::size_t container) const;
+  [[nodiscard]] double signed_depth(std::size_t container, const Eigen::Vector3d& p, double bound) const;
+
   // One scene per container: its winding count (the inside test) must see its own surface only.
   std::vector<std::unique_ptr<EmbreeScene>> containers_;
   std::vector<std::uint32_t> container_mesh_;
+  std::vector<DepthGrid> container_grid_;
 };
 
 }  // namespace haustra::detail
