@@ -40,7 +40,7 @@ Surfaces read_surfaces(const ImportOptions& o, const Phase& phase) {
     const auto t = Clock::now();
     ImportOptions one = o;
     one.mesh = file;
-    one.units = "m";  // as the file holds it: scaled below
+    one.units = std::string("m");  // as the file holds it: scaled below (a string: GCC 12 warns on the literal)
     ImportReport r;
     raw.push_back(read_in_metres(one, r));
     all.vertices.insert(all.vertices.end(), raw.back().vertices.begin(), raw.back().vertices.end());
@@ -102,10 +102,10 @@ void check_surfaces_options(const ImportOptions& o) {
 // The command that made the scene, for its header: the surfaces' and the body's names, the options.
 std::string command_of(const ImportOptions& o) {
   std::string c = o.mesh.filename().string();
-  for (const fs::path& f : o.more_meshes) c += " " + f.filename().string();
-  if (!o.body.empty()) c += " --body " + o.body.filename().string();
-  if (!o.gravity.empty()) c += " --gravity " + o.gravity;
-  if (o.ends != "held") c += " --ends " + o.ends;
+  for (const fs::path& f : o.more_meshes) c += fmt::format(" {}", f.filename().string());
+  if (!o.body.empty()) c += fmt::format(" --body {}", o.body.filename().string());
+  if (!o.gravity.empty()) c += fmt::format(" --gravity {}", o.gravity);
+  if (o.ends != "held") c += fmt::format(" --ends {}", o.ends);
   return c;
 }
 
@@ -153,7 +153,7 @@ Organs make_organs(const ImportOptions& o, Surfaces& s, SurfacesReport& out, con
     const Polyline line = organ_rod(oi, layout, r, profile, phase);
     TriangleMesh surface = surface_along(layout, line, r, oi.mesh.string());
     std::string from;  // its surfaces' names
-    for (const fs::path& f : organ.surfaces) from += (from.empty() ? "" : ", ") + f.filename().string();
+    for (const fs::path& f : organ.surfaces) from += fmt::format("{}{}", from.empty() ? "" : ", ", f.filename().string());
     write_surface_and_centreline(layouts.size() == 1 ? stem : stem + "-" + organ.name, surface, line, from, r);
     organs.options.push_back(oi);
     organs.profiles.push_back(std::move(profile));
@@ -238,14 +238,14 @@ std::string SurfacesReport::text() const {
   for (std::size_t i = 0; i < organs.size(); ++i) {
     const Organ& organ = organs[i];
     std::string files;
-    for (const auto& f : organ.surfaces) files += (files.empty() ? "" : ", ") + f.filename().string();
+    for (const auto& f : organ.surfaces) files += fmt::format("{}{}", files.empty() ? "" : ", ", f.filename().string());
     std::string what = organ.report.text();
     what = what.substr(0, what.rfind("import took"));  // the whole import's time is below
     t += fmt::format("organ {} of {}: {} ({} surface{}: {})\n", i + 1, organs.size(), organ.name,
                      organ.surfaces.size(), organ.surfaces.size() == 1 ? "" : "s", files);
     for (std::size_t at = 0; at < what.size();) {
       const std::size_t end = std::min(what.find('\n', at), what.size());
-      t += "  " + what.substr(at, end - at) + "\n";
+      t += fmt::format("  {}\n", what.substr(at, end - at));
       at = end + 1;
     }
   }

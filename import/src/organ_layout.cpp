@@ -192,9 +192,12 @@ std::string OrganLayout::text() const {
   std::string t = path.size() == 1 ? "one piece" : fmt::format("{} pieces joined end to end", path.size());
   if (!lumens.empty())
     t += fmt::format(", walled: {} lumen shell{} inside the outer wall", lumens.size(), lumens.size() == 1 ? "" : "s");
-  if (!left_out.empty())
-    t += fmt::format("; {} piece{} left out (side branches or pieces not joined to the organ)", left_out.size(),
-                     left_out.size() == 1 ? "" : "s");
+  const std::size_t off = left_out.size() - joined_off_path.size();  // left out and not skinned
+  if (off > 0)
+    t += fmt::format("; {} piece{} left out (side branches or pieces not joined to the organ)", off, off == 1 ? "" : "s");
+  if (!joined_off_path.empty())
+    t += fmt::format("; {} piece{} joined off its path (a flexure's wedge, a branch): skinned with it",
+                     joined_off_path.size(), joined_off_path.size() == 1 ? "" : "s");
   return t;
 }
 

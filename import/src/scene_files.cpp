@@ -160,7 +160,7 @@ void write_surfaces_scene(const SurfacesSceneInputs& in) {
   const SurfacesReport& r = in.report;
   const std::filesystem::path dir = r.scene.parent_path();
   std::string names;
-  for (const auto& organ : r.organs) names += (names.empty() ? "" : ", ") + organ.name;
+  for (const auto& organ : r.organs) names += fmt::format("{}{}", names.empty() ? "" : ", ", organ.name);
   std::string text = fmt::format(
       "# Written by `haustra import {}`. What it found:\n#   {}\n\n"
       "[scene]\nname = {}\ndescription = {}\nframes = 240\n\n"
@@ -175,8 +175,8 @@ void write_surfaces_scene(const SurfacesSceneInputs& in) {
                             "not push apart at rest\n"
                           : "");
   for (std::size_t i = 0; i < r.organs.size(); ++i)
-    text += "\n" + segment_table(SceneFileInputs{in.options[i], r.organs[i].report, in.radius_profiles[i]},
-                                  r.organs[i].name);
+    text += fmt::format("\n{}", segment_table(SceneFileInputs{in.options[i], r.organs[i].report, in.radius_profiles[i]},
+                                              r.organs[i].name));
   if (!r.body.empty())
     text += fmt::format(
         "\n[[environment.mesh]]\nname = \"body\"\nfile = {}   # repaired and closed, in metres\n"
