@@ -188,7 +188,7 @@ TEST_CASE("haustra import --body: a container the organs stay in, gravity toward
                        Error);
 }
 
-TEST_CASE("haustra import --gravity: axes, vectors, supine and prone read; anything else refused naming the option") {
+TEST_CASE("haustra import --gravity: axes, vectors, supine and prone read, anything else refused naming the option") {
   using Kind = import::GravityChoice::Kind;
   const auto d = [](const std::string& v) { return import::parse_gravity(v).direction; };
   CHECK(d("-z") == std::array<double, 3>{0.0, 0.0, -1.0});
@@ -215,7 +215,7 @@ TEST_CASE("haustra import --gravity: axes, vectors, supine and prone read; anyth
   CHECK_THROWS_WITH_AS(import::import_surfaces(o), doctest::Contains("--nodes: applies to one surface"), Error);
 }
 
-TEST_CASE("haustra import of several surfaces: the same files give the same scene, bit for bit; one with a body "
+TEST_CASE("haustra import of several surfaces: the same files give the same scene, bit for bit, and one in a body "
           "gives one surface's organ") {
   const fs::path dir = fresh_dir("same");
   const auto [lower, upper] = cut_organ(dir / ".", Eigen::Vector3d(100.0, 0.0, 0.0));
