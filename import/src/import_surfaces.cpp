@@ -112,7 +112,6 @@ std::string command_of(const ImportOptions& o) {
 struct Organs {
   std::vector<ImportOptions> options;  // per organ: its first surface (for messages), the flags
   std::vector<std::vector<std::pair<double, double>>> profiles;
-  std::vector<TriangleMesh> surfaces;  // as written
 };
 
 // Each organ's centreline, rod and surface, written beside the scene.
@@ -151,13 +150,12 @@ Organs make_organs(const ImportOptions& o, Surfaces& s, SurfacesReport& out, con
     r.scene = out.scene;
     std::vector<std::pair<double, double>> profile;
     const Polyline line = organ_rod(oi, layout, r, profile, phase);
-    TriangleMesh surface = surface_along(layout, line, r, oi.mesh.string());
+    const TriangleMesh surface = surface_along(layout, line, r, oi.mesh.string());
     std::string from;  // its surfaces' names
     for (const fs::path& f : organ.surfaces) from += fmt::format("{}{}", from.empty() ? "" : ", ", f.filename().string());
     write_surface_and_centreline(layouts.size() == 1 ? stem : stem + "-" + organ.name, surface, line, from, r);
     organs.options.push_back(oi);
     organs.profiles.push_back(std::move(profile));
-    organs.surfaces.push_back(std::move(surface));
     out.organs.push_back(std::move(organ));
   }
   for (std::size_t f = 0; f < s.files.size(); ++f)
@@ -166,7 +164,9 @@ Organs make_organs(const ImportOptions& o, Surfaces& s, SurfacesReport& out, con
 }
 
 // The body read, closed and written beside the scene; the organs must lie inside it.
-Body make_body(const ImportOptions& o, const Organs& organs, SurfacesReport& out, const Phase& phase) {
+// (Before the organs are made: a body that does not hold them, or does not tell its back, fails in
+// seconds; the repaired pieces are the organs' surfaces, what no centreline reaches included.)
+Body make_body(const ImportOptions& o, const Surfaces& surfaces, SurfacesReport& out, const Phase& phase) {
   const auto t = Clock::now();
   Body body = read_body(o.body, o.units);
   out.body = o.body;
@@ -177,14 +177,13 @@ Body make_body(const ImportOptions& o, const Organs& organs, SurfacesReport& out
   out.body_vertices = body.mesh.vertices.size();
   out.body_triangles = body.mesh.triangles.size();
   std::vector<const TriangleMesh*> walls;
-  for (const TriangleMesh& m : organs.surfaces) walls.push_back(&m);
+  for (const TriangleMesh& m : surfaces.pieces) walls.push_back(&m);
   out.outside_body = outside_body(body.mesh, walls);
   if (out.outside_body > 0.01)
     throw Error(ErrorCode::invalid_geometry,
                 fmt::format("--body {}: {:.1f} % of the organs' surface lies outside the body (at most 1 %): the "
                             "organs and the body must share one frame and unit (the body: {}; the organs: {})",
-                            o.body.string(), 100.0 * out.outside_body, body.units_reason,
-                            out.organs.front().report.units_reason));
+                            o.body.string(), 100.0 * out.outside_body, body.units_reason, surfaces.units_reason));
   out.body_file = (out.scene.parent_path() / out.scene.stem()).string() + "-body.obj";
   write_obj(out.body_file, body.mesh, fmt::format("the body around the organs, closed by haustra import from {}",
                                                   o.body.filename().string()));
@@ -196,7 +195,7 @@ Body make_body(const ImportOptions& o, const Organs& organs, SurfacesReport& out
 
 // Built once, as one surface's scene is: a cage that cannot embed its organ's mesh retried for
 // that organ (more vertices per ring, then fewer beads), the others kept.
-void build_surfaces_once(const SurfacesSceneInputs& in, SurfacesReport& out, std::vector<ImportOptions>& options,
+void build_surfaces_once(const SurfacesSceneInputs& in, SurfacesReport& out, const std::vector<ImportOptions>& options,
                          const Phase& phase) {
   const auto t = Clock::now();
   for (int attempt = 1;; ++attempt) {
@@ -277,15 +276,15 @@ SurfacesReport import_surfaces(const ImportOptions& o) {
   out.scene = o.out.empty() ? fs::path(o.mesh.stem().string() + ".toml") : o.out;
   if (out.scene.has_parent_path()) fs::create_directories(out.scene.parent_path());
   Surfaces surfaces = read_surfaces(o, phase);
-  Organs organs = make_organs(o, surfaces, out, phase);
-  std::vector<const TriangleMesh*> walls;
-  for (const TriangleMesh& m : organs.surfaces) walls.push_back(&m);
   std::optional<Body> body;
-  if (!o.body.empty()) body = make_body(o, organs, out, phase);
+  if (!o.body.empty()) body = make_body(o, surfaces, out, phase);
+  std::vector<const TriangleMesh*> walls;
+  for (const TriangleMesh& m : surfaces.pieces) walls.push_back(&m);
   const Eigen::Vector3d g = resolve_gravity(gravity, body ? &*body : nullptr, walls, out.gravity_reason);
   if (o.gravity.empty() && o.body.empty())
     out.gravity_reason = "towards -z (the default without a body, which alone tells the back from the front)";
   out.gravity = {g.x(), g.y(), g.z()};
+  const Organs organs = make_organs(o, surfaces, out, phase);
   const SurfacesSceneInputs scene{command_of(o), organs.options, out, organs.profiles};
   write_surfaces_scene(scene);
   build_surfaces_once(scene, out, organs.options, phase);
