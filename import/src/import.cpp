@@ -476,6 +476,8 @@ ImportReport import_surface(const ImportOptions& o) {
   const auto started = Clock::now();
   if (o.ends != "held" && o.ends != "base" && o.ends != "free")
     throw Error(ErrorCode::invalid_argument, fmt::format("--ends: expected held, base or free, got '{}'", o.ends));
+  if (o.tissue != "rest" && o.tissue != "none")
+    throw Error(ErrorCode::invalid_argument, fmt::format("--tissue: expected rest or none, got '{}'", o.tissue));
   if (o.units != "auto" && o.units != "mm" && o.units != "m")
     throw Error(ErrorCode::invalid_argument, fmt::format("--units: expected auto, mm or m, got '{}'", o.units));
   const Phase phase = [&](const std::string& what, Clock::time_point since) {

@@ -85,6 +85,8 @@ std::string organ_name(const std::vector<fs::path>& surfaces, const std::vector<
 void check_surfaces_options(const ImportOptions& o) {
   if (o.ends != "held" && o.ends != "base" && o.ends != "free")
     throw Error(ErrorCode::invalid_argument, fmt::format("--ends: expected held, base or free, got '{}'", o.ends));
+  if (o.tissue != "rest" && o.tissue != "none")
+    throw Error(ErrorCode::invalid_argument, fmt::format("--tissue: expected rest or none, got '{}'", o.tissue));
   if (o.units != "auto" && o.units != "mm" && o.units != "m")
     throw Error(ErrorCode::invalid_argument, fmt::format("--units: expected auto, mm or m, got '{}'", o.units));
   if (o.more_meshes.empty()) return;
@@ -105,7 +107,8 @@ std::string command_of(const ImportOptions& o) {
   for (const fs::path& f : o.more_meshes) c += fmt::format(" {}", f.filename().string());
   if (!o.body.empty()) c += fmt::format(" --body {}", o.body.filename().string());
   if (!o.gravity.empty()) c += fmt::format(" --gravity {}", o.gravity);
-  if (o.ends != "held") c += fmt::format(" --ends {}", o.ends);
+  if (o.ends != ImportOptions{}.ends) c += fmt::format(" --ends {}", o.ends);
+  if (o.tissue != ImportOptions{}.tissue) c += fmt::format(" --tissue {}", o.tissue);
   return c;
 }
 

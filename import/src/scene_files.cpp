@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "haustra/error.hpp"
+#include "haustra/world_desc.hpp"
 
 namespace haustra::import {
 namespace {
@@ -101,7 +102,20 @@ void write_centreline(const std::filesystem::path& file, const Polyline& p, cons
 
 namespace {
 
-// One organ's [[segment]] table, and the attachment that holds its far end.
+// The organ's connective tissue (decision 0095): anchors to its rest place along its whole length,
+// the engine's defaults written out so a user sees what holds the organ.
+std::string tissue_table(const ImportOptions& o) {
+  if (o.tissue == "none") return "";
+  const AnchorsDesc a;
+  return fmt::format(
+                    "[[segment.anchors]]          # connective tissue: the organ held where the surface put it\n"
+                    "name = \"tissue\"\nfrom = 0.0\nto = 1.0\ntarget = \"rest\"\n"
+                    "stiffness = {}           # N/m per metre of organ\ndamping = {}              # N·s/m per metre\n"
+                    "slack = {}\nstrength = {}            # N per metre of organ: past it an anchor tears\n",
+                    a.stiffness, a.damping, a.slack, a.strength);
+}
+
+// One organ's [[segment]] table: the attachment that holds its far end, its connective tissue.
 std::string segment_table(const SceneFileInputs& in, const std::string& name) {
   const ImportOptions& o = in.options;
   const ImportReport& r = in.report;
@@ -116,7 +130,7 @@ std::string segment_table(const SceneFileInputs& in, const std::string& name) {
     profile += fmt::format("{}[{:.4f}, {:.6g}]", i == 0 ? "" : (i % 4 == 0 ? ",\n  " : ", "),
                            in.radius_profile[i].first, std::clamp(in.radius_profile[i].second, 1e-4, 0.5));
   std::string text = fmt::format(
-      "[[segment]]\nname = {}\nnodes = {}{}\nradius = {:.6g}\nwall_thickness = {:.6g}{}\nbase = \"{}\"\n{}"
+      "[[segment]]\nname = {}\nnodes = {}{}\nradius = {:.6g}\nwall_thickness = {:.6g}{}\nbase = \"{}\n{}"
       "[segment.rest]\nshape = \"centreline\"\nfile = {}\n"
       "[segment.beads]\ncount = {}{}\n# each bead as wide as the outer wall around its node (16 rays, smoothed)\n"
       "radius_profile = [\n  {}]\n"
@@ -124,12 +138,15 @@ std::string segment_table(const SceneFileInputs& in, const std::string& name) {
       "[segment.mesh.cage]\nring_vertices = {}\nbinding = \"harmonic\"\n",
       toml_string(name), pieces > 1 ? (r.nodes - 1) / pieces + 1 : r.nodes,
       pieces > 1 ? fmt::format("   # per piece: {} in all", r.nodes) : "", r.median_radius, wall,
-      r.wall_thickness > 0.0 ? "   # measured between the shells" : "", o.ends == "free" ? "free" : "clamped",
+      r.wall_thickness > 0.0 ? "   # measured between the shells" : "",
+      // A free base moves against a little drag of the medium; the tissue does the holding.
+      o.ends == "free" ? "free\"\ndrag = 1.0   # N·s/m², the medium's" : "clamped\"",
       pieces > 1 ? fmt::format("[segment.chain]\npieces = {}   # one rod; each piece its own mesh and cage\n", pieces)
                  : "",
       toml_string(toml_path(r.centreline_file, dir)), pieces > 1 ? (r.beads + pieces - 1) / pieces : r.beads,
       pieces > 1 ? "   # per piece" : "", profile, toml_string(toml_path(r.surface_file, dir)), r.ring_vertices);
   if (o.ends == "held") text += "[[segment.attachment]]\nnode = -1                   # the far end stays where it is\n";
+  text += tissue_table(o);
   return text;
 }
 

@@ -32,9 +32,11 @@ class Profile(TypedDict):
 
 class Instrument(TypedDict):
     """World.instrument(i): an instrument after the last frame; forces are the tissue's on it."""
-    tip: Vector3  # m
+    tip: Vector3  # m: where the capsule is (a proxy's: where its coupling and contacts balance)
+    commanded_tip: Vector3  # m: where it is commanded (set_instrument_pose or its keyframes)
     axis: Vector3  # unit
     closed: bool  # jaws closed
+    cutting: bool  # cuts the connective tissue within its cut radius
     grasping: bool  # holding a node
     grasped_segment: Optional[int]  # None when not grasping
     grasped_node: Optional[int]  # local to the segment; None when not grasping
@@ -60,6 +62,7 @@ class Energy(TypedDict):
     """World.energy, J."""
     elastic: float
     gravity: float
+    tissue: float  # what the connective tissue's intact anchors store
     total: float
 
 
@@ -83,7 +86,7 @@ class Segment(TypedDict):
 
 
 class Event(TypedDict):
-    """One entry of World.events: a recovery, an instability or a slip."""
+    """One entry of World.events: a recovery, an instability, a slip, anchors torn or cut."""
     kind: str
     frame: int
     segment: int

@@ -33,6 +33,7 @@ HAUSTRA_TYPED_OBJECT(ValidationList, list, PyList_Check)
 HAUSTRA_TYPED_OBJECT(Float64Array, array, pybind11::detail::npy_api::get().PyArray_Check_)
 HAUSTRA_TYPED_OBJECT(Float32Array, array, pybind11::detail::npy_api::get().PyArray_Check_)
 HAUSTRA_TYPED_OBJECT(UInt32Array, array, pybind11::detail::npy_api::get().PyArray_Check_)
+HAUSTRA_TYPED_OBJECT(BoolArray, array, pybind11::detail::npy_api::get().PyArray_Check_)
 HAUSTRA_TYPED_OBJECT(ContactArray, array, pybind11::detail::npy_api::get().PyArray_Check_)
 
 #undef HAUSTRA_TYPED_OBJECT
@@ -63,6 +64,7 @@ HAUSTRA_TYPE_NAME(ValidationList, "list[haustra.types.ValidationCase]")
 HAUSTRA_TYPE_NAME(Float64Array, "numpy.typing.NDArray[numpy.float64]")
 HAUSTRA_TYPE_NAME(Float32Array, "numpy.typing.NDArray[numpy.float32]")
 HAUSTRA_TYPE_NAME(UInt32Array, "numpy.typing.NDArray[numpy.uint32]")
+HAUSTRA_TYPE_NAME(BoolArray, "numpy.typing.NDArray[numpy.bool_]")
 HAUSTRA_TYPE_NAME(ContactArray, "numpy.typing.NDArray[numpy.void]")
 #undef HAUSTRA_TYPE_NAME
 }  // namespace pybind11::detail

@@ -179,6 +179,7 @@ void bind_world(py::module_& m) {
   bind_world_state(c);
   bind_world_driving(c);
   bind_world_readings(c);
+  bind_world_tissue(c);
   py::list recordable;
   for (const std::string& name : Recorder::known_names()) recordable.append(name);
   m.attr("RECORDABLE") = py::tuple(recordable);

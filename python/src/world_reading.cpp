@@ -31,8 +31,10 @@ py::array array3(const Eigen::Vector3d& v) {
 InstrumentDict instrument_dict(const InstrumentReading& r) {
   InstrumentDict d;
   d["tip"] = array3(r.tip);
+  d["commanded_tip"] = array3(r.commanded_tip);
   d["axis"] = array3(r.axis);
   d["closed"] = r.closed;
+  d["cutting"] = r.cutting;
   d["grasping"] = r.grasping;
   d["grasped_segment"] = r.grasping ? py::object(py::int_(r.grasped_segment)) : py::object(py::none());
   d["grasped_node"] = r.grasping ? py::object(py::int_(r.grasped_node)) : py::object(py::none());

@@ -58,10 +58,11 @@ void bind_world_readings(WorldClass& c) {
         EnergyDict d;
         d["elastic"] = e.elastic;
         d["gravity"] = e.gravity;
+        d["tissue"] = e.tissue;
         d["total"] = e.total();
         return d;
       },
-      "J: elastic, gravity and total (haustra.types.Energy).");
+      "J: elastic, gravity, tissue (what the anchors' springs store) and total (haustra.types.Energy).");
   c.def_property_readonly(
       "contacts", [](PyWorld& w) { return contacts_dict(w.locked()->contacts()); },
       "The last frame's contact summary (haustra.types.ContactSummary); contact_records has each contact.");

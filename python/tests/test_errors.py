@@ -144,7 +144,7 @@ def test_negative_indices_count_from_the_end():
     w = haustra.World(held_rod_with_a_grasper())
     w.set_attachment_target(-1, -2, [1.0, 0.0, 0.5])  # segment 0's attachment 0: the tip's
     w.set_instrument_pose(-1, [0.0, 0.0, 2.0], [0.0, 0.0, 1.0])
-    assert np.array_equal(w.instrument(-1)["tip"], [0.0, 0.0, 2.0])
+    assert np.array_equal(w.instrument(-1)["commanded_tip"], [0.0, 0.0, 2.0])
     reference = haustra.World(held_rod_with_a_grasper())
     reference.set_attachment_target(0, 0, [1.0, 0.0, 0.5])
     reference.set_instrument_pose(0, [0.0, 0.0, 2.0], [0.0, 0.0, 1.0])

@@ -18,7 +18,7 @@ using namespace haustra;
 namespace {
 
 // The box [lo, hi] as 12 triangles wound outward.
-TriangleMesh box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+TriangleMesh closed_box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
   TriangleMesh m;
   for (int k = 0; k < 8; ++k)
     m.vertices.emplace_back((k & 1) != 0 ? hi.x() : lo.x(), (k & 2) != 0 ? hi.y() : lo.y(),
@@ -28,7 +28,7 @@ TriangleMesh box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
   return m;
 }
 
-MeshObstacleDesc container_of(const TriangleMesh& m) {
+MeshObstacleDesc as_container(const TriangleMesh& m) {
   MeshObstacleDesc d;
   d.name = "box";
   d.source = "box.obj";
@@ -38,13 +38,13 @@ MeshObstacleDesc container_of(const TriangleMesh& m) {
   return d;
 }
 
-constexpr double kBeadRadius = 0.01;  // m
-constexpr int kBeads = 26;
-constexpr double kLength = 0.5;  // m
+constexpr double kChainBeadRadius = 0.01;  // m
+constexpr int kChainBeads = 26;
+constexpr double kChainLength = 0.5;  // m
 
 // A straight free rod along x at height z (its centre at x_mid), with evenly spread beads, in the
 // box [-0.5, 0.5]² × [0, 0.5] (a container) or over a floor at z = 0.
-SceneDesc rod_scene(double x_mid, double z, bool in_container) {
+SceneDesc chain_scene(double x_mid, double z, bool in_container) {
   SceneDesc sc;
   sc.name = "container";
   WorldDesc& w = sc.world;
@@ -55,23 +55,23 @@ SceneDesc rod_scene(double x_mid, double z, bool in_container) {
   s.base = BaseMode::free;
   s.drag = 4.0;
   s.rest.kind = RestShapeKind::straight;
-  s.rest.length = kLength;
-  s.base_position = Eigen::Vector3d(x_mid - 0.5 * kLength, 0.0, z);
+  s.rest.length = kChainLength;
+  s.base_position = Eigen::Vector3d(x_mid - 0.5 * kChainLength, 0.0, z);
   s.base_tangent = Eigen::Vector3d::UnitX();
   s.base_normal = Eigen::Vector3d::UnitZ();
-  s.cross_section.radius = kBeadRadius;
+  s.cross_section.radius = kChainBeadRadius;
   s.beads.enabled = true;
-  s.beads.count = kBeads;
-  s.beads.radius = kBeadRadius;
+  s.beads.count = kChainBeads;
+  s.beads.radius = kChainBeadRadius;
   w.segments.push_back(s);
   if (in_container)
-    w.environment.meshes.push_back(container_of(box({-0.5, -0.5, 0.0}, {0.5, 0.5, 0.5})));
+    w.environment.meshes.push_back(as_container(closed_box({-0.5, -0.5, 0.0}, {0.5, 0.5, 0.5})));
   else
     w.environment.planes.push_back({"floor", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ()});
   return sc;
 }
 
-std::vector<double> node_positions(const World& w) {
+std::vector<double> chain_nodes(const World& w) {
   std::vector<double> out;
   const auto p = w.node_positions();
   for (std::size_t k = 0; k < w.node_count(); ++k)
@@ -82,8 +82,8 @@ std::vector<double> node_positions(const World& w) {
 }  // namespace
 
 TEST_CASE("a container keeps a dropped bead chain inside: it rests on the bottom at the penalty's equilibrium depth") {
-  auto boxed = create_world(rod_scene(0.0, 0.05, true));
-  auto floored = create_world(rod_scene(0.0, 0.05, false));
+  auto boxed = create_world(chain_scene(0.0, 0.05, true));
+  auto floored = create_world(chain_scene(0.0, 0.05, false));
   for (int f = 0; f < 240; ++f) {
     boxed->step();
     floored->step();
@@ -101,18 +101,18 @@ TEST_CASE("a container keeps a dropped bead chain inside: it rests on the bottom
     CHECK(c.stiffness > 0.0);  // the Newton solve sees it, as any environment contact
     lifted += c.force.z();
   }
-  CHECK(touching == static_cast<std::size_t>(kBeads));
+  CHECK(touching == static_cast<std::size_t>(kChainBeads));
   CHECK(lifted == doctest::Approx(weight).epsilon(0.01));
   // The reference: f = 50 E d² holding each bead's share of the weight, d = sqrt(W / (N · 50 E)).
-  const double expected = std::sqrt(weight / (kBeads * 50.0 * 33.2e3));
-  const std::size_t middle = kBeads / 2;
-  const double depth = kBeadRadius - boxed->node_positions().get(boxed->bead_nodes()[middle]).z();
+  const double expected = std::sqrt(weight / (kChainBeads * 50.0 * 33.2e3));
+  const std::size_t middle = kChainBeads / 2;
+  const double depth = kChainBeadRadius - boxed->node_positions().get(boxed->bead_nodes()[middle]).z();
   test::measured("container: the middle bead's depth in the box's bottom over the penalty's equilibrium depth",
                  depth / expected, 2.0);
   CHECK(depth / expected > 0.5);
   CHECK(depth / expected < 2.0);
   // The bottom of a box is a floor: the same rest, to the rounding of the closest point.
-  const std::vector<double> a = node_positions(*boxed), b = node_positions(*floored);
+  const std::vector<double> a = chain_nodes(*boxed), b = chain_nodes(*floored);
   double apart = 0.0;
   for (std::size_t i = 0; i < a.size(); ++i) apart = std::max(apart, std::abs(a[i] - b[i]));
   test::measured("container: largest distance of a node from where it rests on a floor", apart, 1e-9, "m");
@@ -122,7 +122,7 @@ TEST_CASE("a container keeps a dropped bead chain inside: it rests on the bottom
 TEST_CASE("a bead chain outside a container is pushed back in, however far out it is") {
   for (const double out : {0.02, 0.2, 1.0}) {
     // Over the box's lid z = 0.5, `out` beyond it, without gravity: only the container moves it.
-    SceneDesc sc = rod_scene(0.0, 0.5 + out, true);
+    SceneDesc sc = chain_scene(0.0, 0.5 + out, true);
     sc.world.gravity = Eigen::Vector3d::Zero();
     auto w = create_world(sc);
     CAPTURE(out);
@@ -133,10 +133,10 @@ TEST_CASE("a bead chain outside a container is pushed back in, however far out i
     for (std::size_t b = 0; b < w->bead_count(); ++b)
       farthest = std::max(farthest, w->node_positions().get(w->bead_nodes()[b]).z() - 0.5);
     MESSAGE("started " << out << " m outside; after 2 s the farthest bead centre is " << farthest << " m past the wall");
-    CHECK(farthest < -0.5 * kBeadRadius);  // inside, by at least half a radius
+    CHECK(farthest < -0.5 * kChainBeadRadius);  // inside, by at least half a radius
   }
   // Through the wall x = 0.5, half of it out: pushed back along its own axis.
-  SceneDesc sc = rod_scene(0.5, 0.25, true);
+  SceneDesc sc = chain_scene(0.5, 0.25, true);
   sc.world.gravity = Eigen::Vector3d::Zero();
   auto w = create_world(sc);
   for (int f = 0; f < 120; ++f) w->step();
@@ -144,11 +144,11 @@ TEST_CASE("a bead chain outside a container is pushed back in, however far out i
   for (std::size_t b = 0; b < w->bead_count(); ++b)
     farthest = std::max(farthest, w->node_positions().get(w->bead_nodes()[b]).x() - 0.5);
   MESSAGE("half out through a wall; after 2 s the farthest bead centre is " << farthest << " m past it");
-  CHECK(farthest < -0.5 * kBeadRadius);
+  CHECK(farthest < -0.5 * kChainBeadRadius);
 }
 
 TEST_CASE("a container wound inward holds beads as the same container wound outward") {
-  SceneDesc outward = rod_scene(0.0, 0.05, true);
+  SceneDesc outward = chain_scene(0.0, 0.05, true);
   SceneDesc inward = outward;
   for (auto& t : inward.world.environment.meshes[0].triangles) std::swap(t[1], t[2]);
   auto a = create_world(outward), b = create_world(inward);
@@ -156,11 +156,11 @@ TEST_CASE("a container wound inward holds beads as the same container wound outw
     a->step();
     b->step();
   }
-  CHECK(node_positions(*a) == node_positions(*b));
+  CHECK(chain_nodes(*a) == chain_nodes(*b));
 }
 
 TEST_CASE("an open or inconsistently wound container is refused, naming its field and file") {
-  SceneDesc open = rod_scene(0.0, 0.05, true);
+  SceneDesc open = chain_scene(0.0, 0.05, true);
   open.world.environment.meshes[0].triangles.pop_back();
   try {
     (void)create_world(open);
@@ -169,7 +169,7 @@ TEST_CASE("an open or inconsistently wound container is refused, naming its fiel
     CHECK(e.field() == "environment.mesh[0].container");
     CHECK(std::string(e.what()).find("box.obj is not closed") != std::string::npos);
   }
-  SceneDesc twisted = rod_scene(0.0, 0.05, true);
+  SceneDesc twisted = chain_scene(0.0, 0.05, true);
   std::swap(twisted.world.environment.meshes[0].triangles[0][1], twisted.world.environment.meshes[0].triangles[0][2]);
   try {
     (void)create_world(twisted);
@@ -186,7 +186,7 @@ TEST_CASE("an open or inconsistently wound container is refused, naming its fiel
 TEST_CASE("a scene's container: read from [[environment.mesh]] container = true, an open one refused at its line") {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "haustra-test-container";
   std::filesystem::create_directories(dir);
-  TriangleMesh open = box({-0.5, -0.5, 0.0}, {0.5, 0.5, 0.5});
+  TriangleMesh open = closed_box({-0.5, -0.5, 0.0}, {0.5, 0.5, 0.5});
   save_mesh(dir / "closed.obj", open);
   open.triangles.pop_back();
   save_mesh(dir / "open.obj", open);

@@ -553,8 +553,14 @@ void declare_import(CLI::App& app, Commands& c) {
   c.import_cmd->add_option("--out", c.import_options.out, "the scene file to write (default: MESH's name .toml here)");
   c.import_cmd->add_option("--units", c.import_options.units, "auto (default: from the size), mm or m")
       ->check(CLI::IsMember({"auto", "mm", "m"}));
-  c.import_cmd->add_option("--ends", c.import_options.ends, "held (default: both ends), base (the first) or free")
+  c.import_cmd
+      ->add_option("--ends", c.import_options.ends,
+                   "ends held rigidly: free (default: the tissue holds the organ), held (both) or base (the first)")
       ->check(CLI::IsMember({"held", "base", "free"}));
+  c.import_cmd
+      ->add_option("--tissue", c.import_options.tissue,
+                   "connective tissue holding the organ where the surface put it: rest (default) or none")
+      ->check(CLI::IsMember({"rest", "none"}));
   c.import_cmd->add_option("--nodes", c.import_options.nodes, "rod nodes (default: one per 5 mm, 9 to 1,201)")
       ->check(CLI::Range(3, 20000));
   c.import_cmd->add_option("--beads", c.import_options.beads, "beads (default: a third of the nodes)")

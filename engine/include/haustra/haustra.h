@@ -38,7 +38,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 11
+#define HAUSTRA_ABI_VERSION 12
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -92,9 +92,13 @@ typedef struct haustra_instrument_reading {
   int slipped; /* closed, but the grasp let go: pulled past the instrument's holding_force */
   size_t grasped_segment;
   size_t grasped_node; /* local to the segment */
+  /* Where it is commanded; `tip` is where its capsule is — for a proxy (decision 0096) where its
+   * coupling and what it meets balance. Since ABI 12. */
+  double commanded_tip[3];
+  int cutting; /* cuts the connective tissue within its cut radius (decision 0095). Since ABI 12. */
 } haustra_instrument_reading;
 
-#define HAUSTRA_STAGE_COUNT 20
+#define HAUSTRA_STAGE_COUNT 21
 
 typedef struct haustra_profile {
   double stage_seconds[HAUSTRA_STAGE_COUNT]; /* in the order of haustra_stage_name(0..) */
@@ -192,6 +196,13 @@ typedef struct haustra_segment_def {
   /* At most this many times the skinning cost of rings_per_vertex rings a mesh vertex (the scene's
    * mesh.skin_cost_limit, decision 0092): 0 (default): no limit; else 1 to 4096. Since ABI 11. */
   double skin_cost_limit;
+  /* Connective tissue along the whole segment, holding each node where it rests (the scene's
+   * [[segment.anchors]] from 0 to 1, target "rest"; decision 0095). Since ABI 12.
+   * anchor_stiffness: N/m per metre of organ; 0 (default): no tissue. */
+  double anchor_stiffness;
+  double anchor_damping;  /* N·s/m per metre of organ; default 50 */
+  double anchor_slack;    /* m of free play; default 0 */
+  double anchor_strength; /* N per metre of organ: an anchor pulled past it tears; default 1000; 0: never */
 } haustra_segment_def;
 
 /* One segment as the world holds it (haustra_world_segment). */
@@ -267,7 +278,19 @@ HAUSTRA_API haustra_status haustra_world_set_instrument_pose(haustra_world* worl
 HAUSTRA_API haustra_status haustra_world_set_instrument_grasp(haustra_world* world, size_t instrument, int closed);
 HAUSTRA_API haustra_status haustra_world_instrument(const haustra_world* world, size_t instrument,
                                                     haustra_instrument_reading* out);
+/* While cutting is 1, the instrument cuts the connective tissue within its cut radius of its tip. */
+HAUSTRA_API haustra_status haustra_world_set_instrument_cutting(haustra_world* world, size_t instrument, int cutting);
 HAUSTRA_API haustra_status haustra_world_profile(const haustra_world* world, haustra_profile* out);
+
+/* Connective tissue (decision 0095). Anchors, ordered by segment, range and node: the global node
+ * each holds and whether it still holds (1) or was torn or cut (0); views valid until the next
+ * step or rebuild. Tensions (N, 0 once torn or cut) into out[0..count). A cut takes every
+ * anchor whose tissue passes within `radius` (m) of `centre`; `cut` (may be NULL) receives how many. */
+HAUSTRA_API haustra_status haustra_world_anchors(const haustra_world* world, const uint32_t** nodes,
+                                                 const uint8_t** intact, size_t* count);
+HAUSTRA_API haustra_status haustra_world_anchor_tensions(const haustra_world* world, double* out, size_t count);
+HAUSTRA_API haustra_status haustra_world_cut_tissue(haustra_world* world, const double centre[3], double radius,
+                                                    size_t* cut);
 /* Deadline mode (decision 0061): seconds a frame may take (0: none), and the frames over it so far. */
 HAUSTRA_API haustra_status haustra_world_set_frame_budget(haustra_world* world, double seconds);
 HAUSTRA_API haustra_status haustra_world_late_frames(const haustra_world* world, uint64_t* count);

@@ -13,6 +13,7 @@ enum class Stage : std::uint8_t {
   snapshot,        // a substep's start: the strains, poses and bases its drag and potential measure from
   collide,         // beads follow nodes; broad and narrow phase → contact candidates
   contacts,        // penalty forces (and their stiffness) at the current positions
+  proxy,           // instruments' capsules where their couplings and contacts balance (0096)
   loads,           // gravity + external loads + contacts → node forces
   free_base,       // rigid drag of free bases
   backward_sweep,  // node forces → generalized forces R

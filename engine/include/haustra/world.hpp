@@ -84,10 +84,27 @@ class World {
   [[nodiscard]] const ContactReport& contacts() const;
   [[nodiscard]] std::span<const Contact> contact_list() const;  // valid until the next step
 
-  // Instruments. Setting a pose hands the instrument from its script to the host for good.
+  // Connective tissue (decision 0095): anchors by segment, range and node, each holding its node
+  // towards where the anatomy holds it (its target) until it tears (an event) or is cut. Chains'
+  // anchors belong to their rod, like attachments.
+  [[nodiscard]] std::size_t anchor_count() const;
+  [[nodiscard]] std::span<const std::uint32_t> anchor_nodes() const;  // global node index
+  [[nodiscard]] std::span<const Eigen::Vector3d> anchor_targets() const;  // m
+  [[nodiscard]] std::span<const std::uint8_t> anchors_intact() const;  // 1 while it holds
+  // Each anchor's tension now, N (0 once torn or cut), into out (anchor_count() values).
+  void anchor_tensions(std::span<double> out) const;
+  // Dissection: cuts every intact anchor whose tissue (from its node to its target) passes within
+  // `radius` of `centre` (m), records a `cut` event per range, and returns how many it cut.
+  std::size_t cut_tissue(const Eigen::Vector3d& centre, double radius);
+
+  // Instruments. Setting a pose hands the instrument from its script to the host for good. A proxy
+  // instrument (decision 0096) follows its commanded pose through its coupling from the next step
+  // (placed there at once before the first step); instrument(i).tip is where its capsule is.
   [[nodiscard]] std::size_t instrument_count() const;
   void set_instrument_pose(std::size_t instrument, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis);
   void set_instrument_grasp(std::size_t instrument, bool closed);
+  // While on, the instrument cuts the connective tissue within its cut_radius of its tip each frame.
+  void set_instrument_cutting(std::size_t instrument, bool cutting);
   [[nodiscard]] InstrumentReading instrument(std::size_t instrument) const;
 
   // Organ meshes. Positions and normals are float SoA buffers over all segments' meshes, one

@@ -102,6 +102,28 @@ struct PointLoadDesc {
   Eigen::Vector3d moment = Eigen::Vector3d::Zero();  // N·m, world frame
 };
 
+// Connective tissue over a range of the organ (decision 0095): an anchor on every node of the range,
+// a spring with slack and a damper from the node to where the anatomy holds it — its rest place,
+// or the nearest point of a root line (the mesentery's root on the posterior wall) — torn when its
+// tension passes its strength. Per length of organ, so the anchors of a finer rod hold alike.
+enum class AnchorTarget : std::uint8_t {
+  rest,  // where the node rests: the support of the mesentery, the peritoneum and the organs around
+  root,  // the nearest point of `root` (a polyline), slack beyond the rest distance: a tether
+};
+
+struct AnchorsDesc {
+  std::string name = "tissue";  // for events and the viewer
+  double from = 0.0, to = 1.0;  // fractions of the rod's rest length (a chain's: of the whole chain)
+  AnchorTarget target = AnchorTarget::rest;
+  std::vector<Eigen::Vector3d> root;  // m, two points or more (target = root)
+  // Defaults: decision 0095 (porcine mesentery and peritoneum, White et al. 2018, as a sheet of
+  // ~1 mm): 5 kN/m² holds a 0.33 kg/m bowel within 0.7 mm of its place.
+  double stiffness = 5000.0;  // N/m per metre of organ (N/m²)
+  double damping = 50.0;      // N·s/m per metre of organ (N·s/m²), on the node's velocity
+  double slack = 0.0;         // m of free play before the spring pulls (beyond the rest distance)
+  double strength = 1000.0;   // N per metre of organ: an anchor tears past this times its length; 0: never
+};
+
 // Beads: rigid spheres centred on chosen nodes, for collision (the paper: 55 beads on 167 nodes).
 // Choose the nodes by count (spread evenly by node index, both ends included), by spacing along
 // the rest length, or by an explicit list; give the radius as a constant or a profile along the rod.
@@ -201,6 +223,7 @@ struct SegmentDesc {
   // 0 for a clamped one.
   std::optional<double> drag;
   std::vector<AttachmentDesc> attachments;
+  std::vector<AnchorsDesc> anchors;  // connective tissue, by ranges along the organ
   std::vector<PointLoadDesc> loads;
   BeadsDesc beads;
   OrganMeshDesc mesh;
@@ -273,6 +296,7 @@ struct InstrumentKeyframe {
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();    // m
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // from the tip towards the handle
   bool grasp = false;                               // jaws closed from this keyframe on
+  bool cut = false;  // cutting from this keyframe on: connective tissue within cut_radius of the tip
 };
 
 // A kinematic capsule (grasper, retractor) from its tip back along its axis. It pushes tissue by
@@ -291,12 +315,21 @@ struct InstrumentDesc {
   // reported is the coupling's. coupling_stiffness = 0: a rigid grasp (a constraint, hold_frame
   // honoured), as before the coupling.
   double coupling_stiffness = 1000.0;  // N/m
+  // The instrument as a proxy (decision 0096, haptic rendering's god-object): its capsule is not
+  // where it is commanded but where the same capped spring–damper from the commanded pose balances
+  // what the capsule meets (beads, the floor, walls, obstacles); the force reported for it — the
+  // grasp's and the capsule's together — never exceeds force_limit. false (or a rigid grasp,
+  // coupling_stiffness = 0): a kinematic capsule at the commanded pose, its contacts unbounded.
+  bool proxy = true;
   double coupling_damping = 2.0;       // N·s/m, on the node's velocity relative to the grasp point's
   double force_limit = 8.0;            // N
   // A grasp pulled harder than this lets go (the tissue slips out of the jaws: an event, decision
   // 0058); 0 (the default): it never slips, the force limit alone bounds the pull. Closing again
   // grasps anew.
   double holding_force = 0.0;  // N
+  // Dissection (decision 0095): while cutting, the anchors of connective tissue that pass within this
+  // distance of the tip are cut, with an event (a keyframe's `cut`, or the host's call).
+  double cut_radius = 0.005;  // m
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   std::vector<InstrumentKeyframe> keyframes;

@@ -126,9 +126,13 @@ struct ContactReport {
 // An instrument's state after the last frame. Force and torque are what the tissue exerts on the
 // instrument (the negative of what the instrument exerts on the rod), torque about the tip.
 struct InstrumentReading {
+  // Where the capsule is; for a proxy (decision 0096) where its coupling and what it meets
+  // balance, which may fall short of where it is commanded.
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d commanded_tip = Eigen::Vector3d::Zero();
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   bool closed = false;
+  bool cutting = false;  // cuts the connective tissue within its cut radius (decision 0095)
   bool grasping = false;
   bool slipped = false;  // closed, but its grasp let go: pulled past its holding force (decision 0058)
   std::size_t grasped_segment = 0;
@@ -144,17 +148,21 @@ struct InstrumentReading {
 };
 
 // Energies of the current configuration, J: what the elastic strain components store
-// (½ Σ k_c Δqᵀ M Δq over elastic and Kelvin–Voigt components; viscous ones store none) and the
-// potential of the rod's weight (−Σ m_k g·r_k, zero at the origin).
+// (½ Σ k_c Δqᵀ M Δq over elastic and Kelvin–Voigt components; viscous ones store none), the
+// potential of the rod's weight (−Σ m_k g·r_k, zero at the origin) and what the springs of the
+// connective tissue's intact anchors store.
 struct Energy {
   double elastic = 0.0;
   double gravity = 0.0;
-  [[nodiscard]] double total() const { return elastic + gravity; }
+  double tissue = 0.0;
+  [[nodiscard]] double total() const { return elastic + gravity + tissue; }
 };
 
 struct Event {
   // slipped: a grasp pulled past its holding force let go (the frame itself went well).
-  enum class Kind : std::uint8_t { recovered, unstable, slipped };
+  // torn: anchors of connective tissue pulled past their strength let go (one event per range and
+  // frame); cut: anchors cut by a host's call or an instrument (one per range and cut).
+  enum class Kind : std::uint8_t { recovered, unstable, slipped, torn, cut };
   Kind kind = Kind::recovered;
   std::uint64_t frame = 0;
   std::size_t segment = 0;
@@ -166,12 +174,14 @@ struct Event {
   [[nodiscard]] std::string_view message() const { return {text.data()}; }
 };
 
-// "recovered", "unstable" or "slipped".
+// "recovered", "unstable", "slipped", "torn" or "cut".
 [[nodiscard]] constexpr std::string_view event_kind_name(Event::Kind k) noexcept {
   switch (k) {
     case Event::Kind::recovered: return "recovered";
     case Event::Kind::unstable: return "unstable";
     case Event::Kind::slipped: return "slipped";
+    case Event::Kind::torn: return "torn";
+    case Event::Kind::cut: return "cut";
   }
   return "unknown";
 }

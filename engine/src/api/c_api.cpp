@@ -210,6 +210,14 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& d, std::size_t i) {
   s.material.exp2_alpha = d.exp2_alpha;
   s.material.exp2_beta = d.exp2_beta;
   s.material.exp2_gamma = d.exp2_gamma;
+  if (d.anchor_stiffness != 0.0) {  // checked with the scene's fields, a negative one refused by name
+    haustra::AnchorsDesc a;
+    a.stiffness = d.anchor_stiffness;
+    a.damping = d.anchor_damping;
+    a.slack = d.anchor_slack;
+    a.strength = d.anchor_strength;
+    s.anchors.push_back(a);
+  }
   return s;
 }
 
@@ -314,6 +322,10 @@ haustra_status haustra_segment_def_default(haustra_segment_def* def) {
     d.exp2_alpha = s.material.exp2_alpha;
     d.exp2_beta = s.material.exp2_beta;
     d.exp2_gamma = s.material.exp2_gamma;
+    const haustra::AnchorsDesc a;
+    d.anchor_damping = a.damping;
+    d.anchor_slack = a.slack;
+    d.anchor_strength = a.strength;
   });
 }
 
@@ -516,7 +528,38 @@ haustra_status haustra_world_instrument(const haustra_world* world, size_t instr
     o.slipped = r.slipped ? 1 : 0;
     o.grasped_segment = r.grasped_segment;
     o.grasped_node = r.grasped_node;
+    copy3(r.commanded_tip, o.commanded_tip);
+    o.cutting = r.cutting ? 1 : 0;
     required(out, "out") = o;
+  });
+}
+
+haustra_status haustra_world_set_instrument_cutting(haustra_world* world, size_t instrument, int cutting) {
+  return guarded("haustra_world_set_instrument_cutting",
+                 [&] { live(world).set_instrument_cutting(instrument, cutting != 0); });
+}
+
+haustra_status haustra_world_anchors(const haustra_world* world, const uint32_t** nodes, const uint8_t** intact,
+                                     size_t* count) {
+  return guarded("haustra_world_anchors", [&] {
+    const haustra::World& w = live(world);
+    required(nodes, "nodes") = w.anchor_nodes().data();
+    required(intact, "intact") = w.anchors_intact().data();
+    required(count, "count") = w.anchor_count();
+  });
+}
+
+haustra_status haustra_world_anchor_tensions(const haustra_world* world, double* out, size_t count) {
+  return guarded("haustra_world_anchor_tensions", [&] {
+    if (out == nullptr && count > 0) throw Error(ErrorCode::invalid_argument, "out is NULL");
+    live(world).anchor_tensions(std::span<double>(out, count));
+  });
+}
+
+haustra_status haustra_world_cut_tissue(haustra_world* world, const double centre[3], double radius, size_t* cut) {
+  return guarded("haustra_world_cut_tissue", [&] {
+    const std::size_t n = live(world).cut_tissue(finite_vec3(centre, "centre"), radius);
+    if (cut != nullptr) *cut = n;
   });
 }
 

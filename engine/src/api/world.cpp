@@ -154,6 +154,9 @@ void World::set_instrument_pose(std::size_t instrument, const Eigen::Vector3d& t
   detail::InstrumentState& s = impl_->state.instruments[instrument];
   s.scripted = false;
   detail::set_instrument_pose(s, tip, axis);
+  // Before the first frame a proxy is placed where it is commanded; after, it gets there as its
+  // coupling and what it meets on the way let it (decision 0096).
+  if (impl_->state.frame == 0) s.tip = s.command_start = s.proxy_start = s.command_tip;
 }
 
 void World::set_instrument_grasp(std::size_t instrument, bool closed) {
@@ -162,13 +165,21 @@ void World::set_instrument_grasp(std::size_t instrument, bool closed) {
   impl_->state.instruments[instrument].closed = closed;
 }
 
+void World::set_instrument_cutting(std::size_t instrument, bool cutting) {
+  impl_->check_instrument(instrument);
+  impl_->state.instruments[instrument].scripted = false;
+  impl_->state.instruments[instrument].cutting = cutting;
+}
+
 InstrumentReading World::instrument(std::size_t instrument) const {
   impl_->check_instrument(instrument);
   const detail::InstrumentState& s = impl_->state.instruments[instrument];
   InstrumentReading r;
   r.tip = s.tip;
+  r.commanded_tip = s.command_tip;
   r.axis = s.axis;
   r.closed = s.closed;
+  r.cutting = s.cutting;
   r.grasping = s.grasping;
   r.slipped = s.slipped;
   if (s.grasping) {
@@ -253,10 +264,11 @@ std::span<const kernels::RingPose> World::ring_poses(std::size_t segment) const 
 Energy World::energy() const {
   Energy e;
   for (std::size_t s = 0; s < impl_->model.segments.size(); ++s) {
-    const Energy es =
-        detail::segment_energy(impl_->model, impl_->state.now.strain, impl_->state.now.position.view(), s);
+    const Energy es = detail::segment_energy(impl_->model, impl_->state, impl_->state.now.strain,
+                                             impl_->state.now.position.view(), s);
     e.elastic += es.elastic;
     e.gravity += es.gravity;
+    e.tissue += es.tissue;
   }
   return e;
 }

@@ -21,7 +21,9 @@ namespace haustra::detail {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'H', 'A', 'U', 'S', 'T', 'R', 'C', 'K'};
-constexpr std::uint32_t kFormatVersion = 4;  // 2: fast mode's chord state; 3: the instruments' coupling; 4: fast mode's prefactor
+// 2: fast mode's chord state; 3: the instruments' coupling; 4: fast mode's prefactor; 5: anchors
+// of connective tissue (which still hold), instruments' proxies and cutting.
+constexpr std::uint32_t kFormatVersion = 5;
 
 std::uint64_t fnv1a(std::span<const std::byte> bytes, std::uint64_t h = 0xcbf29ce484222325ull) {
   for (std::byte b : bytes) {
@@ -57,6 +59,13 @@ ModelHeader header_of(const WorldModel& m) {
   f = hash_doubles(f, m.section_length);
   f = hash_doubles(f, m.node_mass);
   f = hash_doubles(f, m.beads.radius);
+  // The tissue: which nodes its anchors hold, how, and towards where.
+  f = fnv1a(std::as_bytes(std::span(m.anchors.node)), f);
+  f = hash_doubles(f, m.anchors.stiffness);
+  f = hash_doubles(f, m.anchors.damping);
+  f = hash_doubles(f, m.anchors.slack);
+  f = hash_doubles(f, m.anchors.strength);
+  for (const Eigen::Vector3d& t : m.anchors.target) f = fnv1a(std::as_bytes(std::span(t.data(), 3)), f);
   h.fingerprint = f;
   return h;
 }
@@ -81,10 +90,11 @@ void visit_members(Io& io, A& a) {
 }
 template <class Io, StateOf<InstrumentState> I>
 void visit_members(Io& io, I& in) {
-  io(in.tip), io(in.axis), io(in.frame), io(in.closed), io(in.scripted), io(in.grasping), io(in.grasp_segment),
+  io(in.tip), io(in.axis), io(in.frame), io(in.closed), io(in.cutting), io(in.scripted), io(in.grasping), io(in.grasp_segment),
       io(in.grasp_attachment), io(in.grasp_bead), io(in.grasp_offset), io(in.grasp_rotation), io(in.force),
       io(in.torque), io(in.filtered_force), io(in.filtered_torque), io(in.coupled), io(in.grasp_node),
-      io(in.grasp_target), io(in.target_start), io(in.coupling_force), io(in.slipped);
+      io(in.grasp_target), io(in.target_start), io(in.coupling_force), io(in.slipped), io(in.command_tip),
+      io(in.command_start), io(in.proxy_start), io(in.proxy_force), io(in.reach);
 }
 template <class Io, StateOf<ContactReport> R>
 void visit_members(Io& io, R& r) {
@@ -255,6 +265,7 @@ void visit_state(Io& io, State& st) {
   rot(now.mid_rotation);
   io(now.base);
   io(now.attachment);
+  io(now.anchor_intact);
   vec3(st.external_force);
   vec3(st.external_moment);
   io(st.base_twist);

@@ -192,6 +192,29 @@ void read_attachments_and_loads(const Reader& r, const toml::table& t, const std
   }
 }
 
+// [[segment.anchors]]: connective tissue over a range of the organ (decision 0095).
+void read_anchors(const Reader& r, const toml::table& t, const std::string& path, SegmentDesc& s) {
+  const auto ranges = r.tables(t, "anchors", path + ".anchors");
+  for (std::size_t i = 0; i < ranges.size(); ++i) {
+    const toml::table& a = *ranges[i];
+    const std::string ap = fmt::format("{}.anchors[{}]", path, i);
+    r.check_keys(a, ap, {"name", "from", "to", "target", "root", "stiffness", "damping", "slack", "strength"});
+    AnchorsDesc d;
+    d.name = r.string(a, "name", ap + ".name", d.name);
+    d.from = r.number(a, "from", ap + ".from", d.from);
+    d.to = r.number(a, "to", ap + ".to", d.to);
+    d.target = r.choice<AnchorTarget>(a, "target", ap + ".target", d.target,
+                                      {{"rest", AnchorTarget::rest}, {"root", AnchorTarget::root}});
+    d.root = r.points(a, "root", ap + ".root");
+    if (!d.root.empty() && a.get("target") == nullptr) d.target = AnchorTarget::root;
+    d.stiffness = r.number(a, "stiffness", ap + ".stiffness", d.stiffness);
+    d.damping = r.number(a, "damping", ap + ".damping", d.damping);
+    d.slack = r.number(a, "slack", ap + ".slack", d.slack);
+    d.strength = r.number(a, "strength", ap + ".strength", d.strength);
+    s.anchors.push_back(std::move(d));
+  }
+}
+
 SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::string& path,
                          const std::filesystem::path& scene_dir) {
   r.check_keys(t, path, {"name",          "nodes",         "rest",           "law",
@@ -199,7 +222,7 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
                          "drag",          "radius",        "wall_thickness", "youngs_modulus",
                          "poisson_ratio", "density",       "linear_density", "relaxation_time",
                          "attachment",    "load",          "beads",          "mesh",
-                         "chain",         "tissue"});
+                         "chain",         "tissue",        "anchors"});
   SegmentDesc s;
   s.name = r.string(t, "name", path + ".name", path);
   s.nodes = r.integer(t, "nodes", path + ".nodes", s.nodes);
@@ -228,6 +251,7 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
     s.chain_pieces = r.integer(*chain, "pieces", path + ".chain.pieces", s.chain_pieces);
   }
   read_attachments_and_loads(r, t, path, s);
+  read_anchors(r, t, path, s);
   return s;
 }
 
@@ -294,7 +318,7 @@ void read_environment(const Reader& r, const toml::table& t, const std::filesyst
 InstrumentDesc read_instrument(const Reader& r, const toml::table& t, const std::string& path) {
   r.check_keys(t, path,
                {"name", "radius", "length", "grasp_reach", "hold_frame", "force_filter", "tip", "axis", "keyframe",
-                "coupling_stiffness", "coupling_damping", "force_limit", "holding_force"});
+                "coupling_stiffness", "coupling_damping", "force_limit", "holding_force", "cut_radius"});
   InstrumentDesc d;
   d.name = r.string(t, "name", path + ".name", path);
   d.radius = r.number(t, "radius", path + ".radius", d.radius);
@@ -306,18 +330,20 @@ InstrumentDesc read_instrument(const Reader& r, const toml::table& t, const std:
   d.coupling_damping = r.number(t, "coupling_damping", path + ".coupling_damping", d.coupling_damping);
   d.force_limit = r.number(t, "force_limit", path + ".force_limit", d.force_limit);
   d.holding_force = r.number(t, "holding_force", path + ".holding_force", d.holding_force);
+  d.cut_radius = r.number(t, "cut_radius", path + ".cut_radius", d.cut_radius);
   d.tip = r.vec3(t, "tip", path + ".tip", d.tip);
   d.axis = r.vec3(t, "axis", path + ".axis", d.axis);
   const auto keyframes = r.tables(t, "keyframe", path + ".keyframe");
   for (std::size_t i = 0; i < keyframes.size(); ++i) {
     const std::string kp = fmt::format("{}.keyframe[{}]", path, i);
-    r.check_keys(*keyframes[i], kp, {"time", "tip", "axis", "grasp"});
+    r.check_keys(*keyframes[i], kp, {"time", "tip", "axis", "grasp", "cut"});
     if (keyframes[i]->get("time") == nullptr) r.fail(keyframes[i], kp + ".time", "a keyframe needs time = <s>");
     InstrumentKeyframe k;
     k.time = r.number(*keyframes[i], "time", kp + ".time", 0.0);
     k.tip = r.vec3(*keyframes[i], "tip", kp + ".tip", i > 0 ? d.keyframes.back().tip : d.tip);
     k.axis = r.vec3(*keyframes[i], "axis", kp + ".axis", i > 0 ? d.keyframes.back().axis : d.axis);
     k.grasp = r.boolean(*keyframes[i], "grasp", kp + ".grasp", i > 0 && d.keyframes.back().grasp);
+    k.cut = r.boolean(*keyframes[i], "cut", kp + ".cut", i > 0 && d.keyframes.back().cut);
     d.keyframes.push_back(k);
   }
   return d;

@@ -189,6 +189,23 @@ class Reader {
     return out;
   }
 
+  // [[x, y, z], ...]: points of finite numbers.
+  std::vector<Eigen::Vector3d> points(const toml::table& t, std::string_view key, const std::string& path) const {
+    std::vector<Eigen::Vector3d> out;
+    const toml::node* n = t.get(key);
+    if (n == nullptr) return out;
+    const toml::array* a = n->as_array();
+    if (a == nullptr) fail(n, path, fmt::format("expected [[x, y, z], ...], got {}", describe_value(*n)));
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const toml::array* p = a->get(i)->as_array();
+      bool ok = p != nullptr && p->size() == 3;
+      for (std::size_t j = 0; ok && j < 3; ++j) ok = p->get(j)->is_number() && std::isfinite(*p->get(j)->value<double>());
+      if (!ok) fail(a->get(i), fmt::format("{}[{}]", path, i), "expected [x, y, z] of three finite numbers");
+      out.emplace_back(*p->get(0)->value<double>(), *p->get(1)->value<double>(), *p->get(2)->value<double>());
+    }
+    return out;
+  }
+
   // An array of tables (TOML [[name]]); absent is empty.
   std::vector<const toml::table*> tables(const toml::table& t, std::string_view key, const std::string& path) const {
     std::vector<const toml::table*> out;

@@ -143,6 +143,8 @@ void check_instrument(InstrumentDesc& ins, std::size_t i) {
   if (!std::isfinite(ins.holding_force) || ins.holding_force < 0.0)
     fail(where + ".holding_force",
          fmt::format("expected a force >= 0 N (0: the grasp never slips), got {}", ins.holding_force));
+  if (!std::isfinite(ins.cut_radius) || !(ins.cut_radius > 0.0) || ins.cut_radius > 0.5)
+    fail(where + ".cut_radius", fmt::format("expected a radius in (0, 0.5] m, got {}", ins.cut_radius));
   check_finite(where + ".tip", ins.tip);
   check_unit(where + ".axis", ins.axis);
   ins.axis.normalize();

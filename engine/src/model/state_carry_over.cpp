@@ -84,6 +84,9 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
     to.base_twist[rod_map[r]] = from.base_twist[r];
     to.base_resistance[rod_map[r]] = from.base_resistance[r];
     copy_range(from.now.attachment, a.attachment_offset, to.now.attachment, b.attachment_offset, a.attachments.size());
+    // What was torn or cut stays so while the tissue is described alike (else it starts whole).
+    if (a.anchor_count == b.anchor_count)
+      copy_range(from.now.anchor_intact, a.anchor_offset, to.now.anchor_intact, b.anchor_offset, a.anchor_count);
     if (a.bead_count == b.bead_count)  // beads re-chosen (reconfigure): they start at rest
       copy_range(from.collision.bead_motion, a.bead_offset, to.collision.bead_motion, b.bead_offset, a.bead_count);
     if (carry_solver) carry_chords(from.newton, r, to.newton, rod_map[r]);

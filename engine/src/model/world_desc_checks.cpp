@@ -32,6 +32,29 @@ void check_solver(const SolverDesc& s) {
   check_positive("solver.max_attachment_error", s.max_attachment_error, "segment lengths", 1e6);
 }
 
+// Connective tissue's ranges (decision 0095); whether a range holds a node is checked where the
+// anchors are built.
+void check_anchors(const SegmentDesc& d, const std::string& where) {
+  for (std::size_t i = 0; i < d.anchors.size(); ++i) {
+    const AnchorsDesc& a = d.anchors[i];
+    const std::string w = fmt::format("{}.anchors[{}]", where, i);
+    check_range(w + ".from", a.from, 0.0, 1.0, "a fraction of the organ's length");
+    check_range(w + ".to", a.to, a.from, 1.0, "a fraction of the organ's length, not before `from`");
+    check_range(w + ".stiffness", a.stiffness, 0.0, 1e9, "a stiffness per length of organ in N/m²");
+    check_range(w + ".damping", a.damping, 0.0, 1e9, "a damping per length of organ in N·s/m²");
+    check_range(w + ".slack", a.slack, 0.0, 10.0, "a slack in m");
+    check_range(w + ".strength", a.strength, 0.0, 1e9, "a strength per length of organ in N/m (0: never tears)");
+    if (a.stiffness == 0.0 && a.damping == 0.0)
+      fail(w + ".stiffness", "an anchor with neither stiffness nor damping holds nothing");
+    if (a.target == AnchorTarget::root) {
+      if (a.root.size() < 2)
+        fail(w + ".root", fmt::format("expected a root line of two points or more, [[x, y, z], ...] in m, got {}",
+                                      a.root.size()));
+      for (std::size_t j = 0; j < a.root.size(); ++j) check_vector(fmt::format("{}.root[{}]", w, j), a.root[j], false);
+    }
+  }
+}
+
 void check_segment_desc(const WorldDesc& desc, const SegmentDesc& d, const std::string& where,
                         std::set<std::string>& names) {
   if (!names.insert(d.name).second) fail(where + ".name", fmt::format("the name '{}' is used twice", d.name));
@@ -75,6 +98,7 @@ void check_segment_desc(const WorldDesc& desc, const SegmentDesc& d, const std::
   }
   const bool any_viscous = std::any_of(d.law.begin(), d.law.end(), [](StrainLaw l) { return l != StrainLaw::elastic; });
   if (any_viscous) check_positive(where + ".relaxation_time", d.relaxation_time, "s", 1e9);
+  check_anchors(d, where);
   const double drag = d.drag.value_or(d.base == BaseMode::free ? 4.0 : 0.0);
   if (d.base == BaseMode::free)
     check_positive(where + ".drag", drag, "N·s/m² (a free base needs the drag of the medium to move against)", 1e9);

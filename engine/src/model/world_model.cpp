@@ -3,7 +3,9 @@
 
 #include <fmt/format.h>
 #include <oneapi/tbb/task_arena.h>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <set>
 
@@ -165,6 +167,56 @@ void append_attachments(const WorldDesc& desc, const SegmentDesc& d, const std::
   }
 }
 
+// The nearest point of a polyline to p.
+Eigen::Vector3d nearest_on_polyline(const std::vector<Eigen::Vector3d>& line, const Eigen::Vector3d& p) {
+  Eigen::Vector3d best = line.front();
+  for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+    const Eigen::Vector3d a = line[i], ab = line[i + 1] - line[i];
+    const double len2 = ab.squaredNorm();
+    const double t = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+    const Eigen::Vector3d c = a + t * ab;
+    if ((c - p).squaredNorm() < (best - p).squaredNorm()) best = c;
+  }
+  return best;
+}
+
+// The segment's connective tissue: an anchor on every node whose rest arc length lies in a range,
+// holding the node's share of the rod (half of each section beside it) with the range's stiffness,
+// damping and strength per length, towards its rest place or the nearest point of the root line.
+void append_anchors(const SegmentDesc& d, const std::string& where, const RestShape& rest,
+                    const kernels::RodPoses<double>& poses, SegmentModel& seg, WorldModel& m) {
+  const std::size_t n = seg.node_count;
+  seg.anchor_offset = m.anchors.size();
+  std::vector<double> arc(n, 0.0);
+  for (std::size_t k = 1; k < n; ++k) arc[k] = arc[k - 1] + rest.section_length[k - 1];
+  const double tolerance = 1e-9 * rest.length;  // a range ending on a node includes it
+  for (std::size_t ri = 0; ri < d.anchors.size(); ++ri) {
+    const AnchorsDesc& a = d.anchors[ri];
+    AnchorRange range{a.name.empty() ? fmt::format("{}.anchors[{}]", where, ri) : a.name,
+                      m.segments.size(), m.anchors.size(), 0};
+    for (std::size_t k = 0; k < n; ++k) {
+      if (arc[k] < a.from * rest.length - tolerance || arc[k] > a.to * rest.length + tolerance) continue;
+      const double share = 0.5 * ((k > 0 ? rest.section_length[k - 1] : 0.0) + (k + 1 < n ? rest.section_length[k] : 0.0));
+      const Eigen::Vector3d at = poses.node_position.get(k);
+      const Eigen::Vector3d target = a.target == AnchorTarget::root ? nearest_on_polyline(a.root, at) : at;
+      m.anchors.node.push_back(static_cast<std::uint32_t>(seg.node_offset + k));
+      m.anchors.range.push_back(static_cast<std::uint32_t>(m.anchor_ranges.size()));
+      m.anchors.target.push_back(target);
+      m.anchors.stiffness.push_back(a.stiffness * share);
+      m.anchors.damping.push_back(a.damping * share);
+      m.anchors.slack.push_back(a.slack + (target - at).norm());
+      m.anchors.strength.push_back(a.strength > 0.0 ? a.strength * share : std::numeric_limits<double>::infinity());
+      range.count += 1;
+    }
+    if (range.count == 0)
+      fail(where + fmt::format(".anchors[{}]", ri),
+           fmt::format("the range {} to {} of the organ holds no node (its nodes are {:.3g} m apart)", a.from, a.to,
+                       seg.mean_section));
+    m.anchor_ranges.push_back(std::move(range));
+  }
+  seg.anchor_count = m.anchors.size() - seg.anchor_offset;
+}
+
 // The API's segments on the rod: the rod itself, or a chain's pieces, each `nodes` long and
 // sharing its joint nodes with its neighbours (decision 0030).
 void append_pieces(const SegmentDesc& d, std::size_t si, const RestShape& rest, SegmentModel& seg, WorldModel& m) {
@@ -226,6 +278,7 @@ void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector
 
   append_loads(d, where, n, m);
   append_attachments(desc, d, where, poses, seg, m);
+  append_anchors(d, where, rest, poses, seg, m);
   append_pieces(d, si, rest, seg, m);
   m.node_total += n;
   const auto rod = static_cast<std::uint32_t>(m.segments.size());
@@ -274,6 +327,7 @@ WorldModel build_world_model_here(const WorldDesc& desc, const WorldModel* bindi
   for (std::size_t si = 0; si < desc.segments.size(); ++si) build_rod(desc, si, m, initial_positions, rest_poses);
   std::vector<TriangleMesh> meshes = load_organ_meshes(desc, rest_poses, m);
   build_beads(desc, initial_positions, rest_poses, meshes, m);
+  for (SegmentModel& seg : m.segments) seg.has_load_stiffness = seg.has_drag || seg.bead_count > 0 || seg.anchor_count > 0;
   if (binding_from != nullptr)
     take_mesh_binding(*binding_from, m);
   else

@@ -60,6 +60,11 @@ struct SegmentModel {
   std::size_t constraint_scratch_offset = 0;
   std::size_t bead_offset = 0;  // into the world's bead arrays
   std::size_t bead_count = 0;
+  std::size_t anchor_offset = 0;  // into the world's anchors (connective tissue)
+  std::size_t anchor_count = 0;
+  // Its nodes carry a load stiffness in the Newton system: the medium's drag, beads' contacts
+  // (and the grasps on them), anchors.
+  bool has_load_stiffness = false;
   std::size_t first_piece = 0;  // into WorldModel::pieces
   std::size_t piece_count = 1;
   // Newton splits a long rod's solve at this node into a tip part and a base part that condense at
@@ -97,6 +102,27 @@ struct SegmentPiece {
 };
 
 class StaticMeshes;
+
+// Connective tissue (decision 0095): an anchor on every node of each range a segment describes,
+// ordered by rod, then range, then node; a rod's anchors are [anchor_offset, + anchor_count).
+// Constant; whether an anchor still holds is state (torn or cut).
+struct AnchorModel {
+  std::vector<std::uint32_t> node;  // global node index
+  std::vector<std::uint32_t> range;  // into WorldModel::anchor_ranges
+  std::vector<Eigen::Vector3d> target;  // m, where the anatomy holds the node
+  std::vector<double> stiffness;        // N/m: stiffness per length × the node's share of the rod
+  std::vector<double> damping;          // N·s/m, likewise
+  std::vector<double> slack;            // m; a root anchor's rest distance included
+  std::vector<double> strength;         // N; infinity: never tears
+  [[nodiscard]] std::size_t size() const { return node.size(); }
+};
+
+// A range of anchors as the description named it: for events and the API.
+struct AnchorRange {
+  std::string name;
+  std::size_t rod = 0;
+  std::size_t first = 0, count = 0;  // into AnchorModel
+};
 
 // Beads of all segments, ordered by segment then node: what the collision stages read.
 struct BeadModel {
@@ -163,6 +189,8 @@ struct WorldModel {
   // Initial external loads and attachment targets, copied into the state at creation.
   std::vector<double> initial_load;  // 6 per node: force xyz, moment xyz
   BeadModel beads;
+  AnchorModel anchors;
+  std::vector<AnchorRange> anchor_ranges;
   ContactDesc contact;
   double contact_margin = 0.0;  // resolved
   EnvironmentDesc environment;  // normals unit length

@@ -97,8 +97,9 @@ void environment_candidates(const WorldModel& model, const WorldState& state, st
   for (std::size_t i = 0; i < model.instruments.size(); ++i) {
     if (instrument_holds(state, i, b)) continue;  // the grasped bead sits in the jaws
     const InstrumentState& s = state.instruments[i];
+    // A proxy may move towards its command within the frame: its capsule reaches that much further.
     if (kernels::sphere_capsule(c, r, s.tip, instrument_end(s, model.instruments[i]), model.instruments[i].radius)
-            .depth > -margin)
+            .depth > -(margin + s.reach))
       add(ContactKind::instrument, i, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
   }
 }

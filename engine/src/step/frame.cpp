@@ -4,6 +4,7 @@
 #include <chrono>
 
 #include "step/collision.hpp"
+#include "step/instrument_proxy.hpp"
 #include "step/instruments.hpp"
 #include "step/mesh_stages.hpp"
 #include "step/newton_stages.hpp"
@@ -108,6 +109,7 @@ std::size_t World::Impl::run_frame(int n, bool newton, bool chord) {
     collide();
     for (int it = 0; it < max_iterations; ++it) {
       p.iteration = it;
+      const double proxy_moved = proxies(p);
       contacts();
       loads(p);
       if (newton)
@@ -115,7 +117,9 @@ std::size_t World::Impl::run_frame(int n, bool newton, bool chord) {
       else
         lagged_iteration(p);
       profile.iterations += 1;
-      if (all_converged(it + 1 >= iterations)) break;
+      // The rods and the instruments' proxies converge together (a proxy that still moves asks
+      // for another iteration, up to the most there may be).
+      if (all_converged(it + 1 >= iterations) && proxy_moved <= model.solver.attachment_tolerance) break;
     }
     if (model.beads.size() > 0) detail::record_bead_motion(model, state);
   }
@@ -205,13 +209,28 @@ void World::Impl::mesh_from_rings(const detail::MeshTarget& target) const {
 
 // ---- The stages, one verb each ---------------------------------------------------------------------
 
+// The instruments to this frame's poses (their scripts, or the host's), grasping and releasing;
+// an instrument that cuts takes the tissue within its reach first (decision 0095).
 void World::Impl::move_instruments() {
-  if (!model.instruments.empty())
-    timed(Stage::instruments, [&] { detail::stage_instruments(model, state, state.time + model.dt); });
+  if (model.instruments.empty()) return;
+  timed(Stage::instruments, [&] {
+    detail::stage_instruments(model, state, state.time + model.dt);
+    if (model.anchors.size() == 0) return;
+    for (std::size_t i = 0; i < model.instruments.size(); ++i)
+      if (state.instruments[i].cutting) cut_tissue(state.instruments[i].tip, model.instruments[i].cut_radius);
+  });
 }
 
 void World::Impl::snapshot(bool newton) {
   per_segment(Stage::snapshot, [&](std::size_t s) { detail::stage_snapshot(model, state, s, newton); });
+  if (any_proxy) detail::snapshot_instrument_proxies(state);
+}
+
+// The instruments' proxies for the beads where they are now (decision 0096); how far they moved.
+double World::Impl::proxies(const SubstepParameters& p) {
+  double moved = 0.0;
+  if (any_proxy) timed(Stage::proxy, [&] { moved = detail::stage_instrument_proxies(model, state, p.dt, model.dt); });
+  return moved;
 }
 
 void World::Impl::collide() {
@@ -258,12 +277,23 @@ std::size_t World::Impl::guard_segments(const SubstepParameters& p) {
   return model.segments.size();
 }
 
+// What the frame did to the instruments and the tissue: forces on the instruments, grasps that
+// slipped, anchors torn past their strength (decision 0095), the contact report.
 void World::Impl::report() {
-  if (model.beads.size() > 0 || !model.instruments.empty())
+  if (model.beads.size() > 0 || !model.instruments.empty() || model.anchors.size() > 0)
     timed(Stage::report, [&] {
       slipped.clear();
+      // The proxies once more for where the frame left the beads and the grasps: the force each
+      // reports is its coupling's, within what its grasp leaves of the limit.
+      if (any_proxy)
+        (void)detail::stage_instrument_proxies(model, state, model.dt / state.robust_substeps, model.dt, true);
       detail::instrument_forces(model, state, model.dt, slipped);
       for (const std::size_t i : slipped) record(slipped_event(i));
+      if (model.anchors.size() > 0) {
+        torn.clear();
+        detail::tear_anchors(model, state, torn);
+        record_anchors(Event::Kind::torn, torn);
+      }
       if (model.beads.size() > 0) detail::stage_contact_report(model, state);
     });
 }

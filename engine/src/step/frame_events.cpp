@@ -91,6 +91,44 @@ Event World::Impl::slipped_event(std::size_t instrument) const {
   return e;
 }
 
+// One event per range of anchors: anchors [first, first + count) of one range, torn or cut this frame.
+Event World::Impl::anchors_event(Event::Kind kind, std::size_t first, std::size_t count, double largest) const {
+  const detail::AnchorRange& range = model.anchor_ranges[model.anchors.range[first]];
+  const std::size_t rod = range.rod;
+  Event e;
+  e.kind = kind;
+  e.frame = state.frame;
+  e.stage = Stage::report;
+  const std::size_t rod_node = model.anchors.node[first] - model.segments[rod].node_offset;
+  std::tie(e.segment, e.node) = piece_of(rod, rod_node);
+  const std::size_t last_node = model.anchors.node[first + count - 1] - model.segments[rod].node_offset;
+  const auto name = std::string_view(model.pieces[e.segment].info.name);
+  char* it = append(e, e.text.data(), "frame {}: {} anchor{} of '{}' on segment '{}' ({}), node{} {}", state.frame,
+                    count, count == 1 ? "" : "s", range.name, name, e.segment, count == 1 ? "" : "s", e.node);
+  if (count > 1) it = append(e, it, " to {}", e.node + (last_node - rod_node));
+  if (kind == Event::Kind::torn)
+    it = append(e, it, ", tore: pulled with up to {:.3g} N, past {:.3g} N the tissue holds", largest,
+                model.anchors.strength[first]);
+  else
+    it = append(e, it, ", cut");
+  it = append(e, it, "; the organ is free there");
+  terminate_text(e, it);
+  return e;
+}
+
+// Anchors listed in anchor order (a range's are contiguous): one event per run of one range.
+void World::Impl::record_anchors(Event::Kind kind, std::span<const detail::TornAnchor> anchors) {
+  std::size_t i = 0;
+  while (i < anchors.size()) {
+    const std::uint32_t range = model.anchors.range[anchors[i].anchor];
+    std::size_t j = i;
+    double largest = 0.0;
+    while (j < anchors.size() && model.anchors.range[anchors[j].anchor] == range) largest = std::max(largest, anchors[j++].tension);
+    record(anchors_event(kind, anchors[i].anchor, anchors[j - 1].anchor - anchors[i].anchor + 1, largest));
+    i = j;
+  }
+}
+
 void World::Impl::record(const Event& e) {
   if (events.size() < kMaxEvents) events.push_back(e);  // capacity reserved at creation
 }

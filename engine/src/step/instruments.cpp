@@ -32,7 +32,8 @@ bool node_attached(const WorldModel& model, const WorldState& state, std::size_t
 void grasp(const WorldModel& model, WorldState& state, std::size_t i) {
   InstrumentState& s = state.instruments[i];
   const InstrumentDesc& d = model.instruments[i];
-  // The nearest bead surface within reach of the tip; ties go to the lower bead index.
+  // The nearest bead surface within reach of the commanded tip (a proxy's lags it by a frame, or
+  // rests on the tissue it was pushed into); ties go to the lower bead index.
   double best = d.grasp_reach;
   std::size_t chosen = model.beads.size();
   for (std::size_t b = 0; b < model.beads.size(); ++b) {
@@ -40,7 +41,7 @@ void grasp(const WorldModel& model, WorldState& state, std::size_t i) {
     const std::size_t segment = model.beads.segment[b];
     const std::size_t local = node - model.segments[segment].node_offset;
     if (node_attached(model, state, segment, local)) continue;
-    const double gap = (node_position(state, node) - s.tip).norm() - model.beads.radius[b];
+    const double gap = (node_position(state, node) - s.command_tip).norm() - model.beads.radius[b];
     if (gap <= best && (chosen == model.beads.size() || gap < best)) {
       best = gap;
       chosen = b;
@@ -62,8 +63,8 @@ void grasp(const WorldModel& model, WorldState& state, std::size_t i) {
   as.moment.setZero();
   const Eigen::Quaterniond node_rot(state.now.rotation.w[node], state.now.rotation.x[node], state.now.rotation.y[node],
                                     state.now.rotation.z[node]);
-  // Held where it is, relative to the instrument: the grasp keeps that offset as it moves.
-  s.grasp_offset = s.frame.conjugate() * (node_position(state, node) - s.tip);
+  // Held where it is, relative to the commanded pose: the grasp keeps that offset as it moves.
+  s.grasp_offset = s.frame.conjugate() * (node_position(state, node) - s.command_tip);
   s.grasp_rotation = s.frame.conjugate() * node_rot;
   as.target = node_position(state, node);
   as.target_rotation = node_rot;
@@ -89,7 +90,7 @@ void release(WorldState& state, std::size_t i) {
 }  // namespace
 
 void set_instrument_pose(InstrumentState& s, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis) {
-  s.tip = tip;
+  s.command_tip = tip;
   s.axis = axis.normalized();
   s.frame = kernels::frame_from_tangent(s.axis, Eigen::Vector3d::UnitX());
 }
@@ -104,6 +105,7 @@ void init_instruments(const WorldModel& model, WorldState& state) {
       set_instrument_pose(s, d.keyframes.front().tip, d.keyframes.front().axis);
     else
       set_instrument_pose(s, d.tip, d.axis);
+    s.tip = s.command_start = s.proxy_start = s.command_tip;
   }
 }
 
@@ -111,6 +113,7 @@ void stage_instruments(const WorldModel& model, WorldState& state, double time) 
   for (std::size_t i = 0; i < model.instruments.size(); ++i) {
     const InstrumentDesc& d = model.instruments[i];
     InstrumentState& s = state.instruments[i];
+    s.command_start = s.command_tip;
     if (s.scripted) {
       const auto& kf = d.keyframes;
       std::size_t k = 0;
@@ -124,14 +127,19 @@ void stage_instruments(const WorldModel& model, WorldState& state, double time) 
                             axis.norm() > 1e-9 ? axis : kf[k + 1].axis);  // opposite axes: take the next one
       }
       s.closed = time >= kf.front().time ? kf[k].grasp : kf.front().grasp;
+      s.cutting = time >= kf.front().time ? kf[k].cut : kf.front().cut;
     }
+    // A kinematic instrument is where it is commanded; a proxy gets there as far as its coupling
+    // and what it meets let it (stage_instrument_proxies), its capsule swept that far for contacts.
+    if (!is_proxy(d)) s.tip = s.command_tip;
+    s.reach = (s.command_tip - s.tip).norm();
     if (!s.closed) s.slipped = false;  // opened: the next close grasps anew
     if (s.closed && !s.grasping && !s.slipped) grasp(model, state, i);
     if (!s.closed && s.grasping) release(state, i);
     if (s.grasping) {
       AttachmentState& as = state.now.attachment[s.grasp_attachment];
       s.target_start = s.grasp_target;
-      s.grasp_target = s.tip + s.frame * s.grasp_offset;
+      s.grasp_target = s.command_tip + s.frame * s.grasp_offset;
       as.target = s.grasp_target;
       as.target_rotation = s.frame * s.grasp_rotation;
     }
@@ -158,6 +166,9 @@ void instrument_forces(const WorldModel& model, WorldState& state, double dt, st
       force += on_instrument;
       torque += (node_position(state, model.beads.node[k.bead]) - s.tip).cross(on_instrument);
     }
+    // A proxy's capsule: what it meets is what holds it off its command — its coupling's pull,
+    // bounded by construction (the contacts' sum equals it once the proxy has settled).
+    if (is_proxy(model.instruments[i])) force = -s.proxy_force;
     if (s.grasping && s.coupled) {
       // Over the whole frame: the node's motion since the frame's start against the grasp point's.
       const InstrumentDesc& d = model.instruments[i];

@@ -14,6 +14,9 @@
 
 namespace haustra::detail {
 
+// Whether an instrument's capsule is a proxy coupled to its commanded pose (decision 0096).
+inline bool is_proxy(const InstrumentDesc& d) { return d.proxy && d.coupling_stiffness > 0.0; }
+
 void init_instruments(const WorldModel& model, WorldState& state);
 void set_instrument_pose(InstrumentState& s, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis);
 // time: the end of the frame about to be stepped.

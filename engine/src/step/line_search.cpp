@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "haustra/kernels/rod_forward_sweep.hpp"
+#include "step/anchors.hpp"
 #include "step/collision.hpp"
 #include "step/instruments.hpp"
 #include "step/newton_internal.hpp"
@@ -56,8 +57,9 @@ PartRange range_of(const WorldModel& model, const SolvePart& part) {
 
 // The part's share of the frame's incremental potential at the current strains and poses: the
 // law's energy (elastic and viscous: ½ Δqᵀ A Δq about its target) over its sections, and at its
-// nodes weight and host forces, the medium's drag (c/2Δt |r − r_start|², s/2Δt |turn|²) and the
-// contact penalties of its beads (but those with a bead of the other part).
+// nodes weight and host forces, the medium's drag (c/2Δt |r − r_start|², s/2Δt |turn|²), the
+// contact penalties of its beads (but those with a bead of the other part), the grasps' couplings
+// and the connective tissue's anchors.
 double part_potential(const WorldModel& model, const WorldState& state, std::size_t rod, const SubstepParameters& p,
                       const PartRange& r) {
   const SegmentModel& seg = model.segments[rod];
@@ -119,6 +121,9 @@ double part_potential(const WorldModel& model, const WorldState& state, std::siz
     if (node < off + r.first || node >= off + r.end) return;
     loads +=
         grasp_coupling(model.instruments[i], state.instruments[i], pos.get(node), r0.get(node), p.dt, model.dt).energy;
+  });
+  for_each_intact_anchor(model, state, rod, [&](std::size_t anchor, std::size_t node) {
+    if (node >= off + r.first && node < off + r.end) loads += anchor_response(model, state, anchor, p.dt).energy;
   });
   return law + loads;
 }

@@ -9,6 +9,7 @@
 #include "haustra/kernels/rod_condensed.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/kernels/rod_newton.hpp"
+#include "step/anchors.hpp"
 #include "step/collision.hpp"
 #include "step/instruments.hpp"
 #include "step/newton_internal.hpp"
@@ -62,7 +63,7 @@ void linearize(const WorldModel& model, WorldState& state, std::size_t segment, 
   const SegmentViews v = segment_views(model, state, segment);
   NewtonWorkspace& ws = state.newton[segment];
   const std::size_t n = seg.node_count;
-  const bool has_stiffness = seg.has_drag || seg.bead_count > 0;
+  const bool has_stiffness = seg.has_load_stiffness;
   if (has_stiffness) {
     const std::span<const double> c = drag_of(model, seg);
     const std::span<const double> sd = spin_drag_of(model, seg);
@@ -78,6 +79,9 @@ void linearize(const WorldModel& model, WorldState& state, std::size_t segment, 
       ws.force_stiffness[node - seg.node_offset] +=
           grasp_coupling(model.instruments[i], state.instruments[i], pos.get(node), start.get(node), p.dt, model.dt)
               .stiffness;
+    });
+    for_each_intact_anchor(model, state, segment, [&](std::size_t a, std::size_t node) {
+      ws.force_stiffness[node - seg.node_offset] += anchor_response(model, state, a, p.dt).stiffness;
     });
   }
   // q* = (k q̂ + (η/Δt) q_start) / a: the linear law's centre (and the line search's).
@@ -308,7 +312,7 @@ kernels::RodLinearization linearization_at(const WorldModel& model, WorldState& 
   const SegmentModel& seg = model.segments[rod];
   NewtonWorkspace& ws = state.newton[rod];
   kernels::RodLinearization lin =
-      linearization_of(seg, segment_views(model, state, rod), ws, p, seg.has_drag || seg.bead_count > 0);
+      linearization_of(seg, segment_views(model, state, rod), ws, p, seg.has_load_stiffness);
   lin.law_scale = ws.law_scale;
   return lin;
 }
@@ -385,7 +389,7 @@ bool join(const WorldModel& model, WorldState& state, std::size_t rod, const Sub
   ws.singular_node = 0;
   if (!ws.band_available) return false;
   ++ws.fallbacks;
-  band_solve(model, state, rod, p, c, seg.has_drag || seg.bead_count > 0, ws.law_scale);
+  band_solve(model, state, rod, p, c, seg.has_load_stiffness, ws.law_scale);
   return true;
 }
 
@@ -570,7 +574,7 @@ void plan_newton_condense(const WorldModel& model, WorldState& state, std::span<
       tasks.push_back({{static_cast<std::uint32_t>(i), 0, 0, 0}, 1});
       continue;
     }
-    const bool stiffness = seg.has_drag || seg.bead_count > 0;
+    const bool stiffness = seg.has_load_stiffness;
     std::size_t b = 0;
     while (b < opened && !(open[b].nodes == seg.node_count && open[b].stiffness == stiffness)) ++b;
     if (b == opened) {

@@ -79,7 +79,7 @@ void launch(const WorldModel& model, WorldState& state, Scheduler& scheduler, st
   copy_into(ws.residual, pf.residual);
   pf.exp2 = seg.exp2;
   if (pf.exp2) copy_into(ws.law_tangent, pf.law_tangent), copy_into(ws.bend_coupling, pf.bend_coupling);
-  pf.has_stiffness = seg.has_drag || seg.bead_count > 0;
+  pf.has_stiffness = seg.has_load_stiffness;
   if (pf.has_stiffness) {
     copy_into(ws.force_stiffness, pf.force_stiffness);
     copy_into(ws.drag_moment_rate, pf.drag_moment_rate);

@@ -9,6 +9,7 @@ std::string_view stage_name(Stage s) noexcept {
     case Stage::snapshot: return "snapshot";
     case Stage::collide: return "collide";
     case Stage::contacts: return "contacts";
+    case Stage::proxy: return "proxy";
     case Stage::loads: return "loads";
     case Stage::free_base: return "free_base";
     case Stage::backward_sweep: return "backward_sweep";

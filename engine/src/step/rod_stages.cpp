@@ -11,6 +11,7 @@
 #include "haustra/kernels/rod_loads.hpp"
 #include "haustra/kernels/strain_update.hpp"
 #include "haustra/kernels/tissue_law.hpp"
+#include "step/anchors.hpp"
 #include "step/collision.hpp"
 #include "step/instruments.hpp"
 #include "step/segment_law.hpp"
@@ -77,6 +78,11 @@ void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment
         grasp_coupling(model.instruments[i], state.instruments[i], pos.get(node), start.get(node), p.dt, model.dt);
     const std::size_t k = node - seg.node_offset;
     v.force.set(k, v.force.get(k) + c.force);
+  });
+  // Connective tissue pulls its nodes towards where the anatomy holds them (likewise).
+  for_each_intact_anchor(model, state, segment, [&](std::size_t a, std::size_t node) {
+    const std::size_t k = node - seg.node_offset;
+    v.force.set(k, v.force.get(k) + anchor_response(model, state, a, p.dt).force);
   });
   if (!p.newton) return;
   // Newton solves for increments of the constraint forces; their current totals are loads.
@@ -323,8 +329,8 @@ double attachment_miss(const WorldModel& model, const WorldState& state, std::si
   return worst;
 }
 
-Energy segment_energy(const WorldModel& model, std::span<const double> strain, kernels::Vec3View<const double> position,
-                      std::size_t segment) {
+Energy segment_energy(const WorldModel& model, const WorldState& state, std::span<const double> strain,
+                      kernels::Vec3View<const double> position, std::size_t segment) {
   const SegmentModel& seg = model.segments[segment];
   const std::size_t off = seg.node_offset, n = seg.node_count;
   Energy e;
@@ -350,6 +356,7 @@ Energy segment_energy(const WorldModel& model, std::span<const double> strain, k
         std::span<const double>(model.section_length).subspan(off, n), law);
   }
   for (std::size_t k = 0; k < n; ++k) e.gravity -= model.node_mass[off + k] * model.gravity.dot(position.get(off + k));
+  e.tissue = anchor_energy(model, state, position, segment);
   return e;
 }
 
@@ -523,8 +530,8 @@ GuardResult guard_energy(const WorldModel& model, const WorldState& state, std::
     if (work >= 0.0) {
       work += container_release(model, state, segment);  // pushing a bead back in works on the rod
       const double before =
-          segment_energy(model, state.frame_start.strain, state.frame_start.position.view(), segment).total();
-      const double after = segment_energy(model, state.now.strain, state.now.position.view(), segment).total();
+          segment_energy(model, state, state.frame_start.strain, state.frame_start.position.view(), segment).total();
+      const double after = segment_energy(model, state, state.now.strain, state.now.position.view(), segment).total();
       double weight = 0.0;
       for (std::size_t node = off; node < off + n; ++node) weight += model.node_mass[node];
       const double allowance =
@@ -584,13 +591,15 @@ void stage_snapshot(const WorldModel& model, WorldState& state, std::size_t segm
   const auto off = static_cast<std::ptrdiff_t>(seg.node_offset);
   const auto cnt = static_cast<std::ptrdiff_t>(seg.node_count);
   std::copy_n(state.now.strain.begin() + 4 * off, 4 * cnt, state.strain_substep_start.begin() + 4 * off);
+  const auto copy = [&](std::span<const double> from, std::span<double> to) {
+    std::copy_n(from.begin() + off, cnt, to.begin() + off);
+  };
+  // Every velocity of a substep is measured from here: the medium's drag, but also the dampers of
+  // grasps and anchors, which a rod without drag has as well.
+  copy(state.now.position.x, state.position_substep_start.x);
+  copy(state.now.position.y, state.position_substep_start.y);
+  copy(state.now.position.z, state.position_substep_start.z);
   if (newton && seg.has_drag) {
-    const auto copy = [&](std::span<const double> from, std::span<double> to) {
-      std::copy_n(from.begin() + off, cnt, to.begin() + off);
-    };
-    copy(state.now.position.x, state.position_substep_start.x);
-    copy(state.now.position.y, state.position_substep_start.y);
-    copy(state.now.position.z, state.position_substep_start.z);
     copy(state.now.rotation.w, state.rotation_substep_start.w);
     copy(state.now.rotation.x, state.rotation_substep_start.x);
     copy(state.now.rotation.y, state.rotation_substep_start.y);

@@ -44,10 +44,10 @@ void stage_forward_sweep(const WorldModel& model, WorldState& state, std::size_t
 void stage_filter(const WorldModel& model, WorldState& state, std::size_t segment);
 
 // A segment's potential energy in a configuration (strains 4 per node and node positions, the
-// world's arrays): what its elastic and Kelvin–Voigt components store, ½ Σ k_c Δqᵀ M Δq, and its
-// weight's −Σ m_k g·r_k.
-Energy segment_energy(const WorldModel& model, std::span<const double> strain, kernels::Vec3View<const double> position,
-                      std::size_t segment);
+// world's arrays): what its elastic and Kelvin–Voigt components store, ½ Σ k_c Δqᵀ M Δq, its
+// weight's −Σ m_k g·r_k, and what its intact anchors' springs store (state: which hold).
+Energy segment_energy(const WorldModel& model, const WorldState& state, std::span<const double> strain,
+                      kernels::Vec3View<const double> position, std::size_t segment);
 
 struct GuardResult {
   bool ok = true;

@@ -15,6 +15,7 @@ World::Impl::Impl(WorldDesc d, detail::WorldModel m)
   guard.resize(model.segments.size());
   reserve_events();
   slipped.reserve(model.instruments.size());
+  torn.reserve(model.anchors.size());
   base = {model.solver.substeps, model.solver.mode != SolverMode::lagged};
   state.robust_substeps = base.substeps;
   state.robust_newton = base.newton;
@@ -22,6 +23,7 @@ World::Impl::Impl(WorldDesc d, detail::WorldModel m)
     any_free_base |= s.base_mode == BaseMode::free;
     any_constraints |= s.constraint_rows > 0;
   }
+  for (const InstrumentDesc& instrument : model.instruments) any_proxy |= detail::is_proxy(instrument);
   follow_rod();  // the meshes at rest, before the first step
 }
 

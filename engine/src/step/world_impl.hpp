@@ -12,6 +12,7 @@
 #include "haustra/error.hpp"
 #include "haustra/world.hpp"
 #include "model/world_model.hpp"
+#include "step/anchors.hpp"
 #include "step/mesh_stages.hpp"
 #include "step/rod_stages.hpp"
 #include "step/scheduler.hpp"
@@ -31,6 +32,7 @@ struct World::Impl {
   FrameProfile profile;
   std::vector<Event> events;
   std::vector<std::size_t> slipped;  // instruments whose grasp slipped this frame (capacity: all of them)
+  std::vector<detail::TornAnchor> torn;  // anchors torn or cut this frame (capacity: all of them)
   std::vector<detail::GuardResult> guard;
   // A rung of the robust mode's ladder: how a frame is attempted.
   struct Rung {
@@ -40,6 +42,7 @@ struct World::Impl {
   Rung base{1, false};  // what the scene asked for; the rung it runs now is in the state
   bool any_free_base = false;
   bool any_constraints = false;
+  bool any_proxy = false;  // an instrument is a proxy (decision 0096)
   // The last frame's dt while frame_start still holds that frame's start (World::node_velocities); 0
   // before the first frame and after a pose or a restore.
   double motion_dt = 0.0;
@@ -119,6 +122,7 @@ struct World::Impl {
   void lagged_iteration(const detail::SubstepParameters& p);
   void move_instruments();
   void snapshot(bool newton);
+  double proxies(const detail::SubstepParameters& p);
   void collide();
   void contacts();
   void loads(const detail::SubstepParameters& p);
@@ -148,6 +152,15 @@ struct World::Impl {
   [[nodiscard]] Event unstable_event(std::size_t failed, const detail::GuardResult& g, const Rung& rung) const;
   [[nodiscard]] Event recovered_event(const Failure& first, const Rung& rung) const;
   [[nodiscard]] Event slipped_event(std::size_t instrument) const;
+  [[nodiscard]] Event anchors_event(Event::Kind kind, std::size_t first, std::size_t count, double largest) const;
+
+ public:
+  // Torn or cut anchors (in anchor order) as events, one per range.
+  void record_anchors(Event::Kind kind, std::span<const detail::TornAnchor> anchors);
+  // Cuts the anchors whose tissue passes within `radius` of `centre`, with events; how many.
+  std::size_t cut_tissue(const Eigen::Vector3d& centre, double radius);
+
+ private:
   void record(const Event& e);
   void reserve_events();
 };

@@ -130,6 +130,7 @@ void PersistentState::copy_from(const PersistentState& o) {
   copy_rot(mid_rotation, o.mid_rotation);
   std::copy(o.base.begin(), o.base.end(), base.begin());
   std::copy(o.attachment.begin(), o.attachment.end(), attachment.begin());
+  std::copy(o.anchor_intact.begin(), o.anchor_intact.end(), anchor_intact.begin());
 }
 
 void init_world_state(const WorldModel& model, WorldState& state) {
@@ -137,6 +138,8 @@ void init_world_state(const WorldModel& model, WorldState& state) {
   const std::size_t segs = model.segments.size();
   resize_persistent(state.now, n, segs, model.attachment_total);
   resize_persistent(state.frame_start, n, segs, model.attachment_total);
+  state.now.anchor_intact.assign(model.anchors.size(), 1);
+  state.frame_start.anchor_intact.assign(model.anchors.size(), 1);
   state.strain_substep_start.assign(4 * n, 0.0);
   state.position_substep_start.resize(n);
   state.rotation_substep_start.resize(n);

@@ -137,6 +137,7 @@ struct PersistentState {
   RotationBuffer mid_rotation;
   std::vector<kernels::Pose> base;
   std::vector<AttachmentState> attachment;
+  std::vector<std::uint8_t> anchor_intact;  // per anchor: 1 while it holds, 0 once torn or cut
 
   void copy_from(const PersistentState& o);  // no allocation: sizes already match
 };
@@ -278,10 +279,18 @@ inline constexpr std::size_t kBandFallbackNodes = 4096;
 using ContactCandidate = Contact;
 
 struct InstrumentState {
+  // Where the capsule is: its commanded tip, or a proxy's (decision 0096), which the commanded one
+  // pulls through a capped spring–damper. The axis is commanded either way.
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d command_tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d command_start = Eigen::Vector3d::Zero();  // at the frame's start
+  Eigen::Vector3d proxy_start = Eigen::Vector3d::Zero();    // the proxy's tip at the substep's start
+  Eigen::Vector3d proxy_force = Eigen::Vector3d::Zero();    // the coupling's pull on the proxy, N
+  double reach = 0.0;  // m the proxy may still travel towards its command: its contacts' margin
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   Eigen::Quaterniond frame = Eigen::Quaterniond::Identity();  // d3 along the axis
   bool closed = false;
+  bool cutting = false;  // cuts the tissue within its cut radius every frame (decision 0095)
   bool scripted = true;  // follows its keyframes until the host sets a pose
   bool grasping = false;
   std::size_t grasp_segment = 0;

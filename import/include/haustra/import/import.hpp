@@ -20,7 +20,8 @@ struct ImportOptions {
   std::filesystem::path centreline;  // a midline file (JSON, as ../shared/data); empty: computed
   std::filesystem::path out;         // the scene file; the repaired surface and centreline go beside it
   std::string units = "auto";        // auto (from the size), mm or m
-  std::string ends = "held";         // held (both), base (the first only) or free
+  std::string ends = "free";         // held rigidly: both, base (the first only) or free (decision 0095)
+  std::string tissue = "rest";       // connective tissue holding the organ in place (rest), or none
   int nodes = 0;                     // 0: one per 5 mm of centreline, 9 to 1,201
   int beads = 0;                     // 0: a third of the nodes (the paper's 55 on 167)
   bool reverse = false;              // run the rod from the other end
