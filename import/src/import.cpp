@@ -10,15 +10,11 @@
 #include <functional>
 #include <map>
 
-#include "centreline_fit.hpp"
 #include "haustra/centreline.hpp"
-#include "haustra/embree_scene.hpp"
-#include "haustra/error.hpp"
-#include "haustra/mesh_io.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/tube_axis.hpp"
+#include "import_phases.hpp"
 #include "organ_centreline.hpp"
-#include "organ_layout.hpp"
 #include "scene_files.hpp"
 #include "surface_repair.hpp"
 
@@ -28,7 +24,7 @@ namespace {
 constexpr double kSpacing = 0.001;            // m between resampled centreline points
 constexpr double kBuildBudgetSeconds = 45.0;  // tries at building the scene stop after this
 
-using Clock = std::chrono::steady_clock;
+}  // namespace
 
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
@@ -53,6 +49,8 @@ std::pair<double, std::string> decide_units(const TriangleMesh& mesh, const std:
                           "(20 to 5,000) nor in metres (0.005 to 5): give --units mm or --units m",
                           file, size));
 }
+
+namespace {
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -130,6 +128,8 @@ std::vector<std::pair<double, double>> radius_profile(const EmbreeScene& wall, c
   return profile;
 }
 
+}  // namespace
+
 // The wall's thickness where it is two shells: the median distance from the lumen's vertices to
 // the outer wall.
 double wall_thickness(const OrganLayout& layout) {
@@ -149,8 +149,6 @@ double wall_thickness(const OrganLayout& layout) {
   }
   return median(d);
 }
-
-}  // namespace
 
 std::string ImportReport::text() const {
   std::string t = fmt::format("surface: {} vertices, {} triangles; units: {}\n", vertices, triangles, units_reason);
@@ -198,10 +196,6 @@ std::string ImportReport::text() const {
   return t;
 }
 
-namespace {
-
-using Phase = std::function<void(const std::string&, Clock::time_point)>;
-
 // The surface as the file holds it, in metres.
 TriangleMesh read_in_metres(const ImportOptions& o, ImportReport& r) {
   TriangleMesh raw = load_mesh_as_read(o.mesh);
@@ -222,6 +216,8 @@ TriangleMesh read_in_metres(const ImportOptions& o, ImportReport& r) {
   return raw;
 }
 
+namespace {
+
 // How many of a given centreline's two ends lie at an open end: within the radius of a rim's
 // centre (side holes and the rims where a whole organ's pieces meet lie elsewhere along it).
 int open_ends_of(const OrganLayout& layout, const Polyline& line) {
@@ -237,6 +233,8 @@ int open_ends_of(const OrganLayout& layout, const Polyline& line) {
   }
   return open;
 }
+
+}  // namespace
 
 // The centreline (given or computed), measured: length, radius, bends, touching parts; and the
 // beads' radius profile from the outer wall.
@@ -306,6 +304,8 @@ void size_the_rod(const ImportOptions& o, ImportReport& r) {
   r.beads = o.beads > 0 ? o.beads : std::max(2 * r.chain_pieces, r.nodes / 3);
 }
 
+namespace {
+
 // Parts of the surface the centreline does not reach (farther from it than eight times the organ's
 // median radius: a branch or a loop the computed line passes by) are left out and counted, so that
 // the rest runs; more than a quarter of the surface is a centreline that misses the organ: refused.
@@ -349,12 +349,16 @@ void off_the_path(TriangleMesh& surface, const Polyline& line, ImportReport& r, 
   surface = std::move(kept);
 }
 
-// The surface the scene uses: the outer pieces on the organ's path and their lumens, as one mesh,
-// less what the centreline does not reach.
+}  // namespace
+
+// The surface the scene uses: the outer pieces on the organ's path and their lumens (and, of
+// several surfaces, the pieces joined to the path off it), as one mesh, less what the centreline
+// does not reach.
 TriangleMesh surface_along(const OrganLayout& layout, const Polyline& line, ImportReport& r, const std::string& file) {
   std::vector<const TriangleMesh*> kept;
   for (std::size_t p : layout.path) kept.push_back(&layout.pieces[p].mesh);
   for (std::size_t p : layout.lumens) kept.push_back(&layout.pieces[p].mesh);
+  for (std::size_t p : layout.joined_off_path) kept.push_back(&layout.pieces[p].mesh);
   TriangleMesh surface = joined_apart(kept);
   off_the_path(surface, line, r, file);
   r.repaired_vertices = surface.vertices.size();
@@ -362,16 +366,42 @@ TriangleMesh surface_along(const OrganLayout& layout, const Polyline& line, Impo
   return surface;
 }
 
-// The surface and the centreline, beside the scene.
-void write_surface_and_centreline(const ImportOptions& o, const TriangleMesh& surface, const Polyline& line,
-                                  ImportReport& r) {
-  r.scene = o.out.empty() ? std::filesystem::path(o.mesh.stem().string() + ".toml") : o.out;
-  if (r.scene.has_parent_path()) std::filesystem::create_directories(r.scene.parent_path());
-  const std::string stem = (r.scene.parent_path() / r.scene.stem()).string();
+void write_surface_and_centreline(const std::string& stem, const TriangleMesh& surface, const Polyline& line,
+                                  const std::string& source_name, ImportReport& r) {
   r.centreline_file = stem + "-centreline.json";
   r.surface_file = stem + "-surface.obj";
-  write_obj(r.surface_file, surface, fmt::format("repaired by haustra import from {}", o.mesh.filename().string()));
+  write_obj(r.surface_file, surface, fmt::format("repaired by haustra import from {}", source_name));
   write_centreline(r.centreline_file, line, r.centreline_source);
+}
+
+bool retry_cage(const ImportOptions& o, ImportReport& r, const Error& e, double elapsed) {
+  const auto* field = dynamic_cast<const FieldError*>(&e);
+  if (field != nullptr && field->field().ends_with(".mesh.file"))
+    throw Error(ErrorCode::internal,
+                fmt::format("{}: the repaired surface {} does not pass the engine's checks: {}\nThat is a defect "
+                            "the repair left, not one of the flags: please report it with the surface.",
+                            o.mesh.string(), r.surface_file.string(), field->detail()));
+  const int fewer = r.beads * 3 / 4;
+  const bool more_vertices = r.ring_vertices < 16;
+  const bool can_thin = o.beads == 0 && fewer >= std::max(2 * r.chain_pieces, r.nodes / 8);
+  const bool cage = field != nullptr && field->field().ends_with(".mesh.cage");
+  if (!cage || !(more_vertices || can_thin) || elapsed >= kBuildBudgetSeconds) return false;
+  r.retries.push_back(fmt::format("{} beads, rings of {}: {}", r.beads, r.ring_vertices, e.what()));
+  if (more_vertices)
+    r.ring_vertices += 4;
+  else
+    r.beads = fewer;
+  return true;
+}
+
+namespace {
+
+// The surface and the centreline, beside the scene.
+void write_beside_scene(const ImportOptions& o, const TriangleMesh& surface, const Polyline& line, ImportReport& r) {
+  r.scene = o.out.empty() ? std::filesystem::path(o.mesh.stem().string() + ".toml") : o.out;
+  if (r.scene.has_parent_path()) std::filesystem::create_directories(r.scene.parent_path());
+  write_surface_and_centreline((r.scene.parent_path() / r.scene.stem()).string(), surface, line,
+                               o.mesh.filename().string(), r);
 }
 
 // Built once: what fails here would fail in `haustra run`. A cage that cannot embed the mesh gets
@@ -381,34 +411,10 @@ void build_once(const ImportOptions& o, const SceneFileInputs& scene, ImportRepo
   for (int attempt = 1;; ++attempt) {
     try {
       const auto world = create_world(load_scene(r.scene));
-      r.cage_rings = r.dropped_rings = r.rest_pose_outside = r.binding_pieces = 0;
-      for (std::size_t s = 0; s < world->segment_count(); ++s) {  // a chain: each piece's mesh and cage
-        const MeshInfo& m = world->mesh(s);
-        r.cage_rings += m.cage.rings;
-        r.dropped_rings += m.cage.dropped_rings;
-        r.rest_pose_outside += m.cage.rest_pose_outside;
-        r.binding_pieces += m.cage.binding_pieces;
-        r.max_dropped_mass = std::max(r.max_dropped_mass, m.skin.max_dropped_mass);
-        r.max_rest_correction = std::max(r.max_rest_correction, m.skin.max_rest_correction);
-      }
+      read_build(*world, 0, world->segment_count(), r);
       break;
     } catch (const Error& e) {
-      const auto* field = dynamic_cast<const FieldError*>(&e);
-      if (field != nullptr && field->field().ends_with(".mesh.file"))
-        throw Error(ErrorCode::internal,
-                    fmt::format("{}: the repaired surface {} does not pass the engine's checks: {}\nThat is a defect "
-                                "the repair left, not one of the flags: please report it with the surface.",
-                                o.mesh.string(), r.surface_file.string(), field->detail()));
-      const int fewer = r.beads * 3 / 4;
-      const bool more_vertices = r.ring_vertices < 16;
-      const bool can_thin = o.beads == 0 && fewer >= std::max(2 * r.chain_pieces, r.nodes / 8);
-      const bool cage = field != nullptr && field->field().ends_with(".mesh.cage");
-      if (cage && (more_vertices || can_thin) && seconds_since(t) < kBuildBudgetSeconds) {
-        r.retries.push_back(fmt::format("{} beads, rings of {}: {}", r.beads, r.ring_vertices, e.what()));
-        if (more_vertices)
-          r.ring_vertices += 4;
-        else
-          r.beads = fewer;
+      if (retry_cage(o, r, e, seconds_since(t))) {
         write_scene(scene);
         phase(fmt::format("build {} failed at the cage; trying {} beads with rings of {}", attempt, r.beads,
                           r.ring_vertices),
@@ -430,6 +436,41 @@ void build_once(const ImportOptions& o, const SceneFileInputs& scene, ImportRepo
 }
 
 }  // namespace
+
+Polyline organ_rod(const ImportOptions& o, const OrganLayout& layout, ImportReport& r,
+                   std::vector<std::pair<double, double>>& profile, const Phase& phase) {
+  auto t = Clock::now();
+  if (layout.path.empty())
+    throw Error(ErrorCode::invalid_geometry, fmt::format("{}: no outer wall in this mesh to follow", o.mesh.string()));
+  r.layout = layout.text();
+  r.pieces = layout.path.size();
+  r.shells = layout.lumens.size();
+  for (std::size_t p : layout.path) r.holes += static_cast<int>(layout.pieces[p].loops.size());
+  r.wall_thickness = wall_thickness(layout);
+  phase("organ: " + r.layout, t);
+
+  t = Clock::now();
+  EmbreeScene wall;
+  for (std::size_t p : layout.path) wall.add_triangles(layout.pieces[p].mesh.vertices, layout.pieces[p].mesh.triangles);
+  wall.commit();
+  const Polyline line = centreline_of(o, layout, wall, r, profile);
+  phase(fmt::format("centreline: {:.0f} mm, radius {:.1f} mm", 1e3 * r.length, 1e3 * r.median_radius), t);
+  size_the_rod(o, r);
+  return line;
+}
+
+void read_build(const World& world, std::size_t first, std::size_t count, ImportReport& r) {
+  r.cage_rings = r.dropped_rings = r.rest_pose_outside = r.binding_pieces = 0;
+  for (std::size_t s = first; s < first + count; ++s) {  // a chain: each piece's mesh and cage
+    const MeshInfo& m = world.mesh(s);
+    r.cage_rings += m.cage.rings;
+    r.dropped_rings += m.cage.dropped_rings;
+    r.rest_pose_outside += m.cage.rest_pose_outside;
+    r.binding_pieces += m.cage.binding_pieces;
+    r.max_dropped_mass = std::max(r.max_dropped_mass, m.skin.max_dropped_mass);
+    r.max_rest_correction = std::max(r.max_rest_correction, m.skin.max_rest_correction);
+  }
+}
 
 ImportReport import_surface(const ImportOptions& o) {
   const auto started = Clock::now();
@@ -454,25 +495,9 @@ ImportReport import_surface(const ImportOptions& o) {
 
   t = Clock::now();
   const OrganLayout layout = organ_layout(std::move(repaired.pieces));
-  if (layout.path.empty())
-    throw Error(ErrorCode::invalid_geometry, fmt::format("{}: no outer wall in this mesh to follow", o.mesh.string()));
-  r.layout = layout.text();
-  r.pieces = layout.path.size();
-  r.shells = layout.lumens.size();
-  for (std::size_t p : layout.path) r.holes += static_cast<int>(layout.pieces[p].loops.size());
-  r.wall_thickness = wall_thickness(layout);
-  phase("organ: " + r.layout, t);
-
-  t = Clock::now();
-  EmbreeScene wall;
-  for (std::size_t p : layout.path) wall.add_triangles(layout.pieces[p].mesh.vertices, layout.pieces[p].mesh.triangles);
-  wall.commit();
   std::vector<std::pair<double, double>> profile;
-  const Polyline line = centreline_of(o, layout, wall, r, profile);
-  phase(fmt::format("centreline: {:.0f} mm, radius {:.1f} mm", 1e3 * r.length, 1e3 * r.median_radius), t);
-
-  size_the_rod(o, r);
-  write_surface_and_centreline(o, surface_along(layout, line, r, o.mesh.string()), line, r);
+  const Polyline line = organ_rod(o, layout, r, profile, phase);
+  write_beside_scene(o, surface_along(layout, line, r, o.mesh.string()), line, r);
   const SceneFileInputs scene{.options = o, .report = r, .radius_profile = profile};
   write_scene(scene);
   build_once(o, scene, r, phase);

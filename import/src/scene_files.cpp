@@ -40,6 +40,13 @@ std::string toml_string(const std::string& s) {
   return out + "\"";
 }
 
+// A float as TOML reads one back bit for bit (the shortest that does, with a point).
+std::string toml_number(double x) {
+  std::string s = fmt::format("{}", x == 0.0 ? 0.0 : x);  // no "-0"
+  if (s.find_first_of(".en") == std::string::npos) s += ".0";
+  return s;
+}
+
 }  // namespace
 
 TriangleMesh joined_apart(const std::vector<const TriangleMesh*>& pieces) {
@@ -118,12 +125,10 @@ std::string tissue_table(const ImportOptions& o, double weight) {
       a.stiffness, a.damping, a.slack, a.strength, a.support);
 }
 
-}  // namespace
-
-void write_scene(const SceneFileInputs& in) {
+// One organ's [[segment]] table: the attachment that holds its far end, its connective tissue.
+std::string segment_table(const SceneFileInputs& in, const std::string& name) {
   const ImportOptions& o = in.options;
   const ImportReport& r = in.report;
-  const std::string name = o.mesh.stem().string();
   const int pieces = r.chain_pieces;
   const std::filesystem::path dir = r.scene.parent_path();
   // Measured (at least 0.2 mm, at most half the radius: the half wins on a tube under 0.4 mm), or
@@ -135,10 +140,6 @@ void write_scene(const SceneFileInputs& in) {
     profile += fmt::format("{}[{:.4f}, {:.6g}]", i == 0 ? "" : (i % 4 == 0 ? ",\n  " : ", "),
                            in.radius_profile[i].first, std::clamp(in.radius_profile[i].second, 1e-4, 0.5));
   std::string text = fmt::format(
-      "# Written by `haustra import {}`. What it found:\n#   {}\n\n"
-      "[scene]\nname = {}\ndescription = {}\nframes = 240\n\n"
-      "[world]\ndt = 0.016666666666666666\ngravity = [0.0, 0.0, -9.81]\n\n"
-      "[solver]\nmode = \"newton\"\niterations = 2\n\n"
       "[[segment]]\nname = {}\nnodes = {}{}\nradius = {:.6g}\nwall_thickness = {:.6g}{}\nbase = \"{}\n{}"
       "[segment.rest]\nshape = \"centreline\"\nfile = {}\n"
       // A solid wall: the shape the segmentation found is the one it goes back to (decision 0095).
@@ -147,8 +148,6 @@ void write_scene(const SceneFileInputs& in) {
       "radius_profile = [\n  {}]\n"
       "[segment.mesh]\nfile = {}   # repaired, in metres\n"
       "[segment.mesh.cage]\nring_vertices = {}\nbinding = \"harmonic\"\n",
-      o.mesh.filename().string(), commented(r.text()), toml_string(name),
-      toml_string(fmt::format("{} imported: {:.3f} m of centreline, {} vertices", name, r.length, r.repaired_vertices)),
       toml_string(name), pieces > 1 ? (r.nodes - 1) / pieces + 1 : r.nodes,
       pieces > 1 ? fmt::format("   # per piece: {} in all", r.nodes) : "", r.median_radius, wall,
       r.wall_thickness > 0.0 ? "   # measured between the shells" : "",
@@ -161,9 +160,59 @@ void write_scene(const SceneFileInputs& in) {
   if (o.ends == "held") text += "[[segment.attachment]]\nnode = -1                   # the far end stays where it is\n";
   // The organ's weight per length as the engine will take it: the default density, the wall written.
   text += tissue_table(o, SegmentDesc{}.material.density * 2.0 * std::numbers::pi * r.median_radius * wall * 9.81);
-  std::ofstream out(r.scene);
+  return text;
+}
+
+void write_text(const std::filesystem::path& scene, const std::string& text) {
+  std::ofstream out(scene);
   out << text;
-  if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write the scene", r.scene.string()));
+  if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write the scene", scene.string()));
+}
+
+}  // namespace
+
+void write_scene(const SceneFileInputs& in) {
+  const ImportOptions& o = in.options;
+  const ImportReport& r = in.report;
+  const std::string name = o.mesh.stem().string();
+  const std::string text = fmt::format(
+      "# Written by `haustra import {}`. What it found:\n#   {}\n\n"
+      "[scene]\nname = {}\ndescription = {}\nframes = 240\n\n"
+      "[world]\ndt = 0.016666666666666666\ngravity = [0.0, 0.0, -9.81]\n\n"
+      "[solver]\nmode = \"newton\"\niterations = 2\n\n{}",
+      o.mesh.filename().string(), commented(r.text()), toml_string(name),
+      toml_string(fmt::format("{} imported: {:.3f} m of centreline, {} vertices", name, r.length, r.repaired_vertices)),
+      segment_table(in, name));
+  write_text(r.scene, text);
+}
+
+void write_surfaces_scene(const SurfacesSceneInputs& in) {
+  const SurfacesReport& r = in.report;
+  const std::filesystem::path dir = r.scene.parent_path();
+  std::string names;
+  for (const auto& organ : r.organs) names += fmt::format("{}{}", names.empty() ? "" : ", ", organ.name);
+  std::string text = fmt::format(
+      "# Written by `haustra import {}`. What it found:\n#   {}\n\n"
+      "[scene]\nname = {}\ndescription = {}\nframes = 240\n\n"
+      "[world]\ndt = 0.016666666666666666\ngravity = [{}, {}, {}]   # {}\n\n"
+      "[solver]\nmode = \"newton\"\niterations = 2\n{}",
+      in.command, commented(r.text()), toml_string(r.scene.stem().string()),
+      toml_string(fmt::format("{} organ{} imported ({}){}", r.organs.size(), r.organs.size() == 1 ? "" : "s", names,
+                              r.body.empty() ? "" : ", inside the body")),
+      toml_number(r.gravity[0]), toml_number(r.gravity[1]), toml_number(r.gravity[2]),
+      r.gravity_reason.substr(0, r.gravity_reason.find(':')),
+      r.organs.size() > 1 ? "\n[contact]\nrest_exclusions = \"world\"   # organs touching in the segmentation do "
+                            "not push apart at rest\n"
+                          : "");
+  for (std::size_t i = 0; i < r.organs.size(); ++i)
+    text += fmt::format("\n{}", segment_table(SceneFileInputs{in.options[i], r.organs[i].report, in.radius_profiles[i]},
+                                              r.organs[i].name));
+  if (!r.body.empty())
+    text += fmt::format(
+        "\n[[environment.mesh]]\nname = \"body\"\nfile = {}   # repaired and closed, in metres\n"
+        "container = true            # the beads stay inside it\n",
+        toml_string(toml_path(r.body_file, dir)));
+  write_text(r.scene, text);
 }
 
 }  // namespace haustra::import

@@ -27,4 +27,13 @@ struct SceneFileInputs {
 };
 void write_scene(const SceneFileInputs& in);
 
+// Several organs and the body around them: per organ its options (its name and ends) and radius profile.
+struct SurfacesSceneInputs {
+  std::string command;  // the surfaces and options, as the header names them
+  const std::vector<ImportOptions>& options;
+  const SurfacesReport& report;
+  const std::vector<std::vector<std::pair<double, double>>>& radius_profiles;
+};
+void write_surfaces_scene(const SurfacesSceneInputs& in);
+
 }  // namespace haustra::import

@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "haustra/embree_scene.hpp"
+#include "haustra/mesh_io.hpp"
 #include "haustra/render/shapes.hpp"
 
 namespace haustra::render {
@@ -20,6 +21,9 @@ struct Material {
   float opacity = 1.0f;
   float shine = 0.1f;
   bool checker = false;  // floor tiles (10 cm)
+  // A container (the body around the organs) seen from outside: only its far wall shows, from
+  // inside, as in a cut-away, and it casts no shadow (everything in it would be dark).
+  bool cut_away = false;
 };
 
 // One triangle soup per material, with optional per-vertex colours.
@@ -263,12 +267,27 @@ struct SceneParts {
     for (const auto& s : desc.environment.spheres) add_sphere(g, s.center, s.radius, 24);
     for (const auto& c : desc.environment.capsules) add_capsule(g, c.a, c.b, c.radius);
     for (const auto& m : desc.environment.meshes) {
+      if (m.container) continue;
       const auto base = static_cast<std::uint32_t>(g.vertices.size());
       g.vertices.insert(g.vertices.end(), m.vertices.begin(), m.vertices.end());
       for (auto t : m.triangles) g.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
     }
     if (!g.normals.empty() && g.normals.size() != g.vertices.size()) g.normals.clear();
     keep(std::move(g));
+  }
+
+  // Each container wound outward (its volume positive), so that its front faces are the ones a
+  // ray from outside meets first: those are passed through.
+  void containers() {
+    for (const auto& m : desc.environment.meshes) {
+      if (!m.container) continue;
+      Geometry g;
+      g.material = {Shows::obstacle, {0.80f, 0.70f, 0.62f}, 1.0f, 0.05f, false, true};
+      g.vertices = m.vertices;
+      const bool inward = mesh_volume(m.vertices, m.triangles) < 0.0;
+      for (auto t : m.triangles) g.triangles.push_back(inward ? std::array{t[0], t[2], t[1]} : t);
+      geoms.push_back(std::move(g));
+    }
   }
 
   // Each plane as a tiled square under the subject, four subject sizes wide; a plane seen from
@@ -300,18 +319,39 @@ struct Shader {
   bool shadows;
   double size;
 
+  // Something that casts a shadow lies between p and the sun (a container does not).
+  [[nodiscard]] bool shadowed(const Eigen::Vector3d& p, const Eigen::Vector3d& sun, double eps) const {
+    double t = 0.0;
+    for (int crossing = 0; crossing < 16; ++crossing) {
+      const EmbreeScene::Hit h = scene.first_hit(p, sun, t, 10.0 * size);
+      if (!h.found) return false;
+      if (!geoms[h.geometry].material.cut_away) return true;
+      t = h.distance + eps;
+    }
+    return false;
+  }
+
   [[nodiscard]] Rgb operator()(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, Shows* shows) const {
     const Eigen::Vector3d sun = Eigen::Vector3d(-0.35, -0.5, 1.0).normalized();
     const double eps = 1e-5 * size;
     Rgb accumulated{0, 0, 0};
     float remaining = 1.0f;
     double t0 = 0.0;
+    int passed = 0;  // a container's near walls passed through (a body's arms and trunk: a few)
     for (int layer = 0; layer < 6 && remaining > 0.02f; ++layer) {
       const EmbreeScene::Hit h = scene.first_hit(origin, dir, t0, std::numeric_limits<double>::infinity());
       if (!h.found) break;
       const Geometry& g = geoms[h.geometry];
       const auto& tri = g.triangles[h.triangle];
       const Eigen::Vector3d p = origin + h.distance * dir;
+      if (g.material.cut_away && (g.vertices[tri[1]] - g.vertices[tri[0]])
+                                         .cross(g.vertices[tri[2]] - g.vertices[tri[0]])
+                                         .dot(dir) < 0.0 &&
+          ++passed < 16) {  // its near wall, from outside: not a layer
+        t0 = h.distance + eps;
+        --layer;
+        continue;
+      }
       Eigen::Vector3d n;
       if (!g.normals.empty())
         n = (1.0 - h.u - h.v) * g.normals[tri[0]] + h.u * g.normals[tri[1]] + h.v * g.normals[tri[2]];
@@ -329,7 +369,7 @@ struct Shader {
         if (((ix + iy) & 1L) != 0) base = scale(base, 0.86f);
       }
       double light = std::max(0.0, n.dot(sun));
-      if (shadows && light > 0.0 && scene.first_hit(p + eps * n, sun, 0.0, 10.0 * size).found) light *= 0.25;
+      if (shadows && light > 0.0 && shadowed(p + eps * n, sun, eps)) light *= 0.25;
       const double fill = 0.35 * std::max(0.0, n.dot(-dir));
       const Eigen::Vector3d half = (sun - dir).normalized();
       const double spec = g.material.shine * std::pow(std::max(0.0, n.dot(half)), 40.0) * (light > 0.0 ? 1.0 : 0.0);
@@ -393,6 +433,7 @@ Picture render(const World& world, const WorldDesc& desc, const RenderOptions& o
   if (o.overlays.contacts) parts.contacts();
   parts.instruments();
   parts.obstacles();
+  parts.containers();
   parts.floors(b);
 
   EmbreeScene scene;

@@ -109,3 +109,40 @@ TEST_CASE("an open mesh is a two-sided sheet: distances agree with brute force, 
     if (reference > 1e-9) CHECK((p - hit.point).normalized().dot(hit.push) > 1.0 - 1e-12);
   }
 }
+
+TEST_CASE("a container's contact is found where brute force says the point is near its wall or outside it") {
+  // The bolster as a container: a point within `reach` of its wall from inside, or anywhere out, has
+  // a contact whose push points inward; a deeper point has none (the depth grid's shortcut included).
+  const TriangleMesh bolster = load_mesh(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/assets/bolster.obj");
+  MeshObstacleDesc d{"bolster", "test", bolster.vertices, bolster.triangles};
+  d.container = true;
+  const detail::StaticMeshes meshes(std::vector<MeshObstacleDesc>{d});
+  REQUIRE(meshes.container_count() == 1);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double reach = 0.01;
+  int near = 0, deep = 0, out = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Eigen::Vector3d p(0.12 * u(rng), 0.5 * u(rng), 0.12 * u(rng));
+    const double distance = brute_force_distance(bolster, p);
+    const bool inside = winding_number(bolster, p) > 0.5;
+    const detail::StaticMeshes::Hit hit = meshes.container_contact(0, p, reach);
+    INFO("point " << p.transpose() << ", brute-force distance " << distance << (inside ? " inside" : " outside"));
+    if (inside && distance > reach * (1.0 + 1e-6)) {
+      CHECK_FALSE(hit.found);
+      ++deep;
+      continue;
+    }
+    if (inside && distance > reach * (1.0 - 1e-6)) continue;  // within rounding of the reach
+    REQUIRE(hit.found);
+    CHECK(std::abs(std::abs(hit.signed_distance) - distance) < 1e-12);
+    CHECK((hit.signed_distance > 0.0) == inside);
+    // Moving along `push` by the distance outside and a little more takes the point in.
+    const Eigen::Vector3d in = p + (std::max(0.0, -hit.signed_distance) + 1e-4) * hit.push;
+    CHECK(winding_number(bolster, in) > 0.5);
+    (inside ? near : out) += 1;
+  }
+  CHECK(deep > 100);
+  CHECK(near > 100);
+  CHECK(out > 1000);
+}

@@ -454,6 +454,7 @@ struct Commands {
   RenderCommand render;
   std::string figure_out = "fig6-cage.png";
   import::ImportOptions import_options;
+  std::vector<fs::path> import_meshes;
   fs::path anatomy_folder, anatomy_out = fs::temp_directory_path() / "haustra-anatomy";
   int anatomy_threads = 2;
 };
@@ -530,10 +531,21 @@ void declare_pictures(CLI::App& app, Commands& c) {
 void declare_import(CLI::App& app, Commands& c) {
   c.import_cmd = app.add_subcommand(
       "import",
-      "a segmented organ surface to a scene that runs: centreline read or computed, trimmed, rod, beads, cage");
-  c.import_cmd->add_option("mesh", c.import_options.mesh, "surface (OBJ, STL, OFF, glTF), open or closed ends, mm or m")
+      "segmented organ surfaces to a scene that runs: centreline read or computed, trimmed, rod, beads, cage; "
+      "several surfaces are joined into organs where their open ends meet, a body keeps them inside");
+  c.import_cmd
+      ->add_option("mesh", c.import_meshes,
+                   "surfaces (OBJ, STL, OFF, glTF), open or closed ends, mm or m; several: one scene, an organ per "
+                   "chain of surfaces whose open ends meet")
       ->required()
       ->check(CLI::ExistingFile);
+  c.import_cmd
+      ->add_option("--body", c.import_options.body,
+                   "the body's boundary around them (same frame): a container the organs stay inside")
+      ->check(CLI::ExistingFile);
+  c.import_cmd->add_option("--gravity", c.import_options.gravity,
+                           "gravity's direction in the surfaces' frame: -x +x -y +y -z +z, supine (towards the "
+                           "body's back), prone, or x,y,z (default: supine with --body, else -z)");
   c.import_cmd
       ->add_option("--centreline", c.import_options.centreline,
                    "its midline (JSON with units and points); default: computed")
@@ -575,9 +587,16 @@ int dispatch(Commands& c) {
     // A line per phase on a terminal (a whole organ takes a minute): what was done and how long.
     if (isatty(fileno(stderr)) != 0)
       c.import_options.progress = [](std::string_view line) { fmt::print(stderr, "import: {}\n", line); };
-    const import::ImportReport report = import::import_surface(c.import_options);
-    fmt::print("{}scene: {} (centreline: {})\nrun it: haustra run {}\n", report.text(), report.scene.string(),
-               report.centreline_file.string(), report.scene.string());
+    c.import_options.mesh = c.import_meshes.front();
+    c.import_options.more_meshes.assign(c.import_meshes.begin() + 1, c.import_meshes.end());
+    if (c.import_options.more_meshes.empty() && c.import_options.body.empty() && c.import_options.gravity.empty()) {
+      const import::ImportReport report = import::import_surface(c.import_options);
+      fmt::print("{}scene: {} (centreline: {})\nrun it: haustra run {}\n", report.text(), report.scene.string(),
+                 report.centreline_file.string(), report.scene.string());
+      return 0;
+    }
+    const import::SurfacesReport report = import::import_surfaces(c.import_options);
+    fmt::print("{}scene: {}\nrun it: haustra run {}\n", report.text(), report.scene.string(), report.scene.string());
     return 0;
   }
   if (*c.anatomy_cmd) {

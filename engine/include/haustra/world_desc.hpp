@@ -245,6 +245,12 @@ struct SegmentDesc {
 
 enum class BroadPhase : std::uint8_t { automatic, brute, grid, sweep };
 
+// Which pairs of beads that overlap or touch in the rest pose never collide: those of one segment
+// (its own folds, as built), or any two (organs imported from one body touch where the segmentation
+// has them touch — the ileum at its valve, loops lying on each other — and do not push apart at
+// rest: decision 0094).
+enum class RestExclusions : std::uint8_t { segment, world };
+
 // The paper's penalty response (eq. 13), f = coefficient × E × depth^exponent, along the
 // separating direction; E is the bead's tissue (the harmonic mean for two tissues).
 struct ContactDesc {
@@ -253,6 +259,7 @@ struct ContactDesc {
   double margin = -1.0;  // m: candidates within r_a + r_b + margin; < 0: half the smallest bead radius
   BroadPhase broad_phase = BroadPhase::automatic;  // brute below 256 beads, else the grid
   bool self = true;                                // beads of one segment collide (except pairs touching at rest)
+  RestExclusions rest_exclusions = RestExclusions::segment;
 };
 
 struct PlaneDesc {
@@ -279,6 +286,10 @@ struct MeshObstacleDesc {
   std::string source;                     // file it came from, for messages
   std::vector<Eigen::Vector3d> vertices;  // m
   std::vector<std::array<std::uint32_t, 3>> triangles;
+  // A container (the body's boundary, a cavity) keeps beads inside it: a bead touches when its
+  // centre is within its radius of the surface from inside, or anywhere outside, and is pushed
+  // inward. It must be closed (decision 0093). false: an obstacle that keeps beads out.
+  bool container = false;
 };
 
 struct EnvironmentDesc {

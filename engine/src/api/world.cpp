@@ -136,8 +136,9 @@ bool World::beads_may_collide(std::size_t a, std::size_t b) const {
   if (a >= beads.size() || b >= beads.size() || a == b)
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("bead indices {} and {}: need two different beads below {}", a, b, beads.size()));
-  if (beads.segment[a] != beads.segment[b]) return true;
-  if (!impl_->model.contact.self) return false;
+  if (beads.segment[a] != beads.segment[b] && impl_->model.contact.rest_exclusions == RestExclusions::segment)
+    return true;
+  if (beads.segment[a] == beads.segment[b] && !impl_->model.contact.self) return false;
   return !beads.excluded(static_cast<std::uint32_t>(std::min(a, b)), static_cast<std::uint32_t>(std::max(a, b)));
 }
 const ContactReport& World::contacts() const { return impl_->state.collision.report; }

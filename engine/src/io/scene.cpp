@@ -295,7 +295,7 @@ void read_environment(const Reader& r, const toml::table& t, const std::filesyst
     return d;
   });
   read_obstacles(r, t, "mesh", env.meshes, [&](const toml::table& o, const std::string& p) {
-    r.check_keys(o, p, {"name", "file", "scale", "translate"});
+    r.check_keys(o, p, {"name", "file", "scale", "translate", "container"});
     const toml::node* file_node = o.get("file");
     if (file_node == nullptr) r.fail(&o, p + ".file", "a mesh obstacle needs file = \"path\"");
     MeshObstacleDesc d;
@@ -304,6 +304,7 @@ void read_environment(const Reader& r, const toml::table& t, const std::filesyst
     const double scale = r.number(o, "scale", p + ".scale", 1.0);
     if (!(scale > 0.0)) r.fail(o.get("scale"), p + ".scale", "expected a positive scale (e.g. 0.001 for millimetres)");
     const Eigen::Vector3d translate = r.vec3(o, "translate", p + ".translate", Eigen::Vector3d::Zero());
+    d.container = r.boolean(o, "container", p + ".container", d.container);
     try {
       TriangleMesh mesh = load_mesh(f);
       for (auto& v : mesh.vertices) v = scale * v + translate;
@@ -412,7 +413,7 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
   for (std::size_t i = 0; i < segments.size(); ++i)
     w.segments.push_back(read_segment(r, *segments[i], fmt::format("segment[{}]", i), file.parent_path()));
   if (const toml::table* t = r.table(root, "contact", "contact")) {
-    r.check_keys(*t, "contact", {"coefficient", "exponent", "margin", "broad_phase", "self"});
+    r.check_keys(*t, "contact", {"coefficient", "exponent", "margin", "broad_phase", "self", "rest_exclusions"});
     ContactDesc& c = w.contact;
     c.coefficient = r.number(*t, "coefficient", "contact.coefficient", c.coefficient);
     c.exponent = r.number(*t, "exponent", "contact.exponent", c.exponent);
@@ -423,6 +424,8 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
                                           {"sweep", BroadPhase::sweep},
                                           {"brute", BroadPhase::brute}});
     c.self = r.boolean(*t, "self", "contact.self", c.self);
+    c.rest_exclusions = r.choice<RestExclusions>(*t, "rest_exclusions", "contact.rest_exclusions", c.rest_exclusions,
+                                                 {{"segment", RestExclusions::segment}, {"world", RestExclusions::world}});
   }
   if (const toml::table* t = r.table(root, "environment", "environment"))
     read_environment(r, *t, file.parent_path(), w.environment);

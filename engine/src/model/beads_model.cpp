@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <optional>
 
 #include "haustra/embree_scene.hpp"
@@ -28,6 +29,37 @@ void check_unit(const std::string& field, const Eigen::Vector3d& v) {
 void check_radius(const std::string& field, double r) {
   if (!std::isfinite(r) || !(r > 0.0)) fail(field, fmt::format("expected a positive radius in m, got {}", r));
   if (r > 0.5) fail(field, fmt::format("{} m is beyond the plausible maximum 0.5 m (did you mean millimetres?)", r));
+}
+
+// A container must bound a volume, wound one way throughout: every edge in exactly two triangles,
+// once in each direction (its inside is then where its volume is: decision 0093).
+void check_container(const MeshObstacleDesc& mesh, const std::string& where) {
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::array<int, 2>> runs;  // each way along an edge
+  for (const auto& t : mesh.triangles)
+    for (std::size_t e = 0; e < 3; ++e) {
+      const std::uint32_t a = t[e], b = t[(e + 1) % 3];
+      ++runs[{std::min(a, b), std::max(a, b)}][a < b ? 0 : 1];
+    }
+  std::size_t open = 0, against = 0;
+  for (const auto& [edge, way] : runs) {
+    if (way[0] + way[1] != 2)
+      ++open;  // an edge of one triangle, or of three or more
+    else if (way[0] != 1)
+      ++against;  // two neighbours that run the edge the same way
+  }
+  const std::string file = mesh.source.empty() ? mesh.name : mesh.source;
+  if (open > 0)
+    throw FieldError(
+        ErrorCode::invalid_geometry, where + ".container",
+        fmt::format("{} is not closed ({} edges are not shared by exactly two triangles): a container must be a "
+                     "closed surface, the boundary of the volume that holds the beads",
+                     file, open));
+  if (against > 0)
+    throw FieldError(
+        ErrorCode::invalid_geometry, where + ".container",
+        fmt::format("{} is not wound one way ({} edges shared by neighbours facing opposite ways): a container's "
+                     "inside is read from its winding",
+                     file, against));
 }
 
 // Node indices of one segment's beads, ascending and distinct.
@@ -171,6 +203,7 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
           fail(where, fmt::format("a triangle uses vertex {} but there are {}", v, mesh.vertices.size()));
     for (const auto& v : mesh.vertices)
       if (!v.allFinite()) fail(where, "vertices must be finite");
+    if (mesh.container) check_container(mesh, where);
   }
   m.meshes = std::make_shared<const StaticMeshes>(m.environment.meshes);
   m.instruments = desc.instruments;
@@ -291,7 +324,8 @@ void assign_piece_beads(const BeadModel& beads, const SegmentModel& seg, std::ve
   }
 }
 
-// Rest-pose exclusions: pairs of one segment whose spheres overlap or touch at rest; and the
+// Rest-pose exclusions: pairs of one segment (or of any two: contact.rest_exclusions) whose spheres
+// overlap or touch at rest; and the
 // contact margin (half the smallest bead unless given).
 void build_rest_exclusions(const std::vector<Eigen::Vector3d>& initial_positions, WorldModel& m) {
   BeadModel& beads = m.beads;
@@ -315,14 +349,16 @@ void build_rest_exclusions(const std::vector<Eigen::Vector3d>& initial_positions
     pairs.resize(count);
     count = grid.query(set, 0, nb, pairs);
   }
+  const bool across = m.contact.rest_exclusions == RestExclusions::world;
+  auto kept = [&](const kernels::SpherePair& pair) { return across || beads.segment[pair.a] == beads.segment[pair.b]; };
   beads.exclusion_start.assign(nb + 1, 0);
   for (std::size_t p = 0; p < count; ++p)
-    if (beads.segment[pairs[p].a] == beads.segment[pairs[p].b]) ++beads.exclusion_start[pairs[p].a + 1];
+    if (kept(pairs[p])) ++beads.exclusion_start[pairs[p].a + 1];
   for (std::size_t i = 0; i < nb; ++i) beads.exclusion_start[i + 1] += beads.exclusion_start[i];
   beads.exclusion.assign(beads.exclusion_start[nb], 0);
   std::vector<std::uint32_t> fill(beads.exclusion_start.begin(), beads.exclusion_start.end() - 1);
   for (std::size_t p = 0; p < count; ++p)  // pairs come in ascending (a, b): lists come sorted
-    if (beads.segment[pairs[p].a] == beads.segment[pairs[p].b]) beads.exclusion[fill[pairs[p].a]++] = pairs[p].b;
+    if (kept(pairs[p])) beads.exclusion[fill[pairs[p].a]++] = pairs[p].b;
   m.contact_margin = m.contact.margin >= 0.0 ? m.contact.margin : (nb > 0 ? 0.5 * smallest : 0.0);
 }
 

@@ -88,6 +88,11 @@ void environment_candidates(const WorldModel& model, const WorldState& state, st
     const StaticMeshes::Hit hit = model.meshes->closest(c, r + margin);
     // The tangent plane at the closest point stands in for the mesh during the frame.
     if (hit.found) add(ContactKind::mesh, hit.mesh, hit.point, hit.push);
+    // Each container on its own: a bead near the body's wall may also touch an organ inside it.
+    for (std::size_t i = 0; i < model.meshes->container_count(); ++i) {
+      const StaticMeshes::Hit held = model.meshes->container_contact(i, c, r + margin);
+      if (held.found) add(ContactKind::mesh, held.mesh, held.point, held.push);
+    }
   }
   for (std::size_t i = 0; i < model.instruments.size(); ++i) {
     if (instrument_holds(state, i, b)) continue;  // the grasped bead sits in the jaws
@@ -214,6 +219,9 @@ void stage_collide(const WorldModel& model, WorldState& state, Scheduler& schedu
   for (std::size_t p = 0; p < pair_count; ++p) {
     const kernels::SpherePair& pr = cs.pairs[p];
     if (beads.segment[pr.a] == beads.segment[pr.b] && (!model.contact.self || beads.excluded(pr.a, pr.b))) continue;
+    if (beads.segment[pr.a] != beads.segment[pr.b] && model.contact.rest_exclusions == RestExclusions::world &&
+        beads.excluded(pr.a, pr.b))
+      continue;
     ContactCandidate k;
     k.bead = pr.a;
     k.other = pr.b;
@@ -341,6 +349,33 @@ double segment_contact_potential(const WorldModel& model, const WorldState& stat
     }
   }
   return potential;
+}
+
+bool held_by_container(const WorldModel& model, const ContactCandidate& c) {
+  return c.kind == ContactKind::mesh && model.environment.meshes[c.other].container;
+}
+
+double depth_at_frame_start(const WorldModel& model, const WorldState& state, const ContactCandidate& c) {
+  const std::uint32_t node = model.beads.node[c.bead];
+  return measure(model, state, c, state.frame_start.position.view().get(node)).depth;
+}
+
+double container_release(const WorldModel& model, const WorldState& state, std::size_t segment) {
+  const SegmentModel& seg = model.segments[segment];
+  const CollisionState& cs = state.collision;
+  const double exponent = model.contact.exponent;
+  auto potential = [&](const ContactCandidate& k, double depth) {
+    return depth > 0.0 ? stiffness_of(model, k) * std::pow(depth, exponent + 1.0) / (exponent + 1.0) : 0.0;
+  };
+  double released = 0.0;
+  for (std::size_t b = seg.bead_offset; b < seg.bead_offset + seg.bead_count && !cs.bead_contact_start.empty(); ++b)
+    for (std::uint32_t e = cs.bead_contact_start[b]; e < cs.bead_contact_start[b + 1]; ++e) {
+      const ContactCandidate& k = cs.candidates[cs.bead_contact[e] >> 1];
+      if (!held_by_container(model, k)) continue;
+      const double now = measure(model, state, k, node_position(state, model.beads.node[k.bead])).depth;
+      released += std::max(0.0, potential(k, depth_at_frame_start(model, state, k)) - potential(k, now));
+    }
+  return released;
 }
 
 void record_bead_motion(const WorldModel& model, WorldState& state) {

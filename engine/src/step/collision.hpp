@@ -38,6 +38,14 @@ double segment_contact_potential(const WorldModel& model, const WorldState& stat
                                  std::span<const Eigen::Vector3d> bead_start, std::size_t first, std::size_t end,
                                  bool across);
 
+// Containers (decision 0093). A contact with one; its depth with the bead where it was at the
+// frame's start (against the contact's plane: > the radius, the bead's centre was already out);
+// and what one segment's container contacts released in the frame (J: the penalty potential at the
+// frame's start less that now, where positive), which the rod may have gained as it was pushed back.
+[[nodiscard]] bool held_by_container(const WorldModel& model, const ContactCandidate& c);
+[[nodiscard]] double depth_at_frame_start(const WorldModel& model, const WorldState& state, const ContactCandidate& c);
+[[nodiscard]] double container_release(const WorldModel& model, const WorldState& state, std::size_t segment);
+
 // Beads a contact candidate list can ignore: an instrument's own grasped bead.
 [[nodiscard]] bool instrument_holds(const WorldState& state, std::size_t instrument, std::uint32_t bead);
 

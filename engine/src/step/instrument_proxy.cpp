@@ -84,6 +84,11 @@ struct ProxyProblem {
     if (model.meshes && model.meshes->size() > 0) {
       const StaticMeshes::Hit hit = model.meshes->closest(p, 2.0 * d.radius + 0.01);
       if (hit.found) add_wall(e, d.radius - hit.signed_distance, hit.push);
+      // A container (the body): the tip kept inside it, as beads are.
+      for (std::size_t k = 0; k < model.meshes->container_count(); ++k) {
+        const StaticMeshes::Hit in = model.meshes->container_contact(k, p, d.radius);
+        if (in.found) add_wall(e, d.radius - in.signed_distance, in.push);
+      }
     }
     return e;
   }

@@ -86,7 +86,7 @@ void launch(const WorldModel& model, WorldState& state, Scheduler& scheduler, st
   }
   pf.loads = ws.loads;  // within the capacity reserved at build
   pf.response_nodes = ws.response_nodes;
-  pf.columns = coupled_unknowns(model, state, rod).columns();
+  pf.columns = newton::coupled_unknowns(model, state, rod).columns();
   pf.law_total = law_total(seg, p.dt);
   pf.free_base = seg.base_mode == BaseMode::free;
   pf.frame = state.frame;

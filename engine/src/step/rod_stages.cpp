@@ -487,6 +487,9 @@ GuardResult guard_bead_depths(const WorldModel& model, const WorldState& state, 
       const ContactCandidate& c = cs.candidates[cs.bead_contact[e] >> 1];
       if (c.kind == ContactKind::bead) continue;
       const double ratio = c.depth / model.beads.radius[c.bead];
+      // A bead a container holds that was already out at the frame's start (however far) is
+      // being pushed back: it passed through nothing in this frame unless it went deeper.
+      if (ratio > 1.0 && held_by_container(model, c) && c.depth <= depth_at_frame_start(model, state, c)) continue;
       if (ratio > 1.0)
         return {false,           model.beads.node[c.bead] - off,
                 Stage::contacts, "bead's depth into the environment (bead radii)",
@@ -526,8 +529,9 @@ GuardResult guard_energy(const WorldModel& model, const WorldState& state, std::
   // in play (its weight over its length), for rounding and for what penalty contacts give back.
   const bool flows = std::any_of(seg.viscosity.begin(), seg.viscosity.end(), [](double eta) { return eta > 0.0; });
   if (flows) {
-    const double work = outside_work_bound(model, state, segment);
+    double work = outside_work_bound(model, state, segment);
     if (work >= 0.0) {
+      work += container_release(model, state, segment);  // pushing a bead back in works on the rod
       const double before =
           segment_energy(model, state, state.frame_start.strain, state.frame_start.position.view(),
                          state.frame_start.rotation.view(), segment)

@@ -12,6 +12,7 @@
 #include <numbers>
 
 #include "haustra/error.hpp"
+#include "haustra/mesh_io.hpp"
 #include "haustra/render/shapes.hpp"
 
 namespace haustra::view {
@@ -122,6 +123,7 @@ const Rgb kAnchor{0.25f, 0.70f, 0.30f};  // connective tissue that holds
 const Rgb kTorn{0.85f, 0.05f, 0.55f};    // where it tore or was cut
 const Rgb kInstrument{0.55f, 0.57f, 0.60f};
 const Rgb kObstacle{0.60f, 0.63f, 0.55f};
+const Rgb kBody{0.80f, 0.70f, 0.62f};  // a container, seen from inside
 const Rgb kFloor{0.78f, 0.78f, 0.76f};
 const Rgb kGrid{0.45f, 0.45f, 0.47f};
 const Rgb kForce{0.95f, 0.55f, 0.05f};
@@ -307,9 +309,13 @@ void GlScene::build_surroundings(const FramePublisher::Slot& f, const ModelInfo&
   for (const auto& c : env.capsules) render::add_capsule(obstacles, c.a, c.b, c.radius);
   append(opaque_, obstacles, kObstacle);
   for (const auto& mesh : env.meshes) {
+    // A container (the body around the organs) is wound inward and drawn with the planes, back
+    // faces culled: only its far wall shows, from inside, as in a cut-away.
+    const bool turn = mesh.container && mesh_volume(mesh.vertices, mesh.triangles) > 0.0;
     render::Soup s;
     for (const auto& t : mesh.triangles) {  // flat shaded: face normals
-      const Eigen::Vector3d a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
+      const Eigen::Vector3d a = mesh.vertices[t[0]], b = turn ? mesh.vertices[t[2]] : mesh.vertices[t[1]],
+                            c = turn ? mesh.vertices[t[1]] : mesh.vertices[t[2]];
       const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
       const auto first = static_cast<std::uint32_t>(s.vertices.size());
       for (const auto& p : {a, b, c}) {
@@ -318,7 +324,7 @@ void GlScene::build_surroundings(const FramePublisher::Slot& f, const ModelInfo&
       }
       s.triangles.push_back({first, first + 1, first + 2});
     }
-    append(opaque_, s, kObstacle);
+    append(mesh.container ? planes_ : opaque_, s, mesh.container ? kBody : kObstacle);
   }
   // Each plane as a square under the subject, four subject sizes wide, with a 10 cm grid.
   for (const auto& plane : env.planes) {
