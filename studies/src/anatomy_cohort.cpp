@@ -102,13 +102,27 @@ void measure_stretch(Edges& e, const World& world, const Points& now, CohortRow&
   }
 }
 
+// The node in the middle of the world's longest organ (a rod: a segment, or a chain's pieces).
+std::size_t middle_of_longest_organ(const World& w) {
+  std::size_t first = 0, count = 0;
+  for (std::size_t s = 0; s < w.segment_count(); ++s) {
+    if (w.chain_of(s) != s) continue;
+    std::size_t last = s;
+    while (last + 1 < w.segment_count() && w.chain_of(last + 1) == s) ++last;
+    const std::size_t begin = w.segment(s).nodes.offset;
+    const std::size_t end = w.segment(last).nodes.offset + w.segment(last).nodes.count;
+    if (end - begin > count) first = begin, count = end - begin;
+  }
+  return first + count / 2;
+}
+
 // The grasper of the protocol: the default instrument (a 30 cm capsule, a proxy) upright, waiting
 // above the organ's highest point while the organ is left alone, then coming down (through whatever
 // lies in the way) to 3 cm above the middle of the centreline and closing (reach 3 cm), moving
 // `distance` sideways (square to the organ and to gravity) in `pull`, holding, opening and going
 // back up.
 InstrumentDesc grasper(const World& rest, const Eigen::Vector3d& gravity, const OrganProtocol& p) {
-  const std::size_t n = rest.node_count(), k = n / 2;
+  const std::size_t n = rest.node_count(), k = middle_of_longest_organ(rest);
   const auto x = rest.node_positions();
   const Eigen::Vector3d up = gravity.norm() > 0.0 ? Eigen::Vector3d(-gravity.normalized()) : Eigen::Vector3d::UnitZ();
   const Eigen::Vector3d tangent = x.get(std::min(k + 1, n - 1)) - x.get(k > 0 ? k - 1 : 0);
@@ -281,6 +295,54 @@ std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std
   return rows;
 }
 
+CohortRow run_abdomen(const std::filesystem::path& folder, const std::string& prefix,
+                      const std::filesystem::path& body, const std::filesystem::path& out,
+                      const OrganProtocol& protocol) {
+  CohortRow row;
+  row.name = fmt::format("abdomen: {}* and {}", prefix, body.filename().string());
+  std::vector<std::filesystem::path> surfaces;
+  for (const auto& entry : std::filesystem::directory_iterator(folder))
+    if (entry.path().extension() == ".obj" && entry.path().filename().string().starts_with(prefix))
+      surfaces.push_back(entry.path());
+  std::sort(surfaces.begin(), surfaces.end());
+  if (surfaces.empty()) {
+    row.error = fmt::format("no surface of {} starts with {}", folder.string(), prefix);
+    return row;
+  }
+  ImportOptions o;
+  o.mesh = surfaces.front();
+  o.more_meshes.assign(surfaces.begin() + 1, surfaces.end());
+  o.body = body;
+  o.out = out / "abdomen.toml";
+  std::filesystem::create_directories(out);
+  SurfacesReport report;
+  try {
+    report = import_surfaces(o);
+  } catch (const std::exception& e) {
+    row.error = first_line(e.what());
+    return row;
+  }
+  const SceneDesc scene = load_scene(report.scene);
+  {
+    std::ifstream in(report.scene);
+    std::ofstream replay(out / "protocol.toml");
+    replay << in.rdbuf() << instrument_toml(with_protocol_grasper(scene, protocol).world.instruments.back());
+  }
+  const std::string name = row.name;
+  row = run_protocol(scene, name, protocol);
+  // The row's import columns: the organs' sizes summed, the first organ's layout.
+  ImportReport& r = row.report;
+  r.layout = fmt::format("{} organs of {} surfaces, in the body{}", report.organs.size(), surfaces.size(),
+                         report.unused.empty() ? "" : fmt::format(" ({} not joined)", report.unused.size()));
+  for (const auto& organ : report.organs) {
+    r.length += organ.report.length;
+    r.nodes += organ.report.nodes;
+    r.beads += organ.report.beads;
+  }
+  r.seconds = report.seconds;
+  return row;
+}
+
 namespace {
 
 std::string outcome(const CohortRow& r) {
@@ -315,7 +377,10 @@ std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::files
       "lies in the way, closes (reach {:g} cm), moves {:g} cm sideways in {:g} s, holds {:g} s, opens and goes "
       "back up; then {:g} s alone. **{} of {} hold** (at rest every "
       "vertex within 5 mm of where the segmentation put it and the median within 1 mm; the pull never stops "
-      "and its force never passes the limit; back within 5 mm, or the anchors that tore reported).\n\n",
+      "and its force never passes the limit; back within 5 mm, or the anchors that tore reported). A row named "
+      "`abdomen:` is the surfaces of one body and its boundary imported as one scene (`haustra import A.obj B.obj "
+      "... --body BODY`, decisions 0093, 0094; `make anatomy`'s ABDOMEN and BODY), the grasper on the middle of "
+      "its longest organ.\n\n",
       folder.string(), fmt::localtime(now), host, p.threads, p.rest, 100 * kAbove, 100 * kReach, 100 * p.distance,
       p.pull, p.hold, p.after, ok, rows.size());
   t += "| surface | organ | length mm | nodes | beads | import s | at rest: median / farthest mm | force N | "

@@ -10,6 +10,7 @@
 
 #include "haustra/error.hpp"
 #include "haustra/import/import.hpp"
+#include "haustra/studies/anatomy_cohort.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/studies/anatomy_study.hpp"
@@ -237,4 +238,30 @@ TEST_CASE("haustra import of several surfaces: the same files give the same scen
   (void)import::import_surface(alone);
   CHECK(bytes_of(dir / "one" / "s-surface.obj") == bytes_of(dir / "alone" / "s-surface.obj"));
   CHECK(bytes_of(dir / "one" / "s-centreline.json") == bytes_of(dir / "alone" / "s-centreline.json"));
+}
+
+TEST_CASE("an abdomen (two organs in a body) goes through the organ protocol and holds, the grasp on its longest organ") {
+  const fs::path dir = fresh_dir("abdomen-protocol");
+  // Two organs side by side (the upper half 100 mm aside), both named organ-*, and a trunk around them.
+  fs::create_directories(dir / "surfaces");
+  const auto [lower, upper] = cut_organ(dir / "surfaces", Eigen::Vector3d(100.0, 0.0, 0.0));
+  fs::rename(lower, dir / "surfaces" / "organ-lower.obj");
+  fs::rename(upper, dir / "surfaces" / "organ-upper.obj");
+  fs::remove(dir / "surfaces" / "whole.obj");
+  const fs::path body = box_body(dir / "body.obj", {-200.0, -100.0, -100.0}, {200.0, 150.0, 400.0});
+  import::OrganProtocol p;
+  p.rest = 1.0, p.pull = 0.5, p.hold = 0.25, p.after = 1.5;
+  const import::CohortRow row = import::run_abdomen(dir / "surfaces", "organ-", body, dir / "out", p);
+  MESSAGE(row.name << ": " << row.report.layout << "; at rest " << row.rest_max * 1e3 << " mm, force "
+                   << row.largest_force << " N, pulled " << row.pulled * 1e3 << " mm, after " << row.after_max * 1e3
+                   << " mm; " << row.error);
+  CHECK(row.report.layout.find("2 organs of 2 surfaces, in the body") == 0);
+  CHECK(row.ran);
+  CHECK(row.grasped);
+  CHECK(row.rest_max <= 1e-3);  // the support lets the weight sink it 0.5 mm
+  CHECK(row.largest_force <= row.force_limit * (1.0 + 1e-9));
+  CHECK(row.pulled > 0.01);     // it followed the grasper
+  CHECK(row.after_max <= 5e-3);
+  CHECK(row.holds);
+  CHECK(fs::exists(dir / "out" / "protocol.toml"));
 }

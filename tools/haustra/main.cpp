@@ -457,6 +457,8 @@ struct Commands {
   std::vector<fs::path> import_meshes;
   fs::path anatomy_folder, anatomy_out = fs::temp_directory_path() / "haustra-anatomy";
   int anatomy_threads = 2;
+  std::string anatomy_abdomen;  // a prefix: those surfaces and the body as one more row
+  fs::path anatomy_body;
 };
 
 void declare_run(CLI::App& app, Commands& c) {
@@ -575,6 +577,10 @@ void declare_import(CLI::App& app, Commands& c) {
       ->required()
       ->check(CLI::ExistingDirectory);
   c.anatomy_cmd->add_option("--out", c.anatomy_out, "where the imported scenes go");
+  c.anatomy_cmd->add_option("--abdomen", c.anatomy_abdomen,
+                            "and one more row: every surface whose name starts with this, and --body, as one scene");
+  c.anatomy_cmd->add_option("--body", c.anatomy_body, "the body boundary around the --abdomen's surfaces")
+      ->check(CLI::ExistingFile);
   c.anatomy_cmd
       ->add_option("--threads", c.anatomy_threads,
                    "threads each organ's worlds run on, 0: all (default 2, docs/anatomy.md's; the same bits on any)")
@@ -602,7 +608,14 @@ int dispatch(Commands& c) {
   if (*c.anatomy_cmd) {
     import::OrganProtocol protocol;
     protocol.threads = c.anatomy_threads;
-    const auto rows = import::run_cohort(c.anatomy_folder, c.anatomy_out, protocol);
+    if (!c.anatomy_abdomen.empty() && c.anatomy_body.empty())
+      throw Error(ErrorCode::invalid_argument, "--abdomen needs --body: the body boundary around its surfaces");
+    auto rows = import::run_cohort(c.anatomy_folder, c.anatomy_out, protocol);
+    if (!c.anatomy_abdomen.empty()) {
+      fmt::print(stderr, "anatomy: the abdomen ({}* and {})\n", c.anatomy_abdomen, c.anatomy_body.filename().string());
+      rows.push_back(import::run_abdomen(c.anatomy_folder, c.anatomy_abdomen, c.anatomy_body, c.anatomy_out / "abdomen",
+                                         protocol));
+    }
     fmt::print("{}", import::cohort_markdown(rows, c.anatomy_folder, protocol));
     std::size_t ok = 0;
     for (const auto& r : rows) ok += r.holds ? 1 : 0;

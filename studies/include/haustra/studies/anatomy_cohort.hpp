@@ -61,6 +61,13 @@ CohortRow run_cohort_surface(const std::filesystem::path& surface, const std::fi
 std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std::filesystem::path& out,
                                   const OrganProtocol& protocol = {});
 
+// An abdomen: every .obj of `folder` whose name starts with `prefix`, and `body` around them,
+// imported as one scene (decision 0094) into `out` and put through the protocol (the grasper on the
+// middle of its longest organ). Never throws: a failure is the row's error.
+CohortRow run_abdomen(const std::filesystem::path& folder, const std::string& prefix,
+                      const std::filesystem::path& body, const std::filesystem::path& out,
+                      const OrganProtocol& protocol = {});
+
 // docs/anatomy.md: generated, dated, the machine named.
 std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::filesystem::path& folder,
                             const OrganProtocol& protocol = {});
