@@ -20,6 +20,7 @@
 #include <map>
 
 #include "haustra/error.hpp"
+#include "io/bounded_input.hpp"
 
 namespace haustra {
 namespace {
@@ -80,9 +81,11 @@ TriangleMesh load_mesh_as_read(const std::filesystem::path& file) {
                 fmt::format("{}: '{}' meshes are not read; convert it to one of {} (assimp's PLY reader, for one, "
                             "hangs on malformed files)",
                             file.string(), ext, fmt::join(kMeshFormats, ", ")));
-  std::error_code ec;
-  const auto bytes = std::filesystem::file_size(file, ec);
-  if (ec) throw Error(ErrorCode::io, fmt::format("{}: no such mesh file ({})", file.string(), ec.message()));
+  std::error_code missing;
+  if (!std::filesystem::exists(file, missing))
+    throw Error(ErrorCode::io, fmt::format("{}: no such mesh file", file.string()));
+  // A regular file (a FIFO would block assimp, a device feed it forever), of a size assimp may read.
+  const std::uintmax_t bytes = io::regular_file_size(file, "mesh file", std::numeric_limits<std::uintmax_t>::max());
   if (bytes > kMaxMeshFileBytes)
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("{}: {:.1f} GiB, more than the {} GiB the engine reads as a mesh; decimate the mesh",
@@ -92,6 +95,7 @@ TriangleMesh load_mesh_as_read(const std::filesystem::path& file) {
   // Validation first: Debian's assimp is built with assertions, and a malformed face (an OFF face
   // with no vertices, found by fuzzing) would otherwise abort the process inside triangulation.
   check_off_counts(file, bytes);  // any extension: assimp picks a reader by content too
+  io::check_gltf_structure(file, bytes);
   const aiScene* scene = nullptr;
   try {
     scene = importer.ReadFile(file.string(), aiProcess_ValidateDataStructure | aiProcess_Triangulate |

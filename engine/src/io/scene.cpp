@@ -4,12 +4,13 @@
 #include <fmt/format.h>
 
 #include <toml++/toml.h>
-#include <fstream>
-#include <sstream>
+#include <algorithm>
+#include <cctype>
 
 #include "haustra/centreline.hpp"
 #include "haustra/error.hpp"
 #include "haustra/mesh_io.hpp"
+#include "io/bounded_input.hpp"
 #include "io/scene_overrides.hpp"
 #include "io/scene_reader.hpp"
 
@@ -439,6 +440,12 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
 
 SceneDesc parse_scene(const std::string& text, const std::filesystem::path& file,
                       std::span<const std::string> overrides) {
+  // Bounded before toml++ sees it: its parser and its tables' destructors recurse once per level.
+  if (text.size() > io::kMaxSceneBytes)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("{}: {} bytes of scene text, more than the {} MiB a scene file may have", file.string(),
+                            text.size(), io::kMaxSceneBytes >> 20));
+  io::check_toml_nesting(text, file.string());
   auto source = std::make_shared<SceneSource>();
   source->file = file.string();
   try {
@@ -455,19 +462,20 @@ SceneDesc parse_scene(const std::string& text, const std::filesystem::path& file
 }
 
 SceneDesc load_scene(const std::filesystem::path& file, std::span<const std::string> overrides) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(file, ec))
-    throw Error(ErrorCode::io, fmt::format("{}: a folder, not a scene file (expected a .toml file)", file.string()));
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw Error(ErrorCode::io, fmt::format("{}: cannot open the scene file", file.string()));
-  std::ostringstream text;
-  text << in.rdbuf();
+  // A surface given where a scene belongs would otherwise be answered with a TOML syntax error.
+  std::string ext = file.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (std::find(kMeshFormats.begin(), kMeshFormats.end(), ext) != kMeshFormats.end())
+    throw Error(ErrorCode::parse, fmt::format("{}: a surface ({}), not a scene file: `haustra import {}` makes a scene "
+                                              "of it (`haustra run` and `view` import one on the fly)",
+                                              file.string(), ext, file.string()));
+  const std::string text = io::read_bounded_file(file, "scene file", io::kMaxSceneBytes);
   // An empty file would read as a scene of no segments that steps: most likely a wrong path or a
   // write that did not finish, so it is refused as a file problem.
-  if (text.str().find_first_not_of(" \t\r\n") == std::string::npos)
+  if (text.find_first_not_of(" \t\r\n") == std::string::npos)
     throw Error(ErrorCode::io,
                 fmt::format("{}: the scene file is empty (expected TOML with a [[segment]])", file.string()));
-  return parse_scene(text.str(), file, overrides);
+  return parse_scene(text, file, overrides);
 }
 
 std::unique_ptr<World> create_world(const SceneDesc& scene) {

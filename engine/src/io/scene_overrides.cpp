@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "haustra/error.hpp"
+#include "io/bounded_input.hpp"
 
 namespace haustra::scene_io {
 namespace {
@@ -86,13 +87,19 @@ void apply_override(toml::table& root, const std::string& assignment, const std:
     throw Error(ErrorCode::invalid_argument, fmt::format("{}: --set {}: expected key=value", file, assignment));
   const std::string key = assignment.substr(0, eq);
   const std::string text = assignment.substr(eq + 1);
+  const std::vector<PathPart> path = split_path(key, file);
+  if (path.size() > static_cast<std::size_t>(io::kMaxNesting))  // set_path walks it recursively
+    throw Error(ErrorCode::invalid_argument, fmt::format("{}: --set: the key has {} parts, more than the {} a scene "
+                                                         "nests",
+                                                         file, path.size(), io::kMaxNesting));
+  io::check_toml_nesting("v = " + text, fmt::format("{} (--set {})", file, key));
   toml::table parsed;
   try {
     parsed = toml::parse("v = " + text);
   } catch (const toml::parse_error&) {
     parsed = toml::table{{"v", text}};  // a bare word is a string
   }
-  set_path(root, split_path(key, file), *parsed.get("v"), fmt::format("{}: --set {}", file, assignment));
+  set_path(root, path, *parsed.get("v"), fmt::format("{}: --set {}", file, assignment));
 }
 
 }  // namespace haustra::scene_io

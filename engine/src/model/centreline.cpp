@@ -4,12 +4,11 @@
 #include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
-#include <sstream>
 
 #include "haustra/error.hpp"
+#include "io/bounded_input.hpp"
 
 namespace haustra {
 namespace {
@@ -43,12 +42,34 @@ double segment_distance(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, co
   return (p0 + s * d1 - (q0 + t * d2)).norm();
 }
 
+// A value for a message, without recursing into it (the file is untrusted): its kind, its size,
+// and a flat array's or a scalar's text when short.
+std::string describe(const nlohmann::json& v) {
+  constexpr std::size_t kShort = 80;
+  if (v.is_array()) {
+    const bool flat = std::none_of(v.begin(), v.end(), [](const auto& e) { return e.is_structured(); });
+    if (flat && v.size() <= 8) {
+      std::string text = v.dump();
+      if (text.size() <= kShort) return text;
+    }
+    return fmt::format("an array of {} entr{}", v.size(), v.size() == 1 ? "y" : "ies");
+  }
+  if (v.is_object()) return fmt::format("an object of {} key{}", v.size(), v.size() == 1 ? "" : "s");
+  std::string text = v.dump();
+  if (text.size() > kShort) text = text.substr(0, kShort) + "…";
+  return text;
+}
+
 }  // namespace
 
 void check_centreline_points(const std::vector<Eigen::Vector3d>& points, const std::string& where) {
   if (points.size() < 2)
     throw Error(ErrorCode::invalid_geometry,
                 fmt::format("{}: a centreline needs at least 2 points, got {}", where, points.size()));
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (!points[i].allFinite())
+      throw Error(ErrorCode::invalid_argument, fmt::format("{}: point {} is not finite ({}, {}, {})", where, i,
+                                                           points[i].x(), points[i].y(), points[i].z()));
   double length = 0.0;
   double extent = 0.0;
   for (const auto& p : points) extent = std::max(extent, (p - points.front()).norm());
@@ -91,6 +112,12 @@ void check_centreline_points(const std::vector<Eigen::Vector3d>& points, const s
 }
 
 Centreline parse_centreline(const std::string& text, const std::string& file) {
+  // nlohmann's parser keeps its own stack, but dumping and walking a value recurse: bounded first.
+  if (text.size() > io::kMaxCentrelineBytes)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("{}: {} bytes of centreline, more than the {} MiB a centreline file may have", file,
+                            text.size(), io::kMaxCentrelineBytes >> 20));
+  io::check_json_nesting(text, file);
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(text);
@@ -111,11 +138,11 @@ Centreline parse_centreline(const std::string& text, const std::string& file) {
   for (std::size_t i = 0; i < pts.size(); ++i) {
     const auto& p = pts[i];
     if (!p.is_array() || p.size() != 3)
-      throw Error(ErrorCode::parse, fmt::format("{}: points[{}]: expected [x, y, z], got {}", file, i, p.dump()));
+      throw Error(ErrorCode::parse, fmt::format("{}: points[{}]: expected [x, y, z], got {}", file, i, describe(p)));
     Eigen::Vector3d v;
     for (int j = 0; j < 3; ++j) {
       if (!p[static_cast<std::size_t>(j)].is_number())
-        throw Error(ErrorCode::parse, fmt::format("{}: points[{}]: expected numbers, got {}", file, i, p.dump()));
+        throw Error(ErrorCode::parse, fmt::format("{}: points[{}]: expected numbers, got {}", file, i, describe(p)));
       v[j] = p[static_cast<std::size_t>(j)].get<double>() * scale;
     }
     if (!v.allFinite())
@@ -127,11 +154,7 @@ Centreline parse_centreline(const std::string& text, const std::string& file) {
 }
 
 Centreline read_centreline(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw Error(ErrorCode::io, fmt::format("{}: cannot open the centreline file", file.string()));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_centreline(text.str(), file.string());
+  return parse_centreline(io::read_bounded_file(file, "centreline file", io::kMaxCentrelineBytes), file.string());
 }
 
 }  // namespace haustra
