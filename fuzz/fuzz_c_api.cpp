@@ -153,7 +153,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           require(haustra_world_save_checkpoint(w, checkpoint.c_str()) == HAUSTRA_OK, "save");
           saved = true;
         } else {
-          require(haustra_world_restore_checkpoint(w, checkpoint.c_str()) == HAUSTRA_OK, "restore");
+          // Its run-time parameters come back with it (decision 0099); one that rebuilds the rods (another
+          // material) waits until the render thread lets go of its frame.
+          const haustra_status s = haustra_world_restore_checkpoint(w, checkpoint.c_str());
+          require(s == HAUSTRA_OK || (acquired && s == HAUSTRA_INVALID_ARGUMENT), "restore");
           check_finite(w);
         }
         break;
@@ -214,8 +217,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         check_finite(w);
         break;
       }
-      case 18: {  // run-time parameters: any values, refused by name or in force from the next step
-        const int which = in.byte() % 4;
+      case 18: {  // run-time parameters: any values, refused by name or in force from the next step;
+                  // the frame's limits; the event queue
+        const int which = in.byte() % 6;
         haustra_status s = HAUSTRA_OK;
         if (which == 0) s = haustra_world_set_gravity(w, a);
         if (which == 1) s = haustra_world_set_dt(w, b[0]);
@@ -225,8 +229,21 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           s = haustra_world_set_material(w, index, &m);
           require(s != HAUSTRA_OK || !acquired, "no material change while a frame is held");
         }
+        if (which == 4) {
+          const haustra_frame_limits l{static_cast<int>(in.byte()) - 8, static_cast<int>(in.byte()) % 80 - 4,
+                                       static_cast<int>(in.byte()) * 1000 - 1};
+          s = haustra_world_set_frame_limits(w, &l);
+        }
+        if (which == 5) {
+          haustra_event events[4];
+          std::size_t n = 99;
+          std::uint64_t dropped = 0;
+          s = haustra_world_take_events(w, events, in.byte() % 5, &n, &dropped);
+          require(s == HAUSTRA_OK && n <= 4, "events taken");
+          for (std::size_t e = 0; e < n; ++e)
+            require(std::memchr(events[e].message, 0, sizeof events[e].message) != nullptr, "an event's text ends");
+        }
         require(s == HAUSTRA_OK || s == HAUSTRA_INVALID_ARGUMENT, "parameter status");
-        if (s == HAUSTRA_OK) saved = false;
         check_finite(w);
         break;
       }

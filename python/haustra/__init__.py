@@ -18,7 +18,7 @@ values of the last step before that (it is no longer updated). Copy (`numpy.arra
 you want to keep from a frame.
 
 Errors raise haustra.Error (or a subclass per kind: InvalidArgumentError, FileError, ParseError,
-GeometryError, UnstableError, InternalError) with the engine's message: file, line and field. An
+GeometryError, UnstableError, InternalError, BusyError) with the engine's message: file, line and field. An
 index argument out of range raises InvalidIndexError, both an InvalidArgumentError and an IndexError;
 negative indices count from the end, as in Python.
 """
@@ -29,6 +29,7 @@ from ._haustra import (  # noqa: F401
     __version__,
     CONTACT_KINDS,
     RECORDABLE,
+    BusyError,
     Error,
     FileError,
     GeometryError,
@@ -45,7 +46,7 @@ from ._haustra import (  # noqa: F401
 
 __all__ = [
     "__version__", "World", "validate", "save_mesh", "estimate_memory", "Error", "InvalidArgumentError", "FileError",
-    "InvalidIndexError", "ParseError", "GeometryError", "UnstableError", "InternalError", "save_segment_mesh", "RECORDABLE",
+    "InvalidIndexError", "ParseError", "GeometryError", "UnstableError", "InternalError", "BusyError", "save_segment_mesh", "RECORDABLE",
     "CONTACT_KINDS",
 ]
 

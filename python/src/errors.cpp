@@ -13,7 +13,7 @@ namespace {
 
 // Exception classes live as long as the interpreter: their handles are never released.
 struct ExceptionTypes {
-  py::handle base, invalid_argument, invalid_index, io, parse, geometry, unstable, internal;
+  py::handle base, invalid_argument, invalid_index, io, parse, geometry, unstable, internal, busy;
 };
 ExceptionTypes& types() {
   static ExceptionTypes t;
@@ -37,6 +37,7 @@ py::handle type_of(ErrorCode code) {
     case ErrorCode::invalid_geometry: return t.geometry;
     case ErrorCode::unstable: return t.unstable;
     case ErrorCode::internal: return t.internal;
+    case ErrorCode::busy: return t.busy;
   }
   return t.base;
 }
@@ -61,7 +62,7 @@ void bind_errors(py::module_& m) {
   ExceptionTypes& t = types();
   t.base = new_type(m, "Error", py::make_tuple(py::handle(PyExc_RuntimeError)),
                     "An error from the engine. `code` names its kind ('invalid_argument', 'io', 'parse', "
-                    "'invalid_geometry', 'unstable', 'internal'); `field` the scene field it is about, or None. "
+                    "'invalid_geometry', 'unstable', 'internal', 'busy'); `field` the scene field it is about, or None. "
                     "The message names the file, line and field where there is one.");
   auto sub = [&](const char* name, PyObject* builtin, const char* doc) {
     return new_type(m, name, builtin != nullptr ? py::make_tuple(t.base, py::handle(builtin)) : py::make_tuple(t.base),
@@ -78,6 +79,9 @@ void bind_errors(py::module_& m) {
   t.unstable = sub("UnstableError", nullptr,
                    "The simulation diverged and could not recover; the world stays at its last good frame.");
   t.internal = sub("InternalError", nullptr, "A bug in the engine.");
+  t.busy = sub("BusyError", nullptr,
+               "Another thread is stepping or changing this world (one thread at a time, decision 0100); nothing "
+               "was changed: call again once its call returns.");
 
   py::register_exception_translator([](std::exception_ptr thrown) {
     try {

@@ -4,6 +4,7 @@
 // line or field and what was expected. Nothing here may crash or be accepted.
 #include <doctest/doctest.h>
 
+#include <sys/stat.h>
 #include <unistd.h>
 #include <filesystem>
 #include <fstream>
@@ -42,6 +43,12 @@ class Scratch {
     return dir_ / name;
   }
   [[nodiscard]] const std::filesystem::path& dir() const { return dir_; }
+  // A named pipe: opening it for reading would wait for a writer that never comes.
+  std::filesystem::path fifo(const std::string& name) const {
+    const std::filesystem::path p = dir_ / name;
+    if (!std::filesystem::exists(p)) ::mkfifo(p.c_str(), 0600);
+    return p;
+  }
 
  private:
   std::filesystem::path dir_;
@@ -101,6 +108,38 @@ BadInput organ_mesh(const Scratch& s, const std::string& name, const std::string
                   "[segment.mesh]\nfile = \"" +
                       name + "\"\n" + extra,
                   code, std::move(words));
+}
+
+// A scene file read from `path` (the readers' own file checks: kind, size).
+BadInput scene_file(const std::filesystem::path& path, ErrorCode code, std::vector<std::string> words) {
+  return {"scene file " + path.string(), [path] { create_world(load_scene(path)); }, code, std::move(words)};
+}
+
+// `open` repeated `levels` times, then `close` as often: nesting past every parser's stack.
+std::string nested(const std::string& open, const std::string& inner, const std::string& close, int levels) {
+  std::string text;
+  for (int i = 0; i < levels; ++i) text += open;
+  text += inner;
+  for (int i = 0; i < levels; ++i) text += close;
+  return text;
+}
+
+// A glTF binary holding `json` and no buffer: what assimp's glTF reader takes first.
+std::string glb(std::string json) {
+  json.append((4 - json.size() % 4) % 4, ' ');
+  auto u32 = [](std::uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  return "glTF" + u32(2) + u32(static_cast<std::uint32_t>(20 + json.size())) +
+         u32(static_cast<std::uint32_t>(json.size())) + "JSON" + json;
+}
+
+// glTF nodes as a chain of `count` (each the child of the one before), or with the children given.
+std::string gltf_nodes(const std::string& nodes) {
+  return R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[)" + nodes + "]}";
+}
+std::string node_chain(int count) {
+  std::string nodes;
+  for (int i = 0; i + 1 < count; ++i) nodes += "{\"children\":[" + std::to_string(i + 1) + "]},";
+  return gltf_nodes(nodes + "{}");
 }
 
 // A call on a world built from the `demo` scene's shape, small: one segment with beads, a mesh,
@@ -268,6 +307,66 @@ std::vector<BadInput> catalogue(const Scratch& s) {
                {"scene.toml:3", "environment.mesh[0].file", "not a manifold"}),
       scene_in(s, "[[segment]]\n[[environment.mesh]]\nfile = \"m-away.obj\"\ncontainer = true\n", ErrorCode::invalid_geometry,
                {"scene.toml:4", "environment.mesh[0].container", "m-away.obj is not closed", "closed surface"}),
+      // Inputs past the readers' bounds (decision 0098): nesting that overflowed a parser's stack,
+      // files that are not regular (blocked or never ended), files too large.
+      scene("[" + nested("a.", "a", "", 100'000) + "]\n", {"test.toml:1:1", "nests more than 64 levels deep"},
+            ErrorCode::invalid_argument),  // 200 KB: toml++ overflowed its stack
+      scene("x = " + nested("[", "", "]", 300) + "\n", {"test.toml:1:68", "nests more than 64"}, ErrorCode::invalid_argument),
+      scene("x = " + nested("{a = ", "1", "}", 300) + "\n", {"test.toml:1:", "nests more than 64"},
+            ErrorCode::invalid_argument),
+      {"a --set value nested past the limit",
+       [] {
+         const std::vector<std::string> sets{"segment.radius=" + nested("[", "", "]", 100)};
+         create_world(parse_scene(kMinimalScene, kScenes / "test.toml", sets));
+       },
+       ErrorCode::invalid_argument, {"test.toml (--set segment.radius)", "nests more than 64"}},
+      centreline(s, "c-deep.json", "{\"units\": \"m\", \"points\": " + nested("[", "", "]", 20'000) + "}",
+                 ErrorCode::invalid_argument, {"scene.toml:5", "c-deep.json:1:", "nests more than 64 levels"}),
+      centreline(s, "c-long-point.json", "{\"units\": \"m\", \"points\": [" + nested("[", "0", "]", 30) + "]}",
+                 ErrorCode::parse, {"points[0]", "expected [x, y, z], got an array of 1 entry"}),
+      scene_file("/dev/zero", ErrorCode::io, {"/dev/zero: a character device, not a scene file", "regular files only"}),
+      scene_file(s.dir(), ErrorCode::io, {"a folder, not a scene file"}),
+      scene_file(s.fifo("pipe.toml"), ErrorCode::io, {"pipe.toml: a FIFO (named pipe), not a scene file"}),
+      {"a scene file larger than a scene may be",
+       [&s] {
+         const std::filesystem::path big = s.write("big.toml", "# a scene\n");
+         std::filesystem::resize_file(big, (std::uintmax_t{17} << 20));  // sparse: no disk used
+         create_world(load_scene(big));
+       },
+       ErrorCode::invalid_argument, {"big.toml: 17825792 bytes, more than the 16 MiB a scene file may have"}},
+      scene_in(s, "[[segment]]\nnodes = 21\n[segment.rest]\nshape = \"centreline\"\nfile = \"" +
+                      s.fifo("pipe.json").filename().string() + "\"\n",
+               ErrorCode::io, {"scene.toml:5", "pipe.json: a FIFO (named pipe), not a centreline file"}),
+      organ_mesh(s, "m-deep.gltf", "{\"asset\": {\"version\": \"2.0\"}, \"extras\": " + nested("[", "", "]", 5'000) + "}",
+                 ErrorCode::invalid_argument, {"segment[0].mesh.file", "m-deep.gltf:1:", "nests more than 64"}),
+      organ_mesh(s, "m-chain.glb", glb(node_chain(300)), ErrorCode::invalid_argument,
+                 {"glTF node 256 lies 257 levels deep in the node hierarchy, more than 256"}),
+      organ_mesh(s, "m-cycle.glb", glb(gltf_nodes(R"({"children":[1]},{"children":[0]})")), ErrorCode::invalid_argument,
+                 {"glTF node 0 is its own ancestor"}),
+      organ_mesh(s, "m-parents.glb", glb(gltf_nodes(R"({"children":[2]},{"children":[2]},{})")), ErrorCode::invalid_argument,
+                 {"glTF node 2 has two parents"}),
+      {"a mesh file that is a FIFO",
+       [&s] {
+         s.fifo("pipe.obj");
+         create_world(parse_scene("[[segment]]\nnodes = 21\n[segment.beads]\ncount = 11\n[segment.mesh]\nfile = \"pipe.obj\"\n",
+                                  s.dir() / "scene.toml"));
+       },
+       ErrorCode::io, {"scene.toml:6", "pipe.obj: a FIFO (named pipe), not a mesh file"}},
+      call("a checkpoint read from a device", [](World& w) { w.restore_checkpoint_file("/dev/zero"); },
+           {"/dev/zero: a character device, not a checkpoint"}, ErrorCode::io),
+      // Values no step can hold, refused where they are set with the field named (decision 0098).
+      scene(m + "\n[world]\ndt = 5e-324\n", {"test.toml:11", "world.dt: 5e-324 s is below the plausible minimum 1e-06 s"},
+            ErrorCode::invalid_argument),
+      scene("[[segment]]\nyoungs_modulus = 1e-300\n", {"test.toml:2", "segment[0].youngs_modulus", "plausible minimum 1 Pa"},
+            ErrorCode::invalid_argument),
+      scene("[[segment]]\n[segment.rest]\nlength = 1e-300\n", {"test.toml:3", "segment[0].rest.length", "plausible minimum 0.001 m"},
+            ErrorCode::invalid_argument),
+      scene(m + "\n[[environment.plane]]\npoint = [0.0, 0.0, 1e300]\n", {"test.toml:11", "environment.plane[0].point", "beyond ±100000"},
+            ErrorCode::invalid_argument),
+      scene(m + "[[segment.load]]\nnode = -1\nforce = [0.0, 0.0, 1e30]\n", {"test.toml:11", "segment[0].load[0].force", "no step holds it"},
+            ErrorCode::invalid_argument),
+      call("a load of 1e30 N", [](World& w) { w.set_external_load(2, {1e30, 0.0, 0.0}, Eigen::Vector3d::Zero()); },
+           {"within ±100000 in each component"}),
       // Calls on a world.
       call("external load on a node that does not exist",
            [](World& w) { w.set_external_load(w.node_count(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()); },
@@ -344,7 +443,7 @@ TEST_CASE("bad-input catalogue: every case fails with its error code and a messa
   const std::vector<BadInput> cases = catalogue(scratch);
   // Exactly the catalogue's cases: one lost in an edit (a list that silently shrinks) fails here;
   // a new case raises the count.
-  CHECK(cases.size() == 123);
+  CHECK(cases.size() == 146);
   for (const BadInput& c : cases) {
     INFO(c.label);
     std::string message;

@@ -2,7 +2,9 @@
 // does not belong to the world is refused by name and leaves the world as it was.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cstring>
+#include <functional>
 #include <filesystem>
 #include <fstream>
 
@@ -10,6 +12,7 @@
 #include "haustra/profile.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
+#include "minimal_scene.hpp"
 #include "scene_fixtures.hpp"
 
 using namespace haustra;
@@ -167,6 +170,10 @@ TEST_CASE("a checkpoint file round-trips, and a refused one leaves the world as 
                 ->save_checkpoint(),
             "another rod");
   }
+  SUBCASE("a grasp rigid in the checkpoint, coupled in the world") {
+    refused(scene_world("grasp-pull", {"instrument.coupling_stiffness=0.0"})->save_checkpoint(),
+            "instrument[0].coupling_stiffness");
+  }
   SUBCASE("truncated") { refused(std::span(good).first(good.size() - 9), "promises"); }
   SUBCASE("empty") { refused({}, "too short"); }
   SUBCASE("not a checkpoint") {
@@ -188,4 +195,112 @@ TEST_CASE("a checkpoint file round-trips, and a refused one leaves the world as 
     }
   }
   std::filesystem::remove_all(dir);
+}
+
+namespace {
+
+// A setter applied at frame 10, a checkpoint at frame 20, 15 frames recorded on from it. Then a
+// fresh world, `change`d first, restores it; and the first world, `change`d after the save, rewinds
+// to it: both must step on as the recording did, bit for bit (decision 0099).
+void check_setter_kept(const std::string& scene, const std::function<void(World&)>& set,
+                       const std::function<void(World&)>& change, std::vector<std::string> sets = {}) {
+  auto original = scene_world(scene, sets);
+  for (int f = 0; f < 10; ++f) original->step();
+  set(*original);
+  for (int f = 0; f < 10; ++f) original->step();
+  const std::vector<std::byte> checkpoint = original->save_checkpoint();
+  const WorldDesc at_save = original->desc();
+  std::vector<std::vector<unsigned char>> recorded;
+  for (int f = 0; f < 15; ++f) {
+    original->step();
+    recorded.push_back(outputs(*original));
+  }
+  auto fresh = scene_world(scene, sets);
+  change(*fresh);
+  change(*original);
+  for (World* w : {fresh.get(), original.get()}) {
+    w->restore_checkpoint(checkpoint, scene);
+    CHECK(w->dt() == at_save.dt);
+    CHECK(w->gravity() == at_save.gravity);
+    CHECK(w->frame_budget() == at_save.frame_budget);
+    CHECK(w->frame_limits().max_retries == at_save.solver.max_retries);
+    CHECK(w->desc().segments[0].material.youngs_modulus == at_save.segments[0].material.youngs_modulus);
+    for (int f = 0; f < 15; ++f) {
+      w->step();
+      INFO(scene << ": frame " << w->frame() << (w == fresh.get() ? ", a fresh world" : ", rewound"));
+      REQUIRE(outputs(*w) == recorded[static_cast<std::size_t>(f)]);
+    }
+  }
+}
+
+MaterialDesc scaled(const World& w, double factor) {
+  MaterialDesc m = w.desc().segments[0].material;
+  m.youngs_modulus *= factor;
+  m.density *= 1.0 + 0.1 * factor;
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("checkpoints keep what every setter changed, set before or after the save (decision 0099)") {
+  SUBCASE("gravity") {
+    check_setter_kept(
+        "grasp-push", [](World& w) { w.set_gravity({0.0, -3.0, -9.0}); },
+        [](World& w) { w.set_gravity({1.0, 0.0, -5.0}); });
+  }
+  SUBCASE("dt") {
+    check_setter_kept("grasp-push", [](World& w) { w.set_dt(0.002); }, [](World& w) { w.set_dt(0.0005); });
+  }
+  SUBCASE("a grasp's coupling") {
+    check_setter_kept(
+        "grasp-push", [](World& w) { w.set_instrument_coupling(0, 300.0, 1.0, 2.0); },
+        [](World& w) { w.set_instrument_coupling(0, 2000.0, 3.0, 5.0); });
+  }
+  SUBCASE("a material: the rods rebuilt on restore, the organ mesh's binding kept") {
+    check_setter_kept(
+        "demo", [](World& w) { w.set_material(0, scaled(w, 3.0), 0.5); },
+        [](World& w) { w.set_material(0, scaled(w, 0.5), 2.0); }, {"segment.mesh.procedural.vertices=2000"});
+  }
+  SUBCASE("the frame's budget and limits") {
+    check_setter_kept(
+        "grasp-push",
+        [](World& w) {
+          w.set_frame_budget(0.25);
+          w.set_frame_limits({8, 3, 30});
+        },
+        [](World& w) {
+          w.set_frame_budget(0.0);
+          w.set_frame_limits({2, 0, 5});
+        });
+  }
+  SUBCASE("a load and the grasper handed to the host") {
+    check_setter_kept(
+        "grasp-pull",
+        [](World& w) {
+          w.set_external_load(20, {0.0, 0.2, 0.0}, Eigen::Vector3d::Zero());
+          w.set_instrument_grasp(0, false);
+        },
+        [](World& w) {
+          w.set_external_load(20, {0.0, -1.0, 0.0}, {0.0, 0.0, 0.01});
+          w.set_instrument_pose(0, {0.3, 0.0, 0.2}, Eigen::Vector3d::UnitZ());
+        });
+  }
+}
+
+TEST_CASE("checkpoints keep connective tissue cut after the save undone, and cut before it cut") {
+  const std::string text = std::string(test::kMinimalScene) +
+                           "[[segment.anchors]]\nstiffness = 500.0\nsupport = 200.0\n";
+  auto original = create_world(parse_scene(text, std::string(HAUSTRA_SOURCE_DIR) + "/scenes/anchors.toml"));
+  for (int f = 0; f < 5; ++f) original->step();
+  CHECK(original->cut_tissue(original->anchor_targets()[3], 0.01) > 0);
+  const std::vector<std::uint8_t> cut_before(original->anchors_intact().begin(), original->anchors_intact().end());
+  for (int f = 0; f < 5; ++f) original->step();
+  const std::vector<std::byte> checkpoint = original->save_checkpoint();
+  for (int f = 0; f < 10; ++f) original->step();
+  const std::vector<unsigned char> at20 = outputs(*original);
+  CHECK(original->cut_tissue(original->anchor_targets()[8], 0.01) > 0);
+  original->restore_checkpoint(checkpoint);
+  CHECK(std::equal(cut_before.begin(), cut_before.end(), original->anchors_intact().begin()));
+  for (int f = 0; f < 10; ++f) original->step();
+  CHECK(outputs(*original) == at20);
 }

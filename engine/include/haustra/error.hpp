@@ -13,6 +13,8 @@ enum class ErrorCode : int {
   invalid_geometry = 4,  // a centreline or mesh the model cannot be built from
   unstable = 5,          // the simulation diverged and could not recover (state kept at last good frame)
   internal = 6,
+  // (7 and 8 are the C API's own: an invalid handle, an ABI mismatch)
+  busy = 9,  // another thread is stepping or changing the world, or a call came from inside its step
 };
 
 class Error : public std::runtime_error {

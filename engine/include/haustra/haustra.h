@@ -10,10 +10,12 @@
  * - Views (haustra_vec3_view, haustra_vec3f_view, haustra_triangles_view) point into the world's
  *   own buffers: no copies. They stay valid until the next haustra_world_step() or
  *   haustra_world_destroy() of that world. Layout: structure of arrays, x[i], y[i], z[i].
- * - Threads: one world may be used by one thread at a time; different worlds are independent.
- *   The exception is a world created with double_buffered = 1: one other thread (a render
- *   thread) may call haustra_world_acquire_frame / haustra_world_release_frame while the world
- *   steps, and reads the last completed frame without blocking the stepping thread.
+ * - Threads: one world is used by one thread at a time; different worlds are independent. A call
+ *   on a world while another thread is inside a call on it returns HAUSTRA_BUSY at once and
+ *   changes nothing (decision 0100), and so does a call on a world from inside its own step (a job
+ *   system's callback). The exception is a world created with double_buffered = 1: one other
+ *   thread (a render thread) may call haustra_world_acquire_frame / haustra_world_release_frame
+ *   while the world steps, and reads the last completed frame without blocking the stepping thread.
  *   A host job system's callbacks are called from the thread that steps the world; its tasks may
  *   run on any thread. haustra_last_error() is per thread.
  * - Structs a host fills (haustra_world_def, haustra_segment_def) start with struct_size; fill
@@ -38,7 +40,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 12
+#define HAUSTRA_ABI_VERSION 13
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -49,7 +51,9 @@ typedef enum haustra_status {
   HAUSTRA_UNSTABLE = 5,         /* the frame diverged; the world kept its last good frame */
   HAUSTRA_INTERNAL = 6,
   HAUSTRA_INVALID_HANDLE = 7, /* not a live world */
-  HAUSTRA_ABI_MISMATCH = 8
+  HAUSTRA_ABI_MISMATCH = 8,
+  HAUSTRA_BUSY = 9 /* another thread is inside a call on this world, or the call came from inside its
+                      step; nothing was changed (since ABI 13) */
 } haustra_status;
 
 typedef struct haustra_world haustra_world;
@@ -149,6 +153,10 @@ typedef struct haustra_world_def {
                             * the accessors, or the render thread's acquire in its own thread (decision 0060) */
   double frame_budget;     /* s a frame may take; one over it is counted (haustra_profile.late,
                             * haustra_world_late_frames); 0 (default): none (decision 0061) */
+  /* What a frame may cost (haustra_frame_limits below; decision 0100). Since ABI 13. */
+  int max_substeps; /* the robust mode's top rung; default 64 */
+  int max_retries;  /* redone attempts a frame may take; default 16 */
+  int calm_frames;  /* calm frames before a climbed rung halves its substeps; default 120 */
 } haustra_world_def;
 
 /* One segment: a rod along a centreline (or straight), its beads, and its organ mesh. */
@@ -236,8 +244,12 @@ HAUSTRA_API const char* haustra_stage_name(int stage);
 
 /* Worlds. threads: 0 for all cores, 1 for the calling thread only, n for n. */
 HAUSTRA_API haustra_status haustra_world_create_from_scene(const char* scene_path, int threads, haustra_world** out);
-/* The same with run-time settings from `def` (threads, jobs, double_buffered; its other fields are
- * the scene's). def may be NULL: the defaults. */
+/* The same with settings from `def`. threads, jobs, double_buffered, memory_limit, mesh_every_frame
+ * and frame_budget apply as in haustra_world_create; every other field left at its
+ * haustra_world_def_default() value keeps the scene's, and one changed from it overrides the
+ * scene's (dt, gravity, newton, iterations, substeps, recover, self_contact, floor with
+ * floor_height, max_substeps, max_retries, calm_frames), checked as the scene's field. def may be
+ * NULL: the defaults. */
 HAUSTRA_API haustra_status haustra_world_create_from_scene_def(const char* scene_path, const haustra_world_def* def,
                                                                haustra_world** out);
 HAUSTRA_API haustra_status haustra_world_def_default(haustra_world_def* def);
@@ -272,7 +284,8 @@ HAUSTRA_API haustra_status haustra_world_mesh_positions(const haustra_world* wor
 HAUSTRA_API haustra_status haustra_world_mesh_normals(const haustra_world* world, haustra_vec3f_view* out);
 HAUSTRA_API haustra_status haustra_world_mesh_triangles(const haustra_world* world, haustra_triangles_view* out);
 
-/* Loads and instruments. A pose or grasp set here hands the instrument from its script to the host. */
+/* Loads and instruments. A pose or grasp set here hands the instrument from its script to the host.
+ * A load is at most 1e6 N and 1e6 N·m in each component; closed and cutting are 0 or 1. */
 HAUSTRA_API haustra_status haustra_world_set_node_load(haustra_world* world, size_t node, const double force[3],
                                                        const double moment[3]);
 HAUSTRA_API haustra_status haustra_world_set_instrument_pose(haustra_world* world, size_t instrument,
@@ -321,15 +334,59 @@ HAUSTRA_API haustra_status haustra_world_material(const haustra_world* world, si
 HAUSTRA_API haustra_status haustra_world_set_material(haustra_world* world, size_t segment,
                                                       const haustra_material* material);
 
+/* What a frame may cost (decision 0100): the robust mode redoes a frame that fails its guard with
+ * Newton, then with twice the substeps each time, up to max_substeps and at most max_retries times;
+ * a frame it cannot hold within them returns HAUSTRA_UNSTABLE (the world keeps its last good frame)
+ * and its event names the limit. A rung it climbed to is kept for calm_frames calm frames, then its
+ * substeps halve. So a frame costs at most (1 + max_retries) attempts of at most max_substeps
+ * substeps, and a recovery at most calm_frames x log2(max_substeps) slow frames. From the next step;
+ * checked as the scene's solver fields; lowering max_substeps lowers the rung in force. */
+typedef struct haustra_frame_limits {
+  int max_substeps; /* 1 (or the scene's substeps) to 65536 */
+  int max_retries;  /* 0 to 64 */
+  int calm_frames;  /* 1 to 1,000,000 */
+} haustra_frame_limits;
+HAUSTRA_API haustra_status haustra_world_frame_limits(const haustra_world* world, haustra_frame_limits* out);
+HAUSTRA_API haustra_status haustra_world_set_frame_limits(haustra_world* world, const haustra_frame_limits* limits);
+
+/* Events, as a queue (since ABI 13): what the steps recorded — a frame redone, a frame refused
+ * (unstable), a grasp that slipped, connective tissue torn or cut — oldest first. take moves up to
+ * `capacity` of the waiting events into out[0..*count) and removes them from the queue. At most
+ * 1,024 wait; later ones are dropped until some are taken, and `dropped` (may be NULL) receives how
+ * many were lost since the last take. */
+typedef enum haustra_event_kind {
+  HAUSTRA_EVENT_RECOVERED = 0, /* a frame failed its guard and was redone on a higher rung */
+  HAUSTRA_EVENT_UNSTABLE = 1,  /* a frame failed on every rung its limits allow: it was refused */
+  HAUSTRA_EVENT_SLIPPED = 2,   /* a grasp let go */
+  HAUSTRA_EVENT_TORN = 3,      /* anchors of connective tissue tore */
+  HAUSTRA_EVENT_CUT = 4        /* anchors were cut */
+} haustra_event_kind;
+typedef struct haustra_event {
+  int kind;       /* a haustra_event_kind */
+  uint64_t frame; /* the frame it happened in */
+  size_t segment; /* the segment (a chain's piece) and its local node */
+  size_t node;
+  int stage;        /* the stage that failed or reported it (haustra_stage_name) */
+  int substeps;     /* of the rung the frame ran on */
+  char message[512]; /* what happened and what to change, NUL-terminated */
+} haustra_event;
+HAUSTRA_API haustra_status haustra_world_take_events(haustra_world* world, haustra_event* out, size_t capacity,
+                                                     size_t* count, uint64_t* dropped);
+
 /* Double-buffered output (worlds created with double_buffered = 1). acquire gives the last
  * completed frame; its views stay valid, and unchanged, until release, however many frames the
  * world steps meanwhile. One acquire at a time; never blocks the stepping thread. */
 HAUSTRA_API haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* out);
 HAUSTRA_API haustra_status haustra_world_release_frame(haustra_world* world);
 
-/* Checkpoints: the world's state to a file and back. Stepping on from a restore gives the same
- * bits as never having stopped. A checkpoint of another model, or a damaged one, is refused
- * (HAUSTRA_PARSE) and the world is left as it was. Restoring moves the time back or forth. */
+/* Checkpoints: the world's state to a file and back, with the run-time parameters in force (gravity,
+ * dt, frame budget and limits, grasp couplings, materials; decision 0099), which restoring puts
+ * back. Stepping on from a restore gives the same bits as never having stopped, whatever was set
+ * before or after the save. A checkpoint of another model, or a damaged one, is refused
+ * (HAUSTRA_PARSE) and the world is left as it was. Restoring moves the time back or forth; one
+ * whose material differs from the world's rebuilds the rods as haustra_world_set_material does
+ * (views are invalidated; a double-buffered world's is refused while the render thread holds a
+ * frame). */
 HAUSTRA_API haustra_status haustra_world_save_checkpoint(const haustra_world* world, const char* path);
 HAUSTRA_API haustra_status haustra_world_restore_checkpoint(haustra_world* world, const char* path);
 

@@ -3,12 +3,15 @@
 // frame by frame. Buffers are structure-of-arrays, contiguous across all segments; a segment is an
 // offset+count range into them. Views returned here stay valid until the next call to step().
 #include <array>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <source_location>
 #include <span>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -23,6 +26,16 @@
 
 namespace haustra {
 
+// What one frame may cost (decision 0100): the robust mode's ladder (Newton, then twice the
+// substeps each time) stops at max_substeps and after max_retries redone attempts — a frame it
+// cannot hold within them stops as unstable, its event naming the cap; a rung it climbed to is
+// kept for calm_frames calm frames before its substeps halve again.
+struct FrameLimits {
+  int max_substeps = 64;  // solver.max_substeps
+  int max_retries = 16;   // solver.max_retries
+  int calm_frames = 120;  // solver.calm_frames
+};
+
 class World {
  public:
   // Builds the model and the initial state. Throws haustra::Error naming the segment and field.
@@ -31,8 +44,28 @@ class World {
   World(const World&) = delete;
   World& operator=(const World&) = delete;
 
+  // One thread at a time (decision 0100). Every call that steps the world, changes it or brings its
+  // meshes up to date holds it for its duration; the same call from a second thread meanwhile
+  // throws Error{busy} instead of racing it, and so does any such call made from inside a step on
+  // the stepping thread (a job system's callback). A host may hold it across several calls of its
+  // own (nested holds on one thread are free): the C API does, so that its readers are refused too
+  // while another thread steps. Plain readers (views, counts) do not take it.
+  class Use {
+   public:
+    explicit Use(const World& world, const std::source_location& where = std::source_location::current());
+    Use(const World& world, std::string_view call);  // call: named in the error ("" for none)
+    ~Use();
+    Use(const Use&) = delete;
+    Use& operator=(const Use&) = delete;
+
+   private:
+    void take(std::string_view call);
+    const World& world_;
+  };
+
   // One frame of dt. On an instability the state stays at the last good frame and, once the
-  // robust mode (if enabled) cannot recover, Error{unstable} is thrown naming segment, node, stage.
+  // robust mode (if enabled) cannot recover within the frame's limits, Error{unstable} is thrown
+  // naming segment, node, stage.
   void step();
 
   // Segments in the order of the description, a chain's pieces one after another. Pieces of a
@@ -175,6 +208,9 @@ class World {
   // The same through a file: written whole to a temporary beside it, then renamed over it.
   void save_checkpoint_file(const std::string& path) const;
   void restore_checkpoint_file(const std::string& path);
+  // Whether restoring this checkpoint would rebuild the rods (its material is not the world's:
+  // decision 0099), so a FramePublisher's reader may hold no frame meanwhile. Errors as restoring.
+  [[nodiscard]] bool checkpoint_rebuilds(const std::string& path) const;
 
   // Between frames, a segment (or a chain: all its pieces) joins the world, or leaves it
   // (docs/decisions/0031-add-remove-segments.md). The model is rebuilt (as long as creating the
@@ -205,15 +241,34 @@ class World {
   // node_rotations(), w then x then y then z.
   [[nodiscard]] std::shared_ptr<const void> buffers_keeper() const;
 
+  // The limits of a frame's cost (FrameLimits above), from the next step; checked as the scene's
+  // solver fields. Lowering max_substeps lowers the rung in force to it.
+  void set_frame_limits(const FrameLimits& limits);
+  [[nodiscard]] FrameLimits frame_limits() const;
+
   [[nodiscard]] const FrameProfile& last_profile() const;
+  // The events recorded and not yet taken, oldest first (at most 1,024 wait; later ones are
+  // dropped and counted until some are taken).
   [[nodiscard]] std::span<const Event> events() const;
+  // Moves the oldest waiting events into `out` (as many as fit) and returns how many; they leave
+  // events(), making room for more. `dropped` (may be null) receives how many were lost since the
+  // last take because the queue was full.
+  std::size_t take_events(std::span<Event> out, std::uint64_t* dropped = nullptr);
   [[nodiscard]] int threads() const;
 
  private:
   struct Impl;  // engine/src/world_impl.hpp
   explicit World(std::unique_ptr<Impl> impl);
   void rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver, bool keep_mesh_binding = false);
+  // The world rebuilt from `next`, its state carried over, not yet in place (rebuild swaps it in).
+  [[nodiscard]] std::unique_ptr<Impl> rebuilt(const WorldDesc& next, std::span<const std::size_t> rod_map,
+                                              bool carry_solver, bool keep_mesh_binding) const;
   std::shared_ptr<Impl> impl_;  // shared with buffers_keeper()'s handles
+  // Use's state: the thread holding the world (none: id{}), how many nested holds it has, and
+  // whether it is inside step(). Only the holding thread reads or writes the last two.
+  mutable std::atomic<std::thread::id> user_{};
+  mutable int holds_ = 0;
+  mutable bool stepping_ = false;
 };
 
 // What a world will hold, estimated from its description before anything is built (decision

@@ -362,7 +362,12 @@ struct SolverDesc {
   // path. Off by default: on this project's 2-vCPU machine it did not shorten the tail (0085).
   bool prefactor = false;
   InstabilityPolicy on_instability = InstabilityPolicy::recover;
-  int max_substeps = 64;  // the robust mode gives up beyond this
+  // What a frame may cost (decision 0100): the robust mode's ladder climbs no higher than
+  // max_substeps and redoes a frame at most max_retries times (a frame it cannot hold within them
+  // stops as unstable); a rung it climbed to is kept for calm_frames calm frames, then halved.
+  int max_substeps = 64;
+  int max_retries = 16;
+  int calm_frames = 120;
   // Guard limits, checked at the end of every frame. The guard also watches the lagged scheme for
   // a strain change that reverses every frame without decaying: a fixed-point iteration that does
   // not converge, even when every value stays within bounds.

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <exception>
 #include <memory>
 #include <mutex>
@@ -32,6 +33,9 @@ using haustra::ErrorCode;
 
 static_assert(HAUSTRA_STAGE_COUNT == haustra::kStageCount, "haustra.h's stage count follows the engine's");
 static_assert(static_cast<int>(ErrorCode::internal) == HAUSTRA_INTERNAL, "codes line up with haustra::ErrorCode");
+static_assert(static_cast<int>(ErrorCode::busy) == HAUSTRA_BUSY, "codes line up with haustra::ErrorCode");
+static_assert(sizeof(haustra_event::message) == sizeof(haustra::Event::text), "an event's text fits whole");
+static_assert(static_cast<int>(haustra::Event::Kind::cut) == HAUSTRA_EVENT_CUT, "event kinds line up");
 
 thread_local std::string g_last_error;
 
@@ -47,15 +51,48 @@ struct HandleError {
   std::string message;
 };
 
-haustra_world& live_handle(haustra_world* w) {
-  std::lock_guard lock(g_registry_mutex);
+// A handle in the registry (the caller holds the registry's lock), or HandleError.
+haustra_world& registered(const haustra_world* w) {
   if (w == nullptr) throw HandleError{"the world handle is NULL"};
   if (registry().count(w) == 0)
     throw HandleError{fmt::format("{} is not a live world (never created, or already destroyed)", fmt::ptr(w))};
-  return *w;
+  return *const_cast<haustra_world*>(w);
 }
 
-haustra::World& live(const haustra_world* w) { return *live_handle(const_cast<haustra_world*>(w)).world; }
+// A live world held by this thread for one call (decision 0100): looked up and taken under the
+// registry's lock, so that destroy cannot free it in between, and refused (Error{busy}) while
+// another thread is inside a call on it. The World's own calls nest in the hold for free.
+class Held {
+ public:
+  explicit Held(const haustra_world* w)
+      : lock_(g_registry_mutex), handle_(registered(w)), use_(*handle_.world, std::string_view()) {
+    lock_.unlock();
+  }
+  [[nodiscard]] haustra_world& handle() const { return handle_; }
+  [[nodiscard]] haustra::World& world() const { return *handle_.world; }
+
+ private:
+  std::unique_lock<std::mutex> lock_;
+  haustra_world& handle_;
+  haustra::World::Use use_;
+};
+
+// A double-buffered world's render thread: its handle checked, the world not held (it runs beside
+// the stepping thread; the frame publisher keeps the two apart).
+haustra_world& frame_reader(haustra_world* w) {
+  std::lock_guard lock(g_registry_mutex);
+  return registered(w);
+}
+
+// For one expression: `live(world).world().step()` holds the world until the end of the statement.
+Held live(const haustra_world* w) { return Held(w); }
+
+// 0 or 1 for a C flag; anything else is refused rather than read as true.
+bool flag(int value, const std::string& name) {
+  if (value != 0 && value != 1)
+    throw Error(ErrorCode::invalid_argument, fmt::format("{} = {}: expected 0 or 1", name, value));
+  return value == 1;
+}
 
 template <class T>
 T& required(T* p, const char* name) {
@@ -114,7 +151,43 @@ const haustra_world_def& checked_def(const haustra_world_def& d) {
   if (d.newton < 0 || d.newton > 2)
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("def.newton = {}: expected 0 (lagged), 1 (Newton) or 2 (fast)", d.newton));
+  (void)flag(d.recover, "def.recover"), (void)flag(d.floor, "def.floor"), (void)flag(d.self_contact, "def.self_contact");
+  (void)flag(d.double_buffered, "def.double_buffered");
   return d;
+}
+
+// The world's fields of a def (checked with the rest of the description): every one, for a world
+// from definitions; or over a scene's values, those changed from haustra_world_def_default's, so a
+// field is honoured whenever a host set it and a scene's value kept otherwise.
+void apply_world_fields(const haustra_world_def& d, bool only_changed, haustra::WorldDesc& w) {
+  haustra_world_def base{};
+  haustra_world_def_default(&base);
+  auto changed = [&](const auto& mine, const auto& theirs) {
+    return !only_changed || std::memcmp(&mine, &theirs, sizeof mine) != 0;
+  };
+  if (changed(d.dt, base.dt)) w.dt = d.dt;
+  if (changed(d.gravity, base.gravity)) w.gravity = Eigen::Vector3d(d.gravity[0], d.gravity[1], d.gravity[2]);
+  if (changed(d.newton, base.newton))
+    w.solver.mode = d.newton == 0   ? haustra::SolverMode::lagged
+                    : d.newton == 2 ? haustra::SolverMode::fast
+                                    : haustra::SolverMode::newton;
+  if (changed(d.iterations, base.iterations)) w.solver.iterations = d.iterations;
+  if (changed(d.substeps, base.substeps)) w.solver.substeps = d.substeps;
+  if (changed(d.recover, base.recover))
+    w.solver.on_instability = d.recover == 1 ? haustra::InstabilityPolicy::recover : haustra::InstabilityPolicy::stop;
+  if (changed(d.self_contact, base.self_contact)) w.contact.self = d.self_contact == 1;
+  if (changed(d.max_substeps, base.max_substeps)) w.solver.max_substeps = d.max_substeps;
+  if (changed(d.max_retries, base.max_retries)) w.solver.max_retries = d.max_retries;
+  if (changed(d.calm_frames, base.calm_frames)) w.solver.calm_frames = d.calm_frames;
+  if (d.floor == 1) {
+    haustra::PlaneDesc floor;
+    floor.name = "floor";
+    floor.point = Eigen::Vector3d(0.0, 0.0, d.floor_height);
+    w.environment.planes.push_back(floor);
+  } else if (d.floor_height != 0.0) {
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("def.floor_height = {}: set with def.floor = 0 (no floor); set floor = 1 for one", d.floor_height));
+  }
 }
 
 // The run-time settings: threads, or the host's job system; the memory the world may take.
@@ -124,10 +197,7 @@ void apply_runtime(const haustra_world_def& d, haustra::WorldDesc& w) {
                 fmt::format("def.threads = {}: expected 0 (all cores) to 1024", d.threads));
   w.threads = d.threads;
   if (d.memory_limit != 0.0) w.memory_limit = d.memory_limit;
-  if (d.mesh_every_frame < 0 || d.mesh_every_frame > 1)
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("def.mesh_every_frame = {}: expected 0 (when read) or 1 (every step)", d.mesh_every_frame));
-  if (d.mesh_every_frame == 1) w.mesh_update = haustra::MeshUpdate::every_frame;
+  if (flag(d.mesh_every_frame, "def.mesh_every_frame")) w.mesh_update = haustra::MeshUpdate::every_frame;
   if (d.frame_budget != 0.0) w.frame_budget = d.frame_budget;  // checked with the rest of the description
   if ((d.jobs.enqueue == nullptr) != (d.jobs.wait == nullptr))
     throw Error(ErrorCode::invalid_argument, "def.jobs: enqueue and wait are both needed (or neither, for oneTBB)");
@@ -163,7 +233,10 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& d, std::size_t i) {
     s.base_position = finite_vec3(d.base_position, (where + ".base_position").c_str());
     s.base_tangent = finite_vec3(d.base_tangent, (where + ".base_tangent").c_str());
   }
-  s.base = d.free_base != 0 ? haustra::BaseMode::free : haustra::BaseMode::clamped;
+  s.base = flag(d.free_base, where + ".free_base") ? haustra::BaseMode::free : haustra::BaseMode::clamped;
+  if (!std::isfinite(d.drag))  // NaN is not "below 0": it would silently have meant the default
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("{}.drag = {}: expected a drag in N·s/m² (or below 0 for the default)", where, d.drag));
   if (d.drag >= 0.0) s.drag = d.drag;
   s.cross_section.radius = d.radius;
   s.cross_section.wall_thickness = d.wall_thickness;
@@ -272,6 +345,7 @@ haustra_status haustra_world_create_from_scene_def(const char* scene_path, const
     haustra_world_def_default(&defaults);
     const haustra_world_def& d = def != nullptr ? checked_def(*def) : defaults;
     haustra::SceneDesc scene = haustra::load_scene(scene_path);
+    apply_world_fields(d, /*only_changed=*/true, scene.world);
     apply_runtime(d, scene.world);
     *out = make_handle(haustra::create_world(scene), d.double_buffered != 0);
   });
@@ -292,6 +366,9 @@ haustra_status haustra_world_def_default(haustra_world_def* def) {
     d.substeps = w.solver.substeps;
     d.recover = w.solver.on_instability == haustra::InstabilityPolicy::recover ? 1 : 0;
     d.self_contact = w.contact.self ? 1 : 0;
+    d.max_substeps = w.solver.max_substeps;
+    d.max_retries = w.solver.max_retries;
+    d.calm_frames = w.solver.calm_frames;
   });
 }
 
@@ -340,21 +417,7 @@ haustra_status haustra_world_create(const haustra_world_def* def, const haustra_
       throw Error(ErrorCode::invalid_argument,
                   fmt::format("segment_count = {}: expected at most 100,000", segment_count));
     haustra::WorldDesc w;
-    w.dt = d.dt;
-    w.gravity = Eigen::Vector3d(d.gravity[0], d.gravity[1], d.gravity[2]);
-    w.solver.mode = d.newton == 0   ? haustra::SolverMode::lagged
-                    : d.newton == 2 ? haustra::SolverMode::fast
-                                    : haustra::SolverMode::newton;
-    w.solver.iterations = d.iterations;
-    w.solver.substeps = d.substeps;
-    w.solver.on_instability = d.recover != 0 ? haustra::InstabilityPolicy::recover : haustra::InstabilityPolicy::stop;
-    w.contact.self = d.self_contact != 0;
-    if (d.floor != 0) {
-      haustra::PlaneDesc floor;
-      floor.name = "floor";
-      floor.point = Eigen::Vector3d(0.0, 0.0, d.floor_height);
-      w.environment.planes.push_back(floor);
-    }
+    apply_world_fields(d, /*only_changed=*/false, w);
     apply_runtime(d, w);
     for (size_t i = 0; i < segment_count; ++i) w.segments.push_back(segment_desc(segments[i], i));
     *out = make_handle(haustra::World::create(w), d.double_buffered != 0);
@@ -365,9 +428,10 @@ haustra_status haustra_world_destroy(haustra_world* world) {
   return guarded("haustra_world_destroy", [&] {
     {
       std::lock_guard lock(g_registry_mutex);
-      if (world == nullptr) throw HandleError{"the world handle is NULL"};
-      if (registry().erase(world) == 0)
-        throw HandleError{fmt::format("{} is not a live world (never created, or already destroyed)", fmt::ptr(world))};
+      // Not while another thread is inside a call on it (Error{busy}); once out of the registry no
+      // call can reach it, so it is freed after the hold is let go.
+      const haustra::World::Use use(*registered(world).world, std::string_view());
+      registry().erase(world);
     }
     delete world;
   });
@@ -375,7 +439,8 @@ haustra_status haustra_world_destroy(haustra_world* world) {
 
 haustra_status haustra_world_step(haustra_world* world) {
   return guarded("haustra_world_step", [&] {
-    haustra_world& h = live_handle(world);
+    const Held held(world);
+    haustra_world& h = held.handle();
     h.world->step();
     if (h.frames) h.frames->publish(*h.world);
   });
@@ -383,7 +448,8 @@ haustra_status haustra_world_step(haustra_world* world) {
 
 haustra_status haustra_world_counts(const haustra_world* world, haustra_counts* out) {
   return guarded("haustra_world_counts", [&] {
-    const haustra::World& w = live(world);
+    const Held held(world);
+    const haustra::World& w = held.world();
     haustra_counts& o = required(out, "out");
     o = haustra_counts{w.segment_count(),    w.node_count(),       w.bead_count(),
                        w.instrument_count(), w.mesh_buffer_size(), w.mesh_triangles().size()};
@@ -392,7 +458,8 @@ haustra_status haustra_world_counts(const haustra_world* world, haustra_counts* 
 
 haustra_status haustra_world_time(const haustra_world* world, double* seconds, uint64_t* frame) {
   return guarded("haustra_world_time", [&] {
-    const haustra::World& w = live(world);
+    const Held held(world);
+    const haustra::World& w = held.world();
     if (seconds == nullptr && frame == nullptr)
       throw Error(ErrorCode::invalid_argument, "seconds and frame are both NULL");
     if (seconds != nullptr) *seconds = w.time();
@@ -402,7 +469,8 @@ haustra_status haustra_world_time(const haustra_world* world, double* seconds, u
 
 haustra_status haustra_world_segment(const haustra_world* world, size_t segment, haustra_segment_info* out) {
   return guarded("haustra_world_segment", [&] {
-    const haustra::World& w = live(world);
+    const Held held(world);
+    const haustra::World& w = held.world();
     haustra_segment_info& o = required(out, "out");
     const haustra::SegmentInfo& info = w.segment(segment);
     const haustra::Range beads = w.beads(segment);
@@ -421,7 +489,8 @@ haustra_status haustra_world_segment(const haustra_world* world, size_t segment,
 
 haustra_status haustra_world_add_segment(haustra_world* world, const haustra_segment_def* segment, size_t* index) {
   return guarded("haustra_world_add_segment", [&] {
-    haustra_world& h = live_handle(world);
+    const Held held(world);
+    haustra_world& h = held.handle();
     const haustra::SegmentDesc desc = segment_desc(required(segment, "segment"), h.world->segment_count());
     std::size_t added = 0;
     auto change = [&]() -> const haustra::World& {
@@ -438,7 +507,8 @@ haustra_status haustra_world_add_segment(haustra_world* world, const haustra_seg
 
 haustra_status haustra_world_remove_segment(haustra_world* world, size_t segment) {
   return guarded("haustra_world_remove_segment", [&] {
-    haustra_world& h = live_handle(world);
+    const Held held(world);
+    haustra_world& h = held.handle();
     auto change = [&]() -> const haustra::World& {
       h.world->remove_segment(segment);
       return *h.world;
@@ -452,7 +522,8 @@ haustra_status haustra_world_remove_segment(haustra_world* world, size_t segment
 
 haustra_status haustra_world_node_positions(const haustra_world* world, haustra_vec3_view* out) {
   return guarded("haustra_world_node_positions", [&] {
-    const haustra::World& w = live(world);
+    const Held held(world);
+    const haustra::World& w = held.world();
     const auto p = w.node_positions();
     required(out, "out") = haustra_vec3_view{p.x.data(), p.y.data(), p.z.data(), w.node_count()};
   });
@@ -460,7 +531,8 @@ haustra_status haustra_world_node_positions(const haustra_world* world, haustra_
 
 haustra_status haustra_world_bead_radii(const haustra_world* world, const double** radii, size_t* count) {
   return guarded("haustra_world_bead_radii", [&] {
-    const haustra::World& w = live(world);
+    const Held held(world);
+    const haustra::World& w = held.world();
     required(radii, "radii");
     required(count, "count");
     *radii = w.bead_radii().data();
@@ -470,7 +542,8 @@ haustra_status haustra_world_bead_radii(const haustra_world* world, const double
 
 haustra_status haustra_world_mesh_positions(const haustra_world* world, haustra_vec3f_view* out) {
   return guarded("haustra_world_mesh_positions", [&] {
-    const haustra::World& w = live(world);
+    const Held held(world);
+    const haustra::World& w = held.world();
     const auto p = w.mesh_positions();
     required(out, "out") = haustra_vec3f_view{p.x.data(), p.y.data(), p.z.data(), w.mesh_buffer_size()};
   });
@@ -478,7 +551,8 @@ haustra_status haustra_world_mesh_positions(const haustra_world* world, haustra_
 
 haustra_status haustra_world_mesh_normals(const haustra_world* world, haustra_vec3f_view* out) {
   return guarded("haustra_world_mesh_normals", [&] {
-    const haustra::World& w = live(world);
+    const Held held(world);
+    const haustra::World& w = held.world();
     const auto n = w.mesh_normals();
     required(out, "out") = haustra_vec3f_view{n.x.data(), n.y.data(), n.z.data(), w.mesh_buffer_size()};
   });
@@ -486,7 +560,8 @@ haustra_status haustra_world_mesh_normals(const haustra_world* world, haustra_ve
 
 haustra_status haustra_world_mesh_triangles(const haustra_world* world, haustra_triangles_view* out) {
   return guarded("haustra_world_mesh_triangles", [&] {
-    const haustra::World& w = live(world);
+    const Held held(world);
+    const haustra::World& w = held.world();
     const auto t = w.mesh_triangles();
     required(out, "out") = haustra_triangles_view{t.empty() ? nullptr : t.front().data(), t.size()};
   });
@@ -495,7 +570,8 @@ haustra_status haustra_world_mesh_triangles(const haustra_world* world, haustra_
 haustra_status haustra_world_set_node_load(haustra_world* world, size_t node, const double force[3],
                                            const double moment[3]) {
   return guarded("haustra_world_set_node_load", [&] {
-    haustra::World& w = live(world);
+    const Held held(world);
+    haustra::World& w = held.world();
     const Eigen::Vector3d f = finite_vec3(force, "force");
     const Eigen::Vector3d m = finite_vec3(moment, "moment");
     w.set_external_load(node, f, m);  // checks the node
@@ -505,20 +581,21 @@ haustra_status haustra_world_set_node_load(haustra_world* world, size_t node, co
 haustra_status haustra_world_set_instrument_pose(haustra_world* world, size_t instrument, const double tip[3],
                                                  const double axis[3]) {
   return guarded("haustra_world_set_instrument_pose", [&] {
-    haustra::World& w = live(world);
+    const Held held(world);
+    haustra::World& w = held.world();
     w.set_instrument_pose(instrument, finite_vec3(tip, "tip"), finite_vec3(axis, "axis"));
   });
 }
 
 haustra_status haustra_world_set_instrument_grasp(haustra_world* world, size_t instrument, int closed) {
   return guarded("haustra_world_set_instrument_grasp",
-                 [&] { live(world).set_instrument_grasp(instrument, closed != 0); });
+                 [&] { live(world).world().set_instrument_grasp(instrument, flag(closed, "closed")); });
 }
 
 haustra_status haustra_world_instrument(const haustra_world* world, size_t instrument,
                                         haustra_instrument_reading* out) {
   return guarded("haustra_world_instrument", [&] {
-    const haustra::InstrumentReading r = live(world).instrument(instrument);
+    const haustra::InstrumentReading r = live(world).world().instrument(instrument);
     haustra_instrument_reading o{};
     copy3(r.tip, o.tip);
     copy3(r.force, o.force);
@@ -537,13 +614,14 @@ haustra_status haustra_world_instrument(const haustra_world* world, size_t instr
 
 haustra_status haustra_world_set_instrument_cutting(haustra_world* world, size_t instrument, int cutting) {
   return guarded("haustra_world_set_instrument_cutting",
-                 [&] { live(world).set_instrument_cutting(instrument, cutting != 0); });
+                 [&] { live(world).world().set_instrument_cutting(instrument, flag(cutting, "cutting")); });
 }
 
 haustra_status haustra_world_anchors(const haustra_world* world, const uint32_t** nodes, const uint8_t** intact,
                                      size_t* count) {
   return guarded("haustra_world_anchors", [&] {
-    const haustra::World& w = live(world);
+    const Held held(world);
+    const haustra::World& w = held.world();
     required(nodes, "nodes") = w.anchor_nodes().data();
     required(intact, "intact") = w.anchors_intact().data();
     required(count, "count") = w.anchor_count();
@@ -553,20 +631,21 @@ haustra_status haustra_world_anchors(const haustra_world* world, const uint32_t*
 haustra_status haustra_world_anchor_tensions(const haustra_world* world, double* out, size_t count) {
   return guarded("haustra_world_anchor_tensions", [&] {
     if (out == nullptr && count > 0) throw Error(ErrorCode::invalid_argument, "out is NULL");
-    live(world).anchor_tensions(std::span<double>(out, count));
+    live(world).world().anchor_tensions(std::span<double>(out, count));
   });
 }
 
 haustra_status haustra_world_cut_tissue(haustra_world* world, const double centre[3], double radius, size_t* cut) {
   return guarded("haustra_world_cut_tissue", [&] {
-    const std::size_t n = live(world).cut_tissue(finite_vec3(centre, "centre"), radius);
+    const std::size_t n = live(world).world().cut_tissue(finite_vec3(centre, "centre"), radius);
     if (cut != nullptr) *cut = n;
   });
 }
 
 haustra_status haustra_world_profile(const haustra_world* world, haustra_profile* out) {
   return guarded("haustra_world_profile", [&] {
-    const haustra::FrameProfile& p = live(world).last_profile();
+    const Held held(world);
+    const haustra::FrameProfile& p = held.world().last_profile();
     haustra_profile o{};
     for (std::size_t s = 0; s < haustra::kStageCount; ++s) o.stage_seconds[s] = p.seconds[s];
     o.frame_seconds = p.frame_seconds;
@@ -579,44 +658,45 @@ haustra_status haustra_world_profile(const haustra_world* world, haustra_profile
 }
 
 haustra_status haustra_world_set_frame_budget(haustra_world* world, double seconds) {
-  return guarded("haustra_world_set_frame_budget", [&] { live_handle(world).world->set_frame_budget(seconds); });
+  return guarded("haustra_world_set_frame_budget", [&] { live(world).world().set_frame_budget(seconds); });
 }
 
 haustra_status haustra_world_late_frames(const haustra_world* world, uint64_t* count) {
-  return guarded("haustra_world_late_frames", [&] { required(count, "count") = live(world).late_frames(); });
+  return guarded("haustra_world_late_frames", [&] { required(count, "count") = live(world).world().late_frames(); });
 }
 
 haustra_status haustra_world_set_gravity(haustra_world* world, const double gravity[3]) {
   return guarded("haustra_world_set_gravity",
-                 [&] { live_handle(world).world->set_gravity(finite_vec3(gravity, "gravity")); });
+                 [&] { live(world).world().set_gravity(finite_vec3(gravity, "gravity")); });
 }
 
 haustra_status haustra_world_gravity(const haustra_world* world, double gravity[3]) {
   return guarded("haustra_world_gravity", [&] {
     double* out = &required(gravity, "gravity");
-    const Eigen::Vector3d g = live(world).gravity();
+    const Eigen::Vector3d g = live(world).world().gravity();
     for (int i = 0; i < 3; ++i) out[i] = g[i];
   });
 }
 
 haustra_status haustra_world_set_dt(haustra_world* world, double dt) {
-  return guarded("haustra_world_set_dt", [&] { live_handle(world).world->set_dt(dt); });
+  return guarded("haustra_world_set_dt", [&] { live(world).world().set_dt(dt); });
 }
 
 haustra_status haustra_world_dt(const haustra_world* world, double* dt) {
-  return guarded("haustra_world_dt", [&] { required(dt, "dt") = live(world).dt(); });
+  return guarded("haustra_world_dt", [&] { required(dt, "dt") = live(world).world().dt(); });
 }
 
 haustra_status haustra_world_set_instrument_coupling(haustra_world* world, size_t instrument, double stiffness,
                                                      double damping, double force_limit) {
   return guarded("haustra_world_set_instrument_coupling", [&] {
-    live_handle(world).world->set_instrument_coupling(instrument, stiffness, damping, force_limit);
+    live(world).world().set_instrument_coupling(instrument, stiffness, damping, force_limit);
   });
 }
 
 haustra_status haustra_world_material(const haustra_world* world, size_t segment, haustra_material* out) {
   return guarded("haustra_world_material", [&] {
-    const haustra::SegmentDesc& d = live(world).segment_desc(segment);
+    const Held held(world);
+    const haustra::SegmentDesc& d = held.world().segment_desc(segment);
     required(out, "out") =
         haustra_material{d.material.youngs_modulus, d.material.poisson_ratio, d.material.density, d.relaxation_time};
   });
@@ -624,7 +704,8 @@ haustra_status haustra_world_material(const haustra_world* world, size_t segment
 
 haustra_status haustra_world_set_material(haustra_world* world, size_t segment, const haustra_material* material) {
   return guarded("haustra_world_set_material", [&] {
-    haustra_world& h = live_handle(world);
+    const Held held(world);
+    haustra_world& h = held.handle();
     const haustra_material& m = required(material, "material");
     haustra::MaterialDesc next = h.world->segment_desc(segment).material;
     next.youngs_modulus = m.youngs_modulus;
@@ -641,9 +722,53 @@ haustra_status haustra_world_set_material(haustra_world* world, size_t segment, 
   });
 }
 
+haustra_status haustra_world_frame_limits(const haustra_world* world, haustra_frame_limits* out) {
+  return guarded("haustra_world_frame_limits", [&] {
+    const haustra::FrameLimits l = live(world).world().frame_limits();
+    required(out, "out") = haustra_frame_limits{l.max_substeps, l.max_retries, l.calm_frames};
+  });
+}
+
+haustra_status haustra_world_set_frame_limits(haustra_world* world, const haustra_frame_limits* limits) {
+  return guarded("haustra_world_set_frame_limits", [&] {
+    const Held held(world);
+    const haustra_frame_limits& l = required(limits, "limits");
+    held.world().set_frame_limits({l.max_substeps, l.max_retries, l.calm_frames});
+  });
+}
+
+haustra_status haustra_world_take_events(haustra_world* world, haustra_event* out, size_t capacity, size_t* count,
+                                         uint64_t* dropped) {
+  return guarded("haustra_world_take_events", [&] {
+    const Held held(world);
+    if (out == nullptr && capacity > 0) throw Error(ErrorCode::invalid_argument, "out is NULL");
+    required(count, "count");
+    // Taken one at a time through a local, so out[] is written only with events that left the queue.
+    std::size_t taken = 0;
+    std::uint64_t lost = 0;
+    for (; taken < capacity; ++taken) {
+      haustra::Event e;
+      std::uint64_t lost_now = 0;
+      if (held.world().take_events(std::span(&e, 1), &lost_now) == 0) break;
+      lost += lost_now;
+      haustra_event& o = out[taken];
+      o.kind = static_cast<int>(e.kind);
+      o.frame = e.frame;
+      o.segment = e.segment;
+      o.node = e.node;
+      o.stage = static_cast<int>(e.stage);
+      o.substeps = e.substeps;
+      std::memcpy(o.message, e.text.data(), sizeof o.message);
+    }
+    if (taken == 0) (void)held.world().take_events({}, &lost);
+    *count = taken;
+    if (dropped != nullptr) *dropped = lost;
+  });
+}
+
 haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* out) {
   return guarded("haustra_world_acquire_frame", [&] {
-    haustra_world& h = live_handle(world);
+    haustra_world& h = frame_reader(world);  // beside the stepping thread: no hold (see haustra.h)
     haustra_frame& o = required(out, "out");
     if (!h.frames)
       throw Error(ErrorCode::invalid_argument,
@@ -659,7 +784,7 @@ haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* 
 
 haustra_status haustra_world_release_frame(haustra_world* world) {
   return guarded("haustra_world_release_frame", [&] {
-    haustra_world& h = live_handle(world);
+    haustra_world& h = frame_reader(world);  // beside the stepping thread: no hold (see haustra.h)
     if (!h.frames)
       throw Error(ErrorCode::invalid_argument,
                   "this world was not created with double_buffered = 1 (haustra_world_def)");
@@ -669,7 +794,8 @@ haustra_status haustra_world_release_frame(haustra_world* world) {
 
 haustra_status haustra_world_save_checkpoint(const haustra_world* world, const char* path) {
   return guarded("haustra_world_save_checkpoint", [&] {
-    const haustra::World& w = live(world);
+    const Held held(world);
+    const haustra::World& w = held.world();
     if (path == nullptr) throw Error(ErrorCode::invalid_argument, "path is NULL");
     w.save_checkpoint_file(path);
   });
@@ -677,10 +803,21 @@ haustra_status haustra_world_save_checkpoint(const haustra_world* world, const c
 
 haustra_status haustra_world_restore_checkpoint(haustra_world* world, const char* path) {
   return guarded("haustra_world_restore_checkpoint", [&] {
-    haustra_world& h = live_handle(world);
+    const Held held(world);
+    haustra_world& h = held.handle();
     if (path == nullptr) throw Error(ErrorCode::invalid_argument, "path is NULL");
-    h.world->restore_checkpoint_file(path);
-    if (h.frames) h.frames->publish(*h.world);
+    auto restore = [&]() -> const haustra::World& {
+      h.world->restore_checkpoint_file(path);
+      return *h.world;
+    };
+    // A restore that rebuilds the rods (another material: decision 0099) is a change of the world
+    // the render thread must not hold a frame through; any other is published as a step is.
+    if (h.frames && h.world->checkpoint_rebuilds(path)) {
+      h.frames->resize(restore);
+    } else {
+      restore();
+      if (h.frames) h.frames->publish(*h.world);
+    }
   });
 }
 

@@ -11,6 +11,7 @@ const char* error_code_name(ErrorCode code) noexcept {
     case ErrorCode::invalid_geometry: return "invalid_geometry";
     case ErrorCode::unstable: return "unstable";
     case ErrorCode::internal: return "internal";
+    case ErrorCode::busy: return "busy";
   }
   return "unknown";
 }

@@ -4,11 +4,21 @@
 #include <fmt/format.h>
 
 #include "haustra/kernels/rod_forward_sweep.hpp"
+#include "model/field_checks.hpp"
 #include "step/collision.hpp"
 #include "step/instruments.hpp"
 #include "step/world_impl.hpp"
 
 namespace haustra {
+
+namespace {
+
+// Finite and within the bound every vector of a description has (field_checks.hpp).
+bool bounded(const Eigen::Vector3d& v) {
+  return v.allFinite() && v.cwiseAbs().maxCoeff() <= detail::kMaxVectorComponent;
+}
+
+}  // namespace
 
 std::string_view api_call_name(const std::source_location& where) {
   // GCC's "const haustra::SegmentInfo& haustra::World::segment(std::size_t) const" → "World::segment".
@@ -30,9 +40,45 @@ std::unique_ptr<World> World::create(const WorldDesc& desc) {
 
 World::World(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 
-// One frame: the pipeline is step/frame.cpp.
-void World::step() { impl_->step(); }
+// One frame: the pipeline is step/frame.cpp. While it runs, a call on this world from the
+// stepping thread itself (a job system's callback) is refused too.
+void World::step() {
+  const Use use(*this);
+  stepping_ = true;
+  struct Stepped {
+    bool& stepping;
+    ~Stepped() { stepping = false; }
+  } stepped{stepping_};
+  impl_->step();
+}
 World::~World() = default;
+
+// ---- One thread at a time (decision 0100) ------------------------------------------------------------
+
+World::Use::Use(const World& world, const std::source_location& where) : world_(world) { take(api_call_name(where)); }
+
+World::Use::Use(const World& world, std::string_view call) : world_(world) { take(call); }
+
+void World::Use::take(std::string_view call) {
+  const std::string prefix = call.empty() ? std::string() : fmt::format("{}: ", call);
+  const std::thread::id me = std::this_thread::get_id();
+  if (world_.user_.load(std::memory_order_acquire) == me) {  // only this thread could have set it
+    if (world_.stepping_)
+      throw Error(ErrorCode::busy, prefix + "called from inside a step of this world (a job system's callback?): "
+                                            "the world takes calls again once its step returns");
+    ++world_.holds_;
+    return;
+  }
+  std::thread::id none{};
+  if (!world_.user_.compare_exchange_strong(none, me, std::memory_order_acquire, std::memory_order_relaxed))
+    throw Error(ErrorCode::busy, prefix + "the world is in use by another thread: one thread at a time steps, changes "
+                                          "or reads a world's meshes (decision 0100); call again once its call returns");
+  world_.holds_ = 1;
+}
+
+World::Use::~Use() {
+  if (--world_.holds_ == 0) world_.user_.store(std::thread::id{}, std::memory_order_release);
+}
 
 std::size_t World::segment_count() const { return impl_->model.pieces.size(); }
 std::size_t World::node_count() const { return impl_->model.node_total; }
@@ -61,6 +107,7 @@ kernels::Pose World::base_pose(std::size_t segment) const {
 }
 
 void World::pose_rod(std::size_t segment, const kernels::Pose& base, std::span<const double> strains) {
+  const Use use(*this);
   auto& m = impl_->model;
   const detail::SegmentPiece& piece = impl_->piece(segment);
   if (piece.first_node != 0)
@@ -87,26 +134,36 @@ void World::pose_rod(std::size_t segment, const kernels::Pose& base, std::span<c
 }
 
 void World::set_external_load(std::size_t node, const Eigen::Vector3d& force, const Eigen::Vector3d& moment) {
+  const Use use(*this);
   impl_->check_node(node);
-  if (!force.allFinite() || !moment.allFinite())
-    throw Error(ErrorCode::invalid_argument, "external load: force and moment must be finite");
+  if (!bounded(force) || !bounded(moment))
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("external load: force ({:.6g}, {:.6g}, {:.6g}) N and moment ({:.6g}, {:.6g}, {:.6g}) N·m "
+                            "must be finite and within ±{:g} in each component",
+                            force.x(), force.y(), force.z(), moment.x(), moment.y(), moment.z(),
+                            detail::kMaxVectorComponent));
   impl_->state.external_force.view().set(node, force);
   impl_->state.external_moment.view().set(node, moment);
 }
 
 void World::set_attachment_target(std::size_t segment, std::size_t attachment, const Eigen::Vector3d& position) {
-  if (!position.allFinite()) throw Error(ErrorCode::invalid_argument, "attachment target must be finite");
+  const Use use(*this);
+  if (!bounded(position))
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("attachment target must be finite and within ±{:g} m", detail::kMaxVectorComponent));
   impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].target = position;
 }
 
 void World::set_attachment_target_rotation(std::size_t segment, std::size_t attachment,
                                            const Eigen::Quaterniond& rotation) {
+  const Use use(*this);
   if (!rotation.coeffs().allFinite() || !(rotation.norm() > 0.0))
     throw Error(ErrorCode::invalid_argument, "attachment rotation must be a finite, non-zero quaternion");
   impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].target_rotation = rotation.normalized();
 }
 
 void World::set_attachment_active(std::size_t segment, std::size_t attachment, bool active) {
+  const Use use(*this);
   impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].active = active;
 }
 
@@ -147,10 +204,13 @@ std::span<const Contact> World::contact_list() const { return impl_->state.colli
 std::size_t World::instrument_count() const { return impl_->model.instruments.size(); }
 
 void World::set_instrument_pose(std::size_t instrument, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis) {
+  const Use use(*this);
   impl_->check_instrument(instrument);
-  if (!tip.allFinite() || !axis.allFinite() || !(axis.norm() > 0.0))
+  if (!bounded(tip) || !bounded(axis) || !(axis.norm() > 0.0))
     throw Error(ErrorCode::invalid_argument,
-                "instrument pose: the tip must be finite and the axis a finite, non-zero direction");
+                fmt::format("instrument pose: the tip must be finite (within ±{:g} m) and the axis a finite, non-zero "
+                            "direction",
+                            detail::kMaxVectorComponent));
   detail::InstrumentState& s = impl_->state.instruments[instrument];
   s.scripted = false;
   detail::set_instrument_pose(s, tip, axis);
@@ -160,12 +220,14 @@ void World::set_instrument_pose(std::size_t instrument, const Eigen::Vector3d& t
 }
 
 void World::set_instrument_grasp(std::size_t instrument, bool closed) {
+  const Use use(*this);
   impl_->check_instrument(instrument);
   impl_->state.instruments[instrument].scripted = false;
   impl_->state.instruments[instrument].closed = closed;
 }
 
 void World::set_instrument_cutting(std::size_t instrument, bool cutting) {
+  const Use use(*this);
   impl_->check_instrument(instrument);
   impl_->state.instruments[instrument].scripted = false;
   impl_->state.instruments[instrument].cutting = cutting;
@@ -198,17 +260,20 @@ InstrumentReading World::instrument(std::size_t instrument) const {
 const MeshInfo& World::mesh(std::size_t segment) const { return impl_->mesh_of(segment).info; }
 std::size_t World::mesh_buffer_size() const { return impl_->model.mesh_vertex_total; }
 kernels::Vec3View<const float> World::mesh_positions() const {
+  const Use use(*this);
   impl_->bring_mesh_up_to_date();
   const auto& p = impl_->state.mesh.position;
   return {p.x, p.y, p.z};
 }
 kernels::Vec3View<const float> World::mesh_normals() const {
+  const Use use(*this);
   impl_->bring_mesh_up_to_date();
   const auto& p = impl_->state.mesh.normal;
   return {p.x, p.y, p.z};
 }
 std::size_t World::ring_count() const { return impl_->model.ring_total; }
 void World::current_rings(std::span<kernels::RingPose> out) const {
+  const Use use(*this);
   if (out.size() != impl_->model.ring_total)
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("current_rings: {} ring poses given, the world has {}", out.size(), impl_->model.ring_total));
@@ -233,6 +298,7 @@ void World::mesh_from_rings(std::span<const kernels::RingPose> rings, std::span<
 MeshUpdate World::mesh_update() const { return impl_->desc.mesh_update; }
 
 void World::set_frame_budget(double seconds) {
+  const Use use(*this);
   if (!(seconds >= 0.0 && seconds <= 3600.0))
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("frame_budget = {}: expected seconds in [0, 3600] (0: no budget)", seconds));
@@ -246,6 +312,7 @@ std::span<const std::array<std::uint32_t, 3>> World::cage_triangles(std::size_t 
   return impl_->mesh_of(segment).cage.triangles;
 }
 std::vector<Eigen::Vector3d> World::cage_vertices(std::size_t segment) const {
+  const Use use(*this);
   const detail::SegmentMesh& m = impl_->mesh_of(segment);
   if (!m.enabled) return {};
   impl_->bring_mesh_up_to_date(/*rings_only=*/true);
@@ -255,6 +322,7 @@ std::vector<Eigen::Vector3d> World::cage_vertices(std::size_t segment) const {
   return out;
 }
 std::span<const kernels::RingPose> World::ring_poses(std::size_t segment) const {
+  const Use use(*this);
   const detail::SegmentMesh& m = impl_->mesh_of(segment);
   impl_->bring_mesh_up_to_date(/*rings_only=*/true);
   return std::span<const kernels::RingPose>(impl_->state.mesh.ring_pose)
@@ -279,6 +347,16 @@ std::span<const std::uint32_t> World::cage_vertex_rings(std::size_t segment) con
 
 const FrameProfile& World::last_profile() const { return impl_->profile; }
 std::span<const Event> World::events() const { return impl_->events; }
+std::size_t World::take_events(std::span<Event> out, std::uint64_t* dropped) {
+  const Use use(*this);
+  std::vector<Event>& waiting = impl_->events;
+  const std::size_t n = std::min(out.size(), waiting.size());
+  std::copy_n(waiting.begin(), n, out.begin());
+  waiting.erase(waiting.begin(), waiting.begin() + static_cast<std::ptrdiff_t>(n));
+  if (dropped != nullptr) *dropped = impl_->events_dropped;
+  impl_->events_dropped = 0;
+  return n;
+}
 int World::threads() const { return impl_->scheduler.threads(); }
 
 }  // namespace haustra

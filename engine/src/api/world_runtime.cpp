@@ -25,6 +25,7 @@ void check_span(std::span<double> out, std::size_t nodes, const char* what) {
 }  // namespace
 
 void World::set_gravity(const Eigen::Vector3d& gravity) {
+  const Use use(*this);
   WorldDesc next = impl_->desc;
   next.gravity = gravity;
   detail::check_world_desc(next);
@@ -34,6 +35,7 @@ void World::set_gravity(const Eigen::Vector3d& gravity) {
 // Everything that depends on dt reads it per frame (the substep length, the law's rate terms, the
 // filter, the instruments' clock); fast mode refactorizes when the dt it recorded differs.
 void World::set_dt(double dt) {
+  const Use use(*this);
   WorldDesc next = impl_->desc;
   next.dt = dt;
   detail::check_world_desc(next);
@@ -41,6 +43,7 @@ void World::set_dt(double dt) {
 }
 
 void World::set_instrument_coupling(std::size_t instrument, double stiffness, double damping, double force_limit) {
+  const Use use(*this);
   impl_->check_instrument(instrument);
   InstrumentDesc next = impl_->desc.instruments[instrument];
   next.coupling_stiffness = stiffness;
@@ -58,6 +61,27 @@ void World::set_instrument_coupling(std::size_t instrument, double stiffness, do
     d->coupling_damping = damping;
     d->force_limit = force_limit;
   }
+}
+
+// The robust mode reads its limits per frame (frame.cpp); a rung above the new top comes down to it.
+void World::set_frame_limits(const FrameLimits& limits) {
+  const Use use(*this);
+  WorldDesc next = impl_->desc;
+  next.solver.max_substeps = limits.max_substeps;
+  next.solver.max_retries = limits.max_retries;
+  next.solver.calm_frames = limits.calm_frames;
+  detail::check_world_desc(next);
+  for (SolverDesc* s : {&impl_->desc.solver, &impl_->model.solver}) {
+    s->max_substeps = limits.max_substeps;
+    s->max_retries = limits.max_retries;
+    s->calm_frames = limits.calm_frames;
+  }
+  impl_->state.robust_substeps = std::min(impl_->state.robust_substeps, limits.max_substeps);
+}
+
+FrameLimits World::frame_limits() const {
+  const SolverDesc& s = impl_->model.solver;
+  return {s.max_substeps, s.max_retries, s.calm_frames};
 }
 
 Eigen::Vector3d World::gravity() const { return impl_->model.gravity; }

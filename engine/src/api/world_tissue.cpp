@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "haustra/kernels/tissue_anchor.hpp"
+#include "model/field_checks.hpp"
 #include "step/anchors.hpp"
 #include "step/world_impl.hpp"
 
@@ -30,12 +31,13 @@ void World::anchor_tensions(std::span<double> out) const {
 }
 
 std::size_t World::cut_tissue(const Eigen::Vector3d& centre, double radius) {
-  if (!centre.allFinite())
-    throw FieldError(ErrorCode::invalid_argument, "centre", "expected three finite numbers (m)",
-                     "World::cut_tissue: centre: expected three finite numbers (m)");
-  if (!(radius > 0.0) || !std::isfinite(radius))
-    throw FieldError(ErrorCode::invalid_argument, "radius", fmt::format("expected a radius > 0 in m, got {}", radius),
-                     fmt::format("World::cut_tissue: radius: expected a radius > 0 in m, got {}", radius));
+  const Use use(*this);
+  if (!centre.allFinite() || centre.cwiseAbs().maxCoeff() > detail::kMaxVectorComponent)
+    throw FieldError(ErrorCode::invalid_argument, "centre", "expected three finite numbers within ±1e5 (m)",
+                     "World::cut_tissue: centre: expected three finite numbers within ±1e5 (m)");
+  if (!(radius > 0.0) || !(radius <= detail::kMaxVectorComponent))
+    throw FieldError(ErrorCode::invalid_argument, "radius", fmt::format("expected a radius in (0, 1e5] m, got {}", radius),
+                     fmt::format("World::cut_tissue: radius: expected a radius in (0, 1e5] m, got {}", radius));
   return impl_->cut_tissue(centre, radius);
 }
 

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "model/world_desc_checks.hpp"
 #include "step/newton_stages.hpp"
 #include "step/world_impl.hpp"
 
@@ -16,14 +17,16 @@
 #include <cstring>
 
 #include "haustra/error.hpp"
+#include "io/bounded_input.hpp"
 
 namespace haustra::detail {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'H', 'A', 'U', 'S', 'T', 'R', 'C', 'K'};
 // 2: fast mode's chord state; 3: the instruments' coupling; 4: fast mode's prefactor; 5: anchors
-// of connective tissue (which still hold), instruments' proxies and cutting.
-constexpr std::uint32_t kFormatVersion = 5;
+// of connective tissue (which still hold), instruments' proxies and cutting; 6: the run-time
+// parameters (decision 0099), the time step no longer in the fingerprint.
+constexpr std::uint32_t kFormatVersion = 6;
 
 std::uint64_t fnv1a(std::span<const std::byte> bytes, std::uint64_t h = 0xcbf29ce484222325ull) {
   for (std::byte b : bytes) {
@@ -34,8 +37,10 @@ std::uint64_t fnv1a(std::span<const std::byte> bytes, std::uint64_t h = 0xcbf29c
 }
 
 // What a checkpoint must match: the model's sizes, and a hash of the numbers that define its
-// rod (rest shape, sections, masses, bead radii, time step). A checkpoint of another scene, or of
-// the same scene with another node count or material, is refused by name rather than misread.
+// rod (rest shape, sections, masses, stiffness, bead radii). A checkpoint of another scene, or of
+// the same scene with another node count or section, is refused by name rather than misread. The
+// rod is hashed as the checkpoint's own run-time parameters make it (its material, decision 0099);
+// the time step, a run-time parameter that builds nothing, is not hashed.
 struct ModelHeader {
   std::uint64_t segments = 0, nodes = 0, beads = 0, attachments = 0, instruments = 0, mesh_vertices = 0;
   std::uint64_t fingerprint = 0;
@@ -48,7 +53,7 @@ ModelHeader header_of(const WorldModel& m) {
   auto hash_doubles = [](std::uint64_t seed, const std::vector<double>& v) {
     return fnv1a(std::as_bytes(std::span(v)), seed);
   };
-  std::uint64_t f = fnv1a(std::as_bytes(std::span(&m.dt, 1)));
+  std::uint64_t f = 0xcbf29ce484222325ull;
   for (const SegmentModel& s : m.segments) {
     const std::array<std::uint64_t, 3> sizes{s.node_count, s.bead_count, s.attachments.size()};
     f = fnv1a(std::as_bytes(std::span(sizes)), f);
@@ -96,6 +101,27 @@ void visit_members(Io& io, I& in) {
       io(in.torque), io(in.filtered_force), io(in.filtered_torque), io(in.coupled), io(in.grasp_node),
       io(in.grasp_target), io(in.target_start), io(in.coupling_force), io(in.slipped), io(in.command_tip),
       io(in.command_start), io(in.proxy_start), io(in.proxy_force), io(in.reach);
+}
+template <class Io, StateOf<RunTimeParameters::Coupling> C>
+void visit_members(Io& io, C& c) {
+  io(c.stiffness), io(c.damping), io(c.force_limit);
+}
+template <class Io, StateOf<RunTimeParameters::Material> M>
+void visit_members(Io& io, M& m) {
+  auto& d = m.material;
+  auto response = static_cast<std::uint8_t>(d.response);
+  io(d.youngs_modulus), io(d.poisson_ratio), io(d.density), io(response), io(d.exp2_alpha), io(d.exp2_beta),
+      io(d.exp2_gamma), io(d.failure_strain), io(m.relaxation_time);
+  if constexpr (!std::is_const_v<M>) {
+    if (response > static_cast<std::uint8_t>(TissueResponse::exp2)) io.mismatch("names a tissue law this build does not know");
+    d.response = static_cast<TissueResponse>(response);
+  }
+}
+// The run-time parameters (decision 0099), ahead of the state: restoring reads them first.
+template <class Io, class Parameters>
+void visit_parameters(Io& io, Parameters& p) {
+  io(p.gravity), io(p.dt), io(p.frame_budget), io(p.max_substeps), io(p.max_retries), io(p.calm_frames);
+  io(p.couplings), io(p.materials);
 }
 template <class Io, StateOf<ContactReport> R>
 void visit_members(Io& io, R& r) {
@@ -241,6 +267,7 @@ class Reader {
   }
   void mismatch(const std::string& what) const { fail(what); }
   [[nodiscard]] bool at_end() const { return at_ == bytes_.size(); }
+  [[nodiscard]] std::size_t at() const { return at_; }
   [[noreturn]] void fail(const std::string& what) const {
     throw Error(ErrorCode::parse, fmt::format("checkpoint '{}': the state {}; it was not restored", source_, what));
   }
@@ -280,7 +307,7 @@ void visit_state(Io& io, State& st) {
 }
 
 // Indices a corrupt or hand-made checkpoint could put out of range.
-void check_indices(const WorldModel& model, const WorldState& st, const Reader& reader) {
+void check_indices(const WorldModel& model, const WorldState& st, const Reader& reader, int max_substeps) {
   for (const SegmentModel& seg : model.segments)
     for (std::size_t a = 0; a < seg.attachments.size(); ++a)
       if (st.now.attachment[seg.attachment_offset + a].node >= seg.node_count)
@@ -292,14 +319,16 @@ void check_indices(const WorldModel& model, const WorldState& st, const Reader& 
         in.grasp_bead >= model.beads.size() || in.grasp_node >= model.node_mass.size())
       reader.fail("has an instrument grasping a segment, slot or bead this world does not have");
   }
-  if (st.robust_substeps < 1 || st.robust_substeps > std::max(model.solver.max_substeps, model.solver.substeps))
-    reader.fail(fmt::format("runs {} substeps, outside 1..{}", st.robust_substeps, model.solver.max_substeps));
+  if (st.robust_substeps < 1 || st.robust_substeps > std::max(max_substeps, model.solver.substeps))
+    reader.fail(fmt::format("runs {} substeps, outside 1..{}", st.robust_substeps, max_substeps));
 }
 
 }  // namespace
 
-std::vector<std::byte> save_checkpoint(const WorldModel& model, const WorldState& state) {
+std::vector<std::byte> save_checkpoint(const WorldModel& model, const WorldState& state,
+                                       const RunTimeParameters& parameters) {
   Writer payload;
+  visit_parameters(payload, parameters);
   visit_state(payload, state);
   visit_chords(payload, model, state);
   Writer out;
@@ -314,50 +343,63 @@ std::vector<std::byte> save_checkpoint(const WorldModel& model, const WorldState
   return out.bytes;
 }
 
-void restore_checkpoint(const WorldModel& model, WorldState& state, std::span<const std::byte> bytes,
-                        const std::string& source) {
-  auto refuse = [&](const std::string& what) {
-    throw Error(ErrorCode::parse, fmt::format("checkpoint '{}': {}; the world was left as it was", source, what));
-  };
+namespace {
+
+[[noreturn]] void refuse(const std::string& source, const std::string& what) {
+  throw Error(ErrorCode::parse, fmt::format("checkpoint '{}': {}; the world was left as it was", source, what));
+}
+
+}  // namespace
+
+OpenedCheckpoint open_checkpoint(const WorldModel& model, const WorldDesc& desc, std::span<const std::byte> bytes,
+                                 const std::string& source) {
   Reader head(bytes, true, source);
   std::array<char, 8> magic{};
-  if (bytes.size() < magic.size()) refuse(fmt::format("{} bytes is too short for a haustra checkpoint", bytes.size()));
+  if (bytes.size() < magic.size())
+    refuse(source, fmt::format("{} bytes is too short for a haustra checkpoint", bytes.size()));
   for (char& c : magic) head(c);
-  if (magic != kMagic) refuse("not a haustra checkpoint (it does not start with HAUSTRCK)");
+  if (magic != kMagic) refuse(source, "not a haustra checkpoint (it does not start with HAUSTRCK)");
   std::uint32_t version = 0;
   head(version);
   if (version != kFormatVersion)
-    refuse(fmt::format("format version {}, this build reads version {}", version, kFormatVersion));
+    refuse(source, fmt::format("format version {}, this build reads version {}", version, kFormatVersion));
   ModelHeader h;
   head(h.segments), head(h.nodes), head(h.beads), head(h.attachments), head(h.instruments), head(h.mesh_vertices);
   head(h.fingerprint);
-  const ModelHeader mine = header_of(model);
-  if (h != mine) {
-    if (h.fingerprint != mine.fingerprint && describe(h) == describe(mine))
-      refuse(
-          "saved from a world of the same sizes but another rod (rest shape, sections, masses, stiffness, bead radii "
-          "or time step differ); restore it into a world built from the same scene");
-    refuse(fmt::format("saved from a world of {}; this world has {}", describe(h), describe(mine)));
-  }
+  ModelHeader mine = header_of(model);
+  mine.fingerprint = h.fingerprint;  // compared once the model holds the checkpoint's material (restore_state)
+  if (h != mine) refuse(source, fmt::format("saved from a world of {}; this world has {}", describe(h), describe(mine)));
   std::uint64_t size = 0;
   head(size);
   const std::size_t header_bytes = magic.size() + sizeof version + 8 * sizeof(std::uint64_t);
-  if (bytes.size() != header_bytes + size + sizeof(std::uint64_t))
-    refuse(fmt::format("{} bytes where its header promises {}", bytes.size(), header_bytes + size + 8));
+  if (bytes.size() - header_bytes < sizeof(std::uint64_t) || size != bytes.size() - header_bytes - sizeof(std::uint64_t))
+    refuse(source, fmt::format("{} bytes where its header promises {}", bytes.size(), header_bytes + size + 8));
   const std::span<const std::byte> payload = bytes.subspan(header_bytes, size);
   std::uint64_t checksum = 0;
   std::memcpy(&checksum, bytes.data() + header_bytes + size, sizeof checksum);
-  if (checksum != fnv1a(payload)) refuse("its checksum does not match its contents (the file is damaged)");
+  if (checksum != fnv1a(payload)) refuse(source, "its checksum does not match its contents (the file is damaged)");
+  OpenedCheckpoint opened{parameters_of(desc), h.fingerprint, {}};  // sized as this world's lists
+  Reader parameters(payload, true, source);
+  visit_parameters(parameters, opened.parameters);
+  opened.state = payload.subspan(parameters.at());
+  return opened;
+}
 
+void restore_state(const WorldModel& model, WorldState& state, const OpenedCheckpoint& checkpoint,
+                   const std::string& source) {
+  if (header_of(model).fingerprint != checkpoint.fingerprint)
+    refuse(source,
+           "saved from a world of the same sizes but another rod (rest shape, sections, masses, stiffness or bead "
+           "radii differ, beyond what its run-time parameters set); restore it into a world built from the same scene");
   // Read once into a copy and check it whole; only then into the state, whose buffers (and the
   // views a host holds of them) stay where they are.
   WorldState staged = state;
-  Reader check(payload, true, source);
+  Reader check(checkpoint.state, true, source);
   visit_state(check, staged);
   visit_chords(check, model, staged);
   if (!check.at_end()) check.fail("is longer than this world's state");
-  check_indices(model, staged, check);
-  Reader apply(payload, true, source);
+  check_indices(model, staged, check, checkpoint.parameters.max_substeps);
+  Reader apply(checkpoint.state, true, source);
   visit_state(apply, state);
   visit_chords(apply, model, state);
 }
@@ -367,13 +409,42 @@ void restore_checkpoint(const WorldModel& model, WorldState& state, std::span<co
 namespace haustra {
 
 std::vector<std::byte> World::save_checkpoint() const {
+  const Use use(*this);
   detail::settle_prefactors(impl_->state, impl_->scheduler);  // a prefactor's outputs are saved
-  return detail::save_checkpoint(impl_->model, impl_->state);
+  return detail::save_checkpoint(impl_->model, impl_->state, detail::parameters_of(impl_->desc));
 }
 
+// The checkpoint's run-time parameters are put back (decision 0099): checked as the setters check
+// them; a material other than the world's rebuilds the rods as set_material does, into a world not
+// yet in place, so that a checkpoint refused after it leaves the world as it was.
 void World::restore_checkpoint(std::span<const std::byte> bytes, const std::string& source) {
+  const Use use(*this);
   detail::settle_prefactors(impl_->state, impl_->scheduler);  // none writes what is restored
-  detail::restore_checkpoint(impl_->model, impl_->state, bytes, source);
+  const detail::OpenedCheckpoint opened = detail::open_checkpoint(impl_->model, impl_->desc, bytes, source);
+  WorldDesc next = impl_->desc;
+  detail::apply_parameters(opened.parameters, next);
+  try {
+    detail::check_world_desc(next);
+    for (std::size_t i = 0; i < next.instruments.size(); ++i)
+      if ((next.instruments[i].coupling_stiffness == 0.0) != (impl_->desc.instruments[i].coupling_stiffness == 0.0))
+        throw FieldError(ErrorCode::invalid_argument, fmt::format("instrument[{}].coupling_stiffness", i),
+                         "a rigid grasp (0) and a coupled one differ in their constraints: only a rebuild switches");
+  } catch (const Error& e) {
+    throw Error(ErrorCode::parse, fmt::format("checkpoint '{}': its run-time parameters do not suit this world: {}; "
+                                              "the world was left as it was",
+                                              source, e.what()));
+  }
+  std::unique_ptr<Impl> fresh;
+  if (!detail::same_materials(opened.parameters, impl_->desc)) {
+    std::vector<std::size_t> rod_map(impl_->model.segments.size());
+    for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
+    fresh = rebuilt(next, rod_map, false, true);
+  }
+  Impl& target = fresh ? *fresh : *impl_;
+  detail::restore_state(target.model, target.state, opened, source);
+  detail::apply_parameters(opened.parameters, target.desc);
+  detail::apply_parameters(opened.parameters, target.model);
+  if (fresh) impl_ = std::move(fresh);
   impl_->state.frame_start.copy_from(impl_->state.now);
   impl_->profile = FrameProfile{};
   impl_->motion_dt = 0.0;
@@ -381,6 +452,7 @@ void World::restore_checkpoint(std::span<const std::byte> bytes, const std::stri
 }
 
 void World::save_checkpoint_file(const std::string& path) const {
+  const Use use(*this);
   const std::vector<std::byte> bytes = save_checkpoint();
   const std::filesystem::path target(path);
   std::filesystem::path temp = target;
@@ -405,20 +477,20 @@ void World::save_checkpoint_file(const std::string& path) const {
                 fmt::format("checkpoint '{}': cannot rename '{}' over it: {}", path, temp.string(), ec.message()));
 }
 
+bool World::checkpoint_rebuilds(const std::string& path) const {
+  const Use use(*this);
+  const std::string text = io::read_bounded_file(path, "checkpoint", io::kMaxCheckpointBytes);
+  const detail::OpenedCheckpoint opened =
+      detail::open_checkpoint(impl_->model, impl_->desc, std::as_bytes(std::span(text)), path);
+  return !detail::same_materials(opened.parameters, impl_->desc);
+}
+
 void World::restore_checkpoint_file(const std::string& path) {
-  std::error_code ec;
-  const auto size = std::filesystem::file_size(path, ec);
-  if (ec) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot read it: {}", path, ec.message()));
-  // A checkpoint holds a few hundred bytes per node and bead: 1 GiB is far beyond any world.
-  constexpr std::uintmax_t kMaxBytes = std::uintmax_t{1} << 30;
-  if (size > kMaxBytes)
-    throw Error(ErrorCode::parse,
-                fmt::format("checkpoint '{}': {} bytes is not a checkpoint of this engine", path, size));
-  std::vector<std::byte> bytes(size);
-  std::ifstream in(path, std::ios::binary);
-  in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size));
-  if (!in) throw Error(ErrorCode::io, fmt::format("checkpoint '{}': reading {} bytes failed", path, size));
-  restore_checkpoint(bytes, path);
+  const Use use(*this);
+  // A checkpoint holds a few hundred bytes per node and bead: 1 GiB is far beyond any world. A
+  // regular file only (a FIFO would block, a device never end).
+  const std::string text = io::read_bounded_file(path, "checkpoint", io::kMaxCheckpointBytes);
+  restore_checkpoint(std::as_bytes(std::span(text)), path);
 }
 
 }  // namespace haustra

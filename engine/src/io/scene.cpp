@@ -380,8 +380,8 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
   if (const toml::table* t = r.table(root, "solver", "solver")) {
     r.check_keys(*t, "solver",
                  {"mode", "iterations", "substeps", "relaxation", "tolerance", "max_iterations", "attachment_tolerance",
-                  "refactor_frames", "prefactor", "on_instability", "max_substeps", "max_axial_strain", "max_section_angle",
-                  "max_displacement", "max_attachment_error"});
+                  "refactor_frames", "prefactor", "on_instability", "max_substeps", "max_retries", "calm_frames",
+                  "max_axial_strain", "max_section_angle", "max_displacement", "max_attachment_error"});
     SolverDesc& s = w.solver;
     s.mode = r.choice<SolverMode>(
         *t, "mode", "solver.mode", s.mode,
@@ -399,6 +399,8 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
         r.choice<InstabilityPolicy>(*t, "on_instability", "solver.on_instability", s.on_instability,
                                     {{"recover", InstabilityPolicy::recover}, {"stop", InstabilityPolicy::stop}});
     s.max_substeps = r.integer(*t, "max_substeps", "solver.max_substeps", s.max_substeps);
+    s.max_retries = r.integer(*t, "max_retries", "solver.max_retries", s.max_retries);
+    s.calm_frames = r.integer(*t, "calm_frames", "solver.calm_frames", s.calm_frames);
     s.max_axial_strain = r.number(*t, "max_axial_strain", "solver.max_axial_strain", s.max_axial_strain);
     s.max_section_angle = r.number(*t, "max_section_angle", "solver.max_section_angle", s.max_section_angle);
     s.max_displacement = r.number(*t, "max_displacement", "solver.max_displacement", s.max_displacement);

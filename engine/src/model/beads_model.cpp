@@ -17,9 +17,7 @@
 namespace haustra::detail {
 namespace {
 
-void check_finite(const std::string& field, const Eigen::Vector3d& v) {
-  if (!v.allFinite()) fail(field, "expected three finite numbers");
-}
+void check_finite(const std::string& field, const Eigen::Vector3d& v) { check_vector(field, v, false); }
 
 void check_unit(const std::string& field, const Eigen::Vector3d& v) {
   check_finite(field, v);
@@ -29,6 +27,13 @@ void check_unit(const std::string& field, const Eigen::Vector3d& v) {
 void check_radius(const std::string& field, double r) {
   if (!std::isfinite(r) || !(r > 0.0)) fail(field, fmt::format("expected a positive radius in m, got {}", r));
   if (r > 0.5) fail(field, fmt::format("{} m is beyond the plausible maximum 0.5 m (did you mean millimetres?)", r));
+  if (r < 1e-4) fail(field, fmt::format("{} m is below the plausible minimum 0.0001 m", r));
+}
+
+// An obstacle's radius: positive, up to the bound on positions.
+void check_obstacle_radius(const std::string& field, double r) {
+  if (!std::isfinite(r) || !(r > 0.0) || r > kMaxVectorComponent)
+    fail(field, fmt::format("expected a positive radius in m up to {:g}, got {}", kMaxVectorComponent, r));
 }
 
 // A container must bound a volume, wound one way throughout: every edge in exactly two triangles,
@@ -163,8 +168,8 @@ void check_instrument(InstrumentDesc& ins, std::size_t i) {
 
 void build_environment(const WorldDesc& desc, WorldModel& m) {
   const ContactDesc& c = desc.contact;
-  if (!std::isfinite(c.coefficient) || !(c.coefficient > 0.0))
-    fail("contact.coefficient", fmt::format("expected a positive coefficient, got {}", c.coefficient));
+  if (!std::isfinite(c.coefficient) || !(c.coefficient > 0.0) || c.coefficient > 1e6)
+    fail("contact.coefficient", fmt::format("expected a positive coefficient up to 1e6, got {}", c.coefficient));
   if (!std::isfinite(c.exponent) || c.exponent < 1.0 || c.exponent > 4.0)
     fail("contact.exponent", fmt::format("expected an exponent in [1, 4], got {}", c.exponent));
   if (!std::isfinite(c.margin) || c.margin > 0.5)
@@ -181,17 +186,13 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
   for (std::size_t i = 0; i < m.environment.spheres.size(); ++i) {
     const SphereObstacleDesc& s = m.environment.spheres[i];
     check_finite(fmt::format("environment.sphere[{}].center", i), s.center);
-    if (!std::isfinite(s.radius) || !(s.radius > 0.0))
-      fail(fmt::format("environment.sphere[{}].radius", i),
-           fmt::format("expected a positive radius in m, got {}", s.radius));
+    check_obstacle_radius(fmt::format("environment.sphere[{}].radius", i), s.radius);
   }
   for (std::size_t i = 0; i < m.environment.capsules.size(); ++i) {
     const CapsuleObstacleDesc& s = m.environment.capsules[i];
     check_finite(fmt::format("environment.capsule[{}].a", i), s.a);
     check_finite(fmt::format("environment.capsule[{}].b", i), s.b);
-    if (!std::isfinite(s.radius) || !(s.radius > 0.0))
-      fail(fmt::format("environment.capsule[{}].radius", i),
-           fmt::format("expected a positive radius in m, got {}", s.radius));
+    check_obstacle_radius(fmt::format("environment.capsule[{}].radius", i), s.radius);
   }
   for (std::size_t i = 0; i < m.environment.meshes.size(); ++i) {
     const MeshObstacleDesc& mesh = m.environment.meshes[i];

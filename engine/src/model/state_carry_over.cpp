@@ -126,19 +126,26 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
 namespace haustra {
 
 // The new model is built first: a description it refuses leaves the world as it was.
-void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver, bool keep_mesh_binding) {
+std::unique_ptr<World::Impl> World::rebuilt(const WorldDesc& next, std::span<const std::size_t> rod_map,
+                                            bool carry_solver, bool keep_mesh_binding) const {
   detail::settle_prefactors(impl_->state, impl_->scheduler);  // what is carried over is finished
   auto fresh =
       std::make_unique<Impl>(next, detail::build_world_model(next, keep_mesh_binding ? &impl_->model : nullptr));
   detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, rod_map, carry_solver);
   fresh->events = impl_->events;
+  fresh->events_dropped = impl_->events_dropped;
   fresh->late_frames = impl_->late_frames;
   fresh->follow_rod();
   fresh->profile = FrameProfile{};
-  impl_ = std::move(fresh);
+  return fresh;
+}
+
+void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver, bool keep_mesh_binding) {
+  impl_ = rebuilt(next, rod_map, carry_solver, keep_mesh_binding);
 }
 
 std::size_t World::add_segment(const SegmentDesc& segment) {
+  const Use use(*this);
   WorldDesc next = impl_->desc;
   next.segments.push_back(segment);
   std::vector<std::size_t> rod_map(impl_->model.segments.size());
@@ -149,6 +156,7 @@ std::size_t World::add_segment(const SegmentDesc& segment) {
 }
 
 void World::remove_segment(std::size_t segment) {
+  const Use use(*this);
   const detail::SegmentPiece& piece = impl_->piece(segment);
   const detail::SegmentModel& rod = impl_->model.segments[piece.rod];
   if (piece.first_node != 0)
@@ -165,6 +173,7 @@ void World::remove_segment(std::size_t segment) {
 }
 
 void World::reconfigure(WorldDesc next) {
+  const Use use(*this);
   const WorldDesc& now = impl_->desc;
   if (next.segments.size() != now.segments.size())
     throw Error(ErrorCode::invalid_argument,
@@ -195,6 +204,7 @@ const SegmentDesc& World::segment_desc(std::size_t segment) const {
 }
 
 void World::set_material(std::size_t segment, const MaterialDesc& material, double relaxation_time) {
+  const Use use(*this);
   const detail::SegmentPiece& piece = impl_->piece(segment);
   if (piece.first_node != 0)
     throw Error(ErrorCode::invalid_argument,

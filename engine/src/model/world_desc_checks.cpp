@@ -21,8 +21,10 @@ void check_solver(const SolverDesc& s) {
   check_int("solver.max_iterations", s.max_iterations, 1, 10000);
   check_int("solver.refactor_frames", s.refactor_frames, 1, 1000000);
   check_positive("solver.attachment_tolerance", s.attachment_tolerance, "m", 1.0);
-  check_int("solver.max_substeps", s.max_substeps, 1, 1 << 16);
-  check_int("solver.substeps", s.substeps, 1, s.max_substeps);
+  check_int("solver.substeps", s.substeps, 1, 1 << 16);
+  check_int("solver.max_substeps", s.max_substeps, s.substeps, 1 << 16);
+  check_int("solver.max_retries", s.max_retries, 0, 64);
+  check_int("solver.calm_frames", s.calm_frames, 1, 1'000'000);
   if (!(s.relaxation > 0.0) || s.relaxation > 1.0)
     fail("solver.relaxation", fmt::format("expected a value in (0, 1], got {}", s.relaxation));
   check_range("solver.tolerance", s.tolerance, 0.0, 1.0, "a dimensionless tolerance");
@@ -76,30 +78,32 @@ void check_segment_desc(const WorldDesc& desc, const SegmentDesc& d, const std::
     if (!d.beads.nodes.empty())
       fail(where + ".beads.nodes", "a chain's beads are given per piece by count or spacing, not as a node list");
   }
-  if (d.rest.kind != RestShapeKind::centreline) check_positive(where + ".rest.length", d.rest.length, "m", 1000.0);
+  if (d.rest.kind != RestShapeKind::centreline)
+    check_positive(where + ".rest.length", d.rest.length, "m", 1000.0, nullptr, 1e-3);
   check_vector(where + ".base_position", d.base_position, false);
   check_vector(where + ".base_tangent", d.base_tangent, true);
   check_vector(where + ".base_normal", d.base_normal, false);
   check_positive(where + ".radius", d.cross_section.radius, "m", 0.5,
-                 " (lengths are in metres: did you mean millimetres?)");
+                 " (lengths are in metres: did you mean millimetres?)", 1e-4);
   check_positive(where + ".wall_thickness", d.cross_section.wall_thickness, "m", d.cross_section.radius,
-                 " (the wall cannot be thicker than the radius)");
-  check_positive(where + ".youngs_modulus", d.material.youngs_modulus, "Pa", 1e12);
+                 " (the wall cannot be thicker than the radius)", 1e-6);
+  check_positive(where + ".youngs_modulus", d.material.youngs_modulus, "Pa", 1e12, nullptr, 1.0);
   check_range(where + ".poisson_ratio", d.material.poisson_ratio, 0.0, 0.4999, "a Poisson ratio");
-  check_positive(where + ".density", d.material.density, "kg/m³", 1e5);
+  check_positive(where + ".density", d.material.density, "kg/m³", 1e5, nullptr, 1e-3);
   check_positive(where + ".failure_strain", d.material.failure_strain, "(axial strain)", 1e3);
-  if (d.linear_density) check_positive(where + ".linear_density", *d.linear_density, "kg/m", 1e4);
+  // As light as a study's weightless beam (validation: 6e-11 kg/m), not a denormal.
+  if (d.linear_density) check_positive(where + ".linear_density", *d.linear_density, "kg/m", 1e4, nullptr, 1e-15);
   if (d.material.response == TissueResponse::exp2) {
     check_range(where + ".tissue.alpha", d.material.exp2_alpha, 0.0, 1e3, "α ≥ 0 (it multiplies ε²)");
     check_range(where + ".tissue.beta", d.material.exp2_beta, 0.0, 1e12, "β ≥ 0 in Pa");
-    check_positive(where + ".tissue.gamma", d.material.exp2_gamma, "Pa", 1e12);
+    check_positive(where + ".tissue.gamma", d.material.exp2_gamma, "Pa", 1e12, nullptr, 1.0);
     if (desc.solver.mode == SolverMode::lagged)
       fail(where + ".tissue.response",
            "the EXP2 law is solved by Newton iteration: it needs solver.mode = \"newton\" (the lagged scheme "
            "assumes a constant stiffness)");
   }
   const bool any_viscous = std::any_of(d.law.begin(), d.law.end(), [](StrainLaw l) { return l != StrainLaw::elastic; });
-  if (any_viscous) check_positive(where + ".relaxation_time", d.relaxation_time, "s", 1e9);
+  if (any_viscous) check_positive(where + ".relaxation_time", d.relaxation_time, "s", 1e9, nullptr, 1e-6);
   check_anchors(d, where);
   const double drag = d.drag.value_or(d.base == BaseMode::free ? 4.0 : 0.0);
   if (d.base == BaseMode::free)
@@ -143,8 +147,8 @@ void check_memory(const WorldDesc& desc) {
 }
 
 void check_world_desc(const WorldDesc& desc) {
-  check_positive("world.dt", desc.dt, "s", 1.0);
-  check_vector("world.gravity", desc.gravity, false);
+  check_positive("world.dt", desc.dt, "s", 1.0, nullptr, 1e-6);
+  if (!desc.gravity.allFinite()) fail("world.gravity", "expected three finite numbers");
   if (desc.gravity.norm() > 1000.0)  // 100 g: beyond any body a simulator trains on, and a typo's likely sign
     fail("world.gravity", fmt::format("expected at most 1000 m/s² (100 g), got {:.6g}", desc.gravity.norm()));
   check_int("world.threads", desc.threads, 0, 1024);

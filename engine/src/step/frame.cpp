@@ -20,7 +20,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 constexpr std::size_t kParallelMeshVertices = 50'000;
-constexpr int kGoodFramesBeforeRelaxing = 120;  // robust mode: calm frames before halving substeps again
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
@@ -76,7 +75,7 @@ World::Impl::Rung World::Impl::attempt_until_stable(Clock::time_point t0) {
     if (failed == model.segments.size()) break;
     state.now.copy_from(state.frame_start);
     if (!first.happened(model)) first = {failed, guard[failed], rung};
-    if (!can_escalate(rung)) stop_unstable(failed, rung, t0);
+    if (!can_escalate(rung) || profile.retries >= model.solver.max_retries) stop_unstable(failed, rung, t0);
     rung = escalate(rung);
     profile.retries += 1;
   }
@@ -85,7 +84,7 @@ World::Impl::Rung World::Impl::attempt_until_stable(Clock::time_point t0) {
     state.robust_substeps = rung.substeps;
     state.robust_newton = rung.newton;
     state.robust_good_frames = 0;
-  } else if (state.robust_substeps > base.substeps && ++state.robust_good_frames >= kGoodFramesBeforeRelaxing) {
+  } else if (state.robust_substeps > base.substeps && ++state.robust_good_frames >= model.solver.calm_frames) {
     // Extra substeps are shed again after a calm spell. Newton, once engaged, stays: the scheme
     // that diverged here would diverge again from the same kind of state.
     state.robust_substeps = std::max(base.substeps, state.robust_substeps / 2);

@@ -52,12 +52,19 @@ Event World::Impl::unstable_event(std::size_t failed, const GuardResult& g, cons
   Event e = make_event(Event::Kind::unstable, failed, g, rung.substeps);
   char* it = append(e, e.text.data(), "unstable at ");
   it = describe(e, it, failed, g, rung.substeps);
+  // Which limit ended the frame's ladder (decision 0100): the policy, its retries, or its top rung.
+  if (model.solver.on_instability != InstabilityPolicy::recover)
+    it = append(e, it, ". solver.on_instability is \"stop\". ");
+  else if (can_escalate(rung))
+    it = append(e, it, ". The frame's retries ran out ({} of solver.max_retries = {}) before Newton with {} substeps "
+                "(solver.max_substeps) was tried. ",
+                profile.retries, model.solver.max_retries, model.solver.max_substeps);
+  else
+    it = append(e, it, ". Newton with {} substep{} (solver.max_substeps) did not recover either. ", rung.substeps,
+                rung.substeps == 1 ? "" : "s");
   it = append(e, it,
-              ". {}Lower the time step, raise solver.max_substeps or solver.iterations, or soften the loads. The world "
-              "keeps its last good frame.",
-              model.solver.on_instability == InstabilityPolicy::recover
-                  ? "Newton with more substeps did not recover either. "
-                  : "solver.on_instability is \"stop\". ");
+              "Lower the time step, raise solver.max_substeps or solver.iterations, or soften the loads. The world "
+              "keeps its last good frame.");
   terminate_text(e, it);
   return e;
 }
@@ -134,7 +141,10 @@ void World::Impl::record_anchors(Event::Kind kind, std::span<const detail::TornA
 }
 
 void World::Impl::record(const Event& e) {
-  if (events.size() < kMaxEvents) events.push_back(e);  // capacity reserved at creation
+  if (events.size() < kMaxEvents)
+    events.push_back(e);  // capacity reserved at creation
+  else
+    events_dropped += 1;
 }
 
 void World::Impl::reserve_events() { events.reserve(kMaxEvents); }

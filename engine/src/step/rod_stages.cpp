@@ -490,10 +490,14 @@ GuardResult guard_bead_depths(const WorldModel& model, const WorldState& state, 
       // A bead a container holds that was already out at the frame's start (however far) is
       // being pushed back: it passed through nothing in this frame unless it went deeper.
       if (ratio > 1.0 && held_by_container(model, c) && c.depth <= depth_at_frame_start(model, state, c)) continue;
-      if (ratio > 1.0)
-        return {false,           model.beads.node[c.bead] - off,
-                Stage::contacts, "bead's depth into the environment (bead radii)",
-                ratio,           1.0};
+      if (ratio > 1.0)  // an instrument's capsule is named as such, not as the environment
+        return {false,
+                model.beads.node[c.bead] - off,
+                Stage::contacts,
+                c.kind == ContactKind::instrument ? "bead's depth into an instrument's capsule (bead radii)"
+                                                  : "bead's depth into the environment (bead radii)",
+                ratio,
+                1.0};
     }
   return {};
 }

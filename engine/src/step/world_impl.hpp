@@ -30,7 +30,8 @@ struct World::Impl {
   detail::WorldState state;
   detail::Scheduler scheduler;
   FrameProfile profile;
-  std::vector<Event> events;
+  std::vector<Event> events;          // waiting to be taken (World::take_events), at most kMaxEvents
+  std::uint64_t events_dropped = 0;  // lost since the last take: the queue was full
   std::vector<std::size_t> slipped;  // instruments whose grasp slipped this frame (capacity: all of them)
   std::vector<detail::TornAnchor> torn;  // anchors torn or cut this frame (capacity: all of them)
   std::vector<detail::GuardResult> guard;
