@@ -2,7 +2,13 @@
 #include "haustra/import/scratch_import.hpp"
 
 #include <fmt/format.h>
+#include <pthread.h>
 #include <stdlib.h>  // mkdtemp
+
+#include <csignal>
+#include <mutex>
+#include <set>
+#include <thread>
 
 #include <algorithm>
 #include <cctype>
@@ -15,6 +21,48 @@
 namespace haustra::import {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// The scratch folders alive now, for the signal thread to remove.
+std::mutex g_live_mutex;
+std::set<fs::path>& live_folders() {
+  static std::set<fs::path> live;
+  return live;
+}
+
+void remove_live_folders() {
+  const std::lock_guard lock(g_live_mutex);
+  for (const fs::path& folder : live_folders()) {
+    std::error_code ignored;
+    fs::remove_all(folder, ignored);
+  }
+}
+
+}  // namespace
+
+void remove_scratch_on_signals() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    sigset_t signals;
+    sigemptyset(&signals);
+    sigaddset(&signals, SIGINT);
+    sigaddset(&signals, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &signals, nullptr);  // threads started later inherit it
+    std::thread([signals] {
+      int received = 0;
+      if (sigwait(&signals, &received) != 0) return;
+      remove_live_folders();
+      // Then the signal's own end: its default action, delivered to this thread alone.
+      std::signal(received, SIG_DFL);
+      sigset_t one;
+      sigemptyset(&one);
+      sigaddset(&one, received);
+      pthread_sigmask(SIG_UNBLOCK, &one, nullptr);
+      std::raise(received);
+    }).detach();
+  });
+}
 
 bool is_surface(const fs::path& file) {
   std::string ext = file.extension().string();
@@ -29,6 +77,10 @@ ScratchImport::ScratchImport(const fs::path& surface, std::function<void(std::st
     throw Error(ErrorCode::io,
                 fmt::format("{}: cannot make a temporary folder to import into ({})", name, std::strerror(errno)));
   folder_ = name;
+  {
+    const std::lock_guard lock(g_live_mutex);
+    live_folders().insert(folder_);
+  }
   ImportOptions o;
   o.mesh = surface;
   o.out = folder_ / "scene.toml";
@@ -36,13 +88,16 @@ ScratchImport::ScratchImport(const fs::path& surface, std::function<void(std::st
   try {
     report_ = import_surface(o);
   } catch (...) {
-    std::error_code ignored;
-    fs::remove_all(folder_, ignored);
+    forget();
     throw;
   }
 }
 
-ScratchImport::~ScratchImport() {
+ScratchImport::~ScratchImport() { forget(); }
+
+void ScratchImport::forget() {
+  const std::lock_guard lock(g_live_mutex);
+  live_folders().erase(folder_);
   std::error_code ignored;  // a folder already gone, or a file still open elsewhere: nothing to do
   fs::remove_all(folder_, ignored);
 }

@@ -1,6 +1,10 @@
 // The haustra command line, end to end: the binary as a user runs it.
 #include <doctest/doctest.h>
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -150,6 +154,19 @@ TEST_CASE("haustra run: --set and --dt override the scene") {
   CHECK(j["dt"] == 0.001);
 }
 
+TEST_CASE("haustra run: the command line's own bad values, and a device as the scene, are named as such") {
+  const Result threads = run("run " + kCliScenes + "ropes.toml --quiet --threads -3");
+  CHECK(threads.code == 2);
+  CHECK(threads.err.find("--threads -3: expected 0 (all hardware threads) to 1024") != std::string::npos);
+  CHECK(threads.err.find("ropes.toml") == std::string::npos);  // not blamed on the scene file
+  const Result dt = run("run " + kCliScenes + "ropes.toml --quiet --dt 5e-324");
+  CHECK(dt.code == 2);
+  CHECK(dt.err.find("--dt 5e-324: expected a time step in [1e-06, 1] s") != std::string::npos);
+  const Result zero = run("run /dev/zero --quiet");  // it grew past 1.25 GB in 13 s
+  CHECK(zero.code == 2);
+  CHECK(zero.err.find("/dev/zero: a character device, not a scene file") != std::string::npos);
+}
+
 TEST_CASE("haustra run: bad input exits with code 2 and names the file and line") {
   const Result r = run("run " + kCliScenes + "ropes.toml --set segment[2].radius=25");
   CHECK(r.code == 2);
@@ -214,6 +231,42 @@ TEST_CASE("haustra run SURFACE imports it with the defaults first, a line per ph
   // A surface that is not there: the usual bad-input exit.
   const Result missing = run("run " + (dir / "missing.obj").string());
   CHECK(missing.code == 2);
+}
+
+TEST_CASE("haustra run SURFACE stopped by SIGTERM or SIGINT leaves no scratch folder behind") {
+  const fs::path dir = out_dir("surface-signal");
+  fs::create_directories(dir);
+  for (const int sig : {SIGTERM, SIGINT}) {
+    // A copy under a name of this case's own, so its scratch folder is told from any other.
+    const std::string stem = "signal-" + std::to_string(::getpid()) + "-" + std::to_string(sig);
+    const fs::path surface = dir / (stem + ".obj");
+    fs::copy_file(std::string(HAUSTRA_SOURCE_DIR) + "/tests/data/anatomy/HuBMAPVHM-00070-large-intestine-Appendix.obj",
+                  surface, fs::copy_options::overwrite_existing);
+    const std::string prefix = "haustra-import-" + stem + "-";
+    auto scratch = [&] {
+      for (const auto& e : fs::directory_iterator(fs::temp_directory_path()))
+        if (e.path().filename().string().starts_with(prefix)) return e.path();
+      return fs::path();
+    };
+    const std::string command = kCli + " run " + surface.string() + " --quiet --frames 1000000 >/dev/null 2>&1";
+    const pid_t pid = ::fork();
+    REQUIRE(pid >= 0);
+    if (pid == 0) {
+      ::execl("/bin/sh", "sh", "-c", ("exec " + command).c_str(), static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    // Waits for the folder (the import makes it first thing), then sends the signal: in lockstep
+    // with the child's progress, whatever the machine's speed.
+    fs::path folder;
+    int status = 0;
+    while ((folder = scratch()).empty() && ::waitpid(pid, &status, WNOHANG) == 0) ::usleep(10'000);
+    REQUIRE_FALSE(folder.empty());
+    ::kill(pid, sig);
+    REQUIRE(::waitpid(pid, &status, 0) == pid);
+    CHECK(WIFSIGNALED(status));
+    CHECK(WTERMSIG(status) == sig);  // ended by the signal, as before: only the folder went first
+    CHECK_FALSE(fs::exists(folder));
+  }
 }
 
 TEST_CASE("haustra run grasps and pulls the CT colon and writes its deformed mesh: files and an animated glTF") {

@@ -136,6 +136,12 @@ int run(const RunOptions& o) {
   const std::unique_ptr<import::ScratchImport> imported = import_if_surface(o.scene);
   SceneDesc scene = load_scene(imported ? imported->scene() : fs::path(o.scene), o.sets);
   if (o.frames) scene.frames = *o.frames;
+  // The command line's own values are named as such, not blamed on the scene file.
+  if (o.dt && !(*o.dt >= 1e-6 && *o.dt <= 1.0))
+    throw Error(ErrorCode::invalid_argument, fmt::format("--dt {}: expected a time step in [1e-06, 1] s", *o.dt));
+  if (o.threads && (*o.threads < 0 || *o.threads > 1024))
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("--threads {}: expected 0 (all hardware threads) to 1024", *o.threads));
   if (o.dt) scene.world.dt = *o.dt;
   if (o.threads) scene.world.threads = *o.threads;
   if (scene.frames < 0) throw Error(ErrorCode::invalid_argument, "--frames: expected a non-negative count");
@@ -639,6 +645,7 @@ int dispatch(Commands& c) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  haustra::import::remove_scratch_on_signals();  // a surface imported on the fly leaves nothing behind
   CLI::App app{"haustra: beads-on-string soft organ engine (Chang et al., The Visual Computer 2011)"};
   app.set_version_flag("--version", std::string("haustra " HAUSTRA_VERSION));
   app.require_subcommand(1);

@@ -11,6 +11,7 @@
 #include "viewer_app.hpp"
 
 int main(int argc, char** argv) {
+  haustra::import::remove_scratch_on_signals();  // a surface imported on the fly leaves nothing behind
   haustra::view::ViewerOptions o;
   CLI::App app{"haustra view: grasp the organ with the mouse and watch every stage"};
   app.add_option("scene", o.scene, "scene file (TOML), or a surface to import first with the defaults")

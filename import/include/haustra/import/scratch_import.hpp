@@ -11,6 +11,12 @@ namespace haustra::import {
 // A mesh file by its extension (the engine's formats: OBJ, STL, OFF, glTF).
 bool is_surface(const std::filesystem::path& file);
 
+// On SIGINT or SIGTERM, every scratch folder still alive is removed before the signal ends the
+// process as it would have (its default action). Call once, first thing in main, before any other
+// thread starts: it blocks the two signals in every thread and waits for them on a thread of its own,
+// where removing a folder is safe (a signal handler could not).
+void remove_scratch_on_signals();
+
 class ScratchImport {
  public:
   // Throws haustra::Error as import_surface does; `progress` as ImportOptions::progress.
@@ -23,6 +29,7 @@ class ScratchImport {
   [[nodiscard]] const std::filesystem::path& scene() const { return report_.scene; }
 
  private:
+  void forget();  // the folder removed, and out of the signal thread's list
   std::filesystem::path folder_;
   ImportReport report_;
 };
