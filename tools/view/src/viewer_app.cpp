@@ -105,7 +105,8 @@ void take_frame(ViewerState& v, GlScene& scene) {
     const InstrumentReading& r = v.instruments[m.mouse];
     v.plot.push(static_cast<float>(r.force.norm()), static_cast<float>(r.filtered_force.norm()));
     if (v.recording) {
-      Sample s{f.frame, f.time, r.grasping, 0, Eigen::Vector3d::Zero(), r.tip, r.force, r.filtered_force};
+      Sample s{f.frame, f.time, r.grasping, 0, Eigen::Vector3d::Zero(), r.tip, r.force, r.filtered_force, 0};
+      for (const std::uint8_t intact : f.details.anchors_intact) s.anchors_cut += intact == 0 ? 1 : 0;
       if (r.grasping && r.grasped_segment < m.segment_nodes.size()) {
         s.node = m.segment_nodes[r.grasped_segment].offset + r.grasped_node;
         s.node_position = {f.x[s.node], f.y[s.node], f.z[s.node]};
@@ -147,7 +148,8 @@ void write_record(const ViewerState& v, const std::string& path) {
                             {"node_position", vec(s.node_position)},
                             {"tip", vec(s.tip)},
                             {"force", vec(s.force)},
-                            {"filtered_force", vec(s.filtered_force)}});
+                            {"filtered_force", vec(s.filtered_force)},
+                            {"anchors_cut", s.anchors_cut}});
   for (const InputEvent& e : v.events) {
     const OrbitCamera& c = e.camera;
     j["events"].push_back({{"kind", e.kind},

@@ -49,6 +49,7 @@ struct Sample {
   std::size_t node = 0;  // global index of the grasped node
   Eigen::Vector3d node_position = Eigen::Vector3d::Zero(), tip = Eigen::Vector3d::Zero();
   Eigen::Vector3d force = Eigen::Vector3d::Zero(), filtered_force = Eigen::Vector3d::Zero();
+  std::size_t anchors_cut = 0;  // anchors of connective tissue torn or cut so far
 };
 struct InputEvent {
   std::string kind;  // press, release
