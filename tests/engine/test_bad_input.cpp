@@ -264,7 +264,11 @@ std::vector<BadInput> catalogue(const Scratch& s) {
       organ_mesh(s, "m-empty.obj", "# nothing\n", ErrorCode::parse, {"segment[0].mesh.file"}),
       organ_mesh(s, "m-points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", ErrorCode::parse, {"segment[0].mesh.file"}),
       organ_mesh(s, "m-index.obj", "v 0 0 0\nv 0.01 0 0\nv 0 0.01 0\nf 1 2 9\n", ErrorCode::parse,
-                 {"segment[0].mesh.file"}),
+                 {"segment[0].mesh.file", "m-index.obj:4", "face index \"9\" names no vertex: the file has 3"}),
+      organ_mesh(s, "m-short.obj", "v 0 0 0\nv 0.01 0\nv 0 0.01 0\nf 1 2 3\n", ErrorCode::parse,
+                 {"segment[0].mesh.file", "m-short.obj:2", "vertex 2 needs three numbers"}),
+      organ_mesh(s, "m-word.obj", "v 0 0 0\nv 0.01 0 0\nv 0 0.01 0\nf 1 two 3\n", ErrorCode::parse,
+                 {"m-word.obj:4", "face index \"two\""}),
       organ_mesh(s, "m-repeat.obj", tube_obj(0.015, 0.2) + "f 1 1 2\n", ErrorCode::invalid_geometry,
                  {"segment[0].mesh.file", "repeats a vertex", "degenerate"}),
       organ_mesh(s, "m-sliver.obj", tube_obj(0.015, 0.2) + "v 0.5 0.5 0.5\nv 0.6 0.6 0.6\nv 0.7 0.7 0.7\nf 145 146 147\n",
@@ -367,6 +371,25 @@ std::vector<BadInput> catalogue(const Scratch& s) {
             ErrorCode::invalid_argument),
       call("a load of 1e30 N", [](World& w) { w.set_external_load(2, {1e30, 0.0, 0.0}, Eigen::Vector3d::Zero()); },
            {"within ±100000 in each component"}),
+      // Every field bounded above and below as docs/scene-format.md states it (issue 36).
+      scene(m + "\n[[instrument]]\nholding_force = 1e6\n",
+            {"test.toml:11", "instrument[0].holding_force", "expected a force in [0, 100000] N"}, ErrorCode::invalid_argument),
+      scene(m + "\n[[instrument]]\n[[instrument.keyframe]]\ntime = 1e300\n",
+            {"test.toml:12", "instrument[0].keyframe[0].time", "within ±1e+09"}, ErrorCode::invalid_argument),
+      scene(m + "[segment.beads]\nspacing = 1e300\n", {"test.toml:10", "segment[0].beads.spacing", "(0, 1000] m"},
+            ErrorCode::invalid_argument),
+      scene(m + "[segment.beads]\ncount = 5\n[segment.mesh]\n[segment.mesh.procedural]\nradius = 1e-300\n",
+            {"test.toml:13", "segment[0].mesh.procedural.radius", "[0.0001, 0.5] m, got 1e-300"}, ErrorCode::invalid_argument),
+      scene(m + "[segment.beads]\ncount = 5\n[segment.mesh]\n[segment.mesh.procedural]\nradius = -0.01\n",
+            {"segment[0].mesh.procedural.radius", "got -0.01"}, ErrorCode::invalid_argument),
+      scene(m + "\n[[environment.mesh]]\nfile = \"assets/bolster.obj\"\ntranslate = [1e300, 0.0, 0.0]\n",
+            {"test.toml:12", "environment.mesh[0].translate", "within ±1e5 m"}),
+      scene(m + "\n[[environment.mesh]]\nfile = \"assets/bolster.obj\"\nscale = 1e9\n",
+            {"test.toml:12", "environment.mesh[0].scale", "up to 1e5"}),
+      organ_mesh(s, "m-far.obj", tube_obj(0.015, 0.2), ErrorCode::invalid_argument,
+                 {"segment[0].mesh.translate", "within ±100000 m"}, "translate = [1e300, 0.0, 0.0]\n"),
+      organ_mesh(s, "m-vast.obj", tube_obj(2.0, 2.0), ErrorCode::invalid_argument,
+                 {"segment[0].mesh.scale", "beyond ±100000 m"}, "scale = 1e5\n"),
       // Calls on a world.
       call("external load on a node that does not exist",
            [](World& w) { w.set_external_load(w.node_count(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()); },
@@ -443,7 +466,7 @@ TEST_CASE("bad-input catalogue: every case fails with its error code and a messa
   const std::vector<BadInput> cases = catalogue(scratch);
   // Exactly the catalogue's cases: one lost in an edit (a list that silently shrinks) fails here;
   // a new case raises the count.
-  CHECK(cases.size() == 146);
+  CHECK(cases.size() == 157);
   for (const BadInput& c : cases) {
     INFO(c.label);
     std::string message;

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <new>
@@ -39,6 +40,53 @@ void check_off_counts(const std::filesystem::path& file, std::uintmax_t bytes) {
     throw Error(ErrorCode::parse, fmt::format("{}: the OFF header claims {:.6g} vertices and {:.6g} faces, more than "
                                               "its {} bytes can hold",
                                               file.string(), vertices, faces, bytes));
+}
+
+// An OBJ's vertices and faces, checked line by line before assimp reads it, so that an error names
+// the line (assimp's say "index out of range" without one): a vertex needs three numbers, a face's
+// indices must name vertices the file has (1-based, or negative from the last; a face may refer to
+// vertices defined after it, as assimp allows). One pass to count the vertices, one to check.
+void check_obj_lines(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::string line;
+  long long vertices = 0;
+  while (std::getline(in, line))
+    if (line.size() > 1 && line[0] == 'v' && (line[1] == ' ' || line[1] == '\t')) ++vertices;
+  in.clear();
+  in.seekg(0);
+  long long number = 0, seen = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.size() < 2 || (line[1] != ' ' && line[1] != '\t')) continue;
+    if (line[0] == 'v') {
+      ++seen;
+      std::istringstream words(line.substr(2));
+      std::string word;
+      int numbers = 0;
+      while (numbers < 3 && words >> word) {
+        char* end = nullptr;
+        (void)std::strtod(word.c_str(), &end);
+        if (end == word.c_str() || *end != '\0') break;
+        ++numbers;
+      }
+      if (numbers < 3)
+        throw Error(ErrorCode::parse, fmt::format("{}:{}: vertex {} needs three numbers (x y z), got \"{}\"",
+                                                  file.string(), number, seen, line.substr(0, 80)));
+    } else if (line[0] == 'f') {
+      std::istringstream words(line.substr(2));
+      std::string word;
+      while (words >> word) {
+        const std::string index = word.substr(0, word.find('/'));
+        char* end = nullptr;
+        const long long k = std::strtoll(index.c_str(), &end, 10);
+        if (end == index.c_str() || *end != '\0' || k == 0 || k > vertices || k < -vertices)
+          throw Error(ErrorCode::parse,
+                      fmt::format("{}:{}: face index \"{}\" names no vertex: the file has {} (1 to {}, or -1 to -{} "
+                                  "from the last)",
+                                  file.string(), number, index.substr(0, 40), vertices, vertices, vertices));
+      }
+    }
+  }
 }
 
 // While alive, the importer knows only the readers of kMeshFormats. An extension alone does not
@@ -95,6 +143,7 @@ TriangleMesh load_mesh_as_read(const std::filesystem::path& file) {
   // Validation first: Debian's assimp is built with assertions, and a malformed face (an OFF face
   // with no vertices, found by fuzzing) would otherwise abort the process inside triangulation.
   check_off_counts(file, bytes);  // any extension: assimp picks a reader by content too
+  if (ext == ".obj") check_obj_lines(file);
   io::check_gltf_structure(file, bytes);
   const aiScene* scene = nullptr;
   try {

@@ -303,8 +303,11 @@ void read_environment(const Reader& r, const toml::table& t, const std::filesyst
     d.name = r.string(o, "name", p + ".name", p);
     const std::filesystem::path f = scene_dir / r.string(o, "file", p + ".file", "");
     const double scale = r.number(o, "scale", p + ".scale", 1.0);
-    if (!(scale > 0.0)) r.fail(o.get("scale"), p + ".scale", "expected a positive scale (e.g. 0.001 for millimetres)");
+    if (!(scale > 0.0) || !(scale <= 1e5))
+      r.fail(o.get("scale"), p + ".scale", "expected a positive scale up to 1e5 (e.g. 0.001 for millimetres)");
     const Eigen::Vector3d translate = r.vec3(o, "translate", p + ".translate", Eigen::Vector3d::Zero());
+    if (!(translate.cwiseAbs().maxCoeff() <= 1e5))
+      r.fail(o.get("translate"), p + ".translate", "expected three numbers within ±1e5 m");
     d.container = r.boolean(o, "container", p + ".container", d.container);
     try {
       TriangleMesh mesh = load_mesh(f);

@@ -83,7 +83,8 @@ std::vector<std::size_t> bead_nodes(const BeadsDesc& b, const SegmentModel& seg,
       nodes.push_back(static_cast<std::size_t>(k));
     }
   } else if (b.spacing > 0.0) {
-    if (!std::isfinite(b.spacing)) fail(where + ".spacing", "expected a finite spacing in m");
+    if (!std::isfinite(b.spacing) || b.spacing > 1000.0)
+      fail(where + ".spacing", fmt::format("expected a spacing in (0, 1000] m, got {}", b.spacing));
     double s = 0.0, next = 0.0;
     for (std::size_t k = 0; k < n; ++k) {
       if (k > 0) s += h[k - 1];
@@ -145,9 +146,9 @@ void check_instrument(InstrumentDesc& ins, std::size_t i) {
          fmt::format("expected a damping in [0, 1e5] N·s/m, got {}", ins.coupling_damping));
   if (!(ins.force_limit > 0.0) || ins.force_limit > 1e5)  // infinity is refused too: the limit is the point
     fail(where + ".force_limit", fmt::format("expected a force in (0, 1e5] N, got {}", ins.force_limit));
-  if (!std::isfinite(ins.holding_force) || ins.holding_force < 0.0)
-    fail(where + ".holding_force",
-         fmt::format("expected a force >= 0 N (0: the grasp never slips), got {}", ins.holding_force));
+  if (!std::isfinite(ins.holding_force) || ins.holding_force < 0.0 || ins.holding_force > kMaxVectorComponent)
+    fail(where + ".holding_force", fmt::format("expected a force in [0, {:g}] N (0: the grasp never slips), got {}",
+                                               kMaxVectorComponent, ins.holding_force));
   if (!std::isfinite(ins.cut_radius) || !(ins.cut_radius > 0.0) || ins.cut_radius > 0.5)
     fail(where + ".cut_radius", fmt::format("expected a radius in (0, 0.5] m, got {}", ins.cut_radius));
   check_finite(where + ".tip", ins.tip);
@@ -156,7 +157,8 @@ void check_instrument(InstrumentDesc& ins, std::size_t i) {
   for (std::size_t k = 0; k < ins.keyframes.size(); ++k) {
     InstrumentKeyframe& kf = ins.keyframes[k];
     const std::string kw = fmt::format("{}.keyframe[{}]", where, k);
-    if (!std::isfinite(kf.time)) fail(kw + ".time", "expected a finite time in s");
+    if (!std::isfinite(kf.time) || std::abs(kf.time) > kMaxKeyframeTime)
+      fail(kw + ".time", fmt::format("expected a time in s within ±{:g}, got {}", kMaxKeyframeTime, kf.time));
     if (k > 0 && !(kf.time > ins.keyframes[k - 1].time))
       fail(kw + ".time",
            fmt::format("keyframes must come in increasing time: {} after {}", kf.time, ins.keyframes[k - 1].time));
@@ -203,7 +205,10 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
         if (v >= mesh.vertices.size())
           fail(where, fmt::format("a triangle uses vertex {} but there are {}", v, mesh.vertices.size()));
     for (const auto& v : mesh.vertices)
-      if (!v.allFinite()) fail(where, "vertices must be finite");
+      if (!v.allFinite() || v.cwiseAbs().maxCoeff() > kMaxVectorComponent)
+        fail(where, fmt::format("a vertex at ({:.6g}, {:.6g}, {:.6g}) m (after scale and translate): vertices must be "
+                                "finite and within ±{:g} m",
+                                v.x(), v.y(), v.z(), kMaxVectorComponent));
     if (mesh.container) check_container(mesh, where);
   }
   m.meshes = std::make_shared<const StaticMeshes>(m.environment.meshes);

@@ -10,6 +10,10 @@ namespace haustra::detail {
 // within ±1e5 in each component (an instrument's force limit is at most 1e5 N too): beyond it no
 // step holds (a floor 1e300 m up, a load of 1e30 N).
 inline constexpr double kMaxVectorComponent = 1e5;
+// An instrument keyframe's time, s: within ±1e9 (32 years).
+inline constexpr double kMaxKeyframeTime = 1e9;
+// A mesh file's scale, file units to metres: (0, 1e5] (the scaled vertices are bounded as positions).
+inline constexpr double kMaxMeshScale = 1e5;
 
 [[noreturn]] void fail(const std::string& field, const std::string& detail);
 // A positive finite value within [plausible_min, plausible_max] (plausible_min 0: any above 0).

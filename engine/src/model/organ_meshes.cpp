@@ -15,6 +15,7 @@
 #include "haustra/procedural_organ.hpp"
 #include "haustra/rod_curve.hpp"
 #include "model/binding_arcs.hpp"
+#include "model/field_checks.hpp"
 #include "model/world_model.hpp"
 
 namespace haustra::detail {
@@ -177,17 +178,26 @@ std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::ve
       if (pi != seg.first_piece) continue;  // a chain's mesh is read once, by its first piece
       if (d.file.empty())
         fail(ErrorCode::invalid_argument, where + ".file", "a mesh from a file needs file = \"path\"");
-      if (!std::isfinite(d.scale) || !(d.scale > 0.0))
+      if (!std::isfinite(d.scale) || !(d.scale > 0.0) || d.scale > kMaxMeshScale)
         fail(ErrorCode::invalid_argument, where + ".scale",
-             fmt::format("expected a positive scale (0.001 for millimetres), got {}", d.scale));
-      if (!d.translate.allFinite())
-        fail(ErrorCode::invalid_argument, where + ".translate", "expected three finite numbers");
+             fmt::format("expected a positive scale up to {:g} (0.001 for millimetres), got {}", kMaxMeshScale,
+                         d.scale));
+      if (!d.translate.allFinite() || d.translate.cwiseAbs().maxCoeff() > kMaxVectorComponent)
+        fail(ErrorCode::invalid_argument, where + ".translate",
+             fmt::format("expected three finite numbers within ±{:g} m to move {} by", kMaxVectorComponent, d.file));
       try {
         mesh = load_mesh(d.file);
       } catch (const Error& e) {
         fail(e.code(), where + ".file", e.what());
       }
-      for (auto& v : mesh.vertices) v = d.scale * v + d.translate;
+      for (auto& v : mesh.vertices) {
+        v = d.scale * v + d.translate;
+        if (v.cwiseAbs().maxCoeff() > kMaxVectorComponent)
+          fail(ErrorCode::invalid_argument, where + ".scale",
+               fmt::format("a vertex of {} lands at ({:.6g}, {:.6g}, {:.6g}) m after scale and translate, beyond "
+                           "±{:g} m",
+                           d.file, v.x(), v.y(), v.z(), kMaxVectorComponent));
+      }
       if (seg.piece_count > 1) {
         const TriangleMesh whole = std::move(mesh);
         mesh = TriangleMesh{};

@@ -42,9 +42,9 @@ TriangleMesh procedural_organ(const RodCurve& curve, const ProceduralOrganDesc& 
                               const std::string& where) {
   if (d.vertices < 1000 || d.vertices > 4'000'000)
     fail(where + ".vertices", fmt::format("expected a vertex count in [1000, 4000000], got {}", d.vertices));
-  const double radius = d.radius > 0.0 ? d.radius : default_radius;
-  if (!std::isfinite(radius) || !(radius > 0.0) || radius > 0.5)
-    fail(where + ".radius", fmt::format("expected a radius in (0, 0.5] m, got {}", radius));
+  const double radius = d.radius != 0.0 ? d.radius : default_radius;
+  if (!std::isfinite(radius) || radius < 1e-4 || radius > 0.5)
+    fail(where + ".radius", fmt::format("expected a radius in [0.0001, 0.5] m, got {}", radius));
   if (!std::isfinite(d.haustra_spacing) || d.haustra_spacing < 0.0 || d.haustra_spacing > 10.0)
     fail(where + ".haustra_spacing", fmt::format("expected a spacing in [0, 10] m, got {}", d.haustra_spacing));
   check_fraction(where + ".haustra_depth", d.haustra_depth, 0.6);
