@@ -2,8 +2,10 @@
 // instrument poses with any bit pattern (NaN, infinities, huge values), grasps, reads of every
 // buffer, stale and made-up handles, NULL pointers, destroy and re-create, checkpoints saved and
 // restored (and damaged ones refused), double-buffered frames acquired and released, segments
-// (and chains) added and removed between frames. Every call
-// must return a status; after every OK step every buffer a host reads must be finite.
+// (and chains) added and removed between frames; instruments, obstacles, attachments and ranges of
+// tissue added and removed, attachments moved, frames, velocities, beads' nodes, contacts and
+// estimates read, and structs of any size. Every call must return a status; after every OK step
+// every buffer a host reads must be finite.
 #include <haustra/haustra.h>
 
 #include <unistd.h>
@@ -17,6 +19,14 @@
 #include <string>
 
 namespace {
+
+// A C API struct as a host fills one: zeroed, its struct_size this header's.
+template <class T>
+T sized() {
+  T t{};
+  t.struct_size = sizeof(T);
+  return t;
+}
 
 struct Input {
   const std::uint8_t* data;
@@ -56,6 +66,16 @@ void check_finite(haustra_world* w) {
             "finite mesh");
 }
 
+std::size_t instruments(haustra_world* w) {
+  haustra_counts c = sized<haustra_counts>();
+  require(haustra_world_counts(w, &c) == HAUSTRA_OK, "counts");
+  return c.instruments;
+}
+
+bool parts_status(haustra_status s) {
+  return s == HAUSTRA_OK || s == HAUSTRA_INVALID_ARGUMENT || s == HAUSTRA_INVALID_GEOMETRY;
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -79,7 +99,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     double a[3] = {in.number(), in.number(), in.number()};
     double b[3] = {in.number(), in.number(), in.number()};
     haustra_world* target = w;
-    switch (in.byte() % 19) {
+    switch (in.byte() % 24) {
       case 0:
       case 1:
       case 2: {
@@ -102,17 +122,23 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       }
       case 5:
         require(haustra_world_set_instrument_grasp(w, index, in.byte() & 1) ==
-                    (index == 0 ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT),
+                    (index < instruments(w) ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT),
                 "grasp status");
         break;
       case 6: {
-        haustra_instrument_reading r{};
-        require(haustra_world_instrument(w, index, &r) == (index == 0 ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT),
-                "reading");
+        haustra_instrument_reading r = sized<haustra_instrument_reading>();
+        require(
+            haustra_world_instrument(w, index, &r) == (index < instruments(w) ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT),
+            "reading");
+        // A struct of another size than the library's is refused, never overrun.
+        haustra_counts c{};
+        c.struct_size = in.byte();
+        require(haustra_world_counts(w, &c) == (c.struct_size == sizeof c ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT),
+                "struct size");
         break;
       }
       case 7: {
-        haustra_counts c{};
+        haustra_counts c = sized<haustra_counts>();
         haustra_triangles_view t{};
         require(haustra_world_counts(w, &c) == HAUSTRA_OK, "counts");
         require(haustra_world_mesh_triangles(w, &t) == HAUSTRA_OK && t.count == c.mesh_triangles, "triangles");
@@ -120,7 +146,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         break;
       }
       case 8: {
-        haustra_profile p{};
+        haustra_profile p = sized<haustra_profile>();
         double seconds = 0.0;
         std::uint64_t frame = 0;
         require(haustra_world_profile(w, &p) == HAUSTRA_OK, "profile");
@@ -140,7 +166,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         break;
       case 11: {
         haustra_world* made_up = reinterpret_cast<haustra_world*>(&in);
-        haustra_counts c{};
+        haustra_counts c = sized<haustra_counts>();
         require(haustra_world_counts(made_up, &c) == HAUSTRA_INVALID_HANDLE, "made-up handle");
         break;
       }
@@ -169,7 +195,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         break;
       }
       case 15: {  // frames: valid only on a double-buffered world, one acquire at a time
-        haustra_frame f{};
+        haustra_frame f = sized<haustra_frame>();
         if (!acquired) {
           const haustra_status s = haustra_world_acquire_frame(w, &f);
           require(s == (def.double_buffered ? HAUSTRA_OK : HAUSTRA_INVALID_ARGUMENT), "acquire");
@@ -195,7 +221,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         seg.beads = in.byte() % 6;
         seg.tissue = in.byte() % 3;  // 2 is refused; EXP2 is refused in a lagged world
         seg.exp2_beta = in.number();
-        haustra_counts c{};
+        haustra_counts c = sized<haustra_counts>();
         require(haustra_world_counts(w, &c) == HAUSTRA_OK, "counts");
         if (c.segments > 6) break;
         size_t added = 0;
@@ -225,17 +251,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         if (which == 1) s = haustra_world_set_dt(w, b[0]);
         if (which == 2) s = haustra_world_set_instrument_coupling(w, index, a[0], a[1], a[2]);
         if (which == 3) {
-          const haustra_material m{a[0], a[1], a[2], b[0]};
+          const haustra_material m{sizeof(haustra_material), a[0], a[1], a[2], b[0]};
           s = haustra_world_set_material(w, index, &m);
           require(s != HAUSTRA_OK || !acquired, "no material change while a frame is held");
         }
         if (which == 4) {
-          const haustra_frame_limits l{static_cast<int>(in.byte()) - 8, static_cast<int>(in.byte()) % 80 - 4,
-                                       static_cast<int>(in.byte()) * 1000 - 1};
+          const haustra_frame_limits l{sizeof(haustra_frame_limits), static_cast<int>(in.byte()) - 8,
+                                       static_cast<int>(in.byte()) % 80 - 4, static_cast<int>(in.byte()) * 1000 - 1};
           s = haustra_world_set_frame_limits(w, &l);
         }
         if (which == 5) {
           haustra_event events[4];
+          events[0].struct_size = sizeof(haustra_event);
           std::size_t n = 99;
           std::uint64_t dropped = 0;
           s = haustra_world_take_events(w, events, in.byte() % 5, &n, &dropped);
@@ -245,6 +272,147 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         }
         require(s == HAUSTRA_OK || s == HAUSTRA_INVALID_ARGUMENT, "parameter status");
         check_finite(w);
+        break;
+      }
+      case 19: {  // an instrument joins (any values) or leaves
+        if (in.byte() & 1) {
+          if (instruments(w) > 3) break;
+          haustra_instrument_def d;
+          require(haustra_instrument_def_default(&d) == HAUSTRA_OK, "instrument default");
+          for (int i = 0; i < 3; ++i) d.tip[i] = a[i];
+          if (in.byte() & 1) d.radius = in.number();
+          if (in.byte() & 1) d.force_limit = in.number();
+          d.proxy = in.byte() % 3;  // 2 is refused
+          size_t added = 99;
+          const haustra_status s = haustra_world_add_instrument(w, &d, &added);
+          require(parts_status(s), "add instrument status");
+          require(s != HAUSTRA_OK || !acquired, "no change while a frame is held");
+          if (s == HAUSTRA_OK) {
+            require(added + 1 == instruments(w), "added last");
+            saved = false;
+          }
+        } else {
+          const haustra_status s = haustra_world_remove_instrument(w, index);
+          require(s == HAUSTRA_OK || s == HAUSTRA_INVALID_ARGUMENT, "remove instrument status");
+          if (s == HAUSTRA_OK) saved = false;
+        }
+        check_finite(w);
+        break;
+      }
+      case 20: {  // an obstacle of any kind (4 is refused) joins, or one leaves
+        const int kind = in.byte() % 5;
+        if (in.byte() & 1) {
+          haustra_obstacle_def d;
+          require(haustra_obstacle_def_default(&d) == HAUSTRA_OK, "obstacle default");
+          d.kind = kind;
+          for (int i = 0; i < 3; ++i) {
+            d.point[i] = a[i];
+            d.normal[i] = b[i];
+          }
+          d.radius = in.number();
+          // A tetrahedron, its corners scaled by a number (closed: a container too).
+          const double r = in.number();
+          const double vertices[] = {0, 0, 0, r, 0, 0, 0, r, 0, 0, 0, r};
+          const std::uint32_t triangles[] = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+          if (kind == 3) {
+            d.vertices = vertices;
+            d.vertex_count = 4;
+            d.triangles = triangles;
+            d.triangle_count = in.byte() % 5;
+            d.container = in.byte() % 3;
+          }
+          haustra_counts before = sized<haustra_counts>();
+          require(haustra_world_counts(w, &before) == HAUSTRA_OK, "counts");
+          if (kind < 4 && before.obstacles[kind] > 3) break;
+          const haustra_status s = haustra_world_add_obstacle(w, &d, nullptr);
+          require(parts_status(s), "add obstacle status");
+          require(s != HAUSTRA_OK || !acquired, "no change while a frame is held");
+          if (s == HAUSTRA_OK) saved = false;
+        } else {
+          const haustra_status s = haustra_world_remove_obstacle(w, kind, index);
+          require(s == HAUSTRA_OK || s == HAUSTRA_INVALID_ARGUMENT, "remove obstacle status");
+          if (s == HAUSTRA_OK) saved = false;
+        }
+        check_finite(w);
+        break;
+      }
+      case 21: {  // a segment's attachments: one joins or leaves, one is moved, released or read
+        const std::size_t segment = in.byte() % 2;
+        const int what = in.byte() % 4;
+        haustra_status s = HAUSTRA_OK;
+        if (what == 0) {
+          haustra_attachment_def d;
+          require(haustra_attachment_def_default(&d) == HAUSTRA_OK, "attachment default");
+          d.node = static_cast<int>(in.byte()) - 128;
+          d.hold_frame = in.byte() % 3;
+          d.has_target = in.byte() % 2;
+          for (int i = 0; i < 3; ++i) d.target[i] = a[i];
+          s = haustra_world_add_attachment(w, segment, &d, nullptr);
+          require(s != HAUSTRA_OK || !acquired, "no change while a frame is held");
+          if (s == HAUSTRA_OK) saved = false;
+        } else if (what == 1) {
+          s = haustra_world_remove_attachment(w, segment, index);
+          if (s == HAUSTRA_OK) saved = false;
+        } else if (what == 2) {
+          s = haustra_world_set_attachment_target(w, segment, index, a);
+          if (s == HAUSTRA_OK) s = haustra_world_set_attachment_active(w, segment, index, in.byte() % 3);
+        } else {
+          size_t count = 0;
+          haustra_attachment_reading r = sized<haustra_attachment_reading>();
+          s = haustra_world_attachment_count(w, segment, &count);
+          if (s == HAUSTRA_OK) s = haustra_world_attachment(w, segment, index, &r);
+          require(s != HAUSTRA_OK || (index < count && std::isfinite(r.force[0])), "attachment reading");
+        }
+        require(parts_status(s), "attachment status");
+        check_finite(w);
+        break;
+      }
+      case 22: {  // a range of connective tissue joins or leaves
+        const std::size_t segment = in.byte() % 2;
+        haustra_status s = HAUSTRA_OK;
+        if (in.byte() & 1) {
+          haustra_anchors_def d;
+          require(haustra_anchors_def_default(&d) == HAUSTRA_OK, "anchors default");
+          d.from = in.number();
+          d.to = in.number();
+          if (in.byte() & 1) d.stiffness = in.number();
+          const double root[] = {a[0], a[1], a[2], b[0], b[1], b[2]};
+          if (in.byte() & 1) {
+            d.root = root;
+            d.root_points = in.byte() % 3;
+          }
+          s = haustra_world_add_anchors(w, segment, &d, nullptr);
+          require(s != HAUSTRA_OK || !acquired, "no change while a frame is held");
+        } else {
+          s = haustra_world_remove_anchors(w, segment, index);
+        }
+        if (s == HAUSTRA_OK) saved = false;
+        require(parts_status(s), "anchors status");
+        check_finite(w);
+        break;
+      }
+      case 23: {  // what a host reads: frames, beads' nodes, velocities, contacts, an estimate
+        haustra_counts c = sized<haustra_counts>();
+        require(haustra_world_counts(w, &c) == HAUSTRA_OK, "counts");
+        haustra_quat_view q{};
+        require(haustra_world_node_rotations(w, &q) == HAUSTRA_OK && q.count == c.nodes, "frames");
+        for (std::size_t k = 0; k < q.count; ++k) require(std::isfinite(q.w[k]), "finite frames");
+        const std::uint32_t* beads = nullptr;
+        size_t n = 0;
+        require(haustra_world_bead_nodes(w, &beads, &n) == HAUSTRA_OK && n == c.beads, "bead nodes");
+        for (std::size_t k = 0; k < n; ++k) require(beads[k] < c.nodes, "bead node range");
+        std::string velocities(3 * c.nodes * sizeof(double), '\0');
+        auto* v = reinterpret_cast<double*>(velocities.data());
+        require(haustra_world_node_velocities(w, v, nullptr, 3 * c.nodes) == HAUSTRA_OK, "velocities");
+        for (std::size_t k = 0; k < 3 * c.nodes; ++k) require(std::isfinite(v[k]), "finite velocities");
+        haustra_contact contacts[8];
+        contacts[0].struct_size = sizeof(haustra_contact);
+        size_t written = 99, total = 0;
+        require(haustra_world_contacts(w, contacts, in.byte() % 9, &written, &total) == HAUSTRA_OK, "contacts");
+        require(written <= 8 && written <= total, "contact count");
+        for (std::size_t k = 0; k < written; ++k) require(contacts[k].bead < c.beads, "contact bead");
+        haustra_estimate e = sized<haustra_estimate>();
+        require(haustra_estimate_scene(scene, &def, &e) == HAUSTRA_OK && e.nodes > 0, "estimate");
         break;
       }
       default: check_finite(w); break;

@@ -97,13 +97,19 @@ class Event(TypedDict):
 
 
 class MemoryEstimate(TypedDict):
-    """haustra.estimate_memory: bytes a scene would take, before it is built."""
+    """haustra.estimate_memory: bytes and seconds a scene would take, before it is built (the numbers of
+    `haustra estimate`, the C API's haustra_estimate_scene and World::create's refusal)."""
     total: int
     nodes: int  # rod nodes (a count)
     rod_bytes: int
     solver_bytes: int
     bead_bytes: int
     mesh_bytes: int
+    beads: int  # a count
+    bead_pairs: int  # pairs of one segment's beads within reach of each other at rest (a count)
+    pair_bytes: int
+    build_seconds: float  # on one core of the reference machine
+    step_seconds: float  # a frame at rest, on one core of the reference machine
     available: int  # what this machine has available
 
 

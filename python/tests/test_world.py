@@ -208,6 +208,23 @@ def test_memory_estimate(scenes):
         haustra.World.from_scene(str(scenes / "drop.toml"), overrides={"segment.nodes": 10_000_000})
 
 
+def test_one_estimate_for_python_and_the_command_line(scenes, haustra_bin):
+    """`haustra estimate --json` and haustra.estimate_memory give the same numbers (issue 36: the C API's
+    and the command line's estimates of one scene used to differ)."""
+    import json
+    import subprocess
+    sets = {"segment.nodes": 20_000, "segment.beads.count": 2_000}
+    done = subprocess.run([haustra_bin, "estimate", str(scenes / "drop.toml"), "--json",
+                           "--set", *[f"{k}={v}" for k, v in sets.items()]], capture_output=True, text=True, check=True)
+    cli = json.loads(done.stdout)
+    py = haustra.estimate_memory(str(scenes / "drop.toml"), overrides=sets)
+    assert cli["fits"] is True
+    for key in py:
+        if key != "available":  # the machine's, read at each call
+            assert cli[key] == py[key], key
+    assert py["beads"] == 2_000 and py["bead_pairs"] > 100_000 and py["step_seconds"] > 0.0
+
+
 def test_validate_returns_the_reference_cases():
     cases = haustra.validate()
     assert len(cases) >= 40

@@ -4,6 +4,8 @@
 #include <doctest/doctest.h>
 #include <haustra/haustra.h>
 
+#include "c_sized.hpp"
+
 #include "host_job_pool.hpp"
 
 #include <unistd.h>
@@ -67,7 +69,7 @@ TEST_CASE("C API: version and ABI check") {
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION) == HAUSTRA_OK);
   CHECK(std::string(haustra_last_error()).empty());
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION + 1) == HAUSTRA_ABI_MISMATCH);
-  CHECK(says("ABI 13"));
+  CHECK(says("ABI 14"));
   CHECK(std::string(haustra_stage_name(0)) == "instruments");
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT - 1) != nullptr);
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT) == nullptr);
@@ -82,7 +84,7 @@ TEST_CASE("C API: a world from a scene, stepped, read without copies, driven by 
   REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &w) == HAUSTRA_OK);
   REQUIRE(w != nullptr);
 
-  haustra_counts c{};
+  haustra_counts c = sized<haustra_counts>();
   REQUIRE(haustra_world_counts(w, &c) == HAUSTRA_OK);
   CHECK(c.segments == 1);
   CHECK(c.nodes == 21);
@@ -137,7 +139,7 @@ TEST_CASE("C API: a world from a scene, stepped, read without copies, driven by 
   REQUIRE(haustra_world_set_instrument_pose(w, 0, tip, up) == HAUSTRA_OK);
   REQUIRE(haustra_world_set_instrument_grasp(w, 0, 1) == HAUSTRA_OK);
   REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
-  haustra_instrument_reading r{};
+  haustra_instrument_reading r = sized<haustra_instrument_reading>();
   REQUIRE(haustra_world_instrument(w, 0, &r) == HAUSTRA_OK);
   CHECK(r.closed == 1);
   CHECK(r.grasping == 1);
@@ -152,7 +154,7 @@ TEST_CASE("C API: a world from a scene, stepped, read without copies, driven by 
 
   const double load[3] = {0.0, 0.0, 0.01}, none[3] = {0.0, 0.0, 0.0};
   CHECK(haustra_world_set_node_load(w, 10, load, none) == HAUSTRA_OK);
-  haustra_profile p{};
+  haustra_profile p = sized<haustra_profile>();
   REQUIRE(haustra_world_profile(w, &p) == HAUSTRA_OK);
   CHECK(p.frame_seconds > 0.0);
   CHECK(p.substeps >= 1);
@@ -170,12 +172,12 @@ TEST_CASE("C API: wrong handles, NULL pointers, bad values and calls after destr
   const TestScene scene("c-api-colon");
   haustra_world* w = nullptr;
   REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &w) == HAUSTRA_OK);
-  haustra_counts c{};
+  haustra_counts c = sized<haustra_counts>();
   haustra_vec3_view v{};
   haustra_vec3f_view vf{};
   haustra_triangles_view tv{};
-  haustra_instrument_reading r{};
-  haustra_profile p{};
+  haustra_instrument_reading r = sized<haustra_instrument_reading>();
+  haustra_profile p = sized<haustra_profile>();
   const double* radii = nullptr;
   size_t count = 0;
   const double ok3[3] = {0.0, 0.0, 1.0};
@@ -227,12 +229,12 @@ TEST_CASE("C API: wrong handles, NULL pointers, bad values and calls after destr
     CHECK(haustra_world_set_instrument_grasp(h, 0, 1) == HAUSTRA_INVALID_HANDLE);
     CHECK(haustra_world_instrument(h, 0, &r) == HAUSTRA_INVALID_HANDLE);
     CHECK(haustra_world_profile(h, &p) == HAUSTRA_INVALID_HANDLE);
-    haustra_frame fr{};
+    haustra_frame fr = sized<haustra_frame>();
     CHECK(haustra_world_acquire_frame(h, &fr) == HAUSTRA_INVALID_HANDLE);
     CHECK(haustra_world_release_frame(h) == HAUSTRA_INVALID_HANDLE);
     CHECK(haustra_world_save_checkpoint(h, "/tmp/x.ckpt") == HAUSTRA_INVALID_HANDLE);
     CHECK(haustra_world_restore_checkpoint(h, "/tmp/x.ckpt") == HAUSTRA_INVALID_HANDLE);
-    haustra_segment_info si{};
+    haustra_segment_info si = sized<haustra_segment_info>();
     CHECK(haustra_world_segment(h, 0, &si) == HAUSTRA_INVALID_HANDLE);
     haustra_segment_def sd;
     REQUIRE(haustra_segment_def_default(&sd) == HAUSTRA_OK);
@@ -275,7 +277,7 @@ TEST_CASE("C API: wrong handles, NULL pointers, bad values and calls after destr
   CHECK(says("non-zero direction"));
   CHECK(haustra_world_set_instrument_grasp(w, 5, 1) == HAUSTRA_INVALID_ARGUMENT);
   CHECK(haustra_world_instrument(w, 5, &r) == HAUSTRA_INVALID_ARGUMENT);
-  haustra_segment_info info{};
+  haustra_segment_info info = sized<haustra_segment_info>();
   CHECK(haustra_world_segment(w, 1, &info) == HAUSTRA_INVALID_ARGUMENT);
   CHECK(says("segment index 1 out of range"));
   CHECK(haustra_world_remove_segment(w, 1) == HAUSTRA_INVALID_ARGUMENT);
@@ -405,7 +407,7 @@ TEST_CASE("C API: a world from definitions alone, no scene file") {
 
   haustra_world* w = nullptr;
   REQUIRE(haustra_world_create(&def, seg, 2, &w) == HAUSTRA_OK);
-  haustra_counts c{};
+  haustra_counts c = sized<haustra_counts>();
   REQUIRE(haustra_world_counts(w, &c) == HAUSTRA_OK);
   CHECK(c.segments == 2);
   CHECK(c.nodes == 46);
@@ -517,7 +519,7 @@ TEST_CASE("C API: a render thread reads completed frames while the world steps (
   std::thread render([&] {
     uint64_t last = 0;
     while (stepping.load()) {
-      haustra_frame fr{};
+      haustra_frame fr = sized<haustra_frame>();
       if (haustra_world_acquire_frame(w, &fr) != HAUSTRA_OK) {
         failures += 1;
         continue;
@@ -540,7 +542,7 @@ TEST_CASE("C API: a render thread reads completed frames while the world steps (
   CHECK(wrong.load() == 0);
   CHECK(went_back.load() == 0);
   CHECK(failures.load() == 0);
-  haustra_frame last{};
+  haustra_frame last = sized<haustra_frame>();
   REQUIRE(haustra_world_acquire_frame(w, &last) == HAUSTRA_OK);
   CHECK(last.frame == kFrames);
   CHECK(last.time == doctest::Approx(kFrames * 0.01));
@@ -554,7 +556,7 @@ TEST_CASE("C API: a render thread reads completed frames while the world steps (
 
   haustra_world* single = nullptr;
   REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &single) == HAUSTRA_OK);
-  haustra_frame fr{};
+  haustra_frame fr = sized<haustra_frame>();
   CHECK(haustra_world_acquire_frame(single, &fr) == HAUSTRA_INVALID_ARGUMENT);
   CHECK(says("double_buffered"));
   CHECK(haustra_world_release_frame(single) == HAUSTRA_INVALID_ARGUMENT);
@@ -573,7 +575,7 @@ TEST_CASE("C API: deadline mode counts the frames over the budget, the mesh made
   haustra_world* w = nullptr;
   REQUIRE(haustra_world_create_from_scene_def(scene.path.c_str(), &def, &w) == HAUSTRA_OK);
   for (int f = 0; f < 4; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
-  haustra_profile p{};
+  haustra_profile p = sized<haustra_profile>();
   REQUIRE(haustra_world_profile(w, &p) == HAUSTRA_OK);
   CHECK(p.late == 1);
   uint64_t late = 0;
@@ -635,7 +637,7 @@ TEST_CASE("C API: gravity, dt and a segment's material changed between steps giv
   double dt = 0.0;
   REQUIRE(haustra_world_dt(changed, &dt) == HAUSTRA_OK);
   CHECK(dt == 0.01);
-  haustra_material m{};
+  haustra_material m = sized<haustra_material>();
   REQUIRE(haustra_world_material(changed, 1, &m) == HAUSTRA_OK);
   CHECK(m.youngs_modulus == 33200.0);
   CHECK(m.relaxation_time == 1.0);
@@ -652,7 +654,7 @@ TEST_CASE("C API: gravity, dt and a segment's material changed between steps giv
   CHECK(g[0] == 0.5);
   REQUIRE(haustra_world_dt(changed, &dt) == HAUSTRA_OK);
   CHECK(dt == 0.005);
-  haustra_material read{};
+  haustra_material read = sized<haustra_material>();
   REQUIRE(haustra_world_material(changed, 1, &read) == HAUSTRA_OK);
   CHECK(read.youngs_modulus == 52000.0);
   CHECK(read.density == 1200.0);
@@ -716,7 +718,7 @@ TEST_CASE("C API: a grasp's coupling changed between steps gives a world built w
     REQUIRE(haustra_world_set_instrument_pose(w, 0, lifted, up) == HAUSTRA_OK);
     for (int f = 0; f < 10; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
   }
-  haustra_instrument_reading a{}, b{};
+  haustra_instrument_reading a = sized<haustra_instrument_reading>(), b = sized<haustra_instrument_reading>();
   REQUIRE(haustra_world_instrument(changed, 0, &a) == HAUSTRA_OK);
   REQUIRE(haustra_world_instrument(reference, 0, &b) == HAUSTRA_OK);
   CHECK(a.grasping == 1);
@@ -795,14 +797,14 @@ TEST_CASE("C API: chained segments, each one's info, segments added and removed 
 
   haustra_world* w = nullptr;
   REQUIRE(haustra_world_create(&def, &chain, 1, &w) == HAUSTRA_OK);
-  haustra_counts c{};
+  haustra_counts c = sized<haustra_counts>();
   REQUIRE(haustra_world_counts(w, &c) == HAUSTRA_OK);
   CHECK(c.segments == 4);
   CHECK(c.nodes == 41);
   CHECK(c.beads == 21);
   size_t vertices = 0, beads = 0;
   for (size_t s = 0; s < 4; ++s) {
-    haustra_segment_info info{};
+    haustra_segment_info info = sized<haustra_segment_info>();
     REQUIRE(haustra_world_segment(w, s, &info) == HAUSTRA_OK);
     CHECK(std::string(info.name) == "gut-" + std::to_string(s + 1));
     CHECK(info.node_offset == 10 * s);  // joint nodes shared
@@ -826,10 +828,10 @@ TEST_CASE("C API: chained segments, each one's info, segments added and removed 
   rod.nodes = 21;
   rod.length = 0.4;
   rod.base_position[1] = 1.0;
-  haustra_frame frame{};
+  haustra_frame frame = sized<haustra_frame>();
   REQUIRE(haustra_world_acquire_frame(w, &frame) == HAUSTRA_OK);
   CHECK(haustra_world_add_segment(w, &rod, nullptr) == HAUSTRA_INVALID_ARGUMENT);
-  CHECK(says("release it before adding or removing segments"));
+  CHECK(says("release it before changing what the world holds"));
   REQUIRE(haustra_world_release_frame(w) == HAUSTRA_OK);
   size_t index = 99;
   REQUIRE(haustra_world_add_segment(w, &rod, &index) == HAUSTRA_OK);
@@ -855,7 +857,7 @@ TEST_CASE("C API: chained segments, each one's info, segments added and removed 
   CHECK(c.segments == 1);
   CHECK(c.nodes == 21);
   CHECK(c.mesh_vertices == 0);
-  haustra_segment_info info{};
+  haustra_segment_info info = sized<haustra_segment_info>();
   REQUIRE(haustra_world_segment(w, 0, &info) == HAUSTRA_OK);
   CHECK(std::string(info.name) == "rod");
   CHECK(info.mesh_vertex_count == 0);
@@ -875,7 +877,7 @@ TEST_CASE("C API: segments added and removed while a render thread reads frames"
   std::atomic<int> reads{0}, torn{0};
   std::thread render([&] {
     while (stepping.load()) {
-      haustra_frame fr{};
+      haustra_frame fr = sized<haustra_frame>();
       if (haustra_world_acquire_frame(w, &fr) != HAUSTRA_OK) continue;
       // A frame is whole: its node count is one the world had (21 or 42), and every value is set.
       if (fr.nodes.count != 21 && fr.nodes.count != 42) torn += 1;
@@ -909,7 +911,7 @@ TEST_CASE("C API: segments added and removed while a render thread reads frames"
   render.join();
   CHECK(reads.load() > 0);
   CHECK(torn.load() == 0);
-  haustra_counts c{};
+  haustra_counts c = sized<haustra_counts>();
   REQUIRE(haustra_world_counts(w, &c) == HAUSTRA_OK);
   CHECK(c.segments == 1);
   REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);

@@ -2,7 +2,9 @@
 // scene stepped through both, every field compared. (test_c_api.cpp uses the C header alone.)
 #include <doctest/doctest.h>
 #include <haustra/haustra.h>
+
 #include <unistd.h>
+#include "c_sized.hpp"
 
 #include <cstring>
 #include <filesystem>
@@ -37,7 +39,7 @@ TEST_CASE("every profile counter reaches the C API: the same scene stepped throu
     w->step();
     REQUIRE(haustra_world_step(c) == HAUSTRA_OK);
     const FrameProfile& p = w->last_profile();
-    haustra_profile q{};
+    haustra_profile q = sized<haustra_profile>();
     REQUIRE(haustra_world_profile(c, &q) == HAUSTRA_OK);
 #define HAUSTRA_CHECK_FIELD(type, name, initial, meaning) CHECK(q.name == p.name);
     HAUSTRA_PROFILE_COUNTERS(HAUSTRA_CHECK_FIELD)

@@ -3,9 +3,11 @@
 // one thread at a time on a world, a frame's cost capped and its events read.
 #include <doctest/doctest.h>
 #include <haustra/haustra.h>
+
 #include <pthread.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include "c_sized.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -193,12 +195,13 @@ TEST_CASE("C API: a checkpoint keeps gravity, dt, the material and the frame lim
   REQUIRE(haustra_world_create_from_scene(kTwoSegments.c_str(), 1, &w) == HAUSTRA_OK);
   for (int f = 0; f < 5; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
   const double gravity[3] = {0.5, 0.0, -6.0}, other_gravity[3] = {0.0, 1.0, -2.0};
-  haustra_material m{};
+  haustra_material m = sized<haustra_material>();
   REQUIRE(haustra_world_material(w, 1, &m) == HAUSTRA_OK);
   haustra_material stiffer = m, softer = m;
   stiffer.youngs_modulus *= 2.0;
   softer.relaxation_time = 0.25;
-  const haustra_frame_limits limits{8, 2, 40}, other_limits{64, 16, 120};
+  const haustra_frame_limits limits{sizeof(haustra_frame_limits), 8, 2, 40},
+      other_limits{sizeof(haustra_frame_limits), 64, 16, 120};
   REQUIRE(haustra_world_set_gravity(w, gravity) == HAUSTRA_OK);
   REQUIRE(haustra_world_set_dt(w, 0.005) == HAUSTRA_OK);
   REQUIRE(haustra_world_set_material(w, 1, &stiffer) == HAUSTRA_OK);
@@ -217,8 +220,8 @@ TEST_CASE("C API: a checkpoint keeps gravity, dt, the material and the frame lim
     REQUIRE(haustra_world_set_frame_limits(x, &other_limits) == HAUSTRA_OK);
     REQUIRE(haustra_world_restore_checkpoint(x, file.c_str()) == HAUSTRA_OK);
     double dt = 0.0, g[3] = {};
-    haustra_material read{};
-    haustra_frame_limits l{};
+    haustra_material read = sized<haustra_material>();
+    haustra_frame_limits l = sized<haustra_frame_limits>();
     REQUIRE(haustra_world_dt(x, &dt) == HAUSTRA_OK);
     REQUIRE(haustra_world_gravity(x, g) == HAUSTRA_OK);
     REQUIRE(haustra_world_material(x, 1, &read) == HAUSTRA_OK);
@@ -254,7 +257,7 @@ TEST_CASE("C API: a scene's world takes the def's dt, gravity and limits when ch
   def.max_retries = 3;
   haustra_world* honoured = nullptr;
   REQUIRE(haustra_world_create_from_scene_def(kTwoSegments.c_str(), &def, &honoured) == HAUSTRA_OK);
-  haustra_frame_limits l{};
+  haustra_frame_limits l = sized<haustra_frame_limits>();
   REQUIRE(haustra_world_dt(honoured, &dt) == HAUSTRA_OK);
   REQUIRE(haustra_world_gravity(honoured, g) == HAUSTRA_OK);
   REQUIRE(haustra_world_frame_limits(honoured, &l) == HAUSTRA_OK);
@@ -316,7 +319,7 @@ TEST_CASE("C API: flags are 0 or 1, a NaN drag and out-of-range loads and values
   CHECK(std::string(haustra_last_error()).find("within ±100000 in each component") != std::string::npos);
   CHECK(haustra_world_set_instrument_grasp(w, 0, 2) == HAUSTRA_INVALID_ARGUMENT);
   CHECK(std::string(haustra_last_error()).find("closed = 2: expected 0 or 1") != std::string::npos);
-  const haustra_frame_limits below_substeps{0, 1, 1};
+  const haustra_frame_limits below_substeps{sizeof(haustra_frame_limits), 0, 1, 1};
   CHECK(haustra_world_set_frame_limits(w, &below_substeps) == HAUSTRA_INVALID_ARGUMENT);
   CHECK(std::string(haustra_last_error()).find("solver.max_substeps") != std::string::npos);
   CHECK(haustra_world_step(w) == HAUSTRA_OK);
@@ -363,7 +366,7 @@ Costs step_and_count(haustra_world* w, int frames) {
   for (int f = 0; f < frames; ++f) {
     const haustra_status s = haustra_world_step(w);
     REQUIRE((s == HAUSTRA_OK || s == HAUSTRA_UNSTABLE));
-    haustra_profile p{};
+    haustra_profile p = sized<haustra_profile>();
     REQUIRE(haustra_world_profile(w, &p) == HAUSTRA_OK);
     c.slow += p.substeps > 1 ? 1 : 0;
     c.most_substeps = std::max(c.most_substeps, p.substeps);
@@ -384,6 +387,7 @@ TEST_CASE("C API: a frame's cost is bounded by the host's limits, a frame refuse
     CHECK(c.most_substeps == 8);
     CHECK(c.slow == 92);  // frames 8 to 99: the rung of 8 is kept 120 calm frames
     haustra_event events[4];
+    events[0].struct_size = sizeof(haustra_event);
     size_t n = 0;
     uint64_t dropped = 1;
     REQUIRE(haustra_world_take_events(w, events, 4, &n, &dropped) == HAUSTRA_OK);
@@ -401,7 +405,7 @@ TEST_CASE("C API: a frame's cost is bounded by the host's limits, a frame refuse
     CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
   }
   SUBCASE("calm_frames = 20: the slow frames after the recovery are at most 20 per halving") {
-    const haustra_frame_limits limits{64, 16, 20};
+    const haustra_frame_limits limits{sizeof(haustra_frame_limits), 64, 16, 20};
     haustra_world* w = floor.world(&limits);
     const Costs c = step_and_count(w, 100);
     CHECK(c.unstable == 0);
@@ -411,13 +415,14 @@ TEST_CASE("C API: a frame's cost is bounded by the host's limits, a frame refuse
     CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
   }
   SUBCASE("max_substeps = 8, max_retries = 2: the frame is refused when its retries run out, and says so") {
-    const haustra_frame_limits limits{8, 2, 20};
+    const haustra_frame_limits limits{sizeof(haustra_frame_limits), 8, 2, 20};
     haustra_world* w = floor.world(&limits);
     const Costs c = step_and_count(w, 12);
     CHECK(c.most_retries == 2);
     CHECK(c.most_substeps == 4);
     CHECK(c.unstable == 4);  // frames 8 to 11: the world keeps its last good frame, the host may change course
     haustra_event events[8];
+    events[0].struct_size = sizeof(haustra_event);
     size_t n = 0;
     REQUIRE(haustra_world_take_events(w, events, 8, &n, nullptr) == HAUSTRA_OK);
     REQUIRE(n == 5);
@@ -427,18 +432,19 @@ TEST_CASE("C API: a frame's cost is bounded by the host's limits, a frame refuse
                                               "Newton with 8 substeps (solver.max_substeps) was tried") !=
           std::string::npos);
     // Given what it needs, the world steps on from its last good frame.
-    const haustra_frame_limits enough{8, 16, 20};
+    const haustra_frame_limits enough{sizeof(haustra_frame_limits), 8, 16, 20};
     REQUIRE(haustra_world_set_frame_limits(w, &enough) == HAUSTRA_OK);
     CHECK(haustra_world_step(w) == HAUSTRA_OK);
     CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
   }
   SUBCASE("max_substeps = 4: the ladder's top is lower, the event says it did not recover there") {
-    const haustra_frame_limits limits{4, 16, 20};
+    const haustra_frame_limits limits{sizeof(haustra_frame_limits), 4, 16, 20};
     haustra_world* w = floor.world(&limits);
     const Costs c = step_and_count(w, 10);
     CHECK(c.most_substeps == 4);
     CHECK(c.unstable == 2);
     haustra_event events[8];
+    events[0].struct_size = sizeof(haustra_event);
     size_t n = 0;
     REQUIRE(haustra_world_take_events(w, events, 8, &n, nullptr) == HAUSTRA_OK);
     REQUIRE(n == 3);
@@ -447,4 +453,72 @@ TEST_CASE("C API: a frame's cost is bounded by the host's limits, a frame refuse
           std::string::npos);
     CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
   }
+}
+
+TEST_CASE(
+    "C API: a failed grasp's frames cost at most the host's limits, each refused frame an event, none slow once "
+    "the jaws open") {
+  // Issue 36: after a grasp failed in a host's scene, frames ran at up to 32 substeps for ten
+  // seconds. Here a rigid grasp (tests/scenes/c-api-colon.toml) is yanked 42 cm in one frame: no
+  // rung of the robust mode holds the colon, so every frame is refused until the host opens the
+  // jaws. Its cost per frame is what the limits allow: with the defaults up to 64 substeps after 6
+  // retries, with the host's {8, 2, 20} at most 4 substeps after 2.
+  struct Run {
+    int refused = 0, most_substeps = 0, most_retries = 0, slow_after_release = 0;
+    size_t unstable_events = 0;
+  };
+  auto yank = [](const haustra_frame_limits* limits) {
+    haustra_world_def def;
+    REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+    def.threads = 1;
+    haustra_world* w = nullptr;
+    REQUIRE(haustra_world_create_from_scene_def(
+                (std::string(HAUSTRA_SOURCE_DIR) + "/tests/scenes/c-api-colon.toml").c_str(), &def, &w) == HAUSTRA_OK);
+    if (limits != nullptr) REQUIRE(haustra_world_set_frame_limits(w, limits) == HAUSTRA_OK);
+    for (int f = 0; f < 3; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+    haustra_vec3_view v{};
+    REQUIRE(haustra_world_node_positions(w, &v) == HAUSTRA_OK);
+    double tip[3] = {v.x[10], v.y[10], v.z[10] + 0.03};
+    const double up[3] = {0.0, 0.0, 1.0};
+    REQUIRE(haustra_world_set_instrument_pose(w, 0, tip, up) == HAUSTRA_OK);
+    REQUIRE(haustra_world_set_instrument_grasp(w, 0, 1) == HAUSTRA_OK);
+    for (int f = 0; f < 5; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+    haustra_instrument_reading r = sized<haustra_instrument_reading>();
+    REQUIRE(haustra_world_instrument(w, 0, &r) == HAUSTRA_OK);
+    REQUIRE(r.grasping == 1);
+    tip[0] += 0.3;
+    tip[2] += 0.3;
+    REQUIRE(haustra_world_set_instrument_pose(w, 0, tip, up) == HAUSTRA_OK);
+    Run run;
+    for (int f = 0; f < 60; ++f) {
+      if (f == 21) REQUIRE(haustra_world_set_instrument_grasp(w, 0, 0) == HAUSTRA_OK);
+      const haustra_status s = haustra_world_step(w);
+      REQUIRE((s == HAUSTRA_OK || s == HAUSTRA_UNSTABLE));
+      haustra_profile p = sized<haustra_profile>();
+      REQUIRE(haustra_world_profile(w, &p) == HAUSTRA_OK);
+      run.refused += s == HAUSTRA_UNSTABLE ? 1 : 0;
+      run.most_substeps = std::max(run.most_substeps, p.substeps);
+      run.most_retries = std::max(run.most_retries, p.retries);
+      if (f > 21) run.slow_after_release += p.substeps > 1 ? 1 : 0;
+    }
+    std::vector<haustra_event> events(64);
+    events[0].struct_size = sizeof(haustra_event);
+    size_t n = 0;
+    REQUIRE(haustra_world_take_events(w, events.data(), events.size(), &n, nullptr) == HAUSTRA_OK);
+    for (size_t e = 0; e < n; ++e) run.unstable_events += events[e].kind == HAUSTRA_EVENT_UNSTABLE ? 1 : 0;
+    CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
+    return run;
+  };
+  const Run defaults = yank(nullptr);
+  CHECK(defaults.refused == 21);
+  CHECK(defaults.most_substeps == 64);
+  CHECK(defaults.most_retries == 6);
+  const haustra_frame_limits limits{sizeof(haustra_frame_limits), 8, 2, 20};
+  const Run limited = yank(&limits);
+  CHECK(limited.refused == 21);
+  CHECK(limited.most_substeps == 4);
+  CHECK(limited.most_retries == 2);
+  CHECK(limited.unstable_events == 21);  // one a refused frame, in the queue for the host
+  CHECK(limited.slow_after_release == 0);
+  CHECK(defaults.slow_after_release == 0);
 }

@@ -14,7 +14,9 @@
 #include <assimp/scene.h>
 #include <assimp/Importer.hpp>
 
+#include "haustra/scene.hpp"
 #include "haustra/studies/references.hpp"
+#include "haustra/world.hpp"
 
 namespace fs = std::filesystem;
 
@@ -165,6 +167,31 @@ TEST_CASE("haustra run: the command line's own bad values, and a device as the s
   const Result zero = run("run /dev/zero --quiet");  // it grew past 1.25 GB in 13 s
   CHECK(zero.code == 2);
   CHECK(zero.err.find("/dev/zero: a character device, not a scene file") != std::string::npos);
+}
+
+TEST_CASE("haustra estimate: the world's memory and time before it is built, as World::create and the APIs see them") {
+  const Result text = run("estimate " + kCliScenes + "drop.toml");
+  CHECK(text.code == 0);
+  CHECK(text.out.find("haustra estimate: drop") != std::string::npos);
+  CHECK(text.out.find("167 nodes") != std::string::npos);
+  CHECK(text.out.find("55 beads") != std::string::npos);
+  CHECK(text.out.find("a frame at rest") != std::string::npos);
+  const Result json = run("estimate " + kCliScenes + "drop.toml --json --set segment.nodes=20000");
+  REQUIRE(json.code == 0);
+  const nlohmann::json j = nlohmann::json::parse(json.out);
+  const haustra::MemoryEstimate e = haustra::estimate_memory(
+      haustra::load_scene(kCliScenes + "drop.toml", std::vector<std::string>{"segment.nodes=20000"}).world);
+  CHECK(j["total"].get<std::size_t>() == e.total);
+  CHECK(j["nodes"].get<std::size_t>() == 20000);
+  CHECK(j["bead_pairs"].get<std::size_t>() == e.bead_pairs);
+  CHECK(j["step_seconds"].get<double>() == e.step_seconds);
+  CHECK(j["fits"].get<bool>());
+  // A world past its budget: exit 2 with World::create's own reason.
+  const Result big = run("estimate " + kCliScenes + "drop.toml --set segment.nodes=10000000 world.memory_limit=1e9");
+  CHECK(big.code == 2);
+  CHECK(big.out.find("10000000 nodes") != std::string::npos);
+  CHECK(big.err.find("would need about") != std::string::npos);
+  CHECK(big.err.find("world.memory_limit") != std::string::npos);
 }
 
 TEST_CASE("haustra run: bad input exits with code 2 and names the file and line") {

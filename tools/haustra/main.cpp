@@ -195,6 +195,50 @@ int run(const RunOptions& o) {
   return 0;
 }
 
+// `haustra estimate SCENE`: what the world will take before it is built (decisions 0038, 0101) — the
+// numbers World::create, the C API and Python use; exit 2 when it would not fit, with the reason.
+struct EstimateOptions {
+  std::string scene;
+  std::vector<std::string> sets;
+  bool json = false;
+};
+
+int estimate(const EstimateOptions& o) {
+  const SceneDesc scene = load_scene(o.scene, o.sets);
+  const MemoryEstimate e = estimate_memory(scene.world);
+  const std::size_t available = available_memory();
+  std::string refusal;
+  try {
+    check_fits(scene.world);
+  } catch (const Error& err) {
+    refusal = err.what();
+  }
+  if (o.json) {
+    nlohmann::ordered_json j;
+#define HAUSTRA_JSON_FIELD(type, name, initial, meaning) j[#name] = e.name;
+    HAUSTRA_MEMORY_FIELDS(HAUSTRA_JSON_FIELD)
+#undef HAUSTRA_JSON_FIELD
+    j["available"] = available;
+    j["fits"] = refusal.empty();
+    fmt::print("{}\n", j.dump(2));
+  } else {
+    auto mb = [](std::size_t b) { return static_cast<double>(b) / 1e6; };
+    fmt::print("haustra estimate: {} ({})\n", scene.name, scene.file.string());
+    fmt::print(
+        "  memory: about {:.1f} MB — {} nodes: rods {:.1f} MB, Newton workspace {:.1f} MB; {} beads {:.1f} MB, "
+        "{} pairs of beads within reach {:.1f} MB; procedural meshes {:.1f} MB; {:.1f} MB available\n",
+        mb(e.total), e.nodes, mb(e.rod_bytes), mb(e.solver_bytes), e.beads, mb(e.bead_bytes), e.bead_pairs,
+        mb(e.pair_bytes), mb(e.mesh_bytes), mb(available));
+    fmt::print("  time on one core: about {:.3g} s to build, {:.3g} ms a frame at rest\n", e.build_seconds,
+               1e3 * e.step_seconds);
+  }
+  if (!refusal.empty()) {
+    fmt::print(stderr, "error: {}\n", refusal);
+    return kExitBadInput;
+  }
+  return 0;
+}
+
 int validate(bool json, bool markdown, const std::string& assets) {
   validation::Options options;
   if (!assets.empty()) options.assets = assets;
@@ -447,8 +491,9 @@ int open_viewer(const char* self, const std::vector<std::string>& args) {
 struct Commands {
   CLI::App *run_cmd = nullptr, *validate_cmd = nullptr, *stability_cmd = nullptr, *skinning_cmd = nullptr,
            *study_cmd = nullptr, *render_cmd = nullptr, *figure_cmd = nullptr, *import_cmd = nullptr,
-           *anatomy_cmd = nullptr, *view_cmd = nullptr;
+           *anatomy_cmd = nullptr, *view_cmd = nullptr, *estimate_cmd = nullptr;
   RunOptions run;
+  EstimateOptions estimate;
   bool json = false, validate_markdown = false;
   std::string assets;
   bool markdown = false;
@@ -484,6 +529,13 @@ void declare_run(CLI::App& app, Commands& c) {
       ->check(CLI::NonNegativeNumber);
   c.run_cmd->add_option("--mesh-format", c.run.mesh_format, "ply, obj or stl")
       ->check(CLI::IsMember({"ply", "obj", "stl"}));
+
+  c.estimate_cmd = app.add_subcommand(
+      "estimate", "what a scene's world will take in memory and time, before it is built; exit 2 if it would not fit");
+  c.estimate_cmd->add_option("scene", c.estimate.scene, "scene file (TOML)")->required()->check(CLI::ExistingFile);
+  c.estimate_cmd->add_option("--set", c.estimate.sets, "override a scene value, e.g. --set segment.nodes=333")
+      ->take_all();
+  c.estimate_cmd->add_flag("--json", c.estimate.json, "print the estimate as JSON");
 }
 
 // The reference cases and the studies: validate, stability, skinning, study.
@@ -595,6 +647,7 @@ void declare_import(CLI::App& app, Commands& c) {
 
 int dispatch(Commands& c) {
   if (*c.run_cmd) return run(c.run);
+  if (*c.estimate_cmd) return estimate(c.estimate);
   if (*c.import_cmd) {
     // A line per phase on a terminal (a whole organ takes a minute): what was done and how long.
     if (isatty(fileno(stderr)) != 0)

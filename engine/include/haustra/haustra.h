@@ -18,8 +18,17 @@
  *   while the world steps, and reads the last completed frame without blocking the stepping thread.
  *   A host job system's callbacks are called from the thread that steps the world; its tasks may
  *   run on any thread. haustra_last_error() is per thread.
- * - Structs a host fills (haustra_world_def, haustra_segment_def) start with struct_size; fill
- *   them with their _default() function first, then change what differs.
+ * - Structs carry their size (since ABI 14): every struct a host passes or receives starts with
+ *   struct_size, which the host sets — sizeof(the struct) as its header has it: a def by its
+ *   _default() function, an output as `haustra_counts c = {.struct_size = sizeof c};` (an array of
+ *   them: its first element's struct_size, the stride). A library newer than the host's header reads a def only as
+ *   far as its struct_size goes (the fields past it keep their defaults) and writes an output only
+ *   that far, so an older host's smaller struct is served; a struct_size that is not one of the
+ *   sizes the struct has had (0, a newer header's) is refused with HAUSTRA_INVALID_ARGUMENT naming
+ *   it. Views (haustra_vec3_view and the like) never grow and carry no size.
+ * - Versions: haustra_abi_version() is the library's ABI; haustra_check_abi(HAUSTRA_ABI_VERSION)
+ *   accepts a host built against this ABI or an older one back to 14 (the first whose structs all
+ *   carry their size).
  * - Units: metres, seconds, newtons, radians; world frame.
  */
 #ifndef HAUSTRA_H
@@ -40,7 +49,9 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 13
+#define HAUSTRA_ABI_VERSION 14
+/* The oldest host ABI this library serves (haustra_check_abi). */
+#define HAUSTRA_ABI_OLDEST 14
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -58,13 +69,24 @@ typedef enum haustra_status {
 
 typedef struct haustra_world haustra_world;
 
+/* Obstacles by kind (haustra_obstacle_def.kind; the scene's environment.plane, sphere, capsule, mesh). */
+typedef enum haustra_obstacle_kind {
+  HAUSTRA_OBSTACLE_PLANE = 0,
+  HAUSTRA_OBSTACLE_SPHERE = 1,
+  HAUSTRA_OBSTACLE_CAPSULE = 2,
+  HAUSTRA_OBSTACLE_MESH = 3
+} haustra_obstacle_kind;
+
 typedef struct haustra_counts {
+  size_t struct_size;
   size_t segments;
   size_t nodes; /* all segments */
   size_t beads;
   size_t instruments;
   size_t mesh_vertices; /* all segments' organ meshes */
   size_t mesh_triangles;
+  size_t obstacles[4]; /* by haustra_obstacle_kind. Since ABI 14 */
+  size_t anchors;      /* of connective tissue, all segments. Since ABI 14 */
 } haustra_counts;
 
 typedef struct haustra_vec3_view {
@@ -86,7 +108,17 @@ typedef struct haustra_triangles_view {
   size_t count;            /* triangles */
 } haustra_triangles_view;
 
+/* A node's frame as a quaternion (w, x, y, z; d1, d2, d3 are its columns' rotation of x, y, z). */
+typedef struct haustra_quat_view {
+  const double* w;
+  const double* x;
+  const double* y;
+  const double* z;
+  size_t count;
+} haustra_quat_view;
+
 typedef struct haustra_instrument_reading {
+  size_t struct_size;
   double tip[3];
   double force[3];          /* the tissue's force on the instrument, N */
   double torque[3];         /* about the tip, N·m */
@@ -105,6 +137,7 @@ typedef struct haustra_instrument_reading {
 #define HAUSTRA_STAGE_COUNT 21
 
 typedef struct haustra_profile {
+  size_t struct_size;
   double stage_seconds[HAUSTRA_STAGE_COUNT]; /* in the order of haustra_stage_name(0..) */
   double frame_seconds;
   int substeps;
@@ -217,6 +250,7 @@ typedef struct haustra_segment_def {
 
 /* One segment as the world holds it (haustra_world_segment). */
 typedef struct haustra_segment_info {
+  size_t struct_size;
   const char* name;               /* valid until segments are added or removed, or the world is destroyed */
   size_t node_offset, node_count; /* its nodes in the node buffers; a chain's pieces share their joint node */
   size_t bead_offset, bead_count; /* its beads (a joint node's bead belongs to the later piece) */
@@ -227,6 +261,7 @@ typedef struct haustra_segment_info {
 
 /* The last completed frame, for a render thread (double_buffered worlds). */
 typedef struct haustra_frame {
+  size_t struct_size;
   uint64_t frame;
   double time;
   haustra_vec3_view nodes;
@@ -234,8 +269,10 @@ typedef struct haustra_frame {
   haustra_vec3f_view mesh_normals;
 } haustra_frame;
 
-/* Version and ABI. */
+/* Version and ABI. haustra_check_abi: HAUSTRA_OK for an ABI from HAUSTRA_ABI_OLDEST to the
+ * library's own, HAUSTRA_ABI_MISMATCH otherwise (a newer host, or one whose structs lack sizes). */
 HAUSTRA_API const char* haustra_version(void);
+HAUSTRA_API int haustra_abi_version(void); /* since ABI 14 */
 HAUSTRA_API haustra_status haustra_check_abi(int abi_version);
 /* The message of this thread's last failed call ("" after a success). */
 HAUSTRA_API const char* haustra_last_error(void);
@@ -254,6 +291,32 @@ HAUSTRA_API haustra_status haustra_world_create_from_scene_def(const char* scene
                                                                haustra_world** out);
 HAUSTRA_API haustra_status haustra_world_def_default(haustra_world_def* def);
 HAUSTRA_API haustra_status haustra_segment_def_default(haustra_segment_def* def);
+
+/* What a world will take before it is built (since ABI 14; decisions 0038, 0101): the same numbers as
+ * `haustra estimate`, World's estimate_memory and Python's haustra.estimate_memory. Creating a world
+ * refuses one whose bytes exceed def.memory_limit (or what the machine has available) with the
+ * reason. Seconds are on one core of the reference machine, for a world at rest. */
+typedef struct haustra_estimate {
+  size_t struct_size;
+  size_t total; /* bytes */
+  size_t nodes;
+  size_t rod_bytes;    /* the rods' model and state */
+  size_t solver_bytes; /* the Newton solves' workspace */
+  size_t bead_bytes;
+  size_t mesh_bytes; /* procedural organ meshes (a mesh file's is checked as it loads) */
+  size_t beads;
+  size_t bead_pairs; /* pairs of one segment's beads within reach of each other at rest */
+  size_t pair_bytes;
+  double build_seconds;
+  double step_seconds;
+  size_t available; /* bytes the machine has available now */
+} haustra_estimate;
+/* Of a world from definitions (as haustra_world_create would build it), or of a scene file with a
+ * def's changes (as haustra_world_create_from_scene_def; def may be NULL). */
+HAUSTRA_API haustra_status haustra_estimate_world(const haustra_world_def* def, const haustra_segment_def* segments,
+                                                  size_t segment_count, haustra_estimate* out);
+HAUSTRA_API haustra_status haustra_estimate_scene(const char* scene_path, const haustra_world_def* def,
+                                                  haustra_estimate* out);
 /* A world from definitions alone: segments[0..segment_count). Errors name the segment and field
  * ("segments[1].radius"). */
 HAUSTRA_API haustra_status haustra_world_create(const haustra_world_def* def, const haustra_segment_def* segments,
@@ -277,15 +340,153 @@ HAUSTRA_API haustra_status haustra_world_add_segment(haustra_world* world, const
                                                      size_t* index);
 HAUSTRA_API haustra_status haustra_world_remove_segment(haustra_world* world, size_t segment);
 
+/* Between frames, what a host adds to a world or takes out of it (since ABI 14; decision 0101):
+ * instruments, obstacles, a segment's attachments and ranges of connective tissue. Each rebuilds the
+ * model as adding a segment does, and everything else steps on exactly as if nothing had changed
+ * (fast mode refactors a rod whose attachments, grasp slots or tissue changed); a definition the
+ * builder refuses leaves the world as it was, its message naming the field ("instrument[2].radius").
+ * `index` (may be NULL) receives the new part's index: an instrument after the others, an obstacle
+ * after the others of its kind, an attachment after the segment's own (its grasp slots, one per
+ * instrument, move up by one), a range of anchors after the segment's. Removing one moves those
+ * after it down by one; removing an instrument lets go of what it grasped. Views and names obtained
+ * before are invalid afterwards; double-buffered worlds: as haustra_world_add_segment. A segment
+ * names its chain (any piece), and nodes count along the whole chain (negative: from its tip).
+ * At most 64 instruments, 4,096 obstacles of a kind and 1,024 ranges of anchors a segment. */
+typedef struct haustra_instrument_def { /* the scene's [[instrument]]; defaults from _default() */
+  size_t struct_size;
+  const char* name;          /* NULL: "instrument<i>" */
+  double radius;             /* m, 1e-4 to 0.5; default 0.004 */
+  double length;             /* m, (0, 10]; default 0.3 */
+  double grasp_reach;        /* m beyond a bead's surface, [0, 0.5]; default 0.01 */
+  int hold_frame;            /* 1: a grasp holds the node's frame too; default 0 */
+  double force_filter;       /* s, [0, 100]; default 0 */
+  double coupling_stiffness; /* N/m, [0, 1e7] (0: a rigid grasp); default 1000 */
+  double coupling_damping;   /* N·s/m, [0, 1e5]; default 2 */
+  double force_limit;        /* N, (0, 1e5]; default 8 */
+  double holding_force;      /* N, [0, 1e5] (0: never slips); default 0 */
+  int proxy;                 /* 1 (default): a proxy (decision 0096); 0: kinematic */
+  double cut_radius;         /* m, (0, 0.5]; default 0.005 */
+  double tip[3];             /* m; default the origin */
+  double axis[3];            /* from the tip towards the handle; default +z */
+} haustra_instrument_def;
+HAUSTRA_API haustra_status haustra_instrument_def_default(haustra_instrument_def* def);
+HAUSTRA_API haustra_status haustra_world_add_instrument(haustra_world* world, const haustra_instrument_def* def,
+                                                        size_t* index);
+HAUSTRA_API haustra_status haustra_world_remove_instrument(haustra_world* world, size_t instrument);
+
+typedef struct haustra_obstacle_def { /* the scene's [[environment.*]] */
+  size_t struct_size;
+  int kind;         /* a haustra_obstacle_kind; default HAUSTRA_OBSTACLE_PLANE */
+  const char* name; /* NULL: "<kind><i>" */
+  double point[3];  /* plane: a point on it; sphere: its centre; capsule: its end a. m */
+  double normal[3]; /* plane: its free side (normalized); default +z */
+  double b[3];      /* capsule: its end b, m */
+  double radius;    /* sphere, capsule: m, (0, 1e5]; default 0.1 */
+  /* mesh: vertices (x, y, z each, m) and triangles (3 indices each), copied; closed and wound one
+   * way for a container (it keeps beads inside); checked as a mesh file is */
+  const double* vertices;
+  size_t vertex_count;
+  const uint32_t* triangles;
+  size_t triangle_count;
+  int container; /* mesh: 1 keeps beads inside it; default 0 */
+} haustra_obstacle_def;
+HAUSTRA_API haustra_status haustra_obstacle_def_default(haustra_obstacle_def* def);
+HAUSTRA_API haustra_status haustra_world_add_obstacle(haustra_world* world, const haustra_obstacle_def* def,
+                                                      size_t* index);
+HAUSTRA_API haustra_status haustra_world_remove_obstacle(haustra_world* world, int kind, size_t index);
+
+typedef struct haustra_attachment_def { /* the scene's [[segment.attachment]] */
+  size_t struct_size;
+  int64_t node;     /* along the chain; negative: from its tip (-1: the tip). Default -1 */
+  int hold_frame;   /* 1: holds the node's frame too (a clamp); default 0 */
+  int has_target;   /* 1: target below; 0 (default): where the node rests */
+  double target[3]; /* m */
+  int active;       /* default 1 */
+} haustra_attachment_def;
+HAUSTRA_API haustra_status haustra_attachment_def_default(haustra_attachment_def* def);
+HAUSTRA_API haustra_status haustra_world_add_attachment(haustra_world* world, size_t segment,
+                                                        const haustra_attachment_def* def, size_t* index);
+HAUSTRA_API haustra_status haustra_world_remove_attachment(haustra_world* world, size_t segment, size_t attachment);
+/* A segment's attachments (its own, then a grasp slot per instrument when it has beads): how many,
+ * one's state, and a host moving or releasing one between frames. */
+typedef struct haustra_attachment_reading {
+  size_t struct_size;
+  size_t node;    /* along the chain (a grasp slot: the node it holds) */
+  int active;     /* holding */
+  int grasp_slot; /* 1: instrument `instrument`'s grasp on this segment */
+  size_t instrument;
+  double target[3]; /* m */
+  double force[3];  /* on the rod in the last frame, N */
+  double moment[3]; /* N·m */
+} haustra_attachment_reading;
+HAUSTRA_API haustra_status haustra_world_attachment_count(const haustra_world* world, size_t segment, size_t* count);
+HAUSTRA_API haustra_status haustra_world_attachment(const haustra_world* world, size_t segment, size_t attachment,
+                                                    haustra_attachment_reading* out);
+HAUSTRA_API haustra_status haustra_world_set_attachment_target(haustra_world* world, size_t segment, size_t attachment,
+                                                               const double target[3]);
+HAUSTRA_API haustra_status haustra_world_set_attachment_active(haustra_world* world, size_t segment, size_t attachment,
+                                                               int active);
+
+typedef struct haustra_anchors_def { /* the scene's [[segment.anchors]] (decision 0095) */
+  size_t struct_size;
+  const char* name;   /* NULL: "tissue" */
+  double from, to;    /* fractions of the chain's rest length, 0 <= from <= to <= 1; default 0, 1 */
+  double stiffness;   /* N/m per metre of organ, [0, 1e9]; default 1000 */
+  double damping;     /* N·s/m per metre, [0, 1e9]; default 50 */
+  double slack;       /* m, [0, 10]; default 0 */
+  double strength;    /* N per metre, [0, 1e9] (0: never tears); default 1000 */
+  double support;     /* N/m per metre against sinking along gravity, [0, 1e9]; default 0 */
+  const double* root; /* NULL (default): each node held where it rests; else a root line of */
+  size_t root_points; /* root_points >= 2 points (x, y, z each, m), each anchor a tether to it */
+} haustra_anchors_def;
+HAUSTRA_API haustra_status haustra_anchors_def_default(haustra_anchors_def* def);
+HAUSTRA_API haustra_status haustra_world_add_anchors(haustra_world* world, size_t segment,
+                                                     const haustra_anchors_def* def, size_t* range);
+HAUSTRA_API haustra_status haustra_world_remove_anchors(haustra_world* world, size_t segment, size_t range);
+HAUSTRA_API haustra_status haustra_world_anchor_ranges(const haustra_world* world, size_t segment, size_t* count);
+
 /* Buffers, without copies (see Views above). */
 HAUSTRA_API haustra_status haustra_world_node_positions(const haustra_world* world, haustra_vec3_view* out);
 HAUSTRA_API haustra_status haustra_world_bead_radii(const haustra_world* world, const double** radii, size_t* count);
 HAUSTRA_API haustra_status haustra_world_mesh_positions(const haustra_world* world, haustra_vec3f_view* out);
 HAUSTRA_API haustra_status haustra_world_mesh_normals(const haustra_world* world, haustra_vec3f_view* out);
 HAUSTRA_API haustra_status haustra_world_mesh_triangles(const haustra_world* world, haustra_triangles_view* out);
+/* Since ABI 14: the nodes' frames (quaternions, zero-copy), which node each bead sits on (global
+ * node indices, zero-copy; beads ordered by segment then node), and the nodes' velocities over the
+ * last frame, copied: 3 per node (x, y, z) into linear[0..count) and angular[0..count) (rad/s,
+ * world frame), count = 3 × nodes; either may be NULL. Zero before the first step and after a
+ * pose, a restore or a rebuild. */
+HAUSTRA_API haustra_status haustra_world_node_rotations(const haustra_world* world, haustra_quat_view* out);
+HAUSTRA_API haustra_status haustra_world_bead_nodes(const haustra_world* world, const uint32_t** nodes, size_t* count);
+HAUSTRA_API haustra_status haustra_world_node_velocities(const haustra_world* world, double* linear, double* angular,
+                                                         size_t count);
+/* The contacts of the last substep (since ABI 14): every bead and what it may touch, listed within
+ * the margin at the substep's start; depth > 0 touches. Copied into out[0..capacity) (stride:
+ * out[0].struct_size); `count` receives how many were written, `total` (may be NULL) how many there
+ * are. */
+typedef enum haustra_contact_kind {
+  HAUSTRA_CONTACT_BEAD = 0,  /* another bead: other is its index */
+  HAUSTRA_CONTACT_PLANE = 1, /* other: the plane's index; likewise for the kinds below */
+  HAUSTRA_CONTACT_SPHERE = 2,
+  HAUSTRA_CONTACT_CAPSULE = 3,
+  HAUSTRA_CONTACT_MESH = 4,
+  HAUSTRA_CONTACT_INSTRUMENT = 5
+} haustra_contact_kind;
+typedef struct haustra_contact {
+  size_t struct_size;
+  int kind; /* a haustra_contact_kind */
+  size_t bead;
+  size_t other;
+  double point[3];  /* where the other surface comes nearest the bead's centre, m */
+  double normal[3]; /* the separating direction */
+  double force[3];  /* N, on `bead` (a second bead gets the opposite) */
+  double depth;     /* m; > 0 overlapping */
+} haustra_contact;
+HAUSTRA_API haustra_status haustra_world_contacts(const haustra_world* world, haustra_contact* out, size_t capacity,
+                                                  size_t* count, size_t* total);
 
 /* Loads and instruments. A pose or grasp set here hands the instrument from its script to the host.
- * A load is at most 1e6 N and 1e6 N·m in each component; closed and cutting are 0 or 1. */
+ * A load is at most 1e5 N and 1e5 N·m in each component (as every vector); closed and cutting are 0 or 1. */
 HAUSTRA_API haustra_status haustra_world_set_node_load(haustra_world* world, size_t node, const double force[3],
                                                        const double moment[3]);
 HAUSTRA_API haustra_status haustra_world_set_instrument_pose(haustra_world* world, size_t instrument,
@@ -325,6 +526,7 @@ HAUSTRA_API haustra_status haustra_world_set_instrument_coupling(haustra_world* 
  * rods are rebuilt and their state carried over; the organ mesh's cage and binding are kept (a
  * fraction of a rebuild). Views into the world are invalidated, as by haustra_world_add_segment. */
 typedef struct haustra_material {
+  size_t struct_size;
   double youngs_modulus; /* Pa */
   double poisson_ratio;
   double density;         /* kg/m³ */
@@ -342,6 +544,7 @@ HAUSTRA_API haustra_status haustra_world_set_material(haustra_world* world, size
  * substeps, and a recovery at most calm_frames x log2(max_substeps) slow frames. From the next step;
  * checked as the scene's solver fields; lowering max_substeps lowers the rung in force. */
 typedef struct haustra_frame_limits {
+  size_t struct_size;
   int max_substeps; /* 1 (or the scene's substeps) to 65536 */
   int max_retries;  /* 0 to 64 */
   int calm_frames;  /* 1 to 1,000,000 */
@@ -351,7 +554,8 @@ HAUSTRA_API haustra_status haustra_world_set_frame_limits(haustra_world* world, 
 
 /* Events, as a queue (since ABI 13): what the steps recorded — a frame redone, a frame refused
  * (unstable), a grasp that slipped, connective tissue torn or cut — oldest first. take moves up to
- * `capacity` of the waiting events into out[0..*count) and removes them from the queue. At most
+ * `capacity` of the waiting events into out[0..*count) (stride: out[0].struct_size) and removes them
+ * from the queue. At most
  * 1,024 wait; later ones are dropped until some are taken, and `dropped` (may be NULL) receives how
  * many were lost since the last take. */
 typedef enum haustra_event_kind {
@@ -362,6 +566,7 @@ typedef enum haustra_event_kind {
   HAUSTRA_EVENT_CUT = 4        /* anchors were cut */
 } haustra_event_kind;
 typedef struct haustra_event {
+  size_t struct_size;
   int kind;       /* a haustra_event_kind */
   uint64_t frame; /* the frame it happened in */
   size_t segment; /* the segment (a chain's piece) and its local node */

@@ -33,14 +33,20 @@
   X(double, max_bead_overlap, 0.0, "m: deepest overlap of two beads that may collide")             \
   X(double, max_bead_overlap_ratio, 0.0, "the same over the smaller radius")
 
-/* MemoryEstimate: what a world of a description will take, before it is built. */
+/* MemoryEstimate: what a world of a description will take, in memory and time, before it is built
+ * (decisions 0038, 0101). The same numbers through C++, C, Python and `haustra estimate`. */
 #define HAUSTRA_MEMORY_FIELDS(X)                                                                    \
   X(size_t, total, 0, "bytes")                                                                      \
   X(size_t, nodes, 0, "rod nodes")                                                                  \
   X(size_t, rod_bytes, 0, "the rods' model and state (and what building them takes)")               \
   X(size_t, solver_bytes, 0, "the Newton solves' workspace")                                        \
   X(size_t, bead_bytes, 0, "beads and their contacts")                                              \
-  X(size_t, mesh_bytes, 0, "procedural organ meshes (a mesh file's size is checked as it loads)")
+  X(size_t, mesh_bytes, 0, "procedural organ meshes (a mesh file's size is checked as it loads)")   \
+  X(size_t, beads, 0, "beads (a count)")                                                            \
+  X(size_t, bead_pairs, 0, "pairs of one segment's beads within reach of each other at rest: the broad phase lists them every substep") \
+  X(size_t, pair_bytes, 0, "the rest-pose exclusions and the broad phase's lists of those pairs")   \
+  X(double, build_seconds, 0.0, "s to build it on one core of the reference machine (procedural meshes included, mesh files not)") \
+  X(double, step_seconds, 0.0, "s a frame takes on one core of the reference machine at rest (contacts and the robust mode's retries add to it)")
 
 /* A struct's member declaration from a list's line. */
 #define HAUSTRA_DECLARE_FIELD(type, name, initial, meaning) type name = initial;

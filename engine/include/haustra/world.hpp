@@ -26,6 +26,10 @@
 
 namespace haustra {
 
+namespace detail {
+struct CarryMap;  // where a world's parts go when it is rebuilt (engine/src/model/state_carry_over.hpp)
+}  // namespace detail
+
 // What one frame may cost (decision 0100): the robust mode's ladder (Newton, then twice the
 // substeps each time) stops at max_substeps and after max_retries redone attempts — a frame it
 // cannot hold within them stops as unstable, its event naming the cap; a rung it climbed to is
@@ -102,6 +106,9 @@ class World {
   void set_attachment_active(std::size_t segment, std::size_t attachment, bool active);
   // How many a segment addresses: its chain's SegmentDesc::attachments, then its grasp slots.
   [[nodiscard]] std::size_t attachment_count(std::size_t segment) const;
+  // One attachment as it stands: its node (along the chain), whether it holds, whether it is an
+  // instrument's grasp slot (and whose), its target, and its force and moment on the rod last frame.
+  [[nodiscard]] AttachmentReading attachment(std::size_t segment, std::size_t attachment) const;
   // Force (and moment) the attachment exerted on the rod in the last frame, world frame.
   [[nodiscard]] Eigen::Vector3d attachment_force(std::size_t segment, std::size_t attachment) const;
   [[nodiscard]] Eigen::Vector3d attachment_moment(std::size_t segment, std::size_t attachment) const;
@@ -219,6 +226,27 @@ class World {
   // removed one move down; views into the world's buffers are invalidated.
   std::size_t add_segment(const SegmentDesc& segment);  // returns the new segment's index
   void remove_segment(std::size_t segment);             // a chain goes whole, named by its first segment
+
+  // Between frames, what a host adds to a world or takes out of it (decision 0101): instruments,
+  // obstacles, a segment's attachments and its ranges of connective tissue. Each rebuilds the model
+  // as add_segment does and carries every state over (an instrument's pose and grasp, which
+  // attachments hold, which anchors are torn or cut), so what is left steps on exactly as if nothing
+  // had changed; a description the builder refuses leaves the world as it was. Each add returns the
+  // new part's index: instruments after the others, an obstacle after the others of its kind, an
+  // attachment after the chain's own (its grasp slots move up by one), a range of anchors after the
+  // chain's. Removing one moves those after it down by one; removing an instrument lets go of what
+  // it grasped. Views into the world's buffers are invalidated. A segment names its chain (any of
+  // its pieces), and an attachment's or anchors' nodes count along the whole chain.
+  std::size_t add_instrument(const InstrumentDesc& instrument);
+  void remove_instrument(std::size_t instrument);
+  std::size_t add_obstacle(const ObstacleDesc& obstacle);
+  void remove_obstacle(ObstacleKind kind, std::size_t index);
+  [[nodiscard]] std::size_t obstacle_count(ObstacleKind kind) const;
+  std::size_t add_attachment(std::size_t segment, const AttachmentDesc& attachment);
+  void remove_attachment(std::size_t segment, std::size_t attachment);  // not a grasp slot
+  std::size_t add_anchors(std::size_t segment, const AnchorsDesc& anchors);
+  void remove_anchors(std::size_t segment, std::size_t range);
+  [[nodiscard]] std::size_t anchor_range_count(std::size_t segment) const;  // the chain's ranges
   // The same world under a changed description (solver, filter, gravity, tissue law, beads, cage,
   // skinning; the viewer's knobs): the model is rebuilt and the state carried over. `next` keeps
   // the segments and their node counts (else Error{invalid_argument} names the first that differs,
@@ -263,6 +291,9 @@ class World {
   // The world rebuilt from `next`, its state carried over, not yet in place (rebuild swaps it in).
   [[nodiscard]] std::unique_ptr<Impl> rebuilt(const WorldDesc& next, std::span<const std::size_t> rod_map,
                                               bool carry_solver, bool keep_mesh_binding) const;
+  [[nodiscard]] std::unique_ptr<Impl> rebuilt(const WorldDesc& next, const detail::CarryMap& map, bool carry_solver,
+                                              bool keep_mesh_binding) const;
+  void rebuild(WorldDesc next, const detail::CarryMap& map, bool carry_solver);
   std::shared_ptr<Impl> impl_;  // shared with buffers_keeper()'s handles
   // Use's state: the thread holding the world (none: id{}), how many nested holds it has, and
   // whether it is inside step(). Only the holding thread reads or writes the last two.
@@ -278,6 +309,9 @@ struct MemoryEstimate {
   HAUSTRA_MEMORY_FIELDS(HAUSTRA_DECLARE_FIELD)  // total and its parts, bytes (report_fields.h)
 };
 [[nodiscard]] MemoryEstimate estimate_memory(const WorldDesc& desc);
+// What World::create says of a description that would not fit (Error{invalid_argument}: what it
+// would need, part by part, and what to lower), or nothing when it fits.
+void check_fits(const WorldDesc& desc);
 // Bytes the machine can give without swapping (Linux: MemAvailable).
 [[nodiscard]] std::size_t available_memory();
 

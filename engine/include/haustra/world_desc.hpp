@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 namespace haustra {
@@ -291,6 +292,10 @@ struct MeshObstacleDesc {
   // inward. It must be closed (decision 0093). false: an obstacle that keeps beads out.
   bool container = false;
 };
+
+// One obstacle, for World::add_obstacle; its kind is the alternative it holds.
+enum class ObstacleKind : std::uint8_t { plane, sphere, capsule, mesh };
+using ObstacleDesc = std::variant<PlaneDesc, SphereObstacleDesc, CapsuleObstacleDesc, MeshObstacleDesc>;
 
 struct EnvironmentDesc {
   std::vector<PlaneDesc> planes;

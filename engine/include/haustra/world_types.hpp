@@ -123,6 +123,17 @@ struct ContactReport {
   HAUSTRA_CONTACT_FIELDS(HAUSTRA_DECLARE_FIELD)  // candidates, touching, depths and overlaps (report_fields.h)
 };
 
+// An attachment as it stands (World::attachment).
+struct AttachmentReading {
+  std::size_t node = 0;  // along the chain
+  bool active = false;
+  bool grasp_slot = false;     // an instrument's grasp on this segment
+  std::size_t instrument = 0;  // whose, for a grasp slot
+  Eigen::Vector3d target = Eigen::Vector3d::Zero();
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();   // on the rod, last frame, N
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();  // N·m
+};
+
 // An instrument's state after the last frame. Force and torque are what the tissue exerts on the
 // instrument (the negative of what the instrument exerts on the rod), torque about the tip.
 struct InstrumentReading {

@@ -7,17 +7,21 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <exception>
 #include <memory>
 #include <mutex>
 #include <new>
+#include <span>
 #include <string>
+#include <type_traits>
 #include <unordered_set>
 
 #include "haustra/centreline.hpp"
 #include "haustra/error.hpp"
 #include "haustra/frame_publisher.hpp"
+#include "haustra/mesh_io.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
 
@@ -36,6 +40,9 @@ static_assert(static_cast<int>(ErrorCode::internal) == HAUSTRA_INTERNAL, "codes 
 static_assert(static_cast<int>(ErrorCode::busy) == HAUSTRA_BUSY, "codes line up with haustra::ErrorCode");
 static_assert(sizeof(haustra_event::message) == sizeof(haustra::Event::text), "an event's text fits whole");
 static_assert(static_cast<int>(haustra::Event::Kind::cut) == HAUSTRA_EVENT_CUT, "event kinds line up");
+static_assert(static_cast<int>(haustra::ContactKind::instrument) == HAUSTRA_CONTACT_INSTRUMENT,
+              "contact kinds line up");
+static_assert(static_cast<int>(haustra::ObstacleKind::mesh) == HAUSTRA_OBSTACLE_MESH, "obstacle kinds line up");
 
 thread_local std::string g_last_error;
 
@@ -109,6 +116,78 @@ Eigen::Vector3d finite_vec3(const double* v, const char* name) {
   return out;
 }
 
+// The sizes a struct has had since it carried its size: its own, and for the two defs the sizes
+// before ABI 13 (frame limits) and ABI 11 / 12 (the ring fields, the anchors) added fields at their end.
+template <class T>
+std::span<const std::size_t> sizes_of() {
+  if constexpr (std::is_same_v<T, haustra_world_def>) {
+    static constexpr std::size_t sizes[] = {offsetof(haustra_world_def, max_substeps), sizeof(T)};
+    return sizes;
+  } else if constexpr (std::is_same_v<T, haustra_segment_def>) {
+    static constexpr std::size_t sizes[] = {offsetof(haustra_segment_def, max_rings_per_vertex),
+                                            offsetof(haustra_segment_def, anchor_stiffness), sizeof(T)};
+    return sizes;
+  } else {
+    static constexpr std::size_t sizes[] = {sizeof(T)};
+    return sizes;
+  }
+}
+
+// A struct_size the library knows, or an error naming it.
+template <class T>
+std::size_t known_size(std::size_t size, const std::string& name) {
+  for (std::size_t k : sizes_of<T>())
+    if (size == k) return size;
+  throw Error(
+      ErrorCode::invalid_argument,
+      fmt::format(
+          "{}.struct_size = {}: expected sizeof the struct, {} in this library's header{} (set it — a "
+          "def by its _default() function, an output as `= {{.struct_size = sizeof x}}` — since ABI 14; a larger "
+          "size is a newer header's than the library's, ABI {})",
+          name, size, sizeof(T),
+          sizes_of<T>().size() > 1 ? fmt::format(", or an older header's: {}",
+                                                 fmt::join(sizes_of<T>().first(sizes_of<T>().size() - 1), ", "))
+                                   : "",
+          HAUSTRA_ABI_VERSION));
+}
+
+// A def as the library reads it: the host's bytes as far as its struct_size goes, over `defaults`.
+template <class T>
+T read_def(const T& host, const T& defaults, const std::string& name) {
+  const std::size_t n = known_size<T>(host.struct_size, name);
+  T out = defaults;
+  std::memcpy(static_cast<void*>(&out), &host, n);
+  out.struct_size = sizeof(T);
+  return out;
+}
+
+// An output written as far as the host's struct_size goes.
+template <class T>
+void write_out(T* out, T value, const char* name) {
+  if (out == nullptr) throw Error(ErrorCode::invalid_argument, fmt::format("{} is NULL", name));
+  std::size_t size = 0;
+  std::memcpy(&size, out, sizeof size);  // struct_size leads every struct
+  const std::size_t n = known_size<T>(size, name);
+  value.struct_size = n;
+  std::memcpy(static_cast<void*>(out), &value, n);
+}
+
+// An array of outputs: its first element's struct_size is the stride; or 0 with no room.
+template <class T>
+std::size_t stride_of(const T* out, std::size_t capacity, const char* name) {
+  if (capacity == 0) return 0;
+  if (out == nullptr) throw Error(ErrorCode::invalid_argument, fmt::format("{} is NULL", name));
+  std::size_t size = 0;
+  std::memcpy(&size, out, sizeof size);
+  return known_size<T>(size, fmt::format("{}[0]", name));
+}
+
+template <class T>
+void write_at(T* out, std::size_t stride, std::size_t i, T value) {
+  value.struct_size = stride;
+  std::memcpy(reinterpret_cast<unsigned char*>(out) + i * stride, &value, stride);
+}
+
 template <class F>
 haustra_status guarded(const char* function, F&& body) noexcept {
   try {
@@ -142,12 +221,14 @@ haustra_world* make_handle(std::unique_ptr<haustra::World> world, bool double_bu
   return handle.release();
 }
 
-const haustra_world_def& checked_def(const haustra_world_def& d) {
-  if (d.struct_size != sizeof(haustra_world_def))
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("def.struct_size = {}: expected {} (fill it with haustra_world_def_default first; a "
-                            "different size means a header of another haustra version)",
-                            d.struct_size, sizeof(haustra_world_def)));
+haustra_world_def world_defaults() {
+  haustra_world_def d{};
+  haustra_world_def_default(&d);
+  return d;
+}
+
+haustra_world_def checked_def(const haustra_world_def& host) {
+  const haustra_world_def d = read_def(host, world_defaults(), "def");
   if (d.newton < 0 || d.newton > 2)
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("def.newton = {}: expected 0 (lagged), 1 (Newton) or 2 (fast)", d.newton));
@@ -209,12 +290,11 @@ void apply_runtime(const haustra_world_def& d, haustra::WorldDesc& w) {
   }
 }
 
-haustra::SegmentDesc segment_desc(const haustra_segment_def& d, std::size_t i) {
+haustra::SegmentDesc segment_desc(const haustra_segment_def& host, std::size_t i) {
   const std::string where = fmt::format("segments[{}]", i);
-  if (d.struct_size != sizeof(haustra_segment_def))
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("{}.struct_size = {}: expected {} (fill it with haustra_segment_def_default first)", where,
-                            d.struct_size, sizeof(haustra_segment_def)));
+  haustra_segment_def defaults{};
+  haustra_segment_def_default(&defaults);
+  const haustra_segment_def d = read_def(host, defaults, where);
   haustra::SegmentDesc s;
   s.name = d.name != nullptr ? std::string(d.name) : fmt::format("segment{}", i);
   s.nodes = d.nodes;
@@ -299,19 +379,219 @@ void copy3(const Eigen::Vector3d& v, double out[3]) {
   for (int i = 0; i < 3; ++i) out[i] = v[i];
 }
 
+// A world's description from a (checked) def and segment defs, as haustra_world_create builds it.
+haustra::WorldDesc world_from_defs(const haustra_world_def& d, const haustra_segment_def* segments,
+                                   size_t segment_count) {
+  if (segments == nullptr && segment_count > 0) throw Error(ErrorCode::invalid_argument, "segments is NULL");
+  if (segment_count > 100'000)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("segment_count = {}: expected at most 100,000", segment_count));
+  haustra::WorldDesc w;
+  apply_world_fields(d, /*only_changed=*/false, w);
+  apply_runtime(d, w);
+  for (size_t i = 0; i < segment_count; ++i) w.segments.push_back(segment_desc(segments[i], i));
+  return w;
+}
+
+// A scene file's description with a (checked) def's changes, as haustra_world_create_from_scene_def
+// builds it.
+haustra::SceneDesc scene_with_def(const char* scene_path, const haustra_world_def& d) {
+  if (scene_path == nullptr) throw Error(ErrorCode::invalid_argument, "scene_path is NULL");
+  haustra::SceneDesc scene = haustra::load_scene(scene_path);
+  apply_world_fields(d, /*only_changed=*/true, scene.world);
+  apply_runtime(d, scene.world);
+  return scene;
+}
+
+haustra_estimate estimate_of(const haustra::WorldDesc& w) {
+  const haustra::MemoryEstimate e = haustra::estimate_memory(w);
+  haustra_estimate o{};
+#define HAUSTRA_COPY_FIELD(type, name, initial, meaning) o.name = e.name;
+  HAUSTRA_MEMORY_FIELDS(HAUSTRA_COPY_FIELD)
+#undef HAUSTRA_COPY_FIELD
+  o.available = haustra::available_memory();
+  return o;
+}
+
+Eigen::Vector3d vec3_of(const double v[3]) { return {v[0], v[1], v[2]}; }
+
+// An optional name: the host's string, or the default.
+std::string name_or(const char* name, std::string fallback) {
+  if (name == nullptr) return fallback;
+  const std::size_t n = strnlen(name, 4097);
+  if (n > 4096) throw Error(ErrorCode::invalid_argument, "name: longer than 4,096 bytes");
+  return {name, n};
+}
+
+haustra_instrument_def instrument_defaults() {
+  haustra_instrument_def d{};
+  haustra_instrument_def_default(&d);
+  return d;
+}
+
+haustra::InstrumentDesc instrument_desc(const haustra_instrument_def& host, std::size_t index) {
+  const haustra_instrument_def d = read_def(host, instrument_defaults(), "def");
+  haustra::InstrumentDesc in;
+  in.name = name_or(d.name, fmt::format("instrument{}", index));
+  in.radius = d.radius;
+  in.length = d.length;
+  in.grasp_reach = d.grasp_reach;
+  in.hold_frame = flag(d.hold_frame, "def.hold_frame");
+  in.force_filter = d.force_filter;
+  in.coupling_stiffness = d.coupling_stiffness;
+  in.coupling_damping = d.coupling_damping;
+  in.force_limit = d.force_limit;
+  in.holding_force = d.holding_force;
+  in.proxy = flag(d.proxy, "def.proxy");
+  in.cut_radius = d.cut_radius;
+  in.tip = vec3_of(d.tip);  // the rest is checked with the instrument by the builder
+  in.axis = vec3_of(d.axis);
+  return in;
+}
+
+haustra_obstacle_def obstacle_defaults() {
+  haustra_obstacle_def d{};
+  haustra_obstacle_def_default(&d);
+  return d;
+}
+
+const char* kind_word(int kind) {
+  static constexpr const char* words[] = {"plane", "sphere", "capsule", "mesh"};
+  return kind >= 0 && kind < 4 ? words[kind] : "obstacle";
+}
+
+int checked_kind(int kind, const char* name) {
+  if (kind < HAUSTRA_OBSTACLE_PLANE || kind > HAUSTRA_OBSTACLE_MESH)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("{} = {}: expected 0 (plane), 1 (sphere), 2 (capsule) or 3 (mesh)", name, kind));
+  return kind;
+}
+
+haustra::ObstacleDesc obstacle_desc(const haustra_obstacle_def& host, const haustra::World& w) {
+  const haustra_obstacle_def d = read_def(host, obstacle_defaults(), "def");
+  const int kind = checked_kind(d.kind, "def.kind");
+  const std::string name =
+      name_or(d.name, fmt::format("{}{}", kind_word(kind), w.obstacle_count(static_cast<haustra::ObstacleKind>(kind))));
+  if (kind != HAUSTRA_OBSTACLE_MESH &&
+      (d.vertices != nullptr || d.vertex_count > 0 || d.triangles != nullptr || d.triangle_count > 0))
+    throw Error(ErrorCode::invalid_argument, fmt::format("def.vertices, def.triangles: only a mesh (kind 3) has them, "
+                                                         "this is a {}",
+                                                         kind_word(kind)));
+  if (kind != HAUSTRA_OBSTACLE_MESH) (void)flag(d.container, "def.container");
+  switch (kind) {
+    case HAUSTRA_OBSTACLE_PLANE: return haustra::PlaneDesc{name, vec3_of(d.point), vec3_of(d.normal)};
+    case HAUSTRA_OBSTACLE_SPHERE: return haustra::SphereObstacleDesc{name, vec3_of(d.point), d.radius};
+    case HAUSTRA_OBSTACLE_CAPSULE: return haustra::CapsuleObstacleDesc{name, vec3_of(d.point), vec3_of(d.b), d.radius};
+    default: break;
+  }
+  // A mesh: the host's arrays, bounded as a mesh file is (2^24 vertices).
+  if (d.vertex_count > (std::size_t{1} << 24) || d.triangle_count > (std::size_t{1} << 25))
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("def: {} vertices and {} triangles: at most 16,777,216 and 33,554,432", d.vertex_count,
+                            d.triangle_count));
+  if ((d.vertices == nullptr && d.vertex_count > 0) || (d.triangles == nullptr && d.triangle_count > 0))
+    throw Error(ErrorCode::invalid_argument, "def.vertices or def.triangles is NULL");
+  haustra::MeshObstacleDesc m;
+  m.name = name;
+  m.source = fmt::format("the host's mesh '{}'", name);
+  m.container = flag(d.container, "def.container");
+  for (std::size_t v = 0; v < d.vertex_count; ++v)
+    m.vertices.emplace_back(d.vertices[3 * v], d.vertices[3 * v + 1], d.vertices[3 * v + 2]);
+  for (std::size_t t = 0; t < d.triangle_count; ++t)
+    m.triangles.push_back({d.triangles[3 * t], d.triangles[3 * t + 1], d.triangles[3 * t + 2]});
+  return m;
+}
+
+haustra_attachment_def attachment_defaults() {
+  haustra_attachment_def d{};
+  haustra_attachment_def_default(&d);
+  return d;
+}
+
+haustra::AttachmentDesc attachment_desc(const haustra_attachment_def& host) {
+  const haustra_attachment_def d = read_def(host, attachment_defaults(), "def");
+  haustra::AttachmentDesc a;
+  if (d.node < -10'000'000 || d.node > 10'000'000)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("def.node = {}: a node index within ±10,000,000 (negative: from the tip)", d.node));
+  a.node = static_cast<int>(d.node);
+  a.hold_frame = flag(d.hold_frame, "def.hold_frame");
+  if (flag(d.has_target, "def.has_target")) a.target = vec3_of(d.target);
+  a.active = flag(d.active, "def.active");
+  return a;
+}
+
+haustra_anchors_def anchors_defaults() {
+  haustra_anchors_def d{};
+  haustra_anchors_def_default(&d);
+  return d;
+}
+
+haustra::AnchorsDesc anchors_desc(const haustra_anchors_def& host) {
+  const haustra_anchors_def d = read_def(host, anchors_defaults(), "def");
+  haustra::AnchorsDesc a;
+  a.name = name_or(d.name, a.name);
+  a.from = d.from;
+  a.to = d.to;
+  a.stiffness = d.stiffness;
+  a.damping = d.damping;
+  a.slack = d.slack;
+  a.strength = d.strength;
+  a.support = d.support;
+  if (d.root != nullptr || d.root_points > 0) {
+    if (d.root == nullptr) throw Error(ErrorCode::invalid_argument, "def.root is NULL");
+    if (d.root_points > 1'000'000)
+      throw Error(ErrorCode::invalid_argument, fmt::format("def.root_points = {}: at most 1,000,000", d.root_points));
+    a.target = haustra::AnchorTarget::root;
+    for (std::size_t k = 0; k < d.root_points; ++k)
+      a.root.emplace_back(d.root[3 * k], d.root[3 * k + 1], d.root[3 * k + 2]);
+  }
+  return a;
+}
+
+// A host moves or releases a segment's own attachments; a grasp slot is its instrument's.
+void own_attachment(const haustra::World& w, std::size_t segment, std::size_t attachment) {
+  if (w.attachment(segment, attachment).grasp_slot)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("attachment {} of segment {} is instrument {}'s grasp slot: the instrument's pose and "
+                            "grasp move it",
+                            attachment, segment, w.attachment(segment, attachment).instrument));
+}
+
+// A change that rebuilds the world: through the frame publisher for a double-buffered one (its
+// render thread holds no frame meanwhile).
+template <class F>
+void rebuilding(haustra_world& h, F&& change) {
+  auto run = [&]() -> const haustra::World& {
+    change(*h.world);
+    return *h.world;
+  };
+  if (h.frames)
+    h.frames->resize(run);
+  else
+    run();
+}
+
 }  // namespace
 
 extern "C" {
 
 const char* haustra_version(void) { return HAUSTRA_VERSION; }
 
+int haustra_abi_version(void) { return HAUSTRA_ABI_VERSION; }
+
 haustra_status haustra_check_abi(int abi_version) {
   return guarded("haustra_check_abi",
                  [&] {
-                   if (abi_version != HAUSTRA_ABI_VERSION)
-                     throw Error(ErrorCode::invalid_argument,
-                                 fmt::format("the host was built against ABI {}, this library is ABI {} (haustra {})",
-                                             abi_version, HAUSTRA_ABI_VERSION, HAUSTRA_VERSION));
+                   if (abi_version < HAUSTRA_ABI_OLDEST || abi_version > HAUSTRA_ABI_VERSION)
+                     throw Error(
+                         ErrorCode::invalid_argument,
+                         fmt::format("the host was built against ABI {}, this library is ABI {} (haustra {}) "
+                                     "and serves hosts of ABI {} to {}{}",
+                                     abi_version, HAUSTRA_ABI_VERSION, HAUSTRA_VERSION, HAUSTRA_ABI_OLDEST,
+                                     HAUSTRA_ABI_VERSION,
+                                     abi_version > HAUSTRA_ABI_VERSION ? ": the host's header is newer than the library"
+                                                                       : ": structs before ABI 14 carry no size"));
                  }) == HAUSTRA_OK
              ? HAUSTRA_OK
              : HAUSTRA_ABI_MISMATCH;
@@ -341,12 +621,8 @@ haustra_status haustra_world_create_from_scene_def(const char* scene_path, const
   return guarded("haustra_world_create_from_scene_def", [&] {
     required(out, "out");
     if (scene_path == nullptr) throw Error(ErrorCode::invalid_argument, "scene_path is NULL");
-    haustra_world_def defaults;
-    haustra_world_def_default(&defaults);
-    const haustra_world_def& d = def != nullptr ? checked_def(*def) : defaults;
-    haustra::SceneDesc scene = haustra::load_scene(scene_path);
-    apply_world_fields(d, /*only_changed=*/true, scene.world);
-    apply_runtime(d, scene.world);
+    const haustra_world_def d = def != nullptr ? checked_def(*def) : world_defaults();
+    const haustra::SceneDesc scene = scene_with_def(scene_path, d);
     *out = make_handle(haustra::create_world(scene), d.double_buffered != 0);
   });
 }
@@ -411,16 +687,8 @@ haustra_status haustra_world_create(const haustra_world_def* def, const haustra_
                                     size_t segment_count, haustra_world** out) {
   return guarded("haustra_world_create", [&] {
     required(out, "out");
-    const haustra_world_def& d = checked_def(required(def, "def"));
-    if (segments == nullptr && segment_count > 0) throw Error(ErrorCode::invalid_argument, "segments is NULL");
-    if (segment_count > 100'000)
-      throw Error(ErrorCode::invalid_argument,
-                  fmt::format("segment_count = {}: expected at most 100,000", segment_count));
-    haustra::WorldDesc w;
-    apply_world_fields(d, /*only_changed=*/false, w);
-    apply_runtime(d, w);
-    for (size_t i = 0; i < segment_count; ++i) w.segments.push_back(segment_desc(segments[i], i));
-    *out = make_handle(haustra::World::create(w), d.double_buffered != 0);
+    const haustra_world_def d = checked_def(required(def, "def"));
+    *out = make_handle(haustra::World::create(world_from_defs(d, segments, segment_count)), d.double_buffered != 0);
   });
 }
 
@@ -450,9 +718,16 @@ haustra_status haustra_world_counts(const haustra_world* world, haustra_counts* 
   return guarded("haustra_world_counts", [&] {
     const Held held(world);
     const haustra::World& w = held.world();
-    haustra_counts& o = required(out, "out");
-    o = haustra_counts{w.segment_count(),    w.node_count(),       w.bead_count(),
-                       w.instrument_count(), w.mesh_buffer_size(), w.mesh_triangles().size()};
+    haustra_counts o{};
+    o.segments = w.segment_count();
+    o.nodes = w.node_count();
+    o.beads = w.bead_count();
+    o.instruments = w.instrument_count();
+    o.mesh_vertices = w.mesh_buffer_size();
+    o.mesh_triangles = w.mesh_triangles().size();
+    for (int k = 0; k < 4; ++k) o.obstacles[k] = w.obstacle_count(static_cast<haustra::ObstacleKind>(k));
+    o.anchors = w.anchor_count();
+    write_out(out, o, "out");
   });
 }
 
@@ -471,19 +746,14 @@ haustra_status haustra_world_segment(const haustra_world* world, size_t segment,
   return guarded("haustra_world_segment", [&] {
     const Held held(world);
     const haustra::World& w = held.world();
-    haustra_segment_info& o = required(out, "out");
     const haustra::SegmentInfo& info = w.segment(segment);
     const haustra::Range beads = w.beads(segment);
     const haustra::MeshInfo& mesh = w.mesh(segment);
-    o = haustra_segment_info{info.name.c_str(),
-                             info.nodes.offset,
-                             info.nodes.count,
-                             beads.offset,
-                             beads.count,
-                             mesh.enabled ? mesh.vertices.offset : 0,
-                             mesh.enabled ? mesh.vertices.count : 0,
-                             w.chain_of(segment),
-                             info.length};
+    write_out(out,
+              haustra_segment_info{sizeof(haustra_segment_info), info.name.c_str(), info.nodes.offset, info.nodes.count,
+                                   beads.offset, beads.count, mesh.enabled ? mesh.vertices.offset : 0,
+                                   mesh.enabled ? mesh.vertices.count : 0, w.chain_of(segment), info.length},
+              "out");
   });
 }
 
@@ -608,7 +878,7 @@ haustra_status haustra_world_instrument(const haustra_world* world, size_t instr
     o.grasped_node = r.grasped_node;
     copy3(r.commanded_tip, o.commanded_tip);
     o.cutting = r.cutting ? 1 : 0;
-    required(out, "out") = o;
+    write_out(out, o, "out");
   });
 }
 
@@ -653,7 +923,7 @@ haustra_status haustra_world_profile(const haustra_world* world, haustra_profile
 #define HAUSTRA_COPY_FIELD(type, name, initial, meaning) o.name = p.name;
     HAUSTRA_PROFILE_COUNTERS(HAUSTRA_COPY_FIELD)
 #undef HAUSTRA_COPY_FIELD
-    required(out, "out") = o;
+    write_out(out, o, "out");
   });
 }
 
@@ -697,8 +967,10 @@ haustra_status haustra_world_material(const haustra_world* world, size_t segment
   return guarded("haustra_world_material", [&] {
     const Held held(world);
     const haustra::SegmentDesc& d = held.world().segment_desc(segment);
-    required(out, "out") =
-        haustra_material{d.material.youngs_modulus, d.material.poisson_ratio, d.material.density, d.relaxation_time};
+    write_out(out,
+              haustra_material{sizeof(haustra_material), d.material.youngs_modulus, d.material.poisson_ratio,
+                               d.material.density, d.relaxation_time},
+              "out");
   });
 }
 
@@ -706,8 +978,13 @@ haustra_status haustra_world_set_material(haustra_world* world, size_t segment, 
   return guarded("haustra_world_set_material", [&] {
     const Held held(world);
     haustra_world& h = held.handle();
-    const haustra_material& m = required(material, "material");
-    haustra::MaterialDesc next = h.world->segment_desc(segment).material;
+    const haustra::SegmentDesc& now = h.world->segment_desc(segment);
+    const haustra_material m =
+        read_def(required(material, "material"),
+                 haustra_material{sizeof(haustra_material), now.material.youngs_modulus, now.material.poisson_ratio,
+                                  now.material.density, now.relaxation_time},
+                 "material");
+    haustra::MaterialDesc next = now.material;
     next.youngs_modulus = m.youngs_modulus;
     next.poisson_ratio = m.poisson_ratio;
     next.density = m.density;
@@ -725,14 +1002,19 @@ haustra_status haustra_world_set_material(haustra_world* world, size_t segment, 
 haustra_status haustra_world_frame_limits(const haustra_world* world, haustra_frame_limits* out) {
   return guarded("haustra_world_frame_limits", [&] {
     const haustra::FrameLimits l = live(world).world().frame_limits();
-    required(out, "out") = haustra_frame_limits{l.max_substeps, l.max_retries, l.calm_frames};
+    write_out(out, haustra_frame_limits{sizeof(haustra_frame_limits), l.max_substeps, l.max_retries, l.calm_frames},
+              "out");
   });
 }
 
 haustra_status haustra_world_set_frame_limits(haustra_world* world, const haustra_frame_limits* limits) {
   return guarded("haustra_world_set_frame_limits", [&] {
     const Held held(world);
-    const haustra_frame_limits& l = required(limits, "limits");
+    const haustra::FrameLimits now = held.world().frame_limits();
+    const haustra_frame_limits l =
+        read_def(required(limits, "limits"),
+                 haustra_frame_limits{sizeof(haustra_frame_limits), now.max_substeps, now.max_retries, now.calm_frames},
+                 "limits");
     held.world().set_frame_limits({l.max_substeps, l.max_retries, l.calm_frames});
   });
 }
@@ -741,7 +1023,7 @@ haustra_status haustra_world_take_events(haustra_world* world, haustra_event* ou
                                          uint64_t* dropped) {
   return guarded("haustra_world_take_events", [&] {
     const Held held(world);
-    if (out == nullptr && capacity > 0) throw Error(ErrorCode::invalid_argument, "out is NULL");
+    const std::size_t stride = stride_of(out, capacity, "out");
     required(count, "count");
     // Taken one at a time through a local, so out[] is written only with events that left the queue.
     std::size_t taken = 0;
@@ -751,7 +1033,7 @@ haustra_status haustra_world_take_events(haustra_world* world, haustra_event* ou
       std::uint64_t lost_now = 0;
       if (held.world().take_events(std::span(&e, 1), &lost_now) == 0) break;
       lost += lost_now;
-      haustra_event& o = out[taken];
+      haustra_event o{};
       o.kind = static_cast<int>(e.kind);
       o.frame = e.frame;
       o.segment = e.segment;
@@ -759,6 +1041,7 @@ haustra_status haustra_world_take_events(haustra_world* world, haustra_event* ou
       o.stage = static_cast<int>(e.stage);
       o.substeps = e.substeps;
       std::memcpy(o.message, e.text.data(), sizeof o.message);
+      write_at(out, stride, taken, o);
     }
     if (taken == 0) (void)held.world().take_events({}, &lost);
     *count = taken;
@@ -769,16 +1052,19 @@ haustra_status haustra_world_take_events(haustra_world* world, haustra_event* ou
 haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* out) {
   return guarded("haustra_world_acquire_frame", [&] {
     haustra_world& h = frame_reader(world);  // beside the stepping thread: no hold (see haustra.h)
-    haustra_frame& o = required(out, "out");
     if (!h.frames)
       throw Error(ErrorCode::invalid_argument,
                   "this world was not created with double_buffered = 1 (haustra_world_def)");
+    (void)known_size<haustra_frame>(required(out, "out").struct_size, "out");  // before a frame is held
     const haustra::FramePublisher::Slot& s = h.frames->acquire();
-    o = haustra_frame{s.frame,
-                      s.time,
-                      {s.x.data(), s.y.data(), s.z.data(), s.x.size()},
-                      {s.px.data(), s.py.data(), s.pz.data(), s.px.size()},
-                      {s.nx.data(), s.ny.data(), s.nz.data(), s.nx.size()}};
+    write_out(out,
+              haustra_frame{sizeof(haustra_frame),
+                            s.frame,
+                            s.time,
+                            {s.x.data(), s.y.data(), s.z.data(), s.x.size()},
+                            {s.px.data(), s.py.data(), s.pz.data(), s.px.size()},
+                            {s.nx.data(), s.ny.data(), s.nz.data(), s.nx.size()}},
+              "out");
   });
 }
 
@@ -818,6 +1104,261 @@ haustra_status haustra_world_restore_checkpoint(haustra_world* world, const char
       restore();
       if (h.frames) h.frames->publish(*h.world);
     }
+  });
+}
+
+// Since ABI 14: estimates, parts added and removed at run time, attachments, frames, velocities,
+// beads' nodes, contacts.
+
+haustra_status haustra_estimate_world(const haustra_world_def* def, const haustra_segment_def* segments,
+                                      size_t segment_count, haustra_estimate* out) {
+  return guarded("haustra_estimate_world", [&] {
+    const haustra_world_def d = checked_def(required(def, "def"));
+    write_out(out, estimate_of(world_from_defs(d, segments, segment_count)), "out");
+  });
+}
+
+haustra_status haustra_estimate_scene(const char* scene_path, const haustra_world_def* def, haustra_estimate* out) {
+  return guarded("haustra_estimate_scene", [&] {
+    const haustra_world_def d = def != nullptr ? checked_def(*def) : world_defaults();
+    write_out(out, estimate_of(scene_with_def(scene_path, d).world), "out");
+  });
+}
+
+haustra_status haustra_instrument_def_default(haustra_instrument_def* def) {
+  return guarded("haustra_instrument_def_default", [&] {
+    haustra_instrument_def& d = required(def, "def");
+    const haustra::InstrumentDesc in;
+    d = haustra_instrument_def{};
+    d.struct_size = sizeof(haustra_instrument_def);
+    d.radius = in.radius;
+    d.length = in.length;
+    d.grasp_reach = in.grasp_reach;
+    d.hold_frame = in.hold_frame ? 1 : 0;
+    d.force_filter = in.force_filter;
+    d.coupling_stiffness = in.coupling_stiffness;
+    d.coupling_damping = in.coupling_damping;
+    d.force_limit = in.force_limit;
+    d.holding_force = in.holding_force;
+    d.proxy = in.proxy ? 1 : 0;
+    d.cut_radius = in.cut_radius;
+    copy3(in.tip, d.tip);
+    copy3(in.axis, d.axis);
+  });
+}
+
+haustra_status haustra_world_add_instrument(haustra_world* world, const haustra_instrument_def* def, size_t* index) {
+  return guarded("haustra_world_add_instrument", [&] {
+    const Held held(world);
+    const haustra::InstrumentDesc desc = instrument_desc(required(def, "def"), held.world().instrument_count());
+    std::size_t added = 0;
+    rebuilding(held.handle(), [&](haustra::World& w) { added = w.add_instrument(desc); });
+    if (index != nullptr) *index = added;
+  });
+}
+
+haustra_status haustra_world_remove_instrument(haustra_world* world, size_t instrument) {
+  return guarded("haustra_world_remove_instrument", [&] {
+    const Held held(world);
+    rebuilding(held.handle(), [&](haustra::World& w) { w.remove_instrument(instrument); });
+  });
+}
+
+haustra_status haustra_obstacle_def_default(haustra_obstacle_def* def) {
+  return guarded("haustra_obstacle_def_default", [&] {
+    haustra_obstacle_def& d = required(def, "def");
+    d = haustra_obstacle_def{};
+    d.struct_size = sizeof(haustra_obstacle_def);
+    d.kind = HAUSTRA_OBSTACLE_PLANE;
+    d.normal[2] = 1.0;
+    d.b[0] = 1.0;
+    d.radius = haustra::SphereObstacleDesc{}.radius;
+  });
+}
+
+haustra_status haustra_world_add_obstacle(haustra_world* world, const haustra_obstacle_def* def, size_t* index) {
+  return guarded("haustra_world_add_obstacle", [&] {
+    const Held held(world);
+    const haustra::ObstacleDesc desc = obstacle_desc(required(def, "def"), held.world());
+    std::size_t added = 0;
+    rebuilding(held.handle(), [&](haustra::World& w) { added = w.add_obstacle(desc); });
+    if (index != nullptr) *index = added;
+  });
+}
+
+haustra_status haustra_world_remove_obstacle(haustra_world* world, int kind, size_t index) {
+  return guarded("haustra_world_remove_obstacle", [&] {
+    const Held held(world);
+    const auto k = static_cast<haustra::ObstacleKind>(checked_kind(kind, "kind"));
+    rebuilding(held.handle(), [&](haustra::World& w) { w.remove_obstacle(k, index); });
+  });
+}
+
+haustra_status haustra_attachment_def_default(haustra_attachment_def* def) {
+  return guarded("haustra_attachment_def_default", [&] {
+    haustra_attachment_def& d = required(def, "def");
+    d = haustra_attachment_def{};
+    d.struct_size = sizeof(haustra_attachment_def);
+    d.node = -1;
+    d.active = 1;
+  });
+}
+
+haustra_status haustra_world_add_attachment(haustra_world* world, size_t segment, const haustra_attachment_def* def,
+                                            size_t* index) {
+  return guarded("haustra_world_add_attachment", [&] {
+    const Held held(world);
+    const haustra::AttachmentDesc desc = attachment_desc(required(def, "def"));
+    std::size_t added = 0;
+    rebuilding(held.handle(), [&](haustra::World& w) { added = w.add_attachment(segment, desc); });
+    if (index != nullptr) *index = added;
+  });
+}
+
+haustra_status haustra_world_remove_attachment(haustra_world* world, size_t segment, size_t attachment) {
+  return guarded("haustra_world_remove_attachment", [&] {
+    const Held held(world);
+    rebuilding(held.handle(), [&](haustra::World& w) { w.remove_attachment(segment, attachment); });
+  });
+}
+
+haustra_status haustra_world_attachment_count(const haustra_world* world, size_t segment, size_t* count) {
+  return guarded("haustra_world_attachment_count",
+                 [&] { required(count, "count") = live(world).world().attachment_count(segment); });
+}
+
+haustra_status haustra_world_attachment(const haustra_world* world, size_t segment, size_t attachment,
+                                        haustra_attachment_reading* out) {
+  return guarded("haustra_world_attachment", [&] {
+    const Held held(world);
+    const haustra::AttachmentReading r = held.world().attachment(segment, attachment);
+    haustra_attachment_reading o{};
+    o.node = r.node;
+    o.active = r.active ? 1 : 0;
+    o.grasp_slot = r.grasp_slot ? 1 : 0;
+    o.instrument = r.instrument;
+    copy3(r.target, o.target);
+    copy3(r.force, o.force);
+    copy3(r.moment, o.moment);
+    write_out(out, o, "out");
+  });
+}
+
+haustra_status haustra_world_set_attachment_target(haustra_world* world, size_t segment, size_t attachment,
+                                                   const double target[3]) {
+  return guarded("haustra_world_set_attachment_target", [&] {
+    const Held held(world);
+    own_attachment(held.world(), segment, attachment);
+    held.world().set_attachment_target(segment, attachment, finite_vec3(target, "target"));
+  });
+}
+
+haustra_status haustra_world_set_attachment_active(haustra_world* world, size_t segment, size_t attachment,
+                                                   int active) {
+  return guarded("haustra_world_set_attachment_active", [&] {
+    const Held held(world);
+    own_attachment(held.world(), segment, attachment);
+    held.world().set_attachment_active(segment, attachment, flag(active, "active"));
+  });
+}
+
+haustra_status haustra_anchors_def_default(haustra_anchors_def* def) {
+  return guarded("haustra_anchors_def_default", [&] {
+    haustra_anchors_def& d = required(def, "def");
+    const haustra::AnchorsDesc a;
+    d = haustra_anchors_def{};
+    d.struct_size = sizeof(haustra_anchors_def);
+    d.from = a.from;
+    d.to = a.to;
+    d.stiffness = a.stiffness;
+    d.damping = a.damping;
+    d.slack = a.slack;
+    d.strength = a.strength;
+    d.support = a.support;
+  });
+}
+
+haustra_status haustra_world_add_anchors(haustra_world* world, size_t segment, const haustra_anchors_def* def,
+                                         size_t* range) {
+  return guarded("haustra_world_add_anchors", [&] {
+    const Held held(world);
+    const haustra::AnchorsDesc desc = anchors_desc(required(def, "def"));
+    std::size_t added = 0;
+    rebuilding(held.handle(), [&](haustra::World& w) { added = w.add_anchors(segment, desc); });
+    if (range != nullptr) *range = added;
+  });
+}
+
+haustra_status haustra_world_remove_anchors(haustra_world* world, size_t segment, size_t range) {
+  return guarded("haustra_world_remove_anchors", [&] {
+    const Held held(world);
+    rebuilding(held.handle(), [&](haustra::World& w) { w.remove_anchors(segment, range); });
+  });
+}
+
+haustra_status haustra_world_anchor_ranges(const haustra_world* world, size_t segment, size_t* count) {
+  return guarded("haustra_world_anchor_ranges",
+                 [&] { required(count, "count") = live(world).world().anchor_range_count(segment); });
+}
+
+haustra_status haustra_world_node_rotations(const haustra_world* world, haustra_quat_view* out) {
+  return guarded("haustra_world_node_rotations", [&] {
+    const Held held(world);
+    const haustra::World& w = held.world();
+    const auto r = w.node_rotations();
+    required(out, "out") = haustra_quat_view{r.w.data(), r.x.data(), r.y.data(), r.z.data(), w.node_count()};
+  });
+}
+
+haustra_status haustra_world_bead_nodes(const haustra_world* world, const uint32_t** nodes, size_t* count) {
+  return guarded("haustra_world_bead_nodes", [&] {
+    const Held held(world);
+    const auto b = held.world().bead_nodes();
+    required(nodes, "nodes") = b.data();
+    required(count, "count") = b.size();
+  });
+}
+
+haustra_status haustra_world_node_velocities(const haustra_world* world, double* linear, double* angular,
+                                             size_t count) {
+  return guarded("haustra_world_node_velocities", [&] {
+    const Held held(world);
+    const haustra::World& w = held.world();
+    if (linear == nullptr && angular == nullptr)
+      throw Error(ErrorCode::invalid_argument, "linear and angular are both NULL");
+    if (count != 3 * w.node_count())
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("count = {}: expected 3 × {} nodes = {}", count, w.node_count(), 3 * w.node_count()));
+    // Into scratch first: a NULL output is skipped, and nothing is written on a failure.
+    std::vector<double> lin(count), ang(count);
+    w.node_velocities(lin, ang);
+    if (linear != nullptr) std::copy(lin.begin(), lin.end(), linear);
+    if (angular != nullptr) std::copy(ang.begin(), ang.end(), angular);
+  });
+}
+
+haustra_status haustra_world_contacts(const haustra_world* world, haustra_contact* out, size_t capacity, size_t* count,
+                                      size_t* total) {
+  return guarded("haustra_world_contacts", [&] {
+    const Held held(world);
+    const std::size_t stride = stride_of(out, capacity, "out");
+    required(count, "count");
+    const std::span<const haustra::Contact> list = held.world().contact_list();
+    const std::size_t n = std::min(capacity, list.size());
+    for (std::size_t i = 0; i < n; ++i) {
+      const haustra::Contact& c = list[i];
+      haustra_contact o{};
+      o.kind = static_cast<int>(c.kind);
+      o.bead = c.bead;
+      o.other = c.other;
+      copy3(c.point, o.point);
+      copy3(c.direction, o.normal);
+      copy3(c.force, o.force);
+      o.depth = c.depth;
+      write_at(out, stride, i, o);
+    }
+    *count = n;
+    if (total != nullptr) *total = list.size();
   });
 }
 

@@ -71,7 +71,8 @@ void FramePublisher::release() {
 void FramePublisher::refuse_if_held() const {
   if (held_)
     throw Error(ErrorCode::invalid_argument,
-                "the render thread holds a frame: release it before adding or removing segments");
+                "the render thread holds a frame: release it before changing what the world holds (segments, "
+                "instruments, obstacles, attachments, tissue, a material)");
 }
 
 void FramePublisher::fill(Slot& s, const World& w) const {

@@ -171,6 +171,13 @@ std::size_t World::attachment_count(std::size_t segment) const {
   return impl_->model.segments[impl_->piece(segment).rod].attachments.size();
 }
 
+AttachmentReading World::attachment(std::size_t segment, std::size_t attachment) const {
+  const std::size_t index = impl_->attachment_index(segment, attachment);
+  const detail::AttachmentModel& m = impl_->model.segments[impl_->piece(segment).rod].attachments[attachment];
+  const detail::AttachmentState& a = impl_->state.now.attachment[index];
+  return {a.node, a.active, m.grasp_slot, m.grasp_slot ? m.instrument : 0, a.target, a.force, a.moment};
+}
+
 Eigen::Vector3d World::attachment_force(std::size_t segment, std::size_t attachment) const {
   return impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].force;
 }

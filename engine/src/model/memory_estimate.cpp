@@ -4,12 +4,14 @@
 // exceeds the memory the machine has available (or the host's world.memory_limit).
 #include <unistd.h>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <string>
 
 #include "haustra/kernels/rod_condensed.hpp"
 #include "haustra/world.hpp"
+#include "model/world_desc_checks.hpp"
 #include "model/world_model.hpp"
 #include "step/collision.hpp"
 #include "step/world_state.hpp"
@@ -39,6 +41,25 @@ constexpr std::size_t kPerBead = 640;
 constexpr std::size_t kPerMeshVertex = 330;
 // Whatever the size: the events' reserved room, the collision chunks', the scheduler's arena.
 constexpr std::size_t kFixed = 1'000'000;
+// Per pair of one segment's beads within reach at rest (decision 0101): its rest-pose exclusion (a
+// 4-byte index), and in the first step the broad phase's lists of pairs within the margin — each
+// chunk's and the merged one, both grown to twice what they hold (measured: 64 bytes a pair on a rod
+// of 20,000 nodes with 2,000 to 10,000 beads of 2 cm).
+constexpr std::size_t kPerRestPair = 4;
+constexpr std::size_t kPerStepPair = 64;
+
+// Seconds on one core of the reference machine (2 vCPU, measured on 2026-11-28 with the C API's
+// defaults, decision 0101): building a rod, a rest-pose pair, a procedural mesh vertex (its MVC
+// binding: 145 s for a million); a frame's Newton iteration per node (0.8 µs), the lagged scheme's
+// (0.2 µs) and fast mode's chord (0.3 µs), a pair in the broad phase, a mesh vertex skinned.
+constexpr double kBuildSecondsPerNode = 1.0e-6;
+constexpr double kBuildPerRestPair = 2.0e-8;
+constexpr double kBuildPerMeshVertex = 1.5e-4;
+constexpr double kNewtonSecondsPerNode = 0.8e-6;
+constexpr double kLaggedSecondsPerNode = 0.2e-6;
+constexpr double kChordSecondsPerNode = 0.3e-6;
+constexpr double kStepPerPair = 1.0e-7;
+constexpr double kSkinPerMeshVertex = 5.0e-9;
 
 std::size_t columns_of(const WorldDesc& desc, const SegmentDesc& s, bool beads) {
   std::size_t rows = 0;
@@ -51,21 +72,77 @@ std::size_t gain_bytes(std::size_t steps, std::size_t columns) {
   return kernels::condensed_gain_size(steps, static_cast<int>(columns)) * kDouble;
 }
 
+// The rod's rest length: the centreline's polyline, or the straight or arc rest shape's length.
+double rest_length(const SegmentDesc& s) {
+  if (s.rest.kind != RestShapeKind::centreline)
+    return std::isfinite(s.rest.length) ? std::max(s.rest.length, 0.0) : 0.0;
+  double length = 0.0;
+  for (std::size_t i = 1; i < s.rest.centreline.size(); ++i)
+    length += (s.rest.centreline[i] - s.rest.centreline[i - 1]).norm();
+  return std::isfinite(length) ? length : 0.0;
+}
+
+// The beads the builder puts on a piece of `nodes` nodes and `length` m, as it chooses them: a node
+// list, one per spacing, a count, or every third node.
+std::size_t piece_beads(const BeadsDesc& b, std::size_t nodes, double length) {
+  if (!b.enabled && b.count <= 0 && !(b.spacing > 0.0) && b.nodes.empty()) return 0;
+  if (!b.nodes.empty()) return std::min(nodes, b.nodes.size());
+  if (b.spacing > 0.0 && std::isfinite(b.spacing))
+    return std::min(nodes, static_cast<std::size_t>(std::min(length / b.spacing, 1e15)) + 2);
+  if (b.count > 0) return std::min(nodes, static_cast<std::size_t>(b.count));
+  return (nodes + 2) / 3;
+}
+
+// The largest bead radius a segment's beads take.
+double bead_radius(const SegmentDesc& s) {
+  double r = s.beads.radius > 0.0 ? s.beads.radius : s.cross_section.radius;
+  for (const auto& [f, pr] : s.beads.radius_profile) r = std::max(r, pr);
+  return std::isfinite(r) && r > 0.0 ? r : 0.0;
+}
+
+// Pairs of `beads` beads evenly `spacing` apart whose spheres (radius r) come within `reach`
+// (2r plus a margin) of each other: each with its next k = reach / spacing neighbours.
+std::size_t pairs_within(std::size_t beads, double spacing, double reach) {
+  if (beads < 2 || !(spacing > 0.0)) return 0;
+  const double k = std::min(static_cast<double>(beads - 1), std::floor(reach / spacing));
+  if (!(k >= 1.0)) return 0;
+  const double pairs = static_cast<double>(beads) * k - k * (k + 1.0) / 2.0;
+  return pairs < 1e18 ? static_cast<std::size_t>(pairs) : static_cast<std::size_t>(1e18);
+}
+
 }  // namespace
 
 MemoryEstimate estimate_memory(const WorldDesc& desc) {
   MemoryEstimate e;
   const bool newton =
       desc.solver.mode != SolverMode::lagged || desc.solver.on_instability == InstabilityPolicy::recover;
+  // The contact margin: the scene's, or half the smallest bead radius.
+  double smallest_bead = 1e300;
+  for (const SegmentDesc& s : desc.segments)
+    if (piece_beads(s.beads, static_cast<std::size_t>(std::clamp(s.nodes, 2, 10'000'000)), 1.0) > 0 &&
+        bead_radius(s) > 0.0)
+      smallest_bead = std::min(smallest_bead, bead_radius(s));
+  const double margin =
+      desc.contact.margin >= 0.0 ? desc.contact.margin : (smallest_bead < 1e300 ? 0.5 * smallest_bead : 0.0);
+  const double substeps = std::max(desc.solver.substeps, 1);
+  const double iterations = std::max(desc.solver.iterations, 1);
+  const double per_node = desc.solver.mode == SolverMode::lagged ? kLaggedSecondsPerNode
+                          : desc.solver.mode == SolverMode::fast ? kChordSecondsPerNode
+                                                                 : kNewtonSecondsPerNode;
+  std::size_t rest_pairs = 0, step_pairs = 0, mesh_vertices = 0;
   for (const SegmentDesc& s : desc.segments) {
     const std::size_t pieces = static_cast<std::size_t>(std::clamp(s.chain_pieces, 1, 4096));
     const std::size_t piece_nodes = static_cast<std::size_t>(std::clamp(s.nodes, 2, 10'000'000));
     const std::size_t n = pieces * (piece_nodes - 1) + 1;
-    std::size_t beads = 0;
-    if (s.beads.enabled || s.beads.count > 0 || s.beads.spacing > 0.0 || !s.beads.nodes.empty())
-      beads = pieces * static_cast<std::size_t>(std::max<int>(s.beads.count, static_cast<int>(s.beads.nodes.size())));
-    if (s.beads.spacing > 0.0 && s.rest.length > 0.0)
-      beads = std::max(beads, static_cast<std::size_t>(pieces * s.rest.length / s.beads.spacing) + 1);
+    const double length = rest_length(s);
+    const std::size_t beads = pieces * piece_beads(s.beads, piece_nodes, length / static_cast<double>(pieces));
+    if (beads > 1) {
+      const double spacing = length / static_cast<double>(beads - 1);
+      const double r = bead_radius(s);
+      rest_pairs += pairs_within(beads, spacing, 2.0 * r);
+      step_pairs += pairs_within(beads, spacing, 2.0 * r + margin);
+    }
+    e.beads += beads;
     std::size_t rod = n * (kModelPerNode + kStatePerNode + kBuildPerNode);
     std::size_t solver = 0;
     if (newton) {
@@ -85,17 +162,29 @@ MemoryEstimate estimate_memory(const WorldDesc& desc) {
       if (n <= detail::kBandFallbackNodes) solver += n * (kBandPerNode + 16 * cols * kDouble);
     }
     std::size_t mesh = 0;
-    if (s.mesh.enabled && s.mesh.source == MeshSource::procedural)
-      mesh = pieces * static_cast<std::size_t>(std::max(s.mesh.procedural.vertices, 0)) * kPerMeshVertex;
+    if (s.mesh.enabled && s.mesh.source == MeshSource::procedural) {
+      const std::size_t vertices = pieces * static_cast<std::size_t>(std::max(s.mesh.procedural.vertices, 0));
+      mesh = vertices * kPerMeshVertex;
+      mesh_vertices += vertices;
+    }
     e.nodes += n;
     e.rod_bytes += rod;
     e.solver_bytes += solver;
     e.bead_bytes += beads * kPerBead;
     e.mesh_bytes += mesh;
   }
-  e.total = kFixed + e.rod_bytes + e.solver_bytes + e.bead_bytes + e.mesh_bytes;
+  e.bead_pairs = step_pairs;
+  e.pair_bytes = rest_pairs * kPerRestPair + step_pairs * kPerStepPair;
+  e.total = kFixed + e.rod_bytes + e.solver_bytes + e.bead_bytes + e.mesh_bytes + e.pair_bytes;
+  const auto nodes = static_cast<double>(e.nodes);
+  e.build_seconds = kBuildSecondsPerNode * nodes + kBuildPerRestPair * static_cast<double>(rest_pairs) +
+                    kBuildPerMeshVertex * static_cast<double>(mesh_vertices);
+  e.step_seconds = substeps * (iterations * per_node * nodes + kStepPerPair * static_cast<double>(step_pairs)) +
+                   kSkinPerMeshVertex * static_cast<double>(mesh_vertices);
   return e;
 }
+
+void check_fits(const WorldDesc& desc) { detail::check_memory(desc); }
 
 std::size_t available_memory() {
   // MemAvailable: what the kernel can give without swapping.

@@ -65,8 +65,68 @@ void carry_chords(const std::vector<NewtonWorkspace>& from, std::size_t a, std::
 
 }  // namespace
 
+CarryMap same_rods(const WorldModel& model) {
+  CarryMap map;
+  map.rods.resize(model.segments.size());
+  for (std::size_t r = 0; r < map.rods.size(); ++r) map.rods[r] = r;
+  return map;
+}
+
+namespace {
+
+std::size_t mapped(const std::vector<std::size_t>& map, std::size_t i) { return map.empty() ? i : map[i]; }
+
+// A rod's slot in `rod` for an old slot of `from_rod`: its own attachments through the map, a grasp
+// slot through its instrument's new index; kRodRemoved when it has none.
+std::size_t slot_in(const SegmentModel& from_rod, std::size_t k, const SegmentModel& rod, const CarryMap& map,
+                    std::size_t old_rod) {
+  const AttachmentModel& a = from_rod.attachments[k];
+  if (!a.grasp_slot) {
+    const std::size_t to = old_rod < map.attachments.size() ? mapped(map.attachments[old_rod], k) : k;
+    return to < rod.attachments.size() && !rod.attachments[to].grasp_slot ? to : kRodRemoved;
+  }
+  const std::size_t instrument = mapped(map.instruments, a.instrument);
+  if (instrument == kRodRemoved) return kRodRemoved;
+  for (std::size_t j = 0; j < rod.attachments.size(); ++j)
+    if (rod.attachments[j].grasp_slot && rod.attachments[j].instrument == instrument) return j;
+  return kRodRemoved;
+}
+
+// A rod's ranges of anchors, in order: (first, count) into the model's anchors.
+std::vector<std::pair<std::size_t, std::size_t>> ranges_of(const WorldModel& m, std::size_t rod) {
+  std::vector<std::pair<std::size_t, std::size_t>> out;
+  for (const AnchorRange& r : m.anchor_ranges)
+    if (r.rod == rod) out.emplace_back(r.first, r.count);
+  return out;
+}
+
+// What was torn or cut stays so, range by range, while a range is described alike (else it
+// starts whole).
+void carry_anchors(const WorldModel& from_model, const WorldState& from, const WorldModel& to_model, WorldState& to,
+                   const CarryMap& map, std::size_t old_rod, std::size_t new_rod) {
+  const auto old_ranges = ranges_of(from_model, old_rod);
+  const auto new_ranges = ranges_of(to_model, new_rod);
+  const bool identity = old_rod >= map.anchor_ranges.size() || map.anchor_ranges[old_rod].empty();
+  for (std::size_t i = 0; i < old_ranges.size(); ++i) {
+    const std::size_t j = identity ? i : map.anchor_ranges[old_rod][i];
+    if (j >= new_ranges.size() || old_ranges[i].second != new_ranges[j].second) continue;
+    copy_range(from.now.anchor_intact, old_ranges[i].first, to.now.anchor_intact, new_ranges[j].first,
+               old_ranges[i].second);
+  }
+}
+
+}  // namespace
+
 void carry_over_state(const WorldModel& from_model, const WorldState& from, const WorldModel& to_model, WorldState& to,
                       std::span<const std::size_t> rod_map, bool carry_solver) {
+  CarryMap map;
+  map.rods.assign(rod_map.begin(), rod_map.end());
+  carry_over_state(from_model, from, to_model, to, map, carry_solver);
+}
+
+void carry_over_state(const WorldModel& from_model, const WorldState& from, const WorldModel& to_model, WorldState& to,
+                      const CarryMap& map, bool carry_solver) {
+  const std::vector<std::size_t>& rod_map = map.rods;
   for (std::size_t r = 0; r < rod_map.size(); ++r) {
     if (rod_map[r] == kRodRemoved) continue;
     const SegmentModel& a = from_model.segments[r];
@@ -83,10 +143,10 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
     to.now.base[rod_map[r]] = from.now.base[r];
     to.base_twist[rod_map[r]] = from.base_twist[r];
     to.base_resistance[rod_map[r]] = from.base_resistance[r];
-    copy_range(from.now.attachment, a.attachment_offset, to.now.attachment, b.attachment_offset, a.attachments.size());
-    // What was torn or cut stays so while the tissue is described alike (else it starts whole).
-    if (a.anchor_count == b.anchor_count)
-      copy_range(from.now.anchor_intact, a.anchor_offset, to.now.anchor_intact, b.anchor_offset, a.anchor_count);
+    for (std::size_t k = 0; k < a.attachments.size(); ++k)
+      if (const std::size_t j = slot_in(a, k, b, map, r); j != kRodRemoved)
+        to.now.attachment[b.attachment_offset + j] = from.now.attachment[a.attachment_offset + k];
+    carry_anchors(from_model, from, to_model, to, map, r, rod_map[r]);
     if (a.bead_count == b.bead_count)  // beads re-chosen (reconfigure): they start at rest
       copy_range(from.collision.bead_motion, a.bead_offset, to.collision.bead_motion, b.bead_offset, a.bead_count);
     if (carry_solver) carry_chords(from.newton, r, to.newton, rod_map[r]);
@@ -97,8 +157,11 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
   to.robust_good_frames = from.robust_good_frames;
   to.frame = from.frame;
   to.time = from.time;
-  to.instruments = from.instruments;
-  for (InstrumentState& in : to.instruments) {
+  for (std::size_t i = 0; i < from.instruments.size(); ++i) {
+    const std::size_t j = mapped(map.instruments, i);
+    if (j == kRodRemoved || j >= to.instruments.size()) continue;
+    InstrumentState& in = to.instruments[j];
+    in = from.instruments[i];
     if (!in.grasping) continue;
     const std::size_t old_rod = in.grasp_segment;
     const std::size_t new_rod = rod_map[old_rod];
@@ -108,13 +171,14 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
     }
     const SegmentModel& a = from_model.segments[old_rod];
     const SegmentModel& b = to_model.segments[new_rod];
-    if (a.bead_count != b.bead_count) {  // the grasped bead may be gone: let go
-      to.now.attachment[in.grasp_attachment - a.attachment_offset + b.attachment_offset].active = false;
+    const std::size_t slot = slot_in(a, in.grasp_attachment - a.attachment_offset, b, map, old_rod);
+    if (a.bead_count != b.bead_count || slot == kRodRemoved) {  // the grasped bead may be gone: let go
+      if (slot != kRodRemoved) to.now.attachment[b.attachment_offset + slot].active = false;
       in.grasping = in.coupled = false;
       continue;
     }
     in.grasp_segment = new_rod;
-    in.grasp_attachment = in.grasp_attachment - a.attachment_offset + b.attachment_offset;
+    in.grasp_attachment = b.attachment_offset + slot;
     in.grasp_bead = static_cast<std::uint32_t>(in.grasp_bead - a.bead_offset + b.bead_offset);
     in.grasp_node = static_cast<std::uint32_t>(in.grasp_node - a.node_offset + b.node_offset);  // coupled grasps
   }
@@ -128,10 +192,18 @@ namespace haustra {
 // The new model is built first: a description it refuses leaves the world as it was.
 std::unique_ptr<World::Impl> World::rebuilt(const WorldDesc& next, std::span<const std::size_t> rod_map,
                                             bool carry_solver, bool keep_mesh_binding) const {
+  detail::CarryMap map;
+  map.rods.assign(rod_map.begin(), rod_map.end());
+  return rebuilt(next, map, carry_solver, keep_mesh_binding);
+}
+
+// The new model is built first: a description it refuses leaves the world as it was.
+std::unique_ptr<World::Impl> World::rebuilt(const WorldDesc& next, const detail::CarryMap& map, bool carry_solver,
+                                            bool keep_mesh_binding) const {
   detail::settle_prefactors(impl_->state, impl_->scheduler);  // what is carried over is finished
   auto fresh =
       std::make_unique<Impl>(next, detail::build_world_model(next, keep_mesh_binding ? &impl_->model : nullptr));
-  detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, rod_map, carry_solver);
+  detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, map, carry_solver);
   fresh->events = impl_->events;
   fresh->events_dropped = impl_->events_dropped;
   fresh->late_frames = impl_->late_frames;
@@ -142,6 +214,12 @@ std::unique_ptr<World::Impl> World::rebuilt(const WorldDesc& next, std::span<con
 
 void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver, bool keep_mesh_binding) {
   impl_ = rebuilt(next, rod_map, carry_solver, keep_mesh_binding);
+}
+
+// What a host adds or removes (world_edits.cpp) leaves every rod's shape and beads as they were:
+// the organ meshes' cages and bindings are kept, as set_material keeps them.
+void World::rebuild(WorldDesc next, const detail::CarryMap& map, bool carry_solver) {
+  impl_ = rebuilt(next, map, carry_solver, true);
 }
 
 std::size_t World::add_segment(const SegmentDesc& segment) {

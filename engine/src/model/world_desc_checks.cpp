@@ -134,16 +134,23 @@ void check_memory(const WorldDesc& desc) {
                                                          static_cast<long long>(b.nodes) * b.chain_pieces;
                                                 }) -
                                desc.segments.begin());
-  throw Error(ErrorCode::invalid_argument,
-              fmt::format("the world would need about {} ({} nodes: {} of rod state and {} of Newton workspace, {:.0f} "
-                          "bytes a node; beads {}, organ meshes {}), more than {} {}: lower segment[{}].nodes (or its "
-                          "chain.pieces) or the mesh vertices{}",
-                          size(e.total), e.nodes, size(e.rod_bytes), size(e.solver_bytes),
-                          static_cast<double>(e.rod_bytes + e.solver_bytes) /
-                              static_cast<double>(std::max<std::size_t>(e.nodes, 1)),
-                          size(e.bead_bytes), size(e.mesh_bytes), size(limit),
-                          set ? "(world.memory_limit)" : "this machine has available", largest,
-                          set ? ", or raise world.memory_limit" : ""));
+  // Beads packed so close that each overlaps many neighbours: their pairs are what does not fit.
+  const bool pairs = e.pair_bytes > e.total / 2;
+  throw Error(
+      ErrorCode::invalid_argument,
+      fmt::format(
+          "the world would need about {} ({} nodes: {} of rod state and {} of Newton workspace, {:.0f} "
+          "bytes a node; beads {}, organ meshes {}; {} pairs of beads within reach of each other, {}), "
+          "more than {} {}: {}{}",
+          size(e.total), e.nodes, size(e.rod_bytes), size(e.solver_bytes),
+          static_cast<double>(e.rod_bytes + e.solver_bytes) / static_cast<double>(std::max<std::size_t>(e.nodes, 1)),
+          size(e.bead_bytes), size(e.mesh_bytes), e.bead_pairs, size(e.pair_bytes), size(limit),
+          set ? "(world.memory_limit)" : "this machine has available",
+          pairs ? fmt::format("{} beads overlap many neighbours each: fewer or smaller beads "
+                              "(segment[i].beads count, spacing or radius)",
+                              e.beads)
+                : fmt::format("lower segment[{}].nodes (or its chain.pieces) or the mesh vertices", largest),
+          set ? ", or raise world.memory_limit" : ""));
 }
 
 void check_world_desc(const WorldDesc& desc) {
