@@ -43,9 +43,15 @@ std::vector<unsigned char> outputs(const World& w) {
   for (std::size_t i = 0; i < w.instrument_count(); ++i) {
     const InstrumentReading ir = w.instrument(i);
     put(ir.force.data(), 3), put(ir.filtered_force.data(), 3), put(ir.tip.data(), 3);
-    const int grasping = ir.grasping ? 1 : 0;
-    put(&grasping, 1);
+    const int flags[3] = {ir.grasping ? 1 : 0, ir.closed ? 1 : 0, ir.cutting ? 1 : 0};
+    put(flags, 3);
   }
+  for (std::size_t seg = 0; seg < w.segment_count(); ++seg)
+    for (std::size_t a = 0; a < w.attachment_count(seg); ++a) {
+      const AttachmentReading ar = w.attachment(seg, a);
+      const int active = ar.active ? 1 : 0;
+      put(ar.target.data(), 3), put(&active, 1), put(&ar.node, 1);
+    }
   const double t = w.time();
   put(&t, 1);
   return out;
@@ -285,6 +291,70 @@ TEST_CASE("checkpoints keep what every setter changed, set before or after the s
           w.set_instrument_pose(0, {0.3, 0.0, 0.2}, Eigen::Vector3d::UnitZ());
         });
   }
+}
+
+TEST_CASE("checkpoints keep what the other setters changed: attachments, cutting, a posed rod (issue 36)") {
+  SUBCASE("an attachment's target, its frame's target and whether it holds") {
+    check_setter_kept(
+        "sag",
+        [](World& w) {
+          w.set_attachment_target(0, 0, {0.5, 0.0, 0.02});
+          w.set_attachment_target_rotation(0, 0, Eigen::Quaterniond(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitY())));
+        },
+        [](World& w) {
+          w.set_attachment_active(0, 0, false);
+          w.set_attachment_target(0, 0, {0.4, 0.0, -0.05});
+        });
+  }
+  SUBCASE("an instrument cutting") {
+    check_setter_kept(
+        "grasp-push", [](World& w) { w.set_instrument_cutting(0, true); },
+        [](World& w) { w.set_instrument_cutting(0, false); });
+  }
+  SUBCASE("a rod posed by the host") {
+    auto bent = [](double by) {
+      return [by](World& w) {
+        const auto s = w.strains();
+        std::vector<double> strains(s.data.begin(), s.data.end());
+        for (std::size_t k = 0; k < strains.size(); k += 4) strains[k] += by;
+        w.pose_rod(0, w.base_pose(0), strains);
+      };
+    };
+    check_setter_kept("cantilever", bent(0.5), bent(-0.8));
+  }
+}
+
+TEST_CASE("a checkpoint of a world a host added parts to restores into one with the same parts, not into one without") {
+  auto add_parts = [](World& w) {
+    InstrumentDesc retractor;
+    retractor.name = "retractor";
+    retractor.tip = {0.1, 0.3, 0.2};
+    w.add_instrument(retractor);
+    w.add_obstacle(SphereObstacleDesc{"neighbour", {0.8, 0.0, -0.1}, 0.08});
+    AttachmentDesc held;
+    held.node = -1;
+    w.add_attachment(0, held);
+  };
+  auto original = scene_world("grasp-push");
+  for (int f = 0; f < 5; ++f) original->step();
+  add_parts(*original);
+  for (int f = 0; f < 5; ++f) original->step();
+  const std::vector<std::byte> checkpoint = original->save_checkpoint();
+  std::vector<std::vector<unsigned char>> recorded;
+  for (int f = 0; f < 10; ++f) {
+    original->step();
+    recorded.push_back(outputs(*original));
+  }
+  auto same = scene_world("grasp-push");
+  add_parts(*same);
+  same->restore_checkpoint(checkpoint, "grasp-push with parts");
+  for (int f = 0; f < 10; ++f) {
+    same->step();
+    REQUIRE(outputs(*same) == recorded[static_cast<std::size_t>(f)]);
+  }
+  auto without = scene_world("grasp-push");
+  CHECK_THROWS_WITH_AS(without->restore_checkpoint(checkpoint, "grasp-push with parts"),
+                       doctest::Contains("grasp-push with parts"), Error);
 }
 
 TEST_CASE("checkpoints keep connective tissue cut after the save undone, and cut before it cut") {
