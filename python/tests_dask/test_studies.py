@@ -183,3 +183,72 @@ def test_grasp_and_lift_measures_the_grasped_node_of_a_chain(tmp_path):
     row = studies.run_study(study, tmp_path / "out", serial=True, show_progress=False)["rows"][0]
     assert row["status"] == "ok", row["error"]
     assert 0.5 * 0.02 * 20 / 60 < float(row["lift_m"]) <= 0.02 * 20 / 60 + 1e-3
+
+
+STOPPED_STUDY = '''"""A study on 2 local workers whose first cell runs and whose others wait for ever (test_studies.py)."""
+import pathlib
+import sys
+import time
+
+from haustra import studies
+
+
+def first_only(cell, first):
+    if cell["key"] != first:
+        time.sleep(24 * 3600)  # until the stop kills the worker
+    return studies.run_cell(cell)
+
+
+if __name__ == "__main__":
+    import functools
+    import cloudpickle
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    study = studies.load_study(pathlib.Path(sys.argv[1]))
+    try:
+        studies.run_study(study, sys.argv[2], workers=2, show_progress=False,
+                          cell_runner=functools.partial(first_only, first=study.cells[0]["key"]))
+    except studies.Stopped:
+        sys.exit(130)
+'''
+
+
+def processes_in_group(group):
+    """The live processes of a process group (from /proc)."""
+    found = []
+    for stat in pathlib.Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == group and fields[0] != "Z":
+            found.append(int(stat.parent.name))
+    return found
+
+
+@pytest.mark.parametrize("stop", ["SIGINT", "SIGTERM"])
+def test_a_signal_stops_a_dask_study_its_workers_with_it_keeping_its_rows(tmp_path, stop):
+    """Ctrl-C (SIGINT, here to the study's process alone) or a batch system's SIGTERM stops a study on a local
+    cluster even while its workers are busy: the process exits, its worker processes with it, and the rows written
+    stay (issue 36). No clock: the test waits for the first row, signals, and waits for the exit."""
+    import signal
+    import subprocess
+    import time
+    study = tmp_path / "study.toml"
+    study.write_text(TWELVE_CELLS)
+    script = tmp_path / "stopped_study.py"
+    script.write_text(STOPPED_STUDY)
+    out = tmp_path / "out"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.Popen([sys.executable, str(script), str(study), str(out)], env=env, start_new_session=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    table = out / "results.csv"
+    while len(studies.read_rows(table)) < 1:  # the first cell's row; the others never come
+        assert proc.poll() is None, proc.stdout.read().decode()
+        time.sleep(0.2)
+    os.kill(proc.pid, getattr(signal, stop))
+    output = proc.communicate()[0].decode()
+    assert proc.returncode == 130, output
+    assert processes_in_group(proc.pid) == []  # no worker left running
+    rows = studies.read_rows(table)
+    assert [r["key"] for r in rows] == [studies.load_study(study).cells[0]["key"]]
+    assert rows[0]["status"] == "ok"

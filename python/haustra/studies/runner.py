@@ -1,10 +1,14 @@
 """Runs a study's cells in-process or on Dask, writing each row as it arrives; a rerun skips the keys written."""
+import contextlib
 import csv
 import io
 import math
+import multiprocessing
 import os
 import pathlib
+import signal
 import sys
+import threading
 import time
 
 from .cells import GRID_METRICS, IMPORT_COLUMNS, KEY_COLUMNS, import_surface, run_cell
@@ -144,6 +148,42 @@ def _client(scheduler, workers):
     return Client(cluster), cluster
 
 
+class Stopped(KeyboardInterrupt):
+    """SIGINT (Ctrl-C) or SIGTERM (a batch system's stop): the study stops, the rows written stay, and a rerun
+    runs only the cells missing."""
+
+
+@contextlib.contextmanager
+def stop_on_signals():
+    """While a study runs, SIGINT and SIGTERM raise Stopped in the main thread (SIGTERM would otherwise end the
+    process without closing a local cluster, whose workers would run on)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum, _frame):
+        raise Stopped(signal.Signals(signum).name)
+
+    previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
+def _stop_cells(client, cluster, futures):
+    """Nothing more runs: the cells not finished are cancelled and a local cluster's worker processes, busy or
+    not, are killed (closing the cluster would wait for the cells they run); a remote scheduler's workers are
+    its own, only told to cancel."""
+    with contextlib.suppress(Exception):
+        client.cancel(futures, force=True)
+    if cluster is not None:
+        for child in multiprocessing.active_children():
+            with contextlib.suppress(Exception):
+                child.kill()
+
+
 def run_cells(study, todo, out, writer, progress, serial, scheduler, workers, cell_runner):
     imports_out = out / "imports"
     if serial:
@@ -161,8 +201,8 @@ def run_cells(study, todo, out, writer, progress, serial, scheduler, workers, ce
         return
     from distributed import as_completed
     client, cluster = _client(scheduler, workers)
+    import_futures, futures = {}, []
     try:
-        import_futures, futures = {}, []
         for cell in todo:
             if cell.get("surface") is not None:
                 surface = cell["surface"]
@@ -179,10 +219,16 @@ def run_cells(study, todo, out, writer, progress, serial, scheduler, workers, ce
             writer.write(row)
             progress.update(row)
             future.release()
+    except BaseException:  # a stop (Stopped) or a failure: no cell runs on
+        _stop_cells(client, cluster, futures + list(import_futures.values()))
+        raise
     finally:
-        client.close()
+        # A second Ctrl-C while closing is not a reason to leave the cluster behind.
+        with contextlib.suppress(Exception, Stopped):
+            client.close(timeout=10)
         if cluster is not None:
-            cluster.close()
+            with contextlib.suppress(Exception, Stopped):
+                cluster.close(timeout=10)
 
 
 def run_study(study, out, serial=False, scheduler=None, workers=None, cell_runner=run_cell, show_progress=True,
@@ -204,7 +250,8 @@ def run_study(study, out, serial=False, scheduler=None, workers=None, cell_runne
     started = time.monotonic()
     try:
         if todo:
-            run_cells(study, todo, out, writer, progress, serial, scheduler, workers, cell_runner)
+            with stop_on_signals():
+                run_cells(study, todo, out, writer, progress, serial, scheduler, workers, cell_runner)
     finally:
         writer.close()
         progress.finish()
