@@ -28,7 +28,8 @@ void open_path(ViewerState& v, const std::string& path) {
   v.note(fmt::format("opening {}", path));
   v.sim.post(Open{path});
   v.scene_written = written(path);
-  v.camera_fitted = false;  // the new organ framed when it arrives
+  v.camera_fitted = false;  // the new organ framed when it arrives: by the first model after this one
+  v.fit_from_generation = v.model ? v.model->generation + 1 : 0;
   v.draw.highlight = {};
 }
 
