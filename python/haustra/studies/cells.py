@@ -106,8 +106,10 @@ def run_scene_cell(cell):
 
 
 def haustra_command():
-    """The `haustra` command line (the import runs it): $HAUSTRA_BIN, else `haustra` on PATH."""
-    found = os.environ.get("HAUSTRA_BIN") or shutil.which("haustra")
+    """The `haustra` command line (the import runs it): $HAUSTRA_BIN, else the one built with this package
+    (inside it when installed, the build tree's bin/ otherwise), else `haustra` on PATH."""
+    from .._command import program
+    found = os.environ.get("HAUSTRA_BIN") or program() or shutil.which("haustra")
     if not found or not os.access(found, os.X_OK):
         raise FileNotFoundError("importing a surface runs `haustra anatomy`: set HAUSTRA_BIN to the haustra "
                                 "executable (build/release/bin/haustra) or put it on PATH")
