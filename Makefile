@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo view anatomy import-asan test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study studies-doc studies-check skinning-doc figures soak fuzz clean
+.PHONY: all deps configure build demo view reference anatomy import-asan test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study studies-doc studies-check skinning-doc figures soak fuzz clean
 
 all: build
 
@@ -31,6 +31,11 @@ view: build
 # The Python module, built with the release tree (its tests run in `make test`, as ctest's `python`).
 python: build
 	@echo "python module: $(abspath build/release/python)/haustra — PYTHONPATH=$(abspath build/release/python) /usr/bin/python3 -c 'import haustra'"
+
+# The Python API reference (docs/reference: Sphinx's autodoc over the module's docstrings), in build/release/reference.
+reference: build
+	@PYTHONPATH=$(abspath build/release/python) sphinx-build -q -E -b html docs/reference build/release/reference
+	@echo "API reference: $(abspath build/release/reference)/index.html"
 
 # Once, by hand: every import test (CGAL) under ASan+UBSan; `make test` runs the quick ones there.
 import-asan: deps
@@ -105,7 +110,9 @@ bench: build
 	@$(BIN)/haustra_bench_collision --benchmark_out=build/release/bench_collision.json --benchmark_out_format=json
 	@$(BIN)/haustra_bench_mesh --benchmark_out=build/release/bench_mesh.json --benchmark_out_format=json
 	@$(BIN)/haustra_bench_anatomy --benchmark_out=build/release/bench_anatomy.json --benchmark_out_format=json
-	@echo "benchmark results: $(abspath build/release/bench.json) $(abspath build/release/bench_collision.json) $(abspath build/release/bench_mesh.json) $(abspath build/release/bench_anatomy.json)"
+	@$(BIN)/haustra_bench_batch --benchmark_out=build/release/bench_batch.json --benchmark_out_format=json
+	@PYTHONPATH=$(abspath build/release/python) /usr/bin/python3 python/tools/bench_batch.py --out build/release/bench_batch_python.json
+	@echo "benchmark results: $(abspath build/release/bench.json) $(abspath build/release/bench_collision.json) $(abspath build/release/bench_mesh.json) $(abspath build/release/bench_anatomy.json) $(abspath build/release/bench_batch.json) $(abspath build/release/bench_batch_python.json)"
 
 # The same rope in haustra, Bullet and MuJoCo (Debian's), time per frame next to stretch and
 # floor penetration. Optional: installs libbullet-dev and libmujoco-dev first.

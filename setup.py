@@ -103,7 +103,8 @@ def choose_tree():
                    "(`cmake --preset release` makes one).")
         return tree, False, "HAUSTRA_CMAKE_BUILD_DIR"
     release = ROOT / "build" / "release"
-    if cache_value(release, "HAUSTRA_PYTHON") == "ON" and same_interpreter(cache_value(release, "Python3_EXECUTABLE")):
+    interpreter = cache_value(release, "Python3_EXECUTABLE") or cache_value(release, "_Python3_EXECUTABLE")
+    if cache_value(release, "HAUSTRA_PYTHON") == "ON" and same_interpreter(interpreter):
         return release, False, "the release tree `make` builds, for this interpreter"
     return ROOT / "build" / "pip", True, "a tree of its own"
 
