@@ -73,8 +73,8 @@ gate-baseline: build
 
 # The sanitizer builds compile only what their tests run (the test binary, the CLI it drives, the
 # soak and the fuzz replayers), with line tables only (-g1: enough for a report's stack, a third
-# less compile time than full debug information) and as unity builds (the libraries' files in
-# batches of 8: Eigen and fmt parsed once per batch).
+# less compile time than full debug information); ASan's as a unity build (the libraries' files in
+# batches of 8: Eigen and fmt parsed once per batch), TSan's file by file (decision 0101).
 # Not under ASan (decision 0025): the 1-vs-2-thread determinism tests (run in release and, the
 # engine's, under TSan), the CLI's re-run of the validation cases (run in-process), the N = 20,000
 # stability sweep (N up to 2,000 runs), and accuracy studies whose code paths other tests run
@@ -91,7 +91,9 @@ test-asan: deps
 	  haustra_import_tests
 	@ctest --preset asan -j $(JOBS) -E "$(ASAN_SKIP)"
 
-# TSan checks what runs on more than one thread: stepping worlds with 2 threads.
+# TSan checks what runs on more than one thread: stepping worlds with 2 threads, batches. Its build is
+# the one without the unity build (CMakePresets.json, decision 0101): each file compiled on its own, so
+# a missing include or name fails here.
 test-tsan: deps
 	@cmake --preset tsan >/dev/null
 	@cmake --build --preset tsan -j $(JOBS) --target haustra_thread_tests haustra_c_api_tests
