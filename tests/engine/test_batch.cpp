@@ -51,7 +51,7 @@ TEST_CASE("batch on 2 threads: every world the same bits as stepped alone (threa
   }
 }
 
-TEST_CASE("batch (thread): a failing world stops alone; a world listed twice and a stop are handled") {
+TEST_CASE("batch (thread): a failing world stops alone, a world listed twice is refused, a stop stops") {
   auto owned = varied_worlds(3);
   owned[1]->set_external_load(owned[1]->node_count() - 1, {0.0, 0.0, -1e9}, Eigen::Vector3d::Zero());
   std::vector<World*> worlds{owned[0].get(), owned[1].get(), owned[2].get()};
