@@ -25,6 +25,8 @@ packages=(
   libcgal-dev
   # the viewer (`make view`, decision 0046) and its test under Xvfb with Mesa's software OpenGL
   libglfw3-dev libimgui-dev libgl-dev xvfb xauth xfonts-base libgl1-mesa-dri
+  # the viewer's videos (V, `record` in a script): ffmpeg, and ffprobe for their test
+  ffmpeg
 )
 for extra in "$@"; do
   case "$extra" in

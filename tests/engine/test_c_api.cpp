@@ -726,6 +726,14 @@ TEST_CASE("C API: a grasp's coupling changed between steps gives a world built w
   CHECK(haustra_world_set_instrument_coupling(changed, 0, -1.0, 0.5, 0.05) == HAUSTRA_INVALID_ARGUMENT);
   CHECK(says("stiffness"));
   CHECK(haustra_world_set_instrument_coupling(changed, 1, 300.0, 0.5, 0.05) == HAUSTRA_INVALID_ARGUMENT);
+  // Where it was last commanded (the capsule, a proxy, is where it could get to; decision 0096).
+  CHECK(std::memcmp(a.commanded_tip, b.commanded_tip, sizeof a.commanded_tip) == 0);
+  CHECK(a.commanded_tip[2] > a.tip[2] - 0.08);
+  CHECK(a.cutting == 0);
+  REQUIRE(haustra_world_set_instrument_cutting(changed, 0, 1) == HAUSTRA_OK);
+  REQUIRE(haustra_world_instrument(changed, 0, &a) == HAUSTRA_OK);
+  CHECK(a.cutting == 1);
+  CHECK(haustra_world_set_instrument_cutting(changed, 3, 1) == HAUSTRA_INVALID_ARGUMENT);
   REQUIRE(haustra_world_destroy(changed) == HAUSTRA_OK);
   REQUIRE(haustra_world_destroy(reference) == HAUSTRA_OK);
 }
@@ -1016,4 +1024,64 @@ TEST_CASE("C API: the localization fields give the world of a scene with them, a
     }
     CHECK(none == nullptr);
   }
+}
+
+TEST_CASE("C API: connective tissue from a segment's definition, its anchors and tensions, cut in a sphere") {
+  haustra_world_def def;
+  REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+  def.threads = 1;
+  haustra_segment_def seg;
+  REQUIRE(haustra_segment_def_default(&seg) == HAUSTRA_OK);
+  CHECK(seg.anchor_stiffness == 0.0);  // no tissue unless asked for
+  CHECK(seg.anchor_support == 0.0);
+  CHECK(seg.anchor_damping == 50.0);
+  CHECK(seg.anchor_strength == 1000.0);
+  seg.nodes = 21;
+  seg.length = 0.5;
+  seg.free_base = 1;
+  seg.drag = 1.0;
+  seg.anchor_stiffness = 1000.0;  // the tether
+  seg.anchor_support = 4000.0;    // and what lies below: together 5 kN/m² against sinking
+  seg.anchor_strength = 0.0;
+  haustra_world* w = nullptr;
+  REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
+  const uint32_t* nodes = nullptr;
+  const uint8_t* intact = nullptr;
+  size_t count = 0;
+  REQUIRE(haustra_world_anchors(w, &nodes, &intact, &count) == HAUSTRA_OK);
+  REQUIRE(count == 21);
+  CHECK(nodes[20] == 20);
+  for (int f = 0; f < 60; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  // Each anchor carries its node's weight: the tether's part of the sag, 1/5 of it.
+  std::vector<double> tension(count);
+  REQUIRE(haustra_world_anchor_tensions(w, tension.data(), count) == HAUSTRA_OK);
+  const double weight = 1050.0 * 2.0 * 3.141592653589793 * 0.02 * 0.003 * 9.81 * 0.025;  // N per node (2.5 cm)
+  CHECK(tension[10] == doctest::Approx(weight / 5.0).epsilon(1e-6));
+  // A cut 2 cm from the wall round the middle node: its anchor and its neighbours' (2.5 cm apart).
+  haustra_vec3_view n{};
+  REQUIRE(haustra_world_node_positions(w, &n) == HAUSTRA_OK);
+  const double centre[3] = {n.x[10], n.y[10], n.z[10]};
+  size_t cut = 0;
+  REQUIRE(haustra_world_cut_tissue(w, centre, 0.03, &cut) == HAUSTRA_OK);
+  CHECK(cut == 3);
+  CHECK(intact[9] == 0);
+  CHECK(intact[10] == 0);
+  CHECK(intact[11] == 0);
+  CHECK(intact[12] == 1);
+  REQUIRE(haustra_world_anchor_tensions(w, tension.data(), count) == HAUSTRA_OK);
+  CHECK(tension[10] == 0.0);
+  // Refused: a wrong count, a NULL, a radius that is not positive, non-finite centres.
+  CHECK(haustra_world_anchor_tensions(w, tension.data(), count - 1) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("anchor_tensions"));
+  CHECK(haustra_world_anchors(w, nullptr, &intact, &count) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_world_cut_tissue(w, centre, 0.0, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("radius"));
+  const double nan_centre[3] = {std::nan(""), 0.0, 0.0};
+  CHECK(haustra_world_cut_tissue(w, nan_centre, 0.01, nullptr) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
+  // A tissue field out of range names it.
+  seg.anchor_support = -1.0;
+  haustra_world* none = nullptr;
+  CHECK(haustra_world_create(&def, &seg, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("anchors[0].support"));
 }

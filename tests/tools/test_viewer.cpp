@@ -106,11 +106,12 @@ Coverage coverage(const fs::path& png) {
 }
 
 // Runs the viewer on the demo with `script` (written to DIR/NAME.txt) and reads back its record.
-nlohmann::json run_demo_script(const fs::path& dir, const std::string& name, const std::string& script) {
+nlohmann::json run_demo_script(const fs::path& dir, const std::string& name, const std::string& script,
+                               const std::string& scene = kSource + "/scenes/demo.toml") {
   const fs::path file = write(dir / (name + ".txt"), script);
-  const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + file.string() + " --record " +
-                           (dir / "record.json").string(),
-                       dir);
+  const Result r =
+      run(kXvfb + kViewer + " " + scene + " --script " + file.string() + " --record " + (dir / "record.json").string(),
+          dir);
   INFO(r.err);
   REQUIRE(r.code == 0);
   return nlohmann::json::parse(slurp(dir / "record.json"));
@@ -245,6 +246,30 @@ TEST_CASE("haustra view: a grasp made while paused takes hold at the next step, 
   }
   CHECK_FALSE(grasping_before);  // pressed while paused: nothing happens until a step
   CHECK(grasping_after);         // the step takes it
+}
+
+TEST_CASE("haustra view: Shift-drag on the organ cuts its connective tissue, a plain press still grasps") {
+  const fs::path dir = scratch("cut");
+  // The demo on connective tissue (appended to its last [[segment]]).
+  const fs::path scene = write(dir / "tissue.toml", slurp(fs::path(kSource) / "scenes" / "demo.toml") +
+                                                        "\n[[segment.anchors]]\nstiffness = 1000.0\nsupport = 5000.0\n");
+  const nlohmann::json rec =
+      run_demo_script(dir, "cut", "wait 10\nshift down\npress bead 5\nmove by 40 0 10\nrelease\nshift up\nwait 5\n"
+                      "press bead 20\nwait 5\nrelease\nwait 3\nquit\n",
+                      (dir / "tissue.toml").string());
+  (void)scene;
+  std::size_t cut_before = 0, cut_after = 0;
+  bool grasped = false;
+  for (const auto& s : rec["samples"]) {
+    if (s["frame"].get<int>() <= 10) cut_before = s["anchors_cut"].get<std::size_t>();
+    cut_after = s["anchors_cut"].get<std::size_t>();
+    grasped = grasped || s["grasping"] == true;
+  }
+  MESSAGE("anchors cut: " << cut_before << " before, " << cut_after << " after the Shift-drag");
+  CHECK(cut_before == 0);
+  CHECK(cut_after >= 3);  // at the pressed bead's node and its neighbours, and along the drag
+  CHECK(grasped);         // the press without Shift grasps as before
+  CHECK(rec["unstable"] == false);
 }
 
 TEST_CASE("haustra view SURFACE: a surface where a scene is expected is imported with the defaults and shown") {

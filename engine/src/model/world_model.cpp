@@ -10,6 +10,7 @@
 #include <set>
 
 #include "haustra/error.hpp"
+#include "haustra/kernels/contact_geometry.hpp"
 #include "haustra/kernels/mass_matrix.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/rest_shape.hpp"
@@ -190,10 +191,7 @@ void append_attachments(const WorldDesc& desc, const SegmentDesc& d, const std::
 Eigen::Vector3d nearest_on_polyline(const std::vector<Eigen::Vector3d>& line, const Eigen::Vector3d& p) {
   Eigen::Vector3d best = line.front();
   for (std::size_t i = 0; i + 1 < line.size(); ++i) {
-    const Eigen::Vector3d a = line[i], ab = line[i + 1] - line[i];
-    const double len2 = ab.squaredNorm();
-    const double t = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-    const Eigen::Vector3d c = a + t * ab;
+    const Eigen::Vector3d c = kernels::closest_point_on_segment(p, line[i], line[i + 1]);
     if ((c - p).squaredNorm() < (best - p).squaredNorm()) best = c;
   }
   return best;

@@ -1,10 +1,7 @@
 // Connective tissue in the frame: anchors' responses and energy, tearing, cutting.
 #include "step/anchors.hpp"
 
-#include "haustra/kernels/pose.hpp"
-
-#include <algorithm>
-#include <cmath>
+#include "haustra/kernels/contact_geometry.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -35,14 +32,16 @@ kernels::AnchorTurn anchor_turn(const WorldModel& model, const WorldState& state
 double anchor_energy(const WorldModel& model, const WorldState& state, kernels::Vec3View<const double> position,
                      kernels::RotationView<const double> rotation, std::size_t rod) {
   const AnchorModel& an = model.anchors;
+  const Eigen::Vector3d g = down(model);
   double energy = 0.0;
   for_each_intact_anchor(model, state, rod, [&](std::size_t a, std::size_t node) {
-    const Eigen::Vector3d d = position.get(node) - an.target[a];
-    const double stretch = std::max(0.0, d.norm() - an.slack[a]), sunk = std::max(0.0, d.dot(down(model)));
-    energy += 0.5 * an.stiffness[a] * stretch * stretch + 0.5 * an.support[a] * sunk * sunk;
-    if (an.turn_stiffness[a] > 0.0)
-      energy += 0.5 * an.turn_stiffness[a] *
-                kernels::rotation_angle_squared(rotation.get(node) * an.rest_rotation[a].conjugate());
+    // The springs alone: no damper (a motion of zero length).
+    const Eigen::Vector3d x = position.get(node);
+    energy += kernels::tissue_anchor(x, x, an.target[a], an.stiffness[a], an.slack[a], 0.0, an.support[a], g).energy;
+    if (an.turn_stiffness[a] > 0.0) {
+      const Eigen::Quaterniond r = rotation.get(node);
+      energy += kernels::tissue_anchor_turn(r, r, an.rest_rotation[a], an.turn_stiffness[a], 0.0).energy;
+    }
   });
   return energy;
 }
@@ -59,18 +58,6 @@ void tear_anchors(const WorldModel& model, WorldState& state, std::vector<TornAn
   }
 }
 
-namespace {
-
-// The distance from p to the segment [a, b].
-double distance_to_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  const Eigen::Vector3d ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (a + t * ab - p).norm();
-}
-
-}  // namespace
-
 void cut_anchors(const WorldModel& model, WorldState& state, const Eigen::Vector3d& centre, double radius,
                  std::vector<TornAnchor>& cut) {
   const AnchorModel& an = model.anchors;
@@ -78,7 +65,8 @@ void cut_anchors(const WorldModel& model, WorldState& state, const Eigen::Vector
   for (std::size_t a = 0; a < an.size(); ++a) {
     // The tissue runs from the tube's wall to where it is held: cut where the sphere meets it.
     if (state.now.anchor_intact[a] == 0 ||
-        distance_to_segment(centre, pos.get(an.node[a]), an.target[a]) > radius + an.wall[a])
+        (kernels::closest_point_on_segment(centre, pos.get(an.node[a]), an.target[a]) - centre).norm() >
+            radius + an.wall[a])
       continue;
     state.now.anchor_intact[a] = 0;
     cut.push_back({a, 0.0});

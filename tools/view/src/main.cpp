@@ -41,6 +41,7 @@ int main(int argc, char** argv) {
       imported.emplace(o.scene, [](std::string_view line) { fmt::print(stderr, "import: {}\n", line); });
       fmt::print(stderr, "import: {} is now the scene {} (removed at exit, `haustra import` keeps one)\n", o.scene,
                  imported->scene().string());
+      o.source = o.scene;
       o.scene = imported->scene().string();
     }
     return haustra::view::run_viewer(o);

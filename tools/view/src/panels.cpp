@@ -150,9 +150,16 @@ void turn_knob(ViewerState& v, const std::string& name, const std::string& value
 
 void draw_panels(ViewerState& v) {
   if (!v.show_panels) return;
-  ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(kPanelWidth, static_cast<float>(v.camera.height) - 16.0f), ImGuiCond_FirstUseEver);
+  const float top = v.menu_height + 8.0f, room = static_cast<float>(v.camera.height) - top - 8.0f;
+  ImGui::SetNextWindowPos(ImVec2(8, top), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(kPanelWidth, room), ImGuiCond_FirstUseEver);
   ImGui::Begin("haustra");
+  // Kept inside the window whatever its size: a panel left outside after a shrink comes back.
+  const ImVec2 pos = ImGui::GetWindowPos(), size = ImGui::GetWindowSize();
+  const float w = static_cast<float>(v.camera.width), h = static_cast<float>(v.camera.height);
+  if (size.y > h - top) ImGui::SetWindowSize(ImVec2(size.x, std::max(80.0f, h - top - 8.0f)));
+  const ImVec2 inside(std::clamp(pos.x, 0.0f, std::max(0.0f, w - 60.0f)), std::clamp(pos.y, v.menu_height, std::max(v.menu_height, h - 40.0f)));
+  if (inside.x != pos.x || inside.y != pos.y) ImGui::SetWindowPos(inside);
   status(v);
   if (ImGui::CollapsingHeader("mouse grasper force (N)", ImGuiTreeNodeFlags_DefaultOpen)) force_plot(v.plot);
   for (std::size_t i = 0; v.model && i < v.plots.size() && i < v.model->desc.instruments.size(); ++i)

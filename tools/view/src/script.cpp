@@ -35,6 +35,9 @@ const Shape* shape_of(const std::string& command) {
                                                          {"save", {0, 0, "save"}},
                                                          {"restore", {0, 0, "restore"}},
                                                          {"screenshot", {1, 1, "screenshot FILE.png"}},
+                                                         {"key", {1, 1, "key F1|H|P|V|0|1|2|3|F|G|T|B|TAB|SPACE|RIGHT|ESC|CTRL+R|CTRL+O"}},
+                                                         {"open", {1, 1, "open FILE (a scene or a surface)"}},
+                                                         {"record", {1, 1, "record FILE.mp4 | record stop"}},
                                                          {"quit", {0, 0, "quit"}}};
   for (const auto& [name, shape] : shapes)
     if (name == command) return &shape;
@@ -73,7 +76,8 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
     if (shape == nullptr)
       throw Error(ErrorCode::parse,
                   fmt::format("{}: unknown command '{}' (wait, press, move, release, ctrl, shift, toggle, "
-                              "colour, knob, pause, resume, step, reset, save, restore, screenshot, quit)",
+                              "colour, knob, pause, resume, step, reset, save, restore, screenshot, key, open, "
+                              "record, quit)",
                               where, l.command));
     if (l.words.size() < shape->min_words || l.words.size() > shape->max_words)
       throw Error(ErrorCode::parse, fmt::format("{}: expected `{}`", where, shape->usage));
@@ -97,6 +101,11 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
     if (l.command == "ctrl" || l.command == "shift") check_word(l.words[0], {"down", "up"}, where);
     if (l.command == "toggle") check_word(l.words[0], {"beads", "cage", "centreline", "contacts", "tissue"}, where);
     if (l.command == "colour") check_word(l.words[0], {"tissue", "strain", "penetration"}, where);
+    if (l.command == "key")
+      check_word(l.words[0],
+                 {"F1", "H", "P", "V", "0", "1", "2", "3", "F", "G", "T", "B", "TAB", "SPACE", "RIGHT", "ESC", "CTRL+R",
+                  "CTRL+O"},
+                 where);
     if (l.command == "knob" && l.words.size() > 2) {  // gravity takes three numbers
       l.words[1] = fmt::format("{}", fmt::join(l.words.begin() + 1, l.words.end(), " "));
       l.words.resize(2);

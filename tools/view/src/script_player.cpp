@@ -1,14 +1,35 @@
 // Script lines turned into the same calls the mouse, the keyboard and the panels make.
 #include "script_player.hpp"
 
+#define GLFW_INCLUDE_NONE 1
+#include <GLFW/glfw3.h>
 #include <fmt/format.h>
 
 #include <algorithm>
 
+#include "actions.hpp"
 #include "mouse.hpp"
 #include "panels.hpp"
+#include "viewer_app.hpp"
 
 namespace haustra::view {
+namespace {
+
+// A key by the name a script gives it, pressed as the keyboard would.
+void press_named_key(ViewerState& v, const std::string& name) {
+  static const std::pair<const char*, std::pair<int, int>> kKeys[] = {
+      {"F1", {GLFW_KEY_F1, 0}},       {"H", {GLFW_KEY_H, 0}},         {"P", {GLFW_KEY_P, 0}},
+      {"V", {GLFW_KEY_V, 0}},         {"0", {GLFW_KEY_0, 0}},         {"1", {GLFW_KEY_1, 0}},
+      {"2", {GLFW_KEY_2, 0}},         {"3", {GLFW_KEY_3, 0}},         {"F", {GLFW_KEY_F, 0}},
+      {"G", {GLFW_KEY_G, 0}},         {"T", {GLFW_KEY_T, 0}},         {"B", {GLFW_KEY_B, 0}},
+      {"TAB", {GLFW_KEY_TAB, 0}},     {"SPACE", {GLFW_KEY_SPACE, 0}}, {"RIGHT", {GLFW_KEY_RIGHT, 0}},
+      {"ESC", {GLFW_KEY_ESCAPE, 0}},  {"CTRL+R", {GLFW_KEY_R, GLFW_MOD_CONTROL}},
+      {"CTRL+O", {GLFW_KEY_O, GLFW_MOD_CONTROL}}};
+  for (const auto& [n, key] : kKeys)
+    if (name == n) press_key(v, key.first, key.second, v.camera.width, v.camera.height);
+}
+
+}  // namespace
 
 bool ScriptPlayer::tick(ViewerState& v) {
   ++ticks_;
@@ -77,6 +98,15 @@ bool ScriptPlayer::tick(ViewerState& v) {
       v.sim.post(SaveCheckpoint{});
     } else if (l.command == "restore") {
       v.sim.post(RestoreCheckpoint{});
+    } else if (l.command == "key") {
+      press_named_key(v, l.words[0]);
+    } else if (l.command == "open") {
+      open_path(v, l.words[0]);
+    } else if (l.command == "record") {
+      if (l.words[0] == "stop")
+        v.note(toggle_video(v, v.camera.width, v.camera.height));
+      else
+        v.video_pending = l.words[0];
     } else if (l.command == "screenshot") {
       v.screenshot_pending = l.words[0];
       ++next_;

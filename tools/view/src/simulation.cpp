@@ -5,8 +5,10 @@
 #include <fmt/format.h>
 
 #include <chrono>
+#include <filesystem>
 
 #include "haustra/error.hpp"
+#include "haustra/import/scratch_import.hpp"
 #include "haustra/render/render.hpp"
 #include "knobs.hpp"
 
@@ -31,8 +33,10 @@ InstrumentDesc mouse_instrument() {
 }
 
 Simulation::Simulation(const SceneDesc& scene, int threads, std::string checkpoint_file, bool start_paused,
-                       bool lockstep)
+                       bool lockstep, std::string scene_path, std::vector<std::string> sets)
     : scene_(scene),
+      scene_path_(std::move(scene_path)),
+      sets_(std::move(sets)),
       threads_(threads),
       checkpoint_file_(std::move(checkpoint_file)),
       lockstep_(lockstep),
@@ -59,39 +63,57 @@ void Simulation::start() {
   thread_ = std::thread([this] { lockstep_ ? run_in_lockstep() : run(); });
 }
 
-void Simulation::step_in_lockstep() {
+void Simulation::step_in_lockstep(int frames) {
   std::unique_lock lock(command_mutex_);
+  frames_per_tick_ = std::max(1, frames);
   const std::uint64_t target = ++ticks_asked_;
   command_ready_.notify_all();
   tick_done_.wait(lock, [&] { return quit_ || ticks_done_ >= target; });
 }
 
+void Simulation::hold(bool on) {
+  {
+    std::lock_guard lock(command_mutex_);
+    held_ = on;
+    ticks_done_ = ticks_asked_;  // a tick asked before the change is not owed after it
+  }
+  command_ready_.notify_all();
+}
+
+// One tick the window asked for: its commands, then its frames (none while paused).
+bool Simulation::lockstep_tick(std::vector<Command>& pending) {
+  std::uint64_t asked = 0;
+  int frames = 1;
+  {
+    std::unique_lock lock(command_mutex_);
+    command_ready_.wait(lock, [&] { return quit_ || ticks_asked_ > ticks_done_ || !(lockstep_ || held_); });
+    if (quit_) return false;
+    if (!(lockstep_ || held_)) return true;  // released: back to the clock
+    pending.swap(commands_);
+    asked = ticks_asked_;
+    frames = frames_per_tick_;
+  }
+  for (Command& c : pending) apply(c);
+  pending.clear();
+  for (int f = 0; f < frames && !paused_ && !unstable_; ++f) step_once();
+  {
+    std::lock_guard lock(log_mutex_);
+    stats_.paused = paused_;
+    stats_.unstable = unstable_;
+    stats_.stop_reason = unstable_ ? stop_reason_ : std::string();
+    stats_.real_time_factor = 0.0;  // stepped by the window, not the clock
+  }
+  {
+    std::lock_guard lock(command_mutex_);
+    ticks_done_ = asked;
+  }
+  tick_done_.notify_all();
+  return true;
+}
+
 void Simulation::run_in_lockstep() {
   std::vector<Command> pending;
-  for (;;) {
-    std::uint64_t asked = 0;
-    {
-      std::unique_lock lock(command_mutex_);
-      command_ready_.wait(lock, [&] { return quit_ || ticks_asked_ > ticks_done_; });
-      if (quit_) return;
-      pending.swap(commands_);
-      asked = ticks_asked_;
-    }
-    for (Command& c : pending) apply(c);
-    pending.clear();
-    if (!paused_ && !unstable_) step_once();
-    {
-      std::lock_guard lock(log_mutex_);
-      stats_.paused = paused_;
-      stats_.unstable = unstable_;
-      stats_.stop_reason = unstable_ ? stop_reason_ : std::string();
-      stats_.real_time_factor = 0.0;  // stepped by the window, not the clock
-    }
-    {
-      std::lock_guard lock(command_mutex_);
-      ticks_done_ = asked;
-    }
-    tick_done_.notify_all();
+  while (lockstep_tick(pending)) {
   }
 }
 
@@ -118,6 +140,21 @@ std::vector<std::string> Simulation::take_log() {
   return std::exchange(log_, {});
 }
 
+std::vector<Notice> Simulation::take_notices() {
+  std::lock_guard lock(log_mutex_);
+  return std::exchange(notices_, {});
+}
+
+void Simulation::notify(Notice::Kind kind, std::string text) {
+  std::lock_guard lock(log_mutex_);
+  notices_.push_back({kind, std::move(text)});
+}
+
+void Simulation::set_busy(std::string what) {
+  std::lock_guard lock(log_mutex_);
+  stats_.busy = std::move(what);
+}
+
 void Simulation::log(std::string message) {
   std::lock_guard lock(log_mutex_);
   log_.push_back(fmt::format("[{:.3f} s] {}", world_->time(), message));
@@ -127,6 +164,10 @@ void Simulation::publish_model() {
   auto info = std::make_shared<ModelInfo>();
   const World& w = *world_;
   info->generation = ++generation_;
+  info->scene_name = scene_.name;
+  info->scene_path = scene_path_;
+  info->scene_dt = scene_.world.dt;
+  info->scene_frames = scene_.frames;
   info->desc = w.desc();
   info->node_count = w.node_count();
   for (std::size_t s = 0; s < w.segment_count(); ++s) {
@@ -149,6 +190,7 @@ void Simulation::publish_model() {
 
 void Simulation::rebuild(WorldDesc next, const std::string& what, bool keep_state) {
   const auto t0 = Clock::now();
+  set_busy(fmt::format("{}: rebuilding the model...", what));
   try {
     // The window holds a frame for its upload only: wait for it, then swap the world and the
     // model together, under the publisher's lock.
@@ -170,7 +212,45 @@ void Simulation::rebuild(WorldDesc next, const std::string& what, bool keep_stat
                     keep_state ? " (state kept)" : " (back to frame 0)"));
   } catch (const Error& e) {
     log(fmt::format("{}: refused, the world is as it was: {}", what, e.what()));
+    notify(Notice::Kind::error, fmt::format("{}: refused: {}", what, e.what()));
   }
+  set_busy({});
+}
+
+// Another scene (or a surface, imported first into a folder of its own): a new world, frame 0.
+// What fails to load leaves the world as it was, with the reason on screen.
+void Simulation::open(const std::string& path) {
+  const auto t0 = Clock::now();
+  try {
+    std::shared_ptr<import::ScratchImport> imported;
+    std::string scene_file = path;
+    if (import::is_surface(path)) {
+      set_busy(fmt::format("importing {}...", std::filesystem::path(path).filename().string()));
+      imported = std::make_shared<import::ScratchImport>(path, [](std::string_view) {});
+      scene_file = imported->scene().string();
+    }
+    set_busy(fmt::format("building {}...", std::filesystem::path(path).filename().string()));
+    SceneDesc next = load_scene(scene_file, sets_);
+    next.world.threads = threads_;
+    next.world.instruments.push_back(mouse_instrument());
+    frames_->resize(
+        [&]() -> const World& {
+          world_ = create_world(next);
+          scene_ = std::move(next);
+          scene_path_ = path;
+          imported_ = std::move(imported);
+          events_logged_ = 0;
+          publish_model();
+          return *world_;
+        },
+        /*wait_for_reader=*/true);
+    unstable_ = false;
+    log(fmt::format("opened {} in {:.1f} s", path, seconds_since(t0)));
+  } catch (const std::exception& e) {
+    log(fmt::format("open {}: refused, the scene is as it was: {}", path, e.what()));
+    notify(Notice::Kind::error, fmt::format("could not open {}: {}", path, e.what()));
+  }
+  set_busy({});
 }
 
 void Simulation::apply(Command& command) {
@@ -189,6 +269,8 @@ void Simulation::apply(Command& command) {
         } else if constexpr (std::is_same_v<T, Release>) {
           w.set_instrument_grasp(mouse, false);
           park_after_step_ = true;
+        } else if constexpr (std::is_same_v<T, Open>) {
+          open(c.path);
         } else if constexpr (std::is_same_v<T, CutAt>) {
           const std::size_t cut = w.cut_tissue(c.centre, c.radius);
           if (cut > 0) log(fmt::format("cut {} anchor{} of connective tissue", cut, cut == 1 ? "" : "s"));
@@ -246,13 +328,19 @@ void Simulation::step_once() {
     went_unstable_ = true;
     stop_reason_ = e.what();
     log(fmt::format("stopped: {} (reset, restore a checkpoint or change a knob)", e.what()));
+    notify(Notice::Kind::error, fmt::format("stopped: {}", e.what()));
   }
   if (park_after_step_) {
     w.set_instrument_pose(w.instrument_count() - 1, kParked, Eigen::Vector3d::UnitZ());
     park_after_step_ = false;
   }
   const auto events = w.events();
-  for (; events_logged_ < events.size(); ++events_logged_) log(std::string(events[events_logged_].message()));
+  for (; events_logged_ < events.size(); ++events_logged_) {
+    const Event& e = events[events_logged_];
+    log(std::string(e.message()));
+    if (e.kind != Event::Kind::unstable)  // a stop has its own notice, with what to do
+      notify(e.kind == Event::Kind::recovered ? Notice::Kind::info : Notice::Kind::warning, std::string(e.message()));
+  }
   frames_->publish(w);
 }
 
@@ -264,6 +352,12 @@ void Simulation::run() {
   int window_steps = 0;
   std::vector<Command> pending;
   for (;;) {
+    if (held_) {  // the window drives the steps (a video at the physics' own time)
+      if (!lockstep_tick(pending)) return;
+      clock_start = window_start = Clock::now();
+      sim_start = window_sim = world_->time();
+      continue;
+    }
     {
       std::unique_lock lock(command_mutex_);
       if (paused_ || unstable_)

@@ -24,6 +24,9 @@ namespace haustra::view {
 // What one model looks like, constant until the next rebuild (reset, a knob, the rate toggle).
 struct ModelInfo {
   std::uint64_t generation = 0;
+  std::string scene_name, scene_path;  // the scene open (its file: what Reload reads again)
+  double scene_dt = 1.0 / 60.0;
+  int scene_frames = 60;
   WorldDesc desc;  // what the model was built from (the knobs start here)
   std::size_t node_count = 0;
   std::vector<Range> segment_nodes;
@@ -45,6 +48,10 @@ struct MoveTip {
   Eigen::Vector3d tip;
 };
 struct Release {};
+// Open another scene, or a surface to import first (its file's path; the viewer's --set apply).
+struct Open {
+  std::string path;
+};
 // The dissection tool: cut the connective tissue within `radius` of `centre` (decision 0095).
 struct CutAt {
   Eigen::Vector3d centre;
@@ -63,8 +70,16 @@ struct Reconfigure {
   std::string knob, value;
 };
 using Command =
-    std::variant<GraspAt, MoveTip, Release, CutAt, SetPaused, StepOnce, Reset, SaveCheckpoint, RestoreCheckpoint,
-                 Reconfigure>;
+    std::variant<GraspAt, MoveTip, Release, CutAt, Open, SetPaused, StepOnce, Reset, SaveCheckpoint,
+                 RestoreCheckpoint, Reconfigure>;
+
+// What the window shows on screen beside the log: a stop, a recovery, a grasp that let go,
+// tissue torn or cut, a scene that would not open.
+struct Notice {
+  enum class Kind { info, warning, error };
+  Kind kind = Kind::info;
+  std::string text;
+};
 
 struct SimulationStats {
   double real_time_factor = 0.0;  // simulated seconds per wall second over the last half second
@@ -72,6 +87,7 @@ struct SimulationStats {
   bool paused = false;
   bool unstable = false;    // the last step was refused; paused until a reset or restore
   std::string stop_reason;  // why, while unstable
+  std::string busy;         // what the physics thread is doing that takes a while ("importing ...")
 };
 
 class Simulation {
@@ -79,34 +95,46 @@ class Simulation {
   // Builds the world from the scene (plus the mouse's instrument); throws haustra::Error as
   // `haustra run` does. checkpoint: a file for save/restore ("" keeps checkpoints in memory).
   Simulation(const SceneDesc& scene, int threads, std::string checkpoint_file, bool start_paused,
-             bool lockstep = false);
+             bool lockstep = false, std::string scene_path = {}, std::vector<std::string> sets = {});
   ~Simulation();
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
   void start();
   void post(Command command);
-  // Lockstep only: the commands posted so far applied, then one frame stepped (none while paused);
-  // returns when it is published.
-  void step_in_lockstep();
+  // Lockstep (a scripted run, or while held): the commands posted so far applied, then `frames`
+  // frames stepped (none while paused); returns when the last is published.
+  void step_in_lockstep(int frames = 1);
+  // Held, a free-running simulation steps only when the window asks (a video at the physics'
+  // own time); released, it runs on the clock again.
+  void hold(bool on);
+  [[nodiscard]] bool held() const { return lockstep_ || held_.load(); }
   FramePublisher& frames() { return *frames_; }
   // The model of the frames acquired from now on: read it after acquire() (a rebuild waits for
   // the window to release its frame, so the two always match).
   [[nodiscard]] std::shared_ptr<const ModelInfo> model() const;
   [[nodiscard]] SimulationStats stats() const;
   std::vector<std::string> take_log();  // messages since the last call: changes, events, errors
+  std::vector<Notice> take_notices();   // what deserves the screen, since the last call
   [[nodiscard]] bool went_unstable() const { return went_unstable_.load(); }
 
  private:
   void run();
   void run_in_lockstep();
+  bool lockstep_tick(std::vector<Command>& pending);  // false: quit
+  void open(const std::string& path);
   void apply(Command& command);
   void step_once();
   void rebuild(WorldDesc next, const std::string& what, bool keep_state);
   void publish_model();
   void log(std::string message);
+  void notify(Notice::Kind kind, std::string text);
+  void set_busy(std::string what);
 
   SceneDesc scene_;
+  std::string scene_path_;
+  std::vector<std::string> sets_;
+  std::shared_ptr<void> imported_;  // a surface opened: its scratch import, removed when replaced
   int threads_ = 0;
   std::string checkpoint_file_;
   std::vector<std::byte> checkpoint_;
@@ -121,11 +149,14 @@ class Simulation {
   std::vector<Command> commands_;
   bool quit_ = false;
   bool lockstep_ = false;
-  std::uint64_t ticks_asked_ = 0, ticks_done_ = 0;  // lockstep: frames the window asked for, and taken
+  std::uint64_t ticks_asked_ = 0, ticks_done_ = 0;  // lockstep: ticks the window asked for, and taken
+  int frames_per_tick_ = 1;
+  std::atomic<bool> held_{false};
   std::condition_variable tick_done_;
 
   mutable std::mutex log_mutex_;
   std::vector<std::string> log_;
+  std::vector<Notice> notices_;
   SimulationStats stats_;
   std::size_t events_logged_ = 0;
   bool paused_ = false, unstable_ = false, park_after_step_ = false;

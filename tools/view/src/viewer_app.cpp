@@ -18,10 +18,11 @@
 #include <optional>
 #include <thread>
 
+#include "actions.hpp"
 #include "gl_scene.hpp"
 #include "haustra/error.hpp"
-#include "haustra/render/image.hpp"
 #include "haustra/scene.hpp"
+#include "menus.hpp"
 #include "mouse.hpp"
 #include "panels.hpp"
 #include "script_player.hpp"
@@ -36,6 +37,49 @@ constexpr int kExitUnstable = 3;
 std::string g_glfw_error;  // the last GLFW error, for the message when no window opens
 
 ViewerState& state_of(GLFWwindow* w) { return *static_cast<ViewerState*>(glfwGetWindowUserPointer(w)); }
+
+}  // namespace
+
+// A key pressed (GLFW's codes), by a person or a script: the help overlay lists them all.
+void press_key(ViewerState& v, int key, int mods, int width, int height) {
+  const bool ctrl = (mods & GLFW_MOD_CONTROL) != 0;
+  switch (key) {
+    case GLFW_KEY_SPACE: v.sim.post(SetPaused{!v.sim.stats().paused}); break;
+    case GLFW_KEY_RIGHT: v.sim.post(StepOnce{}); break;
+    case GLFW_KEY_TAB: v.show_panels = !v.show_panels; break;
+    case GLFW_KEY_B: v.draw.beads = !v.draw.beads; break;
+    case GLFW_KEY_T: v.draw.anchors = !v.draw.anchors; break;
+    case GLFW_KEY_F: v.camera_fitted = false; break;  // fit the camera to the organ again
+    case GLFW_KEY_G: v.follow = !v.follow; break;
+    case GLFW_KEY_1: set_view(v, View::front); break;
+    case GLFW_KEY_2: set_view(v, View::top); break;
+    case GLFW_KEY_3: set_view(v, View::side); break;
+    case GLFW_KEY_0: set_view(v, View::standard); break;
+    case GLFW_KEY_P: v.note("screenshot " + take_screenshot(v)); break;
+    case GLFW_KEY_V: v.note(toggle_video(v, width, height)); break;
+    case GLFW_KEY_F1:
+    case GLFW_KEY_H: v.help_open = !v.help_open; break;
+    case GLFW_KEY_SLASH:
+      if ((mods & GLFW_MOD_SHIFT) != 0) v.help_open = !v.help_open;  // ?
+      break;
+    case GLFW_KEY_O:
+      if (ctrl) v.open_dialog.open = true, v.open_dialog.folder = std::filesystem::current_path(),
+                v.open_dialog.entries = list_openable(v.open_dialog.folder);
+      break;
+    case GLFW_KEY_R:
+      if (ctrl) reload(v);
+      break;
+    case GLFW_KEY_ESCAPE:
+      if (v.help_open)
+        v.help_open = false;
+      else
+        v.quit = true;
+      break;
+    default: break;
+  }
+}
+
+namespace {
 bool imgui_has_mouse() { return ImGui::GetIO().WantCaptureMouse; }
 
 void install_input(GLFWwindow* window) {
@@ -57,13 +101,14 @@ void install_input(GLFWwindow* window) {
     ViewerState& v = state_of(w);
     v.mouse.ctrl = (mods & GLFW_MOD_CONTROL) != 0 || (key == GLFW_KEY_LEFT_CONTROL && action != GLFW_RELEASE);
     if (action != GLFW_PRESS || ImGui::GetIO().WantCaptureKeyboard) return;
-    if (key == GLFW_KEY_SPACE) v.sim.post(SetPaused{!v.sim.stats().paused});
-    if (key == GLFW_KEY_RIGHT) v.sim.post(StepOnce{});
-    if (key == GLFW_KEY_TAB) v.show_panels = !v.show_panels;
-    if (key == GLFW_KEY_B) v.draw.beads = !v.draw.beads;
-    if (key == GLFW_KEY_T) v.draw.anchors = !v.draw.anchors;
-    if (key == GLFW_KEY_F) v.camera_fitted = false;  // fit the camera to the organ again
-    if (key == GLFW_KEY_ESCAPE) glfwSetWindowShouldClose(w, GLFW_TRUE);
+    int width = 0, height = 0;
+    glfwGetFramebufferSize(w, &width, &height);
+    press_key(v, key, mods, width, height);
+    if (v.quit) glfwSetWindowShouldClose(w, GLFW_TRUE);
+  });
+  // A file dropped on the window is opened (the first, when several are).
+  glfwSetDropCallback(window, [](GLFWwindow* w, int count, const char** paths) {
+    if (count > 0) open_path(state_of(w), paths[0]);
   });
 }
 
@@ -80,6 +125,8 @@ void take_frame(ViewerState& v, GlScene& scene) {
   v.profile = f.details.profile;
   v.instruments = f.details.instruments;
   v.contact_count = f.details.contacts.size();
+  v.node_positions.resize(f.x.size());
+  for (std::size_t k = 0; k < f.x.size(); ++k) v.node_positions[k] = {f.x[k], f.y[k], f.z[k]};
   v.bead_centres.resize(m.bead_nodes.size());
   for (std::size_t i = 0; i < m.bead_nodes.size(); ++i) {
     const std::size_t k = m.bead_nodes[i];
@@ -105,7 +152,8 @@ void take_frame(ViewerState& v, GlScene& scene) {
     const InstrumentReading& r = v.instruments[m.mouse];
     v.plot.push(static_cast<float>(r.force.norm()), static_cast<float>(r.filtered_force.norm()));
     if (v.recording) {
-      Sample s{f.frame, f.time, r.grasping, 0, Eigen::Vector3d::Zero(), r.tip, r.force, r.filtered_force};
+      Sample s{f.frame, f.time, r.grasping, 0, Eigen::Vector3d::Zero(), r.tip, r.force, r.filtered_force, 0};
+      for (const std::uint8_t intact : f.details.anchors_intact) s.anchors_cut += intact == 0 ? 1 : 0;
       if (r.grasping && r.grasped_segment < m.segment_nodes.size()) {
         s.node = m.segment_nodes[r.grasped_segment].offset + r.grasped_node;
         s.node_position = {f.x[s.node], f.y[s.node], f.z[s.node]};
@@ -115,21 +163,6 @@ void take_frame(ViewerState& v, GlScene& scene) {
   }
   scene.build(f, m, v.draw);
   frames.release();
-}
-
-void save_screenshot(const std::string& path, int width, int height) {
-  std::vector<std::uint8_t> rgb(static_cast<std::size_t>(3 * width * height));
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadBuffer(GL_BACK);
-  glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, rgb.data());
-  std::vector<std::uint8_t> top_down(rgb.size());  // GL's rows start at the bottom
-  const std::size_t row = static_cast<std::size_t>(3 * width);
-  for (int y = 0; y < height; ++y)
-    std::copy_n(rgb.begin() + static_cast<std::ptrdiff_t>(row * static_cast<std::size_t>(height - 1 - y)), row,
-                top_down.begin() + static_cast<std::ptrdiff_t>(row * static_cast<std::size_t>(y)));
-  if (const auto dir = std::filesystem::path(path).parent_path(); !dir.empty())
-    std::filesystem::create_directories(dir);
-  render::Image::from_srgb8(width, height, top_down).save_png(path);
 }
 
 nlohmann::json vec(const Eigen::Vector3d& p) { return {p.x(), p.y(), p.z()}; }
@@ -147,7 +180,8 @@ void write_record(const ViewerState& v, const std::string& path) {
                             {"node_position", vec(s.node_position)},
                             {"tip", vec(s.tip)},
                             {"force", vec(s.force)},
-                            {"filtered_force", vec(s.filtered_force)}});
+                            {"filtered_force", vec(s.filtered_force)},
+                            {"anchors_cut", s.anchors_cut}});
   for (const InputEvent& e : v.events) {
     const OrbitCamera& c = e.camera;
     j["events"].push_back({{"kind", e.kind},
@@ -205,7 +239,9 @@ int loop(ViewerState& v, GLFWwindow* window, std::optional<ScriptPlayer>& script
   while (glfwWindowShouldClose(window) == GLFW_FALSE && !v.quit) {
     const auto started = std::chrono::steady_clock::now();
     glfwPollEvents();
-    if (script) v.sim.step_in_lockstep();  // a frame of physics per window frame, whatever the load
+    // A frame of physics per window frame (a script's, whatever the load), or while a video is
+    // written, the frames of simulated time between two of its frames.
+    if (script || v.video.recording()) v.sim.step_in_lockstep(v.video.recording() ? v.video_frames_per_shot : 1);
     for (std::string& line : v.sim.take_log()) v.note(std::move(line));
     if (script && !script->tick(v)) v.quit = true;
     if (!script && !o.screenshot.empty() && v.frame >= static_cast<std::uint64_t>(v.scene_frames)) v.quit = true;
@@ -214,14 +250,29 @@ int loop(ViewerState& v, GLFWwindow* window, std::optional<ScriptPlayer>& script
     glfwGetWindowSize(window, &ww, &wh);
     v.camera.width = std::max(ww, 1);
     v.camera.height = std::max(wh, 1);
+    if (v.auto_reload && scene_file_changed(v)) {
+      v.note("the scene file changed: reloading");
+      reload(v);
+    }
     take_frame(v, scene);
+    follow(v);
+    keep_above_planes(v);
     scene.draw(v.camera, v.draw, fbw, fbh);
     ImGui_ImplOpenGL3_NewFrame();
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
+    draw_menu_bar(v, fbw, fbh);
     draw_panels(v);
+    draw_open_dialog(v);
+    draw_help(v);
+    draw_overlays(v);
     ImGui::Render();
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    video_frame(v, fbw, fbh);
+    if (!v.video_pending.empty()) {  // a script's `record FILE`: from the frame after this one
+      v.note(toggle_video(v, fbw, fbh, v.video_pending));
+      v.video_pending.clear();
+    }
     if (!v.screenshot_pending.empty()) {
       save_screenshot(v.screenshot_pending, fbw, fbh);
       v.screenshots.push_back(v.screenshot_pending);
@@ -229,8 +280,9 @@ int loop(ViewerState& v, GLFWwindow* window, std::optional<ScriptPlayer>& script
     }
     if (v.quit && !o.screenshot.empty()) save_screenshot(o.screenshot, fbw, fbh);
     glfwSwapBuffers(window);
-    if (!script) std::this_thread::sleep_until(started + frame_budget);
+    if (!script && !v.video.recording()) std::this_thread::sleep_until(started + frame_budget);
   }
+  if (v.video.recording()) v.note(toggle_video(v, 0, 0));
   return script && v.sim.went_unstable() ? kExitUnstable : 0;
 }
 
@@ -241,7 +293,8 @@ int run_viewer(const ViewerOptions& o) {
   const SceneDesc scene = load_scene(o.scene, o.sets);
   std::optional<ScriptPlayer> script;
   if (!o.script.empty()) script.emplace(read_script(o.script));
-  Simulation sim(scene, o.threads, o.checkpoint, o.paused, /*lockstep=*/script.has_value());
+  Simulation sim(scene, o.threads, o.checkpoint, o.paused, /*lockstep=*/script.has_value(),
+                 o.source.empty() ? o.scene : o.source, o.sets);
   GlfwSession glfw;
   GLFWwindow* window = open_window(o, fmt::format("haustra view - {}", scene.name));
   ViewerState v(sim);

@@ -7,6 +7,7 @@ namespace haustra::view {
 
 struct ViewerOptions {
   std::string scene;
+  std::string source;  // what was given, when `scene` was made from it (a surface imported first)
   std::vector<std::string> sets;  // scene overrides, as `haustra run --set`
   int threads = 0;
   std::string script;      // scripted input (script.hpp)
@@ -16,6 +17,11 @@ struct ViewerOptions {
   int width = 1280, height = 720;
   bool paused = false;
 };
+
+struct ViewerState;
+// A key pressed (GLFW's key codes and modifier bits), by a person or a script; width, height: the
+// framebuffer's (for a video started by V).
+void press_key(ViewerState& v, int key, int mods, int width, int height);
 
 // Exit codes as `haustra run`: 0 ok, 2 bad input (scene, script, no display), 3 the simulation
 // went unstable during a scripted run.

@@ -1,13 +1,16 @@
 #pragma once
 // What the window knows between its frames: the camera, the display options, what it copied from
 // the last published frame, the force plot, the mouse's state and the log.
+#include <chrono>
 #include <cstdint>
 #include <deque>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "capture.hpp"
 #include "gl_scene.hpp"
 #include "orbit_camera.hpp"
 #include "simulation.hpp"
@@ -15,6 +18,27 @@
 namespace haustra::view {
 
 inline constexpr float kPanelWidth = 370.0f;  // the panels' column on the left, pixels
+
+// A notice on screen (a stop, a slip, a tear, a scene that would not open) until it ages out.
+struct ShownNotice {
+  Notice notice;
+  std::chrono::steady_clock::time_point since;
+};
+
+// File > Open: a folder's scenes and surfaces, and a path typed or picked.
+struct OpenDialog {
+  bool open = false;
+  std::filesystem::path folder;
+  std::string path;
+  std::vector<std::string> entries;  // names in `folder`: folders (ending in /), scenes, surfaces
+};
+
+// What the inspector has selected (its tree: organs and their pieces, instruments, tissue, obstacles).
+struct Selection {
+  enum class Kind { none, segment, instrument, anchors, obstacle };
+  Kind kind = Kind::none;
+  std::size_t index = 0;
+};
 
 // The force on one instrument over the last seconds, one sample per frame the window saw.
 struct ForcePlot {
@@ -49,6 +73,7 @@ struct Sample {
   std::size_t node = 0;  // global index of the grasped node
   Eigen::Vector3d node_position = Eigen::Vector3d::Zero(), tip = Eigen::Vector3d::Zero();
   Eigen::Vector3d force = Eigen::Vector3d::Zero(), filtered_force = Eigen::Vector3d::Zero();
+  std::size_t anchors_cut = 0;  // anchors of connective tissue torn or cut so far
 };
 struct InputEvent {
   std::string kind;  // press, release
@@ -78,6 +103,7 @@ struct ViewerState {
   FrameProfile profile;
   std::vector<InstrumentReading> instruments;
   std::vector<Eigen::Vector3d> bead_centres;
+  std::vector<Eigen::Vector3d> node_positions;
   std::size_t contact_count = 0;
 
   ForcePlot plot;                // the mouse's grasper
@@ -92,6 +118,22 @@ struct ViewerState {
   std::vector<std::string> screenshots;
   std::string screenshot_pending;
   bool quit = false;
+
+  // The workbench: help, File > Open, reloading when the scene file changes, captures, cameras,
+  // the inspector and the notices on screen.
+  bool help_open = false;
+  OpenDialog open_dialog;
+  bool auto_reload = true;
+  std::filesystem::file_time_type scene_written{};  // the open scene file's time, for Reload
+  std::chrono::steady_clock::time_point reload_checked{};
+  std::string capture_folder = ".";  // where P's screenshots and V's videos go
+  VideoRecorder video;
+  int video_frames_per_shot = 1;  // physics frames between two video frames
+  std::string video_pending;      // a script's `record FILE`: started after the next draw
+  bool follow = false;            // the camera keeps the grasped (or selected) part in the middle
+  Selection selection;
+  std::deque<ShownNotice> notices;
+  float menu_height = 0.0f;  // the main menu bar's, pixels: the panels start under it
 };
 
 }  // namespace haustra::view
