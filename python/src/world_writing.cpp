@@ -136,8 +136,12 @@ void bind_world_writing(WorldClass& c) {
       [](PyWorld& w, IndexArg segment, const ArrayLike& position, const ArrayLike& rotation) {
         auto world = w.locked();
         const std::size_t s = segment_index(world.world, segment, "set_base_pose");
-        const Doubles q = rows_of(py::module_::import("numpy").attr("reshape")(rotation, py::make_tuple(1, 4)), 1, 4,
-                                  "set_base_pose", "rotation");
+        const Doubles q = Doubles::ensure(rotation);
+        if (!q || q.ndim() != 1 || q.shape(0) != 4) {
+          PyErr_Clear();
+          throw Error(ErrorCode::invalid_argument,
+                      "set_base_pose: rotation must be 4 numbers, a unit quaternion (w, x, y, z)");
+        }
         const Eigen::Quaterniond rot(q.data()[0], q.data()[1], q.data()[2], q.data()[3]);
         if (!rot.coeffs().allFinite() || std::abs(rot.norm() - 1.0) > 1e-6)
           throw Error(ErrorCode::invalid_argument,

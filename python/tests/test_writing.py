@@ -148,6 +148,8 @@ def test_a_base_pose_moves_the_rod_rigidly():
     assert np.array_equal(w.strains, strains)
     with pytest.raises(haustra.InvalidArgumentError, match=r"expected a unit quaternion"):
         w.set_base_pose(0, [0, 0, 0], [1, 1, 0, 0])
+    with pytest.raises(haustra.InvalidArgumentError, match=r"rotation must be 4 numbers"):
+        w.set_base_pose(0, [0, 0, 0], [1, 0, 0])
 
 
 def test_many_loads_in_one_call_equal_one_call_per_node():
