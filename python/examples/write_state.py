@@ -18,7 +18,7 @@ def main():
     strains = np.zeros((world.node_count, 4))
     strains[:, 0] = np.pi / 2  # rad per metre over 1 m
     world.set_strains(strains)
-    print("arc: tip at [" + " ".join(f"{v:.12f}" for v in world.node_positions[-1]) + "]")
+    print("arc: tip at [" + " ".join(f"{v:.15f}" for v in world.node_positions[-1]) + "]")
     # 2. Positions are not free: set_node_positions finds the configuration through the points (frames that
     # turn least, each section an arc), here a measured S-curve with 0.1 mm of noise.
     s = np.linspace(0.0, 1.0, world.node_count)

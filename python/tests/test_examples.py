@@ -61,30 +61,32 @@ def test_organ_grasp(tmp_path):
     data = np.loadtxt(tmp_path / "organ_grasp.csv", delimiter=",", skiprows=1)
     force, moved = data[:, 1], data[:, 2]
     # The imported rectum grasped above its middle and pulled 5 cm sideways: the grasper pulls within its force
-    # limit and the organ follows by centimetres, then it lies within millimetres of where it was after release.
-    assert 0.5 < force.max() < 20, out
+    # limit and the organ follows by centimetres, then it lies within a tenth of a millimetre of where it was after
+    # release (measured 6.5 N, 5.2 cm, 0.08 mm).
+    assert 0.7 < force.max() < 20, out
     assert 0.02 < moved.max() < 0.08, out
-    assert moved[-1] < 0.3 * moved.max(), out
+    assert moved[-1] < 8e-4, out  # measured 0.08 mm
 
 
 def test_batch_rollouts(tmp_path):
     out = run("batch_rollouts.py", "--out", str(tmp_path), "--worlds", "40", "--frames", "30")
     tips = np.load(tmp_path / "batch_tips.npy")
     assert tips.shape == (40, 30, 3) and (tmp_path / "batch_rollouts.png").stat().st_size > 5_000
-    # Forty different loads: forty different tips (sd 5 cm of force on a cantilever moves its tip by millimetres).
-    assert np.unique(tips[:, -1, 2]).size == 40 and np.ptp(tips[:, -1, 2]) > 1e-4, out
+    # Forty different loads: forty different tips, spread over tens of centimetres (loads up to about the scene's own
+    # tip load, in any direction; measured 0.47 m between the highest and the lowest).
+    assert np.unique(tips[:, -1, 2]).size == 40 and 0.05 < np.ptp(tips[:, -1, 2]) < 2.0, out
 
 
 def test_write_state():
     out = run("write_state.py")
     arc = [float(x) for x in out.split("arc: tip at [")[1].split("]")[0].split()]
     # A quarter circle of 1 m: radius 2/π, so the tip is 2/π along and 2/π aside of the base.
-    assert np.allclose(sorted(np.abs(arc))[1:], [2 / np.pi, 2 / np.pi], atol=1e-9)
+    assert np.allclose(sorted(np.abs(arc))[1:], [2 / np.pi, 2 / np.pi], rtol=0, atol=1e-14)  # measured 1.0e-15
     farthest = float(out.split("farthest node ")[1].split(" m")[0])
-    assert farthest < 1e-9
+    assert farthest < 6e-15  # measured 5.6e-16
     nodes = float(out.split("nodes agree to ")[1].split()[0])
     sections = float(out.split("sections' strains to ")[1].split()[0])
-    assert nodes < 1e-12 and sections < 1e-8
+    assert nodes < 1e-15 and sections < 2e-13  # measured 8.3e-17 and 1.6e-14
 
 
 def test_checkpoints():
