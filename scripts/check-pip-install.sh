@@ -2,8 +2,8 @@
 # `pip install .` as the README says it, offline (decisions 0059, 0101): a fresh virtual environment
 # made by Debian's python3 that sees Debian's setuptools, wheel and NumPy; the package built by
 # setup.py, which reuses the release tree BUILD_DIR (already built by `make test`: nothing new is
-# compiled); then imported from the environment (not the build tree), stepped, and its `haustra`
-# command run. And an environment without Debian's packages: refused with setup.py's paragraph, not a
+# compiled); then imported from the environment (not the build tree), stepped, state written, a batch
+# stepped, and its `haustra` command run. And an environment without Debian's packages: refused with setup.py's paragraph, not a
 # pip traceback.
 # Usage: check-pip-install.sh SOURCE_DIR BUILD_DIR HAUSTRA_CLI
 set -eu
@@ -43,8 +43,24 @@ assert run.returncode == 0, run.stderr
 w = haustra.World.from_scene(f"{source}/scenes/cantilever.toml")
 recording = w.step(5, record=["node_positions"])
 assert w.frame == 5 and recording["node_positions"].shape == (5, w.node_count, 3)
-print(f"pip install .: haustra {haustra.__version__} from {haustra.__file__}, stepped 5 frames; "
-      f"the haustra command {command.stdout.strip()}")
+# What the installed module adds to stepping (decisions 0102, 0103): state written from arrays, loads on many nodes and
+# per metre, and a batch of worlds on 2 threads that gives each world's bits as a loop does.
+import copy
+import numpy as np
+w.set_strains(0.5 * np.asarray(w.strains))
+w.set_node_positions(np.array(w.node_positions))
+w.set_external_loads([10, -1], [[0.0, 1e-4, 0.0], [0.0, 0.0, -1e-4]], add=True)
+w.set_distributed_load(0, [0.0, 1e-4, 0.0])
+alone = [copy.deepcopy(w) for _ in range(3)]
+for k, a in enumerate(alone):
+    a.add_external_load(-1, [0.0, 0.0, -1e-5 * k])
+batched = [copy.deepcopy(a) for a in alone]
+for a in alone:
+    a.step(5)
+haustra.Batch(batched, threads=2).step(5)
+assert all(np.array(a.node_positions).tobytes() == np.array(b.node_positions).tobytes() for a, b in zip(alone, batched))
+print(f"pip install .: haustra {haustra.__version__} from {haustra.__file__}, stepped 5 frames, state written, "
+      f"3 worlds batched on 2 threads as stepped alone; the haustra command {command.stdout.strip()}")
 PY
 # An interpreter without Debian's packages (a venv that does not see them: no NumPy, no wheel, no
 # pybind11): one paragraph naming what is missing and the command to use.
