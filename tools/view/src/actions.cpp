@@ -29,7 +29,7 @@ void open_path(ViewerState& v, const std::string& path) {
   v.sim.post(Open{path});
   v.scene_written = written(path);
   v.camera_fitted = false;  // the new organ framed when it arrives
-  v.selection = {};
+  v.draw.highlight = {};
 }
 
 void reload(ViewerState& v) {
@@ -108,8 +108,13 @@ void set_view(ViewerState& v, View view) {
 
 void keep_above_planes(ViewerState& v) {
   if (!v.model) return;
+  // Floors only (planes facing up against gravity): a wall may stand between the eye and the organ,
+  // drawn from its free side only, so it never hides it.
+  const Eigen::Vector3d up = v.model->desc.gravity.norm() > 0.0 ? Eigen::Vector3d(-v.model->desc.gravity.normalized())
+                                                                 : Eigen::Vector3d::UnitZ();
   for (const PlaneDesc& p : v.model->desc.environment.planes) {
     const Eigen::Vector3d n = p.normal.normalized();
+    if (n.dot(up) < 0.7) continue;
     for (int step = 0; step < 300 && (v.camera.eye() - p.point).dot(n) < 1e-3 * v.camera.distance; ++step)
       v.camera.elevation = std::min(1.5, v.camera.elevation + 0.01);
   }
@@ -125,8 +130,14 @@ void follow(ViewerState& v) {
   std::optional<Eigen::Vector3d> target;
   for (const InstrumentReading& r : v.instruments)
     if (r.grasping && !target) target = on(r.grasped_segment, r.grasped_node);
-  if (!target && v.selection.kind == Selection::Kind::segment && v.selection.index < v.model->segment_nodes.size())
-    target = on(v.selection.index, v.model->segment_nodes[v.selection.index].count / 2);
+  const Highlight& h = v.draw.highlight;
+  if (!target && h.kind == Highlight::Kind::organ && h.index < v.model->organs.size()) {
+    const auto& pieces = v.model->organs[h.index].pieces;  // the middle of the organ
+    const std::size_t piece = pieces[pieces.size() / 2];
+    target = on(piece, v.model->segment_nodes[piece].count / 2);
+  }
+  if (!target && h.kind == Highlight::Kind::instrument && h.index < v.instruments.size())
+    target = v.instruments[h.index].tip;
   if (target) v.camera.target += 0.2 * (*target - v.camera.target);  // eased: no jumps
 }
 

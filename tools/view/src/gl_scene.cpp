@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 
 #include "haustra/error.hpp"
@@ -36,6 +37,8 @@ void main() {
 }
 )";
 
+// Cheap per fragment (a software renderer shades every pixel on the CPU): the specular power by
+// squaring, and the screen's gamma as a square root (2.0 for 2.2: no visible difference).
 constexpr const char* kFragmentShader = R"(#version 330 core
 in vec3 world_position;
 in vec3 world_normal;
@@ -44,16 +47,17 @@ uniform vec3 eye;
 uniform int lit;
 out vec4 fragment;
 void main() {
-  if (lit == 0) { fragment = vec4(pow(vertex_colour.rgb, vec3(1.0 / 2.2)), vertex_colour.a); return; }
+  if (lit == 0) { fragment = vec4(sqrt(vertex_colour.rgb), vertex_colour.a); return; }
   vec3 n = normalize(world_normal);
   vec3 v = normalize(eye - world_position);
   if (dot(n, v) < 0.0) n = -n;  // open meshes and inner walls: light the side we see
-  vec3 sun = normalize(vec3(0.4, -0.3, 0.85));
-  vec3 fill = normalize(vec3(-0.6, 0.5, 0.3));
+  const vec3 sun = vec3(0.4056, -0.3042, 0.8619);
+  const vec3 fill = vec3(-0.7171, 0.5976, 0.3586);
   float diffuse = 0.75 * max(dot(n, sun), 0.0) + 0.25 * max(dot(n, fill), 0.0);
-  float specular = 0.25 * pow(max(dot(n, normalize(sun + v)), 0.0), 32.0);
-  vec3 c = vertex_colour.rgb * (0.28 + diffuse) + vec3(specular);
-  fragment = vec4(pow(c, vec3(1.0 / 2.2)), vertex_colour.a);  // linear colours to the screen's sRGB
+  float s = max(dot(n, normalize(sun + v)), 0.0);
+  s *= s; s *= s; s *= s; s *= s; s *= s;  // s^32
+  vec3 c = vertex_colour.rgb * (0.28 + diffuse) + vec3(0.25 * s);
+  fragment = vec4(sqrt(c), vertex_colour.a);  // linear colours to the screen's (near) sRGB
 }
 )";
 
@@ -127,6 +131,10 @@ const Rgb kBody{0.80f, 0.70f, 0.62f};  // a container, seen from inside
 const Rgb kFloor{0.78f, 0.78f, 0.76f};
 const Rgb kGrid{0.45f, 0.45f, 0.47f};
 const Rgb kForce{0.95f, 0.55f, 0.05f};
+const Rgb kSpring{0.05f, 0.75f, 0.85f};  // the grasp's spring, drawn over everything
+const Rgb kSelected{0.98f, 0.78f, 0.25f};  // what the inspector has selected
+
+bool is(const Highlight& h, Highlight::Kind kind, std::size_t index) { return h.kind == kind && h.index == index; }
 
 }  // namespace
 
@@ -144,7 +152,7 @@ GlScene::GlScene() {
   vp_location_ = glGetUniformLocation(program_, "view_projection");
   eye_location_ = glGetUniformLocation(program_, "eye");
   lit_location_ = glGetUniformLocation(program_, "lit");
-  for (Batch* b : {&opaque_, &organ_, &lines_, &planes_}) {
+  for (Batch* b : {&opaque_, &organ_, &lines_, &planes_, &grid_, &overlay_, &tubes_}) {
     glGenVertexArrays(1, &b->vao);
     glGenBuffers(1, &b->vbo);
     glGenBuffers(1, &b->ebo);
@@ -162,7 +170,7 @@ GlScene::GlScene() {
 }
 
 GlScene::~GlScene() {
-  for (Batch* b : {&opaque_, &organ_, &lines_, &planes_}) {
+  for (Batch* b : {&opaque_, &organ_, &lines_, &planes_, &grid_, &overlay_, &tubes_}) {
     glDeleteBuffers(1, &b->vbo);
     glDeleteBuffers(1, &b->ebo);
     glDeleteVertexArrays(1, &b->vao);
@@ -170,56 +178,150 @@ GlScene::~GlScene() {
   glDeleteProgram(program_);
 }
 
-void GlScene::build(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o) {
-  opaque_.clear();
-  organ_.clear();
-  lines_.clear();
-  planes_.clear();
+void GlScene::build(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o, const OrbitCamera& camera) {
+  for (Batch* b : {&opaque_, &organ_, &lines_, &planes_, &grid_, &overlay_, &tubes_}) b->clear();
+  grid_ranges_.clear();
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   for (std::size_t k = 0; k < f.x.size(); ++k) {
     lo = lo.cwiseMin(node(f, k));
     hi = hi.cwiseMax(node(f, k));
   }
   if (f.x.empty()) lo = hi = Eigen::Vector3d::Zero();
+  subject_lo_ = lo;
+  subject_hi_ = hi;
   subject_centre_ = 0.5 * (lo + hi);
   subject_size_ = std::max((hi - lo).norm(), 0.05);
-  build_organ(f, m, o);
+  build_organ(f, m, o, camera);
   build_overlays(f, m, o);
   build_surroundings(f, m, o);
-  for (Batch* b : {&opaque_, &organ_, &lines_, &planes_}) upload(*b);
+  for (Batch* b : {&opaque_, &lines_, &planes_, &grid_, &overlay_, &tubes_}) upload(*b);
+  // The organ: only the vertices of this frame's blocks; its indices stay in their buffer.
+  glBindBuffer(GL_ARRAY_BUFFER, organ_.vbo);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(organ_.vertices.size() * sizeof(Vertex)),
+               organ_.vertices.data(), GL_STREAM_DRAW);
 }
 
-void GlScene::build_organ(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o) {
+void GlScene::prepare_lod(const FramePublisher::Slot& f, const ModelInfo& m) {
+  if (m.triangles == lod_triangles_ && !lod_.chunks.empty()) return;
+  std::vector<Eigen::Vector3d> positions(f.px.size()), normals(f.px.size()), nodes(f.x.size());
+  for (std::size_t v = 0; v < f.px.size(); ++v) {
+    positions[v] = {f.px[v], f.py[v], f.pz[v]};
+    normals[v] = {f.nx[v], f.ny[v], f.nz[v]};
+  }
+  for (std::size_t k = 0; k < f.x.size(); ++k) nodes[k] = node(f, k);
+  lod_ = m.vertex_node.size() == f.px.size() ? build_organ_lod(positions, normals, m.triangles, m.vertex_node, nodes)
+                                             : OrganLod{};
+  lod_triangles_ = m.triangles;
+  glBindVertexArray(organ_.vao);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, organ_.ebo);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(lod_.indices.size() * sizeof(std::uint32_t)),
+               lod_.indices.data(), GL_STATIC_DRAW);
+  glBindVertexArray(0);
+}
+
+void GlScene::build_organ(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o,
+                          const OrbitCamera& camera) {
   organ_transparent_ = o.beads || o.cage || o.centreline;
   const float alpha = organ_transparent_ ? 0.35f : 1.0f;
-  organ_.vertices.resize(f.px.size());
-  for (std::size_t v = 0; v < f.px.size(); ++v) {
-    Rgb c = kTissue;
-    if (o.colour == Colouring::strain && v < m.vertex_node.size()) {
-      const std::size_t k = m.vertex_node[v];
-      const double d1 = f.details.strain[4 * k] - f.details.rest_strain[4 * k];
-      const double d2 = f.details.strain[4 * k + 1] - f.details.rest_strain[4 * k + 1];
-      c = render::colormap(std::hypot(d1, d2) / std::max(o.strain_range, 1e-9));
-    }
-    organ_.vertices[v] = {{f.px[v], f.py[v], f.pz[v]}, {f.nx[v], f.ny[v], f.nz[v]}, {c.r, c.g, c.b, alpha}};
+  prepare_lod(f, m);
+  lod_nodes_.resize(f.x.size());
+  for (std::size_t k = 0; k < f.x.size(); ++k) lod_nodes_[k] = node(f, k);
+  const LodView view{camera.view_projection().cast<double>(), camera.eye(),
+                     camera.height / (camera.fov_degrees * std::numbers::pi / 180.0)};
+  lod_levels_.assign(lod_.chunks.size(), -1);
+  choose_lod_levels(lod_, lod_nodes_, view, o.triangle_budget, lod_levels_);
+  lod_draws_.clear();
+  organ_triangles_drawn_ = 0;
+  // The selected organ's vertices (its pieces' meshes), tinted.
+  std::vector<bool> selected;
+  if (o.highlight.kind == Highlight::Kind::organ && o.highlight.index < m.organs.size()) {
+    selected.assign(f.px.size(), false);
+    for (std::size_t piece : m.organs[o.highlight.index].pieces)
+      for (std::size_t v = 0; v < m.meshes[piece].vertices.count; ++v)
+        if (const std::size_t g = m.meshes[piece].vertices.offset + v; g < selected.size()) selected[g] = true;
   }
-  organ_.indices.reserve(3 * m.triangles.size());
-  for (const auto& t : m.triangles) organ_.indices.insert(organ_.indices.end(), t.begin(), t.end());
+  for (std::size_t chunk = 0; chunk < lod_.chunks.size(); ++chunk) {
+    if (lod_levels_[chunk] < 0) continue;
+    const LodBlock& block = lod_.chunks[chunk].levels[static_cast<std::size_t>(lod_levels_[chunk])];
+    const LodChunk& part = lod_.chunks[chunk];
+    const double distance = (lod_nodes_[std::min<std::size_t>(part.first_node + part.node_count / 2, lod_nodes_.size() - 1)] - view.eye).norm();
+    lod_draws_.push_back(
+        {static_cast<std::uint32_t>(organ_.vertices.size()), block.first_index, block.index_count, distance});
+    organ_triangles_drawn_ += block.index_count / 3;
+    for (std::uint32_t i = 0; i < block.vertex_count; ++i) {
+      const std::uint32_t v = lod_.source[block.first_vertex + i];
+      Rgb c = kTissue;
+      if (o.colour == Colouring::strain) {
+        const std::size_t k = m.vertex_node[v];
+        const double d1 = f.details.strain[4 * k] - f.details.rest_strain[4 * k];
+        const double d2 = f.details.strain[4 * k + 1] - f.details.rest_strain[4 * k + 1];
+        c = render::colormap(std::hypot(d1, d2) / std::max(o.strain_range, 1e-9));
+      }
+      if (!selected.empty() && selected[v]) c = kSelected;
+      organ_.vertices.push_back({{f.px[v], f.py[v], f.pz[v]}, {f.nx[v], f.ny[v], f.nz[v]}, {c.r, c.g, c.b, alpha}});
+    }
+  }
+  // Near chunks first: the depth test then spares the shading of what they hide.
+  std::stable_sort(lod_draws_.begin(), lod_draws_.end(),
+                   [](const LodDraw& a, const LodDraw& b) { return a.distance < b.distance; });
   // A segment without a mesh is drawn as a tube along its nodes.
-  render::Soup tubes;
   for (std::size_t s = 0; s < m.segment_nodes.size(); ++s) {
     if (m.meshes[s].enabled) continue;
+    render::Soup tube;
     std::vector<Eigen::Vector3d> pts;
     for (std::size_t k = 0; k < m.segment_nodes[s].count; ++k) pts.push_back(node(f, m.segment_nodes[s].offset + k));
-    add_tube(tubes, pts, m.desc.segments[std::min(s, m.desc.segments.size() - 1)].cross_section.radius, 16);
+    const std::size_t organ = s < m.organ_of_segment.size() ? m.organ_of_segment[s] : 0;
+    add_tube(tube, pts, organ < m.organs.size() ? m.organs[organ].desc.cross_section.radius : 0.01, 16);
+    const Rgb colour = is(o.highlight, Highlight::Kind::organ, organ) ? kSelected : kTissue;
+    const auto base = static_cast<std::uint32_t>(tubes_.vertices.size());
+    for (std::size_t i = 0; i < tube.vertices.size(); ++i)
+      tubes_.vertices.push_back(vertex(tube.vertices[i], tube.normals[i], colour, alpha));
+    for (const auto& t : tube.triangles)
+      for (std::uint32_t v : t) tubes_.indices.push_back(base + v);
   }
-  const auto base = static_cast<std::uint32_t>(organ_.vertices.size());
-  for (std::size_t i = 0; i < tubes.vertices.size(); ++i) {
-    Vertex vx = vertex(tubes.vertices[i], tubes.normals[i], kTissue, alpha);
-    organ_.vertices.push_back(vx);
+}
+
+namespace {
+
+// Möller and Trumbore's ray and triangle: the distance along the ray, or nothing.
+std::optional<double> ray_triangle(const Ray& ray, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                   const Eigen::Vector3d& c) {
+  const Eigen::Vector3d e1 = b - a, e2 = c - a, p = ray.direction.cross(e2);
+  const double det = e1.dot(p);
+  if (std::abs(det) < 1e-18) return std::nullopt;
+  const Eigen::Vector3d s = ray.origin - a;
+  const double u = s.dot(p) / det;
+  if (u < 0.0 || u > 1.0) return std::nullopt;
+  const Eigen::Vector3d q = s.cross(e1);
+  const double w = ray.direction.dot(q) / det;
+  if (w < 0.0 || u + w > 1.0) return std::nullopt;
+  const double t = e2.dot(q) / det;
+  return t > 0.0 ? std::optional<double>(t) : std::nullopt;
+}
+
+Eigen::Vector3d position(const Vertex& v) { return {v.p[0], v.p[1], v.p[2]}; }
+
+void pick_in(const Ray& ray, const std::vector<Vertex>& vertices, const std::uint32_t* indices, std::size_t count,
+             std::uint32_t base, std::optional<OrganHit>& best) {
+  for (std::size_t i = 0; i + 2 < count; i += 3) {
+    const Eigen::Vector3d a = position(vertices[base + indices[i]]), b = position(vertices[base + indices[i + 1]]),
+                          c = position(vertices[base + indices[i + 2]]);
+    const auto t = ray_triangle(ray, a, b, c);
+    if (!t || (best && *t >= best->distance)) continue;
+    Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+    if (n.dot(ray.direction) > 0.0) n = -n;  // towards the eye
+    best = OrganHit{*t, ray.origin + *t * ray.direction, n};
   }
-  for (const auto& t : tubes.triangles)
-    for (std::uint32_t v : t) organ_.indices.push_back(base + v);
+}
+
+}  // namespace
+
+std::optional<OrganHit> GlScene::pick_organ(const Ray& ray) const {
+  std::optional<OrganHit> best;
+  for (const LodDraw& d : lod_draws_)
+    pick_in(ray, organ_.vertices, lod_.indices.data() + d.first_index, d.index_count, d.base_vertex, best);
+  pick_in(ray, tubes_.vertices, tubes_.indices.data(), tubes_.indices.size(), 0, best);
+  return best;
 }
 
 void GlScene::build_overlays(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o) {
@@ -257,9 +359,15 @@ void GlScene::build_overlays(const FramePublisher::Slot& f, const ModelInfo& m, 
     // torn or cut ones as a dot where the tissue was, so a surgeon sees what let go.
     const double dot = 0.006 * subject_size_;
     render::Soup torn;
+    const bool some = o.highlight.kind == Highlight::Kind::anchors && o.highlight.index < m.organs.size();
+    std::vector<bool> of_selected(some ? m.node_count : 0, false);
+    if (some)
+      for (std::size_t piece : m.organs[o.highlight.index].pieces)
+        for (std::size_t k = 0; k < m.segment_nodes[piece].count; ++k) of_selected[m.segment_nodes[piece].offset + k] = true;
     for (std::size_t a = 0; a < m.anchor_nodes.size() && a < d.anchors_intact.size(); ++a) {
       if (d.anchors_intact[a] != 0)
-        line(lines_, node(f, m.anchor_nodes[a]), m.anchor_targets[a], kAnchor);
+        line(lines_, node(f, m.anchor_nodes[a]), m.anchor_targets[a],
+             some && of_selected[m.anchor_nodes[a]] ? kSelected : kAnchor);
       else
         render::add_sphere(torn, m.anchor_targets[a], dot, 4);
     }
@@ -285,11 +393,11 @@ void GlScene::build_surroundings(const FramePublisher::Slot& f, const ModelInfo&
     const InstrumentReading& r = d.instruments[i];
     render::Soup s;
     render::add_capsule(s, r.tip, r.tip + m.desc.instruments[i].length * r.axis, m.desc.instruments[i].radius);
-    append(opaque_, s, kInstrument);
+    append(opaque_, s, is(o.highlight, Highlight::Kind::instrument, i) ? kSelected : kInstrument);
     // A grasp holds through a spring (decision 0057): drawn from the grasp point to the node, so a
     // hard pull shows as a long spring rather than a tissue that stops following.
     if (r.grasping && r.grasped_segment < m.segment_nodes.size())
-      line(lines_, r.grasp_target, node(f, m.segment_nodes[r.grasped_segment].offset + r.grasped_node), kForce);
+      line(overlay_, r.grasp_target, node(f, m.segment_nodes[r.grasped_segment].offset + r.grasped_node), kSpring);
     if (i == m.mouse && r.grasping) {
       const Eigen::Vector3d force = r.filtered_force;
       const double length = std::min(force.norm() * o.force_scale, 0.5 * subject_size_);
@@ -304,11 +412,18 @@ void GlScene::build_surroundings(const FramePublisher::Slot& f, const ModelInfo&
     }
   }
   const EnvironmentDesc& env = m.desc.environment;
-  render::Soup obstacles;
-  for (const auto& s : env.spheres) render::add_sphere(obstacles, s.center, s.radius, 24);
-  for (const auto& c : env.capsules) render::add_capsule(obstacles, c.a, c.b, c.radius);
-  append(opaque_, obstacles, kObstacle);
-  for (const auto& mesh : env.meshes) {
+  for (std::size_t i = 0; i < env.spheres.size(); ++i) {
+    render::Soup s;
+    render::add_sphere(s, env.spheres[i].center, env.spheres[i].radius, 24);
+    append(opaque_, s, is(o.highlight, Highlight::Kind::sphere, i) ? kSelected : kObstacle);
+  }
+  for (std::size_t i = 0; i < env.capsules.size(); ++i) {
+    render::Soup s;
+    render::add_capsule(s, env.capsules[i].a, env.capsules[i].b, env.capsules[i].radius);
+    append(opaque_, s, is(o.highlight, Highlight::Kind::capsule, i) ? kSelected : kObstacle);
+  }
+  for (std::size_t mesh_index = 0; mesh_index < env.meshes.size(); ++mesh_index) {
+    const auto& mesh = env.meshes[mesh_index];
     // A container (the body around the organs) is wound inward and drawn with the planes, back
     // faces culled: only its far wall shows, from inside, as in a cut-away.
     const bool turn = mesh.container && mesh_volume(mesh.vertices, mesh.triangles) > 0.0;
@@ -324,10 +439,12 @@ void GlScene::build_surroundings(const FramePublisher::Slot& f, const ModelInfo&
       }
       s.triangles.push_back({first, first + 1, first + 2});
     }
-    append(mesh.container ? planes_ : opaque_, s, mesh.container ? kBody : kObstacle);
+    const bool chosen = is(o.highlight, Highlight::Kind::mesh, mesh_index);
+    append(mesh.container ? planes_ : opaque_, s, chosen ? kSelected : mesh.container ? kBody : kObstacle);
   }
   // Each plane as a square under the subject, four subject sizes wide, with a 10 cm grid.
-  for (const auto& plane : env.planes) {
+  for (std::size_t plane_index = 0; plane_index < env.planes.size(); ++plane_index) {
+    const PlaneDesc& plane = env.planes[plane_index];
     const Eigen::Vector3d n = plane.normal.normalized();
     const Eigen::Vector3d foot = subject_centre_ - (subject_centre_ - plane.point).dot(n) * n;
     const auto [u, v] = render::across(n);
@@ -343,11 +460,14 @@ void GlScene::build_surroundings(const FramePublisher::Slot& f, const ModelInfo&
       quad.triangles = {{0, 1, 2}, {0, 2, 3}};
     else
       quad.triangles = {{0, 2, 1}, {0, 3, 2}};
-    append(planes_, quad, kFloor);
+    append(planes_, quad, is(o.highlight, Highlight::Kind::plane, plane_index) ? kSelected : kFloor);
+    PlaneRange range{plane.point, n, static_cast<std::uint32_t>(grid_.indices.size()), 0};
     for (double t = -half; t <= half + 1e-9; t += 0.1) {
-      line(lines_, foot + t * u - half * v, foot + t * u + half * v, kGrid, 0.6f);
-      line(lines_, foot - half * u + t * v, foot + half * u + t * v, kGrid, 0.6f);
+      line(grid_, foot + t * u - half * v, foot + t * u + half * v, kGrid, 0.6f);
+      line(grid_, foot - half * u + t * v, foot + half * u + t * v, kGrid, 0.6f);
     }
+    range.index_count = static_cast<std::uint32_t>(grid_.indices.size()) - range.first_index;
+    grid_ranges_.push_back(range);
   }
 }
 
@@ -366,6 +486,15 @@ void GlScene::draw_batch(const Batch& b, unsigned mode) {
   glDrawElements(mode, static_cast<GLsizei>(b.indices.size()), GL_UNSIGNED_INT, nullptr);
 }
 
+void GlScene::draw_organ() {
+  glBindVertexArray(organ_.vao);
+  for (const LodDraw& d : lod_draws_)
+    glDrawElementsBaseVertex(GL_TRIANGLES, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT,
+                             reinterpret_cast<void*>(static_cast<std::uintptr_t>(d.first_index) * sizeof(std::uint32_t)),
+                             static_cast<GLint>(d.base_vertex));
+  draw_batch(tubes_, GL_TRIANGLES);
+}
+
 void GlScene::draw(const OrbitCamera& camera, const DrawOptions&, int width, int height) {
   glViewport(0, 0, width, height);
   glClearColor(0.86f, 0.88f, 0.92f, 1.0f);
@@ -375,7 +504,8 @@ void GlScene::draw(const OrbitCamera& camera, const DrawOptions&, int width, int
   glUseProgram(program_);
   const Eigen::Matrix4f vp = camera.view_projection();
   glUniformMatrix4fv(vp_location_, 1, GL_FALSE, vp.data());  // Eigen is column-major, as GL wants
-  const Eigen::Vector3f eye = camera.eye().cast<float>();
+  const Eigen::Vector3d eye_d = camera.eye();
+  const Eigen::Vector3f eye = eye_d.cast<float>();
   glUniform3f(eye_location_, eye.x(), eye.y(), eye.z());
   glUniform1i(lit_location_, 1);
   glDisable(GL_BLEND);
@@ -385,17 +515,28 @@ void GlScene::draw(const OrbitCamera& camera, const DrawOptions&, int width, int
   glFrontFace(GL_CCW);
   draw_batch(planes_, GL_TRIANGLES);
   glDisable(GL_CULL_FACE);
-  if (!organ_transparent_) draw_batch(organ_, GL_TRIANGLES);
+  if (!organ_transparent_) draw_organ();
   glEnable(GL_BLEND);
   glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
   glUniform1i(lit_location_, 0);
   draw_batch(lines_, GL_LINES);
+  // A plane's grid only where the plane is drawn (seen from its free side): a wall between the eye
+  // and the organ shows neither its face nor its lines.
+  glBindVertexArray(grid_.vao);
+  for (const PlaneRange& r : grid_ranges_)
+    if ((eye_d - r.point).dot(r.normal) > 0.0 && r.index_count > 0)
+      glDrawElements(GL_LINES, static_cast<GLsizei>(r.index_count), GL_UNSIGNED_INT,
+                     reinterpret_cast<void*>(static_cast<std::uintptr_t>(r.first_index) * sizeof(std::uint32_t)));
   if (organ_transparent_) {  // see-through: after everything inside it, without hiding it
     glUniform1i(lit_location_, 1);
     glDepthMask(GL_FALSE);
-    draw_batch(organ_, GL_TRIANGLES);
+    draw_organ();
     glDepthMask(GL_TRUE);
   }
+  glUniform1i(lit_location_, 0);
+  glDisable(GL_DEPTH_TEST);  // the grasp's spring, wherever the organ or the floor is
+  draw_batch(overlay_, GL_LINES);
+  glEnable(GL_DEPTH_TEST);
   glBindVertexArray(0);
   glUseProgram(0);
 }

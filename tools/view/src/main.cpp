@@ -27,6 +27,11 @@ int main(int argc, char** argv) {
   app.add_option("--width", o.width, "window width, pixels")->check(CLI::Range(320, 8192));
   app.add_option("--height", o.height, "window height, pixels")->check(CLI::Range(240, 8192));
   app.add_flag("--paused", o.paused, "open paused (Space runs)");
+  app.add_option("--samples", o.samples, "multisampling (default: 4 on a GPU, none on a software renderer)")
+      ->check(CLI::Range(0, 16));
+  app.add_option("--triangles", o.triangle_budget,
+                 "the organ's drawn triangles at most: far parts coarsened to fit (default 100000)")
+      ->check(CLI::Range(std::size_t{1000}, std::size_t{100'000'000}));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

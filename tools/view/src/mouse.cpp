@@ -31,6 +31,22 @@ std::optional<BeadHit> pick_bead(const Ray& ray, const std::vector<Eigen::Vector
   return best;
 }
 
+std::optional<BeadHit> pick(const ViewerState& v, double x, double y) {
+  if (!v.model) return std::nullopt;
+  const Ray ray = v.camera.ray(x, y);
+  std::optional<BeadHit> hit = pick_bead(ray, v.bead_centres, v.model->bead_radii);
+  const std::optional<OrganHit> organ = v.scene ? v.scene->pick_organ(ray) : std::nullopt;
+  if (organ && (!hit || organ->distance < (hit->point - ray.origin).norm())) {
+    std::size_t nearest = 0;
+    for (std::size_t i = 1; i < v.bead_centres.size(); ++i)
+      if ((v.bead_centres[i] - organ->point).squaredNorm() < (v.bead_centres[nearest] - organ->point).squaredNorm())
+        nearest = i;
+    hit = BeadHit{nearest, organ->point, organ->normal};
+  }
+  if (hit && v.bead_centres.empty()) return std::nullopt;  // a segment without beads cannot be grasped
+  return hit;
+}
+
 void mouse_press(ViewerState& v, Button button, double x, double y) {
   MouseState& m = v.mouse;
   m.x = x;
@@ -41,7 +57,7 @@ void mouse_press(ViewerState& v, Button button, double x, double y) {
   }
   if (button == Button::middle) return;
   InputEvent e{"press", v.frame, x, y, false, 0, Eigen::Vector3d::Zero(), v.camera};
-  const auto hit = v.model ? pick_bead(v.camera.ray(x, y), v.bead_centres, v.model->bead_radii) : std::nullopt;
+  const auto hit = pick(v, x, y);
   if (!hit) {
     m.mode = MouseState::Mode::orbiting;
     v.events.push_back(e);
@@ -60,10 +76,19 @@ void mouse_press(ViewerState& v, Button button, double x, double y) {
   }
   // The grasper's tip just outside the bead, its shaft towards the eye: the engine's grasp takes
   // the nearest bead surface within reach of the tip, which is this one.
-  const double clearance = v.model->desc.instruments[v.model->mouse].radius + 1e-4;
+  const InstrumentDesc& grasper = v.model->desc.instruments[v.model->mouse];
+  const double clearance = grasper.radius + 1e-4;
   m.mode = MouseState::Mode::grasping;
   m.hit = hit->point;
   m.offset = clearance * hit->normal;
+  // Where the skin lies farther from its bead than the grasp reaches (a wide organ on small beads),
+  // the tip goes to the bead's surface under the press instead.
+  const Eigen::Vector3d centre = v.bead_centres[hit->bead];
+  const double radius = v.model->bead_radii[hit->bead];
+  if ((hit->point + m.offset - centre).norm() - radius > 0.8 * grasper.grasp_reach) {
+    const Eigen::Vector3d out = (hit->point - centre).normalized();
+    m.offset = centre + (radius + clearance) * out - hit->point;
+  }
   m.bead = hit->bead;
   v.draw.show_mouse = true;
   v.sim.post(GraspAt{m.hit + m.offset, -v.camera.forward()});

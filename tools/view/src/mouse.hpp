@@ -1,6 +1,6 @@
 #pragma once
-// The mouse as the grasper and the camera's handle: a press on the organ grasps the nearest bead
-// along the ray (the engine's own grasp), a drag moves it in the view plane (Ctrl: along the view
+// The mouse as the grasper and the camera's handle: a press on the organ as drawn grasps there
+// (the engine's own grasp takes the bead under the tip), a drag moves it in the view plane (Ctrl: along the view
 // axis), a release lets go; elsewhere the left button orbits, the right pans, the wheel zooms.
 #include <optional>
 
@@ -15,6 +15,8 @@ struct BeadHit {
 // The first bead sphere a ray meets.
 std::optional<BeadHit> pick_bead(const Ray& ray, const std::vector<Eigen::Vector3d>& centres,
                                  const std::vector<double>& radii);
+// What a press at a pixel meets first: the organ as drawn or a bead; `bead` the one nearest the point.
+std::optional<BeadHit> pick(const ViewerState& v, double x, double y);
 
 enum class Button { left, right, middle };
 void mouse_press(ViewerState& v, Button button, double x, double y);

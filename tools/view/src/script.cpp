@@ -38,6 +38,7 @@ const Shape* shape_of(const std::string& command) {
                                                          {"key", {1, 1, "key F1|H|P|V|0|1|2|3|F|G|T|B|TAB|SPACE|RIGHT|ESC|CTRL+R|CTRL+O"}},
                                                          {"open", {1, 1, "open FILE (a scene or a surface)"}},
                                                          {"record", {1, 1, "record FILE.mp4 | record stop"}},
+                                                         {"zoom", {1, 1, "zoom STEPS (the wheel; > 0 closer)"}},
                                                          {"quit", {0, 0, "quit"}}};
   for (const auto& [name, shape] : shapes)
     if (name == command) return &shape;
@@ -77,7 +78,7 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
       throw Error(ErrorCode::parse,
                   fmt::format("{}: unknown command '{}' (wait, press, move, release, ctrl, shift, toggle, "
                               "colour, knob, pause, resume, step, reset, save, restore, screenshot, key, open, "
-                              "record, quit)",
+                              "record, zoom, quit)",
                               where, l.command));
     if (l.words.size() < shape->min_words || l.words.size() > shape->max_words)
       throw Error(ErrorCode::parse, fmt::format("{}: expected `{}`", where, shape->usage));
@@ -98,6 +99,7 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
     if ((l.command == "wait" || l.command == "move") && l.frames < (l.command == "move" ? 1 : 0))
       throw Error(ErrorCode::parse, fmt::format("{}: the number of frames must be {}", where,
                                                 l.command == "move" ? "at least 1" : "0 or more"));
+    if (l.command == "zoom") l.x = number(l.words[0], where, "a number of wheel steps");
     if (l.command == "ctrl" || l.command == "shift") check_word(l.words[0], {"down", "up"}, where);
     if (l.command == "toggle") check_word(l.words[0], {"beads", "cage", "centreline", "contacts", "tissue"}, where);
     if (l.command == "colour") check_word(l.words[0], {"tissue", "strain", "penetration"}, where);

@@ -24,6 +24,7 @@ namespace haustra::view {
 //   key NAME                a key pressed: F1 H P V 0 1 2 3 F G T B TAB SPACE RIGHT ESC CTRL+R CTRL+O
 //   open FILE               File > Open: a scene, or a surface imported first
 //   record FILE.mp4         a video from the next frame on (at the physics' own time); record stop
+//   zoom STEPS              the mouse wheel: > 0 closer
 //   quit
 struct ScriptLine {
   int line = 0;

@@ -112,6 +112,8 @@ bool ScriptPlayer::tick(ViewerState& v) {
       ++next_;
       started_ = false;
       return true;  // taken after this window frame is drawn
+    } else if (l.command == "zoom") {
+      mouse_scroll(v, l.x);
     } else if (l.command == "quit") {
       v.quit = true;
     }

@@ -184,8 +184,44 @@ void Simulation::publish_model() {
   info->anchor_nodes.assign(w.anchor_nodes().begin(), w.anchor_nodes().end());
   info->anchor_targets.assign(w.anchor_targets().begin(), w.anchor_targets().end());
   info->mouse = w.instrument_count() - 1;
+  info->organ_of_segment.assign(w.segment_count(), 0);
+  for (std::size_t s = 0; s < w.segment_count(); ++s) {
+    if (w.chain_of(s) == s) {
+      ModelInfo::Organ organ;
+      organ.desc = w.segment_desc(s);
+      organ.name = organ.desc.name;
+      info->organs.push_back(std::move(organ));
+    }
+    info->organ_of_segment[s] = info->organs.size() - 1;
+    ModelInfo::Organ& organ = info->organs.back();
+    organ.pieces.push_back(s);
+    const Range nodes = w.segment(s).nodes;
+    for (std::uint32_t k : info->anchor_nodes)
+      if (k >= nodes.offset + (s == organ.pieces.front() ? 0 : 1) && k < nodes.offset + nodes.count) ++organ.anchors;
+  }
   std::lock_guard lock(model_mutex_);
   model_ = std::move(info);
+}
+
+template <typename Change>
+void Simulation::edit(const std::string& what, Change&& change) {
+  const auto t0 = Clock::now();
+  set_busy(fmt::format("{}...", what));
+  try {
+    frames_->resize(
+        [&]() -> const World& {
+          change(*world_);
+          publish_model();
+          return *world_;
+        },
+        /*wait_for_reader=*/true);
+    log(fmt::format("{} ({:.1f} ms)", what, 1e3 * seconds_since(t0)));
+    notify(Notice::Kind::info, what);
+  } catch (const Error& e) {
+    log(fmt::format("{}: refused, the world is as it was: {}", what, e.what()));
+    notify(Notice::Kind::error, fmt::format("{}: refused: {}", what, e.what()));
+  }
+  set_busy({});
 }
 
 void Simulation::rebuild(WorldDesc next, const std::string& what, bool keep_state) {
@@ -305,6 +341,23 @@ void Simulation::apply(Command& command) {
           } catch (const Error& e) {
             log(fmt::format("restore refused, the world is as it was: {}", e.what()));
           }
+        } else if constexpr (std::is_same_v<T, EditMaterial>) {
+          const auto model = this->model();
+          if (c.organ >= model->organs.size()) return;
+          const ModelInfo::Organ& organ = model->organs[c.organ];
+          MaterialDesc material = organ.desc.material;
+          material.youngs_modulus = c.youngs_modulus;
+          edit(fmt::format("{}: E {:.4g} -> {:.4g} Pa, relaxation {:.3g} -> {:.3g} s (rods rebuilt, meshes kept)",
+                           organ.name, organ.desc.material.youngs_modulus, c.youngs_modulus,
+                           organ.desc.relaxation_time, c.relaxation_time),
+               [&](World& world) { world.set_material(organ.pieces.front(), material, c.relaxation_time); });
+        } else if constexpr (std::is_same_v<T, EditCoupling>) {
+          if (c.instrument >= w.instrument_count()) return;
+          const InstrumentDesc& was = w.desc().instruments[c.instrument];
+          edit(fmt::format("{}: coupling {:.4g} -> {:.4g} N/m, {:.3g} -> {:.3g} N s/m, limit {:.3g} -> {:.3g} N",
+                           was.name, was.coupling_stiffness, c.stiffness, was.coupling_damping, c.damping,
+                           was.force_limit, c.force_limit),
+               [&](World& world) { world.set_instrument_coupling(c.instrument, c.stiffness, c.damping, c.force_limit); });
         } else if constexpr (std::is_same_v<T, Reconfigure>) {
           try {
             KnobChange change = set_knob(world_->desc(), c.knob, c.value, scene_.world.dt);

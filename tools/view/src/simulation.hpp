@@ -39,6 +39,15 @@ struct ModelInfo {
   std::vector<std::uint32_t> anchor_nodes;  // connective tissue: the node each anchor holds ...
   std::vector<Eigen::Vector3d> anchor_targets;  // ... and where
   std::size_t mouse = 0;  // the instrument the mouse drives (the viewer adds it to the scene)
+  // The organs as the scene names them (a chain is one organ of several pieces), for the inspector.
+  struct Organ {
+    std::string name;
+    std::vector<std::size_t> pieces;  // segments, the first one the chain's
+    SegmentDesc desc;                 // its description in force (material, damping, drag)
+    std::size_t anchors = 0;          // of connective tissue
+  };
+  std::vector<Organ> organs;
+  std::vector<std::size_t> organ_of_segment;
 };
 
 struct GraspAt {
@@ -48,6 +57,16 @@ struct MoveTip {
   Eigen::Vector3d tip;
 };
 struct Release {};
+// The inspector's edits. An organ's stiffness and damping (its relaxation time) rebuild its rods
+// only, the meshes kept; an instrument's coupling and force limit take effect at the next step.
+struct EditMaterial {
+  std::size_t organ;
+  double youngs_modulus, relaxation_time;
+};
+struct EditCoupling {
+  std::size_t instrument;
+  double stiffness, damping, force_limit;
+};
 // Open another scene, or a surface to import first (its file's path; the viewer's --set apply).
 struct Open {
   std::string path;
@@ -71,7 +90,7 @@ struct Reconfigure {
 };
 using Command =
     std::variant<GraspAt, MoveTip, Release, CutAt, Open, SetPaused, StepOnce, Reset, SaveCheckpoint,
-                 RestoreCheckpoint, Reconfigure>;
+                 RestoreCheckpoint, Reconfigure, EditMaterial, EditCoupling>;
 
 // What the window shows on screen beside the log: a stop, a recovery, a grasp that let go,
 // tissue torn or cut, a scene that would not open.
@@ -126,6 +145,9 @@ class Simulation {
   void apply(Command& command);
   void step_once();
   void rebuild(WorldDesc next, const std::string& what, bool keep_state);
+  // A change to the world made between frames (an edit), with the model published again after it.
+  template <typename Change>
+  void edit(const std::string& what, Change&& change);
   void publish_model();
   void log(std::string message);
   void notify(Notice::Kind kind, std::string text);

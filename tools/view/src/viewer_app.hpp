@@ -1,5 +1,6 @@
 #pragma once
 // `haustra view`: the window's life from opening to exit code.
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,8 @@ struct ViewerOptions {
   std::string record;      // JSON of what happened (for tests)
   std::string checkpoint;  // file for Save / Restore ("" : in memory)
   int width = 1280, height = 720;
+  int samples = -1;  // multisampling: -1 picks 4 on a GPU and none on a software renderer
+  std::size_t triangle_budget = 100'000;  // the organ's drawn triangles at most (DrawOptions)
   bool paused = false;
 };
 

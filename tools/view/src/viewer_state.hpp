@@ -33,13 +33,6 @@ struct OpenDialog {
   std::vector<std::string> entries;  // names in `folder`: folders (ending in /), scenes, surfaces
 };
 
-// What the inspector has selected (its tree: organs and their pieces, instruments, tissue, obstacles).
-struct Selection {
-  enum class Kind { none, segment, instrument, anchors, obstacle };
-  Kind kind = Kind::none;
-  std::size_t index = 0;
-};
-
 // The force on one instrument over the last seconds, one sample per frame the window saw.
 struct ForcePlot {
   static constexpr std::size_t kSamples = 300;
@@ -131,9 +124,10 @@ struct ViewerState {
   int video_frames_per_shot = 1;  // physics frames between two video frames
   std::string video_pending;      // a script's `record FILE`: started after the next draw
   bool follow = false;            // the camera keeps the grasped (or selected) part in the middle
-  Selection selection;
+  bool inspector_open = true;
   std::deque<ShownNotice> notices;
   float menu_height = 0.0f;  // the main menu bar's, pixels: the panels start under it
+  const GlScene* scene = nullptr;  // what is drawn: a press picks against it
 };
 
 }  // namespace haustra::view
