@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo view anatomy import-asan test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study studies-doc studies-check skinning-doc figures soak fuzz clean
+.PHONY: all deps configure build demo view reference anatomy import-asan test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study studies-doc studies-check skinning-doc figures soak fuzz clean
 
 all: build
 
@@ -31,6 +31,11 @@ view: build
 # The Python module, built with the release tree (its tests run in `make test`, as ctest's `python`).
 python: build
 	@echo "python module: $(abspath build/release/python)/haustra — PYTHONPATH=$(abspath build/release/python) /usr/bin/python3 -c 'import haustra'"
+
+# The Python API reference (docs/reference: Sphinx's autodoc over the module's docstrings), in build/release/reference.
+reference: build
+	@PYTHONPATH=$(abspath build/release/python) sphinx-build -q -E -b html docs/reference build/release/reference
+	@echo "API reference: $(abspath build/release/reference)/index.html"
 
 # Once, by hand: every import test (CGAL) under ASan+UBSan; `make test` runs the quick ones there.
 import-asan: deps
@@ -68,8 +73,8 @@ gate-baseline: build
 
 # The sanitizer builds compile only what their tests run (the test binary, the CLI it drives, the
 # soak and the fuzz replayers), with line tables only (-g1: enough for a report's stack, a third
-# less compile time than full debug information) and as unity builds (the libraries' files in
-# batches of 8: Eigen and fmt parsed once per batch).
+# less compile time than full debug information); ASan's as a unity build (the libraries' files in
+# batches of 8: Eigen and fmt parsed once per batch), TSan's file by file (decision 0101).
 # Not under ASan (decision 0025): the 1-vs-2-thread determinism tests (run in release and, the
 # engine's, under TSan), the CLI's re-run of the validation cases (run in-process), the N = 20,000
 # stability sweep (N up to 2,000 runs), and accuracy studies whose code paths other tests run
@@ -86,7 +91,9 @@ test-asan: deps
 	  haustra_import_tests
 	@ctest --preset asan -j $(JOBS) -E "$(ASAN_SKIP)"
 
-# TSan checks what runs on more than one thread: stepping worlds with 2 threads.
+# TSan checks what runs on more than one thread: stepping worlds with 2 threads, batches. Its build is
+# the one without the unity build (CMakePresets.json, decision 0101): each file compiled on its own, so
+# a missing include or name fails here.
 test-tsan: deps
 	@cmake --preset tsan >/dev/null
 	@cmake --build --preset tsan -j $(JOBS) --target haustra_thread_tests haustra_c_api_tests
@@ -105,7 +112,9 @@ bench: build
 	@$(BIN)/haustra_bench_collision --benchmark_out=build/release/bench_collision.json --benchmark_out_format=json
 	@$(BIN)/haustra_bench_mesh --benchmark_out=build/release/bench_mesh.json --benchmark_out_format=json
 	@$(BIN)/haustra_bench_anatomy --benchmark_out=build/release/bench_anatomy.json --benchmark_out_format=json
-	@echo "benchmark results: $(abspath build/release/bench.json) $(abspath build/release/bench_collision.json) $(abspath build/release/bench_mesh.json) $(abspath build/release/bench_anatomy.json)"
+	@$(BIN)/haustra_bench_batch --benchmark_out=build/release/bench_batch.json --benchmark_out_format=json
+	@PYTHONPATH=$(abspath build/release/python) /usr/bin/python3 python/tools/bench_batch.py --out build/release/bench_batch_python.json
+	@echo "benchmark results: $(abspath build/release/bench.json) $(abspath build/release/bench_collision.json) $(abspath build/release/bench_mesh.json) $(abspath build/release/bench_anatomy.json) $(abspath build/release/bench_batch.json) $(abspath build/release/bench_batch_python.json)"
 
 # The same rope in haustra, Bullet and MuJoCo (Debian's), time per frame next to stretch and
 # floor penetration. Optional: installs libbullet-dev and libmujoco-dev first.

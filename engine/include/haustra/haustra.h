@@ -275,6 +275,13 @@ HAUSTRA_API haustra_status haustra_world_mesh_triangles(const haustra_world* wor
 /* Loads and instruments. A pose or grasp set here hands the instrument from its script to the host. */
 HAUSTRA_API haustra_status haustra_world_set_node_load(haustra_world* world, size_t node, const double force[3],
                                                        const double moment[3]);
+/* A load per metre of rest length along a segment (decision 0102): force_per_length (N/m) and
+ * moment_per_length (N·m/m, or NULL for none), 3 doubles (x y z, world frame) per node of the segment,
+ * `count` nodes (the segment's node count), lumped onto its nodes by their share of the rest length.
+ * It replaces what those nodes held (add = 0) or adds to it (add = 1). */
+HAUSTRA_API haustra_status haustra_world_set_distributed_load(haustra_world* world, size_t segment, size_t count,
+                                                              const double* force_per_length,
+                                                              const double* moment_per_length, int add);
 HAUSTRA_API haustra_status haustra_world_set_instrument_pose(haustra_world* world, size_t instrument,
                                                              const double tip[3], const double axis[3]);
 HAUSTRA_API haustra_status haustra_world_set_instrument_grasp(haustra_world* world, size_t instrument, int closed);

@@ -33,6 +33,11 @@ def main(argv=None):
     out = args.out or pathlib.Path("out") / "studies" / study.name
     result = run_study(study, out, serial=args.serial, scheduler=args.scheduler, workers=args.workers,
                        show_progress=not args.quiet, retry_failed=args.retry_failed)
+    if result["interrupted"]:
+        print(f"{study.name}: stopped (Ctrl-C) after {result['ran']} cells run now; the {len(result['rows'])} rows "
+              f"written are kept in {out / 'results.csv'}; the same command runs the {len(study.cells) - len(result['rows'])} "
+              "cells left", file=sys.stderr)
+        return 130
     written = write_report(study, result, out)
     print(f"{study.name}: {len(study.cells)} cells, {result['ran']} run now ({result['skipped']} already written), "
           f"{result['failed']} failed, {result['seconds']:.1f} s; {out / 'results.csv'}"
