@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo view reference anatomy import-asan test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study studies-doc studies-check skinning-doc figures soak fuzz clean
+.PHONY: all deps configure build demo view reference anatomy import-asan test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study studies-doc studies-check skinning-doc figures viewer-shots bench-view soak fuzz clean
 
 all: build
 
@@ -139,6 +139,17 @@ stability-doc: build
 figures: build
 	@./scripts/install-deps.sh --figures
 	@./scripts/figures.sh
+
+# The viewer's pictures of the guide (docs/figures/viewer*.png), scripted under Xvfb.
+viewer-shots: build
+	@./scripts/viewer-shots.sh
+
+# The viewer's draw rate (frames drawn a second: the demo, and the 6 m small intestine with and
+# without multisampling), under Xvfb when there is no display; JSON in build/release.
+bench-view: build
+	@if [ -n "$$DISPLAY" ]; then run=""; else run='xvfb-run -a -s "-screen 0 1920x1080x24"'; fi; \
+	  eval $$run $(BIN)/haustra_bench_view --benchmark_out=build/release/bench_view.json --benchmark_out_format=json
+	@echo "draw rates: $(abspath build/release/bench_view.json)"
 
 # Regenerates docs/tradeoff.md and its plot docs/figures/tradeoff.png: the speed-against-accuracy
 # study (haustra study), about a minute on this machine.

@@ -107,6 +107,15 @@ void set_view(ViewerState& v, View view) {
   v.camera_fitted = false;
 }
 
+void keep_between_panels(ViewerState& v) {
+  // Half of what a column takes or gives back: what was in the middle of the view stays there.
+  if (v.show_panels != v.panels_were_shown) v.camera.pan(v.show_panels ? 0.5 * kPanelWidth : -0.5 * kPanelWidth, 0.0);
+  if (v.inspector_open != v.inspector_was_open)
+    v.camera.pan(v.inspector_open ? -0.5 * kInspectorWidth : 0.5 * kInspectorWidth, 0.0);
+  v.panels_were_shown = v.show_panels;
+  v.inspector_was_open = v.inspector_open;
+}
+
 void keep_above_planes(ViewerState& v) {
   if (!v.model) return;
   // Floors only (planes facing up against gravity): a wall may stand between the eye and the organ,

@@ -177,7 +177,7 @@ void organ_details(ViewerState& v, std::size_t i) {
       return n >= r.offset && n < r.offset + r.count;
     }));
   }
-  ImGui::Text("%s: %zu piece%s, %zu nodes, %zu beads", o.name.c_str(), o.pieces.size(), o.pieces.size() == 1 ? "" : "s",
+  ImGui::TextWrapped("%s: %zu piece%s, %zu nodes, %zu beads", o.name.c_str(), o.pieces.size(), o.pieces.size() == 1 ? "" : "s",
               nodes, beads);
   ImGui::Text("length now %.1f mm, radius %.1f mm", 1e3 * organ_length_now(v, o), 1e3 * o.desc.cross_section.radius);
   ImGui::Text("mesh %zu vertices, %zu anchors of tissue", vertices, o.anchors);
@@ -190,7 +190,7 @@ void organ_details(ViewerState& v, std::size_t i) {
 void instrument_details(ViewerState& v, std::size_t i) {
   const ModelInfo& m = *v.model;
   const InstrumentDesc& d = m.desc.instruments[i];
-  ImGui::Text("%s: radius %.1f mm, length %.0f mm", instrument_name(m, i).c_str(), 1e3 * d.radius, 1e3 * d.length);
+  ImGui::TextWrapped("%s: radius %.1f mm, length %.0f mm", instrument_name(m, i).c_str(), 1e3 * d.radius, 1e3 * d.length);
   if (i < v.instruments.size()) {
     const InstrumentReading& r = v.instruments[i];
     ImGui::Text("%s, force %.2f N", r.grasping ? "grasping" : r.closed ? "closed" : "open", r.force.norm());

@@ -135,6 +135,8 @@ void fit_between_panels(ViewerState& v, const Eigen::Vector3d& lo, const Eigen::
     if (seen()) break;
     v.camera.distance *= 1.08;
   }
+  v.panels_were_shown = v.show_panels;
+  v.inspector_was_open = v.inspector_open;
 }
 
 // Copies what the window needs from the newest frame and builds its geometry; the slot is held
@@ -300,6 +302,7 @@ int loop(ViewerState& v, GLFWwindow* window, std::optional<ScriptPlayer>& script
       reload(v);
     }
     take_frame(v, scene);
+    keep_between_panels(v);
     follow(v);
     keep_above_planes(v);
     scene.draw(v.camera, v.draw, fbw, fbh);

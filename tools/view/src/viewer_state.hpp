@@ -130,6 +130,7 @@ struct ViewerState {
   std::string video_pending;      // a script's `record FILE` or `record stop`, after the next draw
   bool follow = false;            // the camera keeps the grasped (or selected) part in the middle
   bool inspector_open = false;  // I, or View > Inspector
+  bool panels_were_shown = true, inspector_was_open = false;  // as last drawn: a toggle pans the view
   std::deque<ShownNotice> notices;
   float menu_height = 0.0f;  // the main menu bar's, pixels: the panels start under it
   const GlScene* scene = nullptr;  // what is drawn: a press picks against it
