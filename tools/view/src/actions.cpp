@@ -27,7 +27,7 @@ std::string stem_of(const ViewerState& v) { return v.scene_name.empty() ? std::s
 void open_path(ViewerState& v, const std::string& path) {
   v.note(fmt::format("opening {}", path));
   v.sim.post(Open{path});
-  v.scene_written = written(path);
+  v.watched = {path, written(path)};
   v.camera_fitted = false;  // the new organ framed when it arrives: by the first model after this one
   v.fit_from_generation = v.model ? v.model->generation + 1 : 0;
   v.draw.highlight = {};
@@ -46,10 +46,15 @@ bool scene_file_changed(ViewerState& v) {
   if (!v.model || v.model->scene_path.empty() || now - v.reload_checked < std::chrono::duration<double>(kReloadCheck))
     return false;
   v.reload_checked = now;
+  // Only the file of the scene shown, against its own time: a scene opened but not yet built (the
+  // model still the one before), or one opened by another path, is watched from now on, not reloaded.
   const auto t = written(v.model->scene_path);
-  if (v.scene_written == std::filesystem::file_time_type{}) v.scene_written = t;
-  if (t == v.scene_written) return false;
-  v.scene_written = t;
+  if (v.watched.path != v.model->scene_path) {
+    v.watched = {v.model->scene_path, t};
+    return false;
+  }
+  if (t == v.watched.time) return false;
+  v.watched.time = t;
   return true;
 }
 

@@ -122,7 +122,10 @@ struct ViewerState {
   bool help_open = false;
   OpenDialog open_dialog;
   bool auto_reload = true;
-  std::filesystem::file_time_type scene_written{};  // the open scene file's time, for Reload
+  struct WatchedFile {
+    std::string path;
+    std::filesystem::file_time_type time{};
+  } watched;  // the open scene's file and its time: reloaded when the time changes
   std::chrono::steady_clock::time_point reload_checked{};
   std::string capture_folder = ".";  // where P's screenshots and V's videos go
   VideoRecorder video;
