@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 BIN := build/release/bin
 
-.PHONY: all deps configure build demo view anatomy import-asan test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study studies-doc studies-check skinning-doc figures soak fuzz clean
+.PHONY: all deps configure build demo view reference anatomy import-asan test test-release test-gate gate-baseline test-asan test-tsan python python-asan results bench bench-quick bench-peers validate stability-doc study studies-doc studies-check skinning-doc figures viewer-shots bench-view soak fuzz clean
 
 all: build
 
@@ -31,6 +31,11 @@ view: build
 # The Python module, built with the release tree (its tests run in `make test`, as ctest's `python`).
 python: build
 	@echo "python module: $(abspath build/release/python)/haustra — PYTHONPATH=$(abspath build/release/python) /usr/bin/python3 -c 'import haustra'"
+
+# The Python API reference (docs/reference: Sphinx's autodoc over the module's docstrings), in build/release/reference.
+reference: build
+	@PYTHONPATH=$(abspath build/release/python) sphinx-build -q -E -b html docs/reference build/release/reference
+	@echo "API reference: $(abspath build/release/reference)/index.html"
 
 # Once, by hand: every import test (CGAL) under ASan+UBSan; `make test` runs the quick ones there.
 import-asan: deps
@@ -68,8 +73,8 @@ gate-baseline: build
 
 # The sanitizer builds compile only what their tests run (the test binary, the CLI it drives, the
 # soak and the fuzz replayers), with line tables only (-g1: enough for a report's stack, a third
-# less compile time than full debug information) and as unity builds (the libraries' files in
-# batches of 8: Eigen and fmt parsed once per batch).
+# less compile time than full debug information); ASan's as a unity build (the libraries' files in
+# batches of 8: Eigen and fmt parsed once per batch), TSan's file by file (decision 0101).
 # Not under ASan (decision 0025): the 1-vs-2-thread determinism tests (run in release and, the
 # engine's, under TSan), the CLI's re-run of the validation cases (run in-process), the N = 20,000
 # stability sweep (N up to 2,000 runs), and accuracy studies whose code paths other tests run
@@ -77,8 +82,11 @@ gate-baseline: build
 # of `drop` settling): minutes of sanitizer time; and the import cases that run a whole organ or the
 # CT colon for 120 frames, and the several-surfaces cases that import a procedural organ three or
 # four times (the repair, layout, axis, cage and a --body import run there in the quick cases; `make
-# import-asan` runs them all).
-ASAN_SKIP = settles on the floor without penetrating|goes through the organ protocol and holds|the memory estimate is what building and stepping|with 1 and 2 threads|1 thread, 2 threads|host job system's threads give|validate --json|N = 20000|agree with quadrature|localization study|settles on the catenary|import: the CT colon|import: a colon mesh|import: a procedural organ|import: a wall whose two shells are joined|import: the whole|import: the same surface|import: an imported whole organ|several surfaces: open ends that meet|several surfaces: the same files
+# import-asan` runs them all); the skinning's cost studies (cost limit, mean rings, the dense cage)
+# and two of the CT colon's three binding cases (the third builds and checks its binding under ASan),
+# and the allocation count of every stage on 2 threads (the stages run under ASan in the scenes'
+# tests; counting allocations is release's job).
+ASAN_SKIP = settles on the floor without penetrating|goes through the organ protocol and holds|the memory estimate is what building and stepping|with 1 and 2 threads|1 thread, 2 threads|host job system's threads give|validate --json|N = 20000|agree with quadrature|localization study|settles on the catenary|import: the CT colon|import: a colon mesh|import: a procedural organ|import: a wall whose two shells are joined|import: the whole|import: the same surface|import: an imported whole organ|several surfaces: open ends that meet|several surfaces: the same files|skin_cost_limit: a limit the binding keeps|mean_rings_per_vertex: a budget|a dense cage|a rigid motion of the rod moves the skinned mesh|the CT colon.s rest pose is its input mesh|a step allocates nothing in the scenes that use every stage
 test-asan: deps
 	@cmake --preset asan >/dev/null
 	@cmake --build --preset asan -j $(JOBS) --target haustra_tests haustra haustra_soak haustra_fuzz_scene \
@@ -86,7 +94,9 @@ test-asan: deps
 	  haustra_import_tests
 	@ctest --preset asan -j $(JOBS) -E "$(ASAN_SKIP)"
 
-# TSan checks what runs on more than one thread: stepping worlds with 2 threads.
+# TSan checks what runs on more than one thread: stepping worlds with 2 threads, batches. Its build is
+# the one without the unity build (CMakePresets.json, decision 0101): each file compiled on its own, so
+# a missing include or name fails here.
 test-tsan: deps
 	@cmake --preset tsan >/dev/null
 	@cmake --build --preset tsan -j $(JOBS) --target haustra_thread_tests haustra_c_api_tests
@@ -105,7 +115,9 @@ bench: build
 	@$(BIN)/haustra_bench_collision --benchmark_out=build/release/bench_collision.json --benchmark_out_format=json
 	@$(BIN)/haustra_bench_mesh --benchmark_out=build/release/bench_mesh.json --benchmark_out_format=json
 	@$(BIN)/haustra_bench_anatomy --benchmark_out=build/release/bench_anatomy.json --benchmark_out_format=json
-	@echo "benchmark results: $(abspath build/release/bench.json) $(abspath build/release/bench_collision.json) $(abspath build/release/bench_mesh.json) $(abspath build/release/bench_anatomy.json)"
+	@$(BIN)/haustra_bench_batch --benchmark_out=build/release/bench_batch.json --benchmark_out_format=json
+	@PYTHONPATH=$(abspath build/release/python) /usr/bin/python3 python/tools/bench_batch.py --out build/release/bench_batch_python.json
+	@echo "benchmark results: $(abspath build/release/bench.json) $(abspath build/release/bench_collision.json) $(abspath build/release/bench_mesh.json) $(abspath build/release/bench_anatomy.json) $(abspath build/release/bench_batch.json) $(abspath build/release/bench_batch_python.json)"
 
 # The same rope in haustra, Bullet and MuJoCo (Debian's), time per frame next to stretch and
 # floor penetration. Optional: installs libbullet-dev and libmujoco-dev first.
@@ -130,6 +142,17 @@ stability-doc: build
 figures: build
 	@./scripts/install-deps.sh --figures
 	@./scripts/figures.sh
+
+# The viewer's pictures of the guide (docs/figures/viewer*.png), scripted under Xvfb.
+viewer-shots: build
+	@./scripts/viewer-shots.sh
+
+# The viewer's draw rate (frames drawn a second: the demo, and the 6 m small intestine with and
+# without multisampling), under Xvfb when there is no display; JSON in build/release.
+bench-view: build
+	@if [ -n "$$DISPLAY" ]; then run=""; else run='xvfb-run -a -s "-screen 0 1920x1080x24"'; fi; \
+	  eval $$run $(BIN)/haustra_bench_view --benchmark_out=build/release/bench_view.json --benchmark_out_format=json
+	@echo "draw rates: $(abspath build/release/bench_view.json)"
 
 # Regenerates docs/tradeoff.md and its plot docs/figures/tradeoff.png: the speed-against-accuracy
 # study (haustra study), about a minute on this machine.

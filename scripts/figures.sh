@@ -27,6 +27,7 @@ $bin run scenes/sag.toml --quiet --frames 3000 --mesh-every 0 --set "segment[0].
 # Plots of a run: penetration, instrument force, per-stage time against frame.
 $bin run scenes/demo.toml --quiet --mesh-every 0 --out "$runs/demo" >/dev/null
 /usr/bin/python3 scripts/plots.py run "$runs/demo" "$out/demo"
-# The viewer, as a person sees it: the demo's rectum grasped with the mouse and lifted.
-xvfb-run -a -s "-screen 0 1280x720x24" build/release/bin/haustra-view scenes/demo.toml --script scripts/viewer-figure.txt
+# The viewer, as a person sees it: the demo grasped, the help, File > Open, the inspector on a real
+# large intestine, the small intestine's loops grasped.
+./scripts/viewer-shots.sh
 echo "figures written to $(pwd)/$out"

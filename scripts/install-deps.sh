@@ -17,6 +17,8 @@ packages=(
   python3-mypy
   # haustra.studies: studies on Dask, a local cluster or any scheduler (decision 0070)
   python3-dask python3-distributed
+  # the Python API reference, made from the module's docstrings (`make reference`, decision 0101)
+  python3-sphinx
   # `pip install .` into a virtual environment, offline (decision 0059)
   python3-venv python3-pip python3-setuptools python3-wheel
   # `haustra import` computes centrelines with CGAL (decision 0047)

@@ -65,11 +65,11 @@ def compare_tradeoff(work, workers):
     return same
 
 
-ANATOMY_COLUMNS = [("repairs", "import_repairs"), ("organ", "import_organ"), ("units", "import_units"),
-                   ("open ends", "import_open_ends"), ("length mm", "import_length_mm"), ("nodes", "import_nodes"),
-                   ("beads", "import_beads"), ("rings", "import_rings"), ("outside", "import_outside"),
-                   ("crossing", "import_crossing"), ("lift mm", "anatomy_lift_mm"),
-                   ("skin err mm", "anatomy_skin_err_mm"), ("outcome", "anatomy_outcome")]
+# The table's deterministic columns (docs/anatomy.md; its times and frame counts over the budget are this
+# machine's) and the study's import columns that carry them.
+ANATOMY_COLUMNS = [("organ", "import_organ"), ("length mm", "import_length_mm"), ("nodes", "import_nodes"),
+                   ("beads", "import_beads"), ("force N", "protocol_force_N"), ("pulled mm", "protocol_pulled_mm"),
+                   ("torn", "protocol_torn"), ("outcome", "protocol_outcome")]
 
 
 def compare_anatomy(results):

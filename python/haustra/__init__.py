@@ -38,6 +38,7 @@ from ._haustra import (  # noqa: F401
     InvalidIndexError,
     ParseError,
     UnstableError,
+    Batch,
     World,
     estimate_memory,
     save_mesh,
@@ -45,8 +46,9 @@ from ._haustra import (  # noqa: F401
 )
 
 __all__ = [
-    "__version__", "World", "validate", "save_mesh", "estimate_memory", "Error", "InvalidArgumentError", "FileError",
-    "InvalidIndexError", "ParseError", "GeometryError", "UnstableError", "InternalError", "BusyError", "save_segment_mesh", "RECORDABLE",
+    "__version__", "World", "Batch", "validate", "save_mesh", "estimate_memory", "Error", "InvalidArgumentError",
+    "FileError", "InvalidIndexError", "ParseError", "GeometryError", "UnstableError", "InternalError", "BusyError",
+    "save_segment_mesh", "RECORDABLE",
     "CONTACT_KINDS",
 ]
 

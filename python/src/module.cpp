@@ -12,6 +12,7 @@ PYBIND11_MODULE(_haustra, m) {
   haustra::python::bind_errors(m);
   haustra::python::bind_world(m);
   haustra::python::bind_functions(m);
+  haustra::python::bind_batch(m);
   haustra::python::bind_studies(m);
   // ContactKind's names, in its order: contact_records' kind indexes them.
   m.attr("CONTACT_KINDS") = pybind11::make_tuple("bead", "plane", "sphere", "capsule", "mesh", "instrument");

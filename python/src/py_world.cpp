@@ -25,6 +25,8 @@ PyWorld::Locked PyWorld::locked() {
   return {std::move(lock), *world_};
 }
 
+std::unique_lock<std::mutex> PyWorld::lock_for_batch() { return std::unique_lock<std::mutex>(mutex_); }
+
 namespace {
 
 // Python's signal handlers, run with the GIL; true when one raised (the error is set).

@@ -56,6 +56,13 @@ class PyWorld {
   };
   StepOutcome step(long frames, Recorder* recorder);
 
+  // For haustra.Batch (decision 0103): the world's lock, taken with the GIL released (as step() takes it),
+  // the world behind it, and what step() does once its frames are done (held mesh views brought up to date).
+  std::unique_lock<std::mutex> lock_for_batch();
+  World& engine() { return *world_; }
+  void frames_stepped(long frames) {
+    if (mesh_viewed_ && frames > 0) (void)world_->mesh_positions();
+  }
   [[nodiscard]] const std::string& name() const { return name_; }
   [[nodiscard]] int scene_frames() const { return scene_frames_; }
   [[nodiscard]] const WorldOrigin& origin() const { return origin_; }

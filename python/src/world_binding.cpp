@@ -180,6 +180,7 @@ void bind_world(py::module_& m) {
   bind_world_driving(c);
   bind_world_readings(c);
   bind_world_tissue(c);
+  bind_world_writing(c);
   py::list recordable;
   for (const std::string& name : Recorder::known_names()) recordable.append(name);
   m.attr("RECORDABLE") = py::tuple(recordable);

@@ -14,6 +14,7 @@ void bind_world_views(WorldClass& c);     // world_views.cpp: zero-copy arrays o
 void bind_world_state(WorldClass& c);     // world_state.cpp: derived state, contact records
 void bind_world_driving(WorldClass& c);   // world_driving.cpp: loads, attachments, instruments, parameters
 void bind_world_readings(WorldClass& c);  // world_readings.cpp: small readings as dicts and numbers
+void bind_world_writing(WorldClass& c);   // world_writing.cpp: state from arrays, many loads, loads per length
 void bind_world_tissue(WorldClass& c);    // world_tissue.cpp: connective tissue's anchors, cutting
 
 }  // namespace haustra::python

@@ -185,6 +185,87 @@ def test_grasp_and_lift_measures_the_grasped_node_of_a_chain(tmp_path):
     assert 0.5 * 0.02 * 20 / 60 < float(row["lift_m"]) <= 0.02 * 20 / 60 + 1e-3
 
 
+SLOW_CELLS = f"""
+[study]
+name = "slow"
+frames = 6000
+[grid]
+scenes = ["{GRASP_PULL}"]
+[sweep]
+"segment.youngs_modulus" = [20000.0, 30000.0, 40000.0, 50000.0, 60000.0, 70000.0]
+"""
+
+
+@pytest.mark.parametrize("where", [["--serial"], ["--workers", "1"]])
+def test_ctrl_c_stops_a_study_and_keeps_its_rows(tmp_path, where):
+    """Ctrl-C (SIGINT to the process group, as a terminal sends it) stops the study within seconds, keeps the
+    rows written, says so and exits 130; the same command then runs only the cells left."""
+    import signal
+    import subprocess
+    import time
+    (tmp_path / "study.toml").write_text(SLOW_CELLS)
+    command = [sys.executable, "-m", "haustra.studies", "run", "study.toml", *where, "--out", "out"]
+    process = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True)
+    table = tmp_path / "out" / "results.csv"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(studies.read_rows(table)) < 1:
+        time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130, stderr
+    kept = len(studies.read_rows(table))
+    assert 1 <= kept < 6
+    assert f"the {kept} rows written are kept" in stderr and "Traceback" not in stderr
+    again = studies.run_study(studies.load_study(tmp_path / "study.toml"), tmp_path / "out", serial=True,
+                              show_progress=False)
+    assert again["skipped"] == kept and again["ran"] == 6 - kept
+
+
+APPENDIX = SOURCE / "tests" / "data" / "anatomy" / "HuBMAPVHM-00070-large-intestine-Appendix.obj"
+
+
+def test_a_surface_study_measures_the_organ_and_a_resume_reuses_its_import(tmp_path):
+    """An imported organ through the organ protocol (decision 0097: left alone 10 s, pulled 5 cm sideways, held,
+    released): its drift at rest, the grasp's travel and force, per setting; the import's own protocol row. Run
+    again after a stop, the study reuses the import it made (the `haustra` command is not run again)."""
+    surfaces = tmp_path / "surfaces"
+    surfaces.mkdir()
+    os.symlink(APPENDIX, surfaces / APPENDIX.name)
+    study = write_study(tmp_path, '[study]\nname = "organ"\n[grid]\nsurfaces = "surfaces"\nprotocols = ["organ"]\n'
+                                  '[[setting]]\nname = "as imported"\n[[setting]]\nname = "stiff ×3"\n'
+                                  'overrides = { "segment.youngs_modulus" = 99600.0 }\n')
+    with pytest.raises(Stopped):
+        studies.run_study(study, tmp_path / "out", serial=True, cell_runner=stop_after(1, []), show_progress=False)
+    assert len(studies.read_rows(tmp_path / "out" / "results.csv")) == 1
+    broken = tmp_path / "no-haustra"
+    broken.write_text("#!/bin/sh\nexit 3\n")
+    broken.chmod(0o755)
+    os.environ["HAUSTRA_BIN"], saved = str(broken), os.environ.get("HAUSTRA_BIN")
+    try:
+        result = studies.run_study(study, tmp_path / "out", serial=True, show_progress=False)
+    finally:
+        os.environ["HAUSTRA_BIN"] = saved
+    rows = result["rows"]
+    assert [r["status"] for r in rows] == ["ok", "ok"], [r["error"] for r in rows]
+    assert rows[1]["import_reused"] == "true"
+    for r in rows:
+        # The import's own run of the protocol (docs/anatomy.md's row for this surface): it holds.
+        assert r["protocol_outcome"].startswith("holds") and float(r["protocol_pulled_mm"]) > 20
+        # This cell's run of it: the organ stays within a millimetre left alone, the grasp moves its node most of
+        # the 5 cm pulled, the force stays under the grasper's limit.
+        assert float(r["drift_rest_max_mm"]) < 1.0  # measured 0.064
+        assert 20 < float(r["grasp_moved_mm"]) < 55  # measured 38.1 and 48.3
+        assert 0 < float(r["force_max_N"]) < 20  # measured 1.11 and 1.84
+    # The cell as imported is the import's own protocol, measured in Python: the same travel and force as the C++
+    # row (which prints them rounded to 0.1 mm and 0.01 N); stiffer tissue follows the grasp further, harder.
+    imported, stiff = rows
+    assert abs(float(imported["grasp_moved_mm"]) - float(imported["protocol_pulled_mm"])) <= 0.06
+    assert abs(float(imported["force_max_N"]) - float(imported["protocol_force_N"])) <= 0.006
+    assert float(stiff["grasp_moved_mm"]) > float(imported["grasp_moved_mm"])
+    assert float(stiff["force_max_N"]) > float(imported["force_max_N"])
+
+
 STOPPED_STUDY = '''"""A study on 2 local workers whose first cell runs and whose others wait for ever (test_studies.py)."""
 import pathlib
 import sys
@@ -204,11 +285,9 @@ if __name__ == "__main__":
     import cloudpickle
     cloudpickle.register_pickle_by_value(sys.modules[__name__])
     study = studies.load_study(pathlib.Path(sys.argv[1]))
-    try:
-        studies.run_study(study, sys.argv[2], workers=2, show_progress=False,
-                          cell_runner=functools.partial(first_only, first=study.cells[0]["key"]))
-    except studies.Stopped:
-        sys.exit(130)
+    result = studies.run_study(study, sys.argv[2], workers=2, show_progress=False,
+                               cell_runner=functools.partial(first_only, first=study.cells[0]["key"]))
+    sys.exit(130 if result["interrupted"] else 0)
 '''
 
 

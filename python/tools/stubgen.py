@@ -118,7 +118,7 @@ def class_stub(cls):
     out = f"class {cls.__name__}({', '.join(bases)}):\n" if bases else f"class {cls.__name__}:\n"
     out += docstring(cls.__doc__ or "", "    ")
     members = [(n, v) for n, v in sorted(cls.__dict__.items()) if not n.startswith("_") or n in
-               ("__init__", "__getstate__", "__setstate__", "__repr__")]
+               ("__init__", "__getstate__", "__setstate__", "__repr__", "__len__")]
     for name, value in members:
         if isinstance(value, property):
             out += prop(name, value, "    ")

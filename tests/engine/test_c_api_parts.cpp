@@ -1,4 +1,4 @@
-// What a host's own scene graph needs of the C API (issue 36, item 6; decision 0101), through the
+// What a host's own scene graph needs of the C API (issue 36, item 6; decision 0106), through the
 // header only: instruments, obstacles, attachments and ranges of tissue added and removed between
 // frames; the nodes' frames and velocities, the beads' nodes, the contacts; structs that carry
 // their size; the estimate a host asks for before it builds.
@@ -57,7 +57,7 @@ void step_frames(haustra_world* w, int frames) {
   }
 }
 
-std::vector<double> positions(const haustra_world* w) {
+std::vector<double> node_bits(const haustra_world* w) {
   haustra_vec3_view v{};
   REQUIRE(haustra_world_node_positions(w, &v) == HAUSTRA_OK);
   std::vector<double> out(v.x, v.x + v.count);
@@ -152,7 +152,7 @@ TEST_CASE(
   CHECK(a.active == 0);
   CHECK(a.node == 15);
   CHECK(instrument_of(w, 0).grasping == 1);
-  CHECK(positions(w) == positions(reference));
+  CHECK(node_bits(w) == node_bits(reference));
 
   // Out again, in another order than they came.
   REQUIRE(haustra_world_remove_obstacle(w, HAUSTRA_OBSTACLE_PLANE, 1) == HAUSTRA_OK);
@@ -170,7 +170,7 @@ TEST_CASE(
     REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
     REQUIRE(haustra_world_step(reference) == HAUSTRA_OK);
     INFO("frame " << f);
-    REQUIRE(positions(w) == positions(reference));
+    REQUIRE(node_bits(w) == node_bits(reference));
     const haustra_instrument_reading r = instrument_of(w, 0), q = instrument_of(reference, 0);
     REQUIRE(std::memcmp(&r, &q, sizeof r) == 0);
   }
@@ -283,7 +283,7 @@ TEST_CASE("C API: a part the builder refuses is named by its field, and the worl
   const PartsScene scene;
   haustra_world* w = made(scene);
   step_frames(w, 2);
-  const std::vector<double> before = positions(w);
+  const std::vector<double> before = node_bits(w);
   haustra_instrument_def in;
   REQUIRE(haustra_instrument_def_default(&in) == HAUSTRA_OK);
   in.radius = 2.0;
@@ -355,7 +355,7 @@ TEST_CASE("C API: a part the builder refuses is named by its field, and the worl
   CHECK(c.obstacles[HAUSTRA_OBSTACLE_PLANE] == 1);
   CHECK(c.obstacles[HAUSTRA_OBSTACLE_SPHERE] + c.obstacles[HAUSTRA_OBSTACLE_MESH] == 0);
   CHECK(c.anchors == 0);
-  CHECK(positions(w) == before);
+  CHECK(node_bits(w) == before);
   CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
 }
 
@@ -369,9 +369,9 @@ TEST_CASE(
   REQUIRE(haustra_world_node_velocities(w, linear.data(), angular.data(), linear.size()) == HAUSTRA_OK);
   for (double x : linear) CHECK(x == 0.0);  // before the first step
   step_frames(w, 4);
-  const std::vector<double> before = positions(w);
+  const std::vector<double> before = node_bits(w);
   step_frames(w, 1);
-  const std::vector<double> after = positions(w);
+  const std::vector<double> after = node_bits(w);
   REQUIRE(haustra_world_node_velocities(w, linear.data(), angular.data(), linear.size()) == HAUSTRA_OK);
   double fastest = 0.0;
   for (size_t k = 0; k < c.nodes; ++k)

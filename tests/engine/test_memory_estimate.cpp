@@ -47,7 +47,7 @@ TEST_CASE("the memory estimate is what building and stepping a world allocates, 
        {Case{"drop", {}}, Case{"drop", {"segment.nodes=100000"}}, Case{"drop", {"segment.mesh.source=procedural"}},
         Case{"drop", {"solver.mode=fast", "segment.nodes=2000"}}, Case{"demo", {}}, Case{"bowel", {}}, Case{"sag", {}},
         Case{"grasp-pull", {}},
-        // Beads packed so close that each is within reach of hundreds of others (decision 0101):
+        // Beads packed so close that each is within reach of hundreds of others (decision 0106):
         // 120,000 and 750,000 pairs of beads listed by the first step's broad phase.
         Case{"drop", {"segment.nodes=20000", "segment.beads.count=2000"}},
         Case{"drop", {"segment.nodes=20000", "segment.beads.count=5000"}}}) {
@@ -124,7 +124,7 @@ TEST_CASE("beads packed past what fits are refused before anything is built, nam
 }
 
 TEST_CASE("the time estimate: a build's and a frame's seconds grow with the nodes, the substeps and the beads' pairs") {
-  // Calibrated on the reference machine (decision 0101), not timed here: what it is made of.
+  // Calibrated on the reference machine (decision 0106), not timed here: what it is made of.
   const MemoryEstimate small = estimate_memory(test::scene_desc("drop", {"segment.nodes=10000"}).world);
   const MemoryEstimate twice = estimate_memory(test::scene_desc("drop", {"segment.nodes=20000"}).world);
   const MemoryEstimate substeps =

@@ -195,7 +195,7 @@ int run(const RunOptions& o) {
   return 0;
 }
 
-// `haustra estimate SCENE`: what the world will take before it is built (decisions 0038, 0101) — the
+// `haustra estimate SCENE`: what the world will take before it is built (decisions 0038, 0106) — the
 // numbers World::create, the C API and Python use; exit 2 when it would not fit, with the reason.
 struct EstimateOptions {
   std::string scene;

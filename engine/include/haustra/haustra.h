@@ -292,7 +292,7 @@ HAUSTRA_API haustra_status haustra_world_create_from_scene_def(const char* scene
 HAUSTRA_API haustra_status haustra_world_def_default(haustra_world_def* def);
 HAUSTRA_API haustra_status haustra_segment_def_default(haustra_segment_def* def);
 
-/* What a world will take before it is built (since ABI 14; decisions 0038, 0101): the same numbers as
+/* What a world will take before it is built (since ABI 14; decisions 0038, 0106): the same numbers as
  * `haustra estimate`, World's estimate_memory and Python's haustra.estimate_memory. Creating a world
  * refuses one whose bytes exceed def.memory_limit (or what the machine has available) with the
  * reason. Seconds are on one core of the reference machine, for a world at rest. */
@@ -340,7 +340,7 @@ HAUSTRA_API haustra_status haustra_world_add_segment(haustra_world* world, const
                                                      size_t* index);
 HAUSTRA_API haustra_status haustra_world_remove_segment(haustra_world* world, size_t segment);
 
-/* Between frames, what a host adds to a world or takes out of it (since ABI 14; decision 0101):
+/* Between frames, what a host adds to a world or takes out of it (since ABI 14; decision 0106):
  * instruments, obstacles, a segment's attachments and ranges of connective tissue. Each rebuilds the
  * model as adding a segment does, and everything else steps on exactly as if nothing had changed
  * (fast mode refactors a rod whose attachments, grasp slots or tissue changed); a definition the
@@ -489,6 +489,13 @@ HAUSTRA_API haustra_status haustra_world_contacts(const haustra_world* world, ha
  * A load is at most 1e5 N and 1e5 N·m in each component (as every vector); closed and cutting are 0 or 1. */
 HAUSTRA_API haustra_status haustra_world_set_node_load(haustra_world* world, size_t node, const double force[3],
                                                        const double moment[3]);
+/* A load per metre of rest length along a segment (decision 0102): force_per_length (N/m) and
+ * moment_per_length (N·m/m, or NULL for none), 3 doubles (x y z, world frame) per node of the segment,
+ * `count` nodes (the segment's node count), lumped onto its nodes by their share of the rest length.
+ * It replaces what those nodes held (add = 0) or adds to it (add = 1). */
+HAUSTRA_API haustra_status haustra_world_set_distributed_load(haustra_world* world, size_t segment, size_t count,
+                                                              const double* force_per_length,
+                                                              const double* moment_per_length, int add);
 HAUSTRA_API haustra_status haustra_world_set_instrument_pose(haustra_world* world, size_t instrument,
                                                              const double tip[3], const double axis[3]);
 HAUSTRA_API haustra_status haustra_world_set_instrument_grasp(haustra_world* world, size_t instrument, int closed);

@@ -34,7 +34,7 @@
   X(double, max_bead_overlap_ratio, 0.0, "the same over the smaller radius")
 
 /* MemoryEstimate: what a world of a description will take, in memory and time, before it is built
- * (decisions 0038, 0101). The same numbers through C++, C, Python and `haustra estimate`. */
+ * (decisions 0038, 0106). The same numbers through C++, C, Python and `haustra estimate`. */
 #define HAUSTRA_MEMORY_FIELDS(X)                                                                    \
   X(size_t, total, 0, "bytes")                                                                      \
   X(size_t, nodes, 0, "rod nodes")                                                                  \

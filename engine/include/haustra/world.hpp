@@ -99,6 +99,33 @@ class World {
 
   // External load on one node (global node index), world frame, held until changed.
   void set_external_load(std::size_t node, const Eigen::Vector3d& force, const Eigen::Vector3d& moment);
+  // Writing state from arrays (decision 0102). A rod's configuration is its base pose and its node
+  // strains; node positions and frames follow from them (the forward sweep). Each call checks all it
+  // is given (sizes, finite numbers, the rod's constraints) before it writes anything, throwing
+  // Error{invalid_argument} naming the node or section; then, as pose_rod, it rebuilds the nodes,
+  // rings and meshes, and the finite-difference velocities read zero (as after a restore).
+  // All nodes' strains, 4 per node (κ1 κ2 τ ε, as strains()); every rod rebuilt from its base pose.
+  void set_strains(std::span<const double> strains);
+  // All nodes' poses: node 0 of each rod becomes its base, and each section's strain is the SE(3)
+  // logarithm of its nodes' relative pose over its length, split between its two nodes so that the
+  // strains change least. Refused where a section would shear by more than shear_tolerance of its
+  // length (the rod is unshearable) or turn back on itself.
+  void set_node_poses(kernels::Vec3View<const double> positions, kernels::RotationView<const double> rotations,
+                      double shear_tolerance = 1e-6);
+  // All nodes' positions: the rod is placed through them with frames that turn least (no twist),
+  // each section an arc to the next point; refused where a section would turn by more than 90°.
+  void set_node_positions(kernels::Vec3View<const double> positions);
+  // A rod's base pose (a chain's, through any of its pieces), its strains kept: the rod moves rigidly.
+  void set_base_pose(std::size_t segment, const kernels::Pose& base);
+  // Many nodes' loads at once (3 values per node, world frame; moments may be empty): replacing what
+  // the nodes held (add = false; a node listed twice gets the sum of its entries) or added to it.
+  void set_external_loads(std::span<const std::uint32_t> nodes, std::span<const double> forces,
+                          std::span<const double> moments, bool add = false);
+  // A load per metre of rest length along a segment (N/m and N·m/m, 3 values per node of the segment,
+  // world frame; moments may be empty), lumped onto its nodes by their share of the rest length (half
+  // of each section beside them): set as set_external_loads does on the segment's nodes.
+  void set_distributed_load(std::size_t segment, std::span<const double> force_per_length,
+                            std::span<const double> moment_per_length, bool add = false);
   // Attachments are numbered per segment in the order of SegmentDesc::attachments (then one grasp
   // slot per instrument); every piece of a chain addresses the chain's attachments.
   void set_attachment_target(std::size_t segment, std::size_t attachment, const Eigen::Vector3d& position);
@@ -227,7 +254,7 @@ class World {
   std::size_t add_segment(const SegmentDesc& segment);  // returns the new segment's index
   void remove_segment(std::size_t segment);             // a chain goes whole, named by its first segment
 
-  // Between frames, what a host adds to a world or takes out of it (decision 0101): instruments,
+  // Between frames, what a host adds to a world or takes out of it (decision 0106): instruments,
   // obstacles, a segment's attachments and its ranges of connective tissue. Each rebuilds the model
   // as add_segment does and carries every state over (an instrument's pose and grasp, which
   // attachments hold, which anchors are torn or cut), so what is left steps on exactly as if nothing

@@ -107,6 +107,15 @@ struct PointLoadDesc {
   Eigen::Vector3d moment = Eigen::Vector3d::Zero();  // N·m, world frame
 };
 
+// A load per metre of rest length on the nodes from `from` to `to` (decision 0102), lumped onto
+// them by their share of the rest length (half of each section beside them within the range).
+struct DistributedLoadDesc {
+  int from = 0;                                      // negative counts from the tip
+  int to = -1;
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();   // N/m, world frame, constant direction
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();  // N·m/m, world frame
+};
+
 // Connective tissue over a range of the organ (decision 0095): an anchor on every node of the range,
 // a spring with slack and a damper from the node to where the anatomy holds it — its rest place,
 // or the nearest point of a root line (the mesentery's root on the posterior wall) — torn when its
@@ -234,6 +243,7 @@ struct SegmentDesc {
   std::vector<AttachmentDesc> attachments;
   std::vector<AnchorsDesc> anchors;  // connective tissue, by ranges along the organ
   std::vector<PointLoadDesc> loads;
+  std::vector<DistributedLoadDesc> distributed_loads;  // [[segment.distributed_load]]
   BeadsDesc beads;
   OrganMeshDesc mesh;
   // Chained end to end (docs/decisions/0030-chains-as-one-rod.md): above 1, the rod runs as this

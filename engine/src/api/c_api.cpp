@@ -848,6 +848,19 @@ haustra_status haustra_world_set_node_load(haustra_world* world, size_t node, co
   });
 }
 
+haustra_status haustra_world_set_distributed_load(haustra_world* world, size_t segment, size_t count,
+                                                  const double* force_per_length, const double* moment_per_length,
+                                                  int add) {
+  return guarded("haustra_world_set_distributed_load", [&] {
+    const Held held(world);
+    haustra::World& w = held.world();
+    const std::span<const double> forces(&required(force_per_length, "force_per_length"), 3 * count);
+    const std::span<const double> moments =
+        moment_per_length == nullptr ? std::span<const double>() : std::span<const double>(moment_per_length, 3 * count);
+    w.set_distributed_load(segment, forces, moments, flag(add, "add"));  // checks the segment, the count and values
+  });
+}
+
 haustra_status haustra_world_set_instrument_pose(haustra_world* world, size_t instrument, const double tip[3],
                                                  const double axis[3]) {
   return guarded("haustra_world_set_instrument_pose", [&] {

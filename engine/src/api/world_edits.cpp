@@ -1,4 +1,4 @@
-// What a host adds to a world or takes out of it between frames (decision 0101): instruments,
+// What a host adds to a world or takes out of it between frames (decision 0106): instruments,
 // obstacles, a chain's attachments and its ranges of connective tissue. Each is a change of the
 // description, rebuilt as adding a segment is, with every state carried over by a map of where the
 // parts go (model/state_carry_over.hpp).

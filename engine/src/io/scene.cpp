@@ -191,6 +191,18 @@ void read_attachments_and_loads(const Reader& r, const toml::table& t, const std
     d.moment = r.vec3(l, "moment", lp + ".moment", Eigen::Vector3d::Zero());
     s.loads.push_back(d);
   }
+  const auto distributed = r.tables(t, "distributed_load", path + ".distributed_load");
+  for (std::size_t i = 0; i < distributed.size(); ++i) {
+    const toml::table& l = *distributed[i];
+    const std::string lp = fmt::format("{}.distributed_load[{}]", path, i);
+    r.check_keys(l, lp, {"from", "to", "force", "moment"});
+    DistributedLoadDesc d;
+    d.from = r.integer(l, "from", lp + ".from", 0);
+    d.to = r.integer(l, "to", lp + ".to", -1);
+    d.force = r.vec3(l, "force", lp + ".force", Eigen::Vector3d::Zero());
+    d.moment = r.vec3(l, "moment", lp + ".moment", Eigen::Vector3d::Zero());
+    s.distributed_loads.push_back(d);
+  }
 }
 
 // [[segment.anchors]]: connective tissue over a range of the organ (decision 0095).
@@ -224,7 +236,7 @@ SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::strin
                          "base",          "base_position", "base_tangent",   "base_normal",
                          "drag",          "radius",        "wall_thickness", "youngs_modulus",
                          "poisson_ratio", "density",       "linear_density", "relaxation_time",
-                         "attachment",    "load",          "beads",          "mesh",
+                         "attachment",    "load",          "distributed_load",          "beads",          "mesh",
                          "chain",         "tissue",        "anchors",        "failure_strain"});
   SegmentDesc s;
   s.name = r.string(t, "name", path + ".name", path);

@@ -41,7 +41,7 @@ constexpr std::size_t kPerBead = 640;
 constexpr std::size_t kPerMeshVertex = 330;
 // Whatever the size: the events' reserved room, the collision chunks', the scheduler's arena.
 constexpr std::size_t kFixed = 1'000'000;
-// Per pair of one segment's beads within reach at rest (decision 0101): its rest-pose exclusion (a
+// Per pair of one segment's beads within reach at rest (decision 0106): its rest-pose exclusion (a
 // 4-byte index), and in the first step the broad phase's lists of pairs within the margin — each
 // chunk's and the merged one, both grown to twice what they hold (measured: 64 bytes a pair on a rod
 // of 20,000 nodes with 2,000 to 10,000 beads of 2 cm).
@@ -49,7 +49,7 @@ constexpr std::size_t kPerRestPair = 4;
 constexpr std::size_t kPerStepPair = 64;
 
 // Seconds on one core of the reference machine (2 vCPU, measured on 2026-11-28 with the C API's
-// defaults, decision 0101): building a rod, a rest-pose pair, a procedural mesh vertex (its MVC
+// defaults, decision 0106): building a rod, a rest-pose pair, a procedural mesh vertex (its MVC
 // binding: 145 s for a million); a frame's Newton iteration per node (0.8 µs), the lagged scheme's
 // (0.2 µs) and fast mode's chord (0.3 µs), a pair in the broad phase, a mesh vertex skinned.
 constexpr double kBuildSecondsPerNode = 1.0e-6;

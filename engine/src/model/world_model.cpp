@@ -98,7 +98,8 @@ void append_node_arrays(const RestShape& rest, const SegmentModel& seg, double d
                               std::span(m.mass_lower).subspan(m.node_total, n));
 }
 
-void append_loads(const SegmentDesc& d, const std::string& where, std::size_t n, WorldModel& m) {
+void append_loads(const SegmentDesc& d, const std::string& where, std::size_t n, std::span<const double> section_length,
+                  WorldModel& m) {
   m.initial_load.resize(6 * (m.node_total + n), 0.0);
   for (std::size_t li = 0; li < d.loads.size(); ++li) {
     const std::string lw = fmt::format("{}.load[{}]", where, li);
@@ -108,6 +109,23 @@ void append_loads(const SegmentDesc& d, const std::string& where, std::size_t n,
     for (int j = 0; j < 3; ++j) {
       m.initial_load[6 * (m.node_total + node) + static_cast<std::size_t>(j)] += d.loads[li].force[j];
       m.initial_load[6 * (m.node_total + node) + 3 + static_cast<std::size_t>(j)] += d.loads[li].moment[j];
+    }
+  }
+  // Loads per metre (decision 0102): each node of the range takes half of each section beside it.
+  for (std::size_t li = 0; li < d.distributed_loads.size(); ++li) {
+    const DistributedLoadDesc& l = d.distributed_loads[li];
+    const std::string lw = fmt::format("{}.distributed_load[{}]", where, li);
+    const std::size_t first = resolve_node(lw + ".from", l.from, n), last = resolve_node(lw + ".to", l.to, n);
+    if (first > last)
+      fail(lw + ".to", fmt::format("node {} comes before from = node {}: expected from <= to", last, first));
+    check_vector(lw + ".force", l.force, false);
+    check_vector(lw + ".moment", l.moment, false);
+    for (std::size_t k = first; k <= last; ++k) {
+      const double share = 0.5 * ((k > first ? section_length[k - 1] : 0.0) + (k < last ? section_length[k] : 0.0));
+      for (int j = 0; j < 3; ++j) {
+        m.initial_load[6 * (m.node_total + k) + static_cast<std::size_t>(j)] += share * l.force[j];
+        m.initial_load[6 * (m.node_total + k) + 3 + static_cast<std::size_t>(j)] += share * l.moment[j];
+      }
     }
   }
 }
@@ -283,7 +301,7 @@ void build_rod(const WorldDesc& desc, std::size_t si, WorldModel& m, std::vector
   kernels::rod_forward_sweep(rest.base, rest.section_length, kernels::StrainView<const double>{rest.strain}, poses);
   for (std::size_t i = 0; i < n; ++i) initial_positions.push_back(poses.node_position.get(i));
 
-  append_loads(d, where, n, m);
+  append_loads(d, where, n, rest.section_length, m);
   append_attachments(desc, d, where, poses, seg, m);
   append_anchors(d, where, rest, poses, seg, m);
   append_pieces(d, si, rest, seg, m);

@@ -13,8 +13,8 @@ written. docs/studies.md has the file format, the project's own studies and the 
 """
 from .cells import TIMING_COLUMNS, run_cell  # noqa: F401
 from .report import deterministic, write_report  # noqa: F401
-from .runner import Stopped, columns_for, read_rows, run_study  # noqa: F401
+from .runner import columns_for, read_rows, run_study  # noqa: F401
 from .spec import Study, StudyError, cell_key, load_study  # noqa: F401
 
-__all__ = ["Study", "StudyError", "Stopped", "load_study", "run_study", "run_cell", "read_rows", "write_report",
-           "cell_key", "columns_for", "deterministic", "TIMING_COLUMNS"]
+__all__ = ["Study", "StudyError", "load_study", "run_study", "run_cell", "read_rows", "write_report", "cell_key",
+           "columns_for", "deterministic", "TIMING_COLUMNS"]

@@ -4,7 +4,7 @@ import pathlib
 import sys
 
 from .report import write_report
-from .runner import Stopped, read_rows, run_study
+from .runner import run_study
 from .spec import StudyError, load_study
 
 
@@ -31,13 +31,12 @@ def main(argv=None):
         print(f"error: {e}", file=sys.stderr)
         return 2
     out = args.out or pathlib.Path("out") / "studies" / study.name
-    try:
-        result = run_study(study, out, serial=args.serial, scheduler=args.scheduler, workers=args.workers,
-                           show_progress=not args.quiet, retry_failed=args.retry_failed)
-    except Stopped as stop:
-        kept = len(read_rows(out / "results.csv"))
-        print(f"{study.name}: stopped by {stop.args[0] if stop.args else 'a signal'}; {kept} rows kept in "
-              f"{out / 'results.csv'}; run it again to run the cells missing", file=sys.stderr)
+    result = run_study(study, out, serial=args.serial, scheduler=args.scheduler, workers=args.workers,
+                       show_progress=not args.quiet, retry_failed=args.retry_failed)
+    if result["interrupted"]:
+        print(f"{study.name}: stopped ({result['interrupted']}) after {result['ran']} cells run now; the {len(result['rows'])} rows "
+              f"written are kept in {out / 'results.csv'}; the same command runs the {len(study.cells) - len(result['rows'])} "
+              "cells left", file=sys.stderr)
         return 130
     written = write_report(study, result, out)
     print(f"{study.name}: {len(study.cells)} cells, {result['ran']} run now ({result['skipped']} already written), "

@@ -1,4 +1,5 @@
 """What one cell does: build its world, run a protocol, measure, return a row (a dict). Runs in any process."""
+import hashlib
 import json
 import os
 import pathlib
@@ -14,19 +15,26 @@ from .. import _haustra
 # Columns whose values are wall-clock measurements: they differ between runs and machines, so the
 # determinism checks (and the comparison with `make study`) leave them out. Every other column of a
 # row is the same bits on 1 worker, 2 workers or in-process.
-TIMING_COLUMNS = {"frame_ms_median", "frame_ms_p99", "cell_s", "import_s", "import_task_s", "anatomy_frame_ms",
-                  "knob_measured"}
+TIMING_COLUMNS = {"frame_ms_median", "frame_ms_p99", "cell_s", "import_s", "import_task_s", "protocol_frame_ms",
+                  "protocol_frame_p99_ms", "protocol_late", "knob_measured"}
 
 KEY_COLUMNS = ["key", "scene_name", "scene_hash", "setting", "overrides", "protocol", "engine_version", "status",
                "error"]
-GRID_METRICS = ["frames", "finite", "tip_x", "tip_y", "tip_z", "lift_m", "force_max_N",
-                "force_jump_max_N", "penetration_max_m", "bead_overlap_max_m", "energy_change_J", "recovered",
-                "unstable", "frame_ms_median", "frame_ms_p99", "cell_s"]
-# The import's report (the row `haustra anatomy` writes for the surface): in a surface study's rows.
-IMPORT_COLUMNS = ["import_repairs", "import_organ", "import_units", "import_open_ends", "import_length_mm",
-                  "import_nodes", "import_beads", "import_rings", "import_s", "import_outside", "import_crossing",
-                  "anatomy_lift_mm", "anatomy_skin_err_mm", "anatomy_frame_ms", "anatomy_outcome", "import_task_s"]
+GRID_METRICS = ["frames", "finite", "tip_x", "tip_y", "tip_z", "lift_m", "grasp_moved_mm", "force_max_N",
+                "force_jump_max_N", "drift_rest_median_mm", "drift_rest_max_mm", "drift_after_median_mm",
+                "drift_after_max_mm", "anchors_torn", "penetration_max_m", "bead_overlap_max_m", "energy_change_J",
+                "recovered", "unstable", "frame_ms_median", "frame_ms_p99", "cell_s"]
+# The import and the organ protocol at the defaults (the row `haustra anatomy` writes for the surface, decision
+# 0097: left alone 10 s, grasped and pulled 5 cm sideways in 1 s, held 1 s, released, 3 s): in a surface study's rows.
+IMPORT_COLUMNS = ["import_organ", "import_length_mm", "import_nodes", "import_beads", "import_s",
+                  "protocol_rest_median_mm", "protocol_rest_max_mm", "protocol_force_N", "protocol_pulled_mm",
+                  "protocol_after_median_mm", "protocol_after_max_mm", "protocol_torn", "protocol_skin_worst",
+                  "protocol_skin_edges_past_2x", "protocol_frame_ms", "protocol_frame_p99_ms", "protocol_late",
+                  "protocol_outcome", "import_task_s", "import_reused"]
 LIFT_SECONDS, LIFT_HEIGHT = 1.0, 0.02  # grasp-and-lift: 2 cm in the first second, then held
+# The organ protocol's phases (decision 0097, studies' OrganProtocol): left alone, pulled, held, released, s.
+# The grasper comes down for half a second after the rest before it closes (protocol.toml's keyframes).
+ORGAN_REST, ORGAN_DESCENT, ORGAN_PULL, ORGAN_HOLD, ORGAN_AFTER = 10.0, 0.5, 1.0, 1.0, 3.0
 
 
 def first_line(text):
@@ -64,14 +72,24 @@ def run_scene_cell(cell):
     protocol, measured frame by frame."""
     overrides = json.loads(cell["overrides"])
     world = _haustra.World.from_scene(cell["scene"], overrides=overrides)
-    frames = cell["frames"] if cell["frames"] is not None else world.scene_frames
+    organ = cell["protocol"] == "organ"
+    protocol_frames = round((ORGAN_REST + ORGAN_DESCENT + ORGAN_PULL + ORGAN_HOLD + ORGAN_AFTER) / world.dt)
+    frames = cell["frames"] if cell["frames"] is not None else protocol_frames if organ else world.scene_frames
+    if organ and world.instrument_count == 0:
+        raise _haustra.InvalidArgumentError("organ: the scene has no [[instrument]] on the protocol's keyframes (an "
+                                            "imported surface's protocol.toml has one)")
+    rest_frame = round(ORGAN_REST / world.dt)  # the organ left alone until here
+    held_frame = round((ORGAN_REST + ORGAN_DESCENT + ORGAN_PULL + ORGAN_HOLD) / world.dt)  # the end of the hold
+    start_positions = np.array(world.node_positions)
+    drift_rest = drift_after = None
+    moved = float("nan")
     lifting = cell["protocol"] == "grasp-and-lift"
     tip0 = axis = start = None
     if lifting:
         tip0, axis = _grasp_from_above(world)
     frame_seconds, forces, energies = [], [], []
     grasped_node, lift = None, float("nan")
-    for _ in range(frames):
+    for frame in range(frames):
         if lifting:
             t = min(1.0, (world.time + world.dt) / LIFT_SECONDS)
             world.set_instrument_pose(0, tip0 + np.array([0.0, 0.0, LIFT_HEIGHT * t]), axis)
@@ -84,8 +102,18 @@ def run_scene_cell(cell):
             if state["grasping"] and grasped_node is None:  # its node index is the segment's own
                 grasped_node = world.segments[state["grasped_segment"]]["node_offset"] + state["grasped_node"]
                 start = float(world.node_positions[grasped_node][2])
+                grasped_from = np.array(world.node_positions[grasped_node])
+        if frame + 1 == rest_frame:  # how far the organ drifted from where it was built, left alone
+            drift_rest = np.linalg.norm(world.node_positions - start_positions, axis=1)
+        if organ and grasped_node is not None and world.instrument(0)["grasping"] and frame + 1 <= held_frame:
+            # as the import's protocol measures it: where the grasp last held the node, by the end of the hold
+            moved = float(np.linalg.norm(world.node_positions[grasped_node] - grasped_from))
     if grasped_node is not None:
         lift = float(world.node_positions[grasped_node][2]) - start
+        if not organ:  # the grasped node's whole travel
+            moved = float(np.linalg.norm(world.node_positions[grasped_node] - grasped_from))
+    if organ and frames >= protocol_frames:
+        drift_after = np.linalg.norm(world.node_positions - start_positions, axis=1)
     positions = np.array(world.node_positions)
     magnitudes = [float(np.linalg.norm(f)) for f in forces]
     jumps = [float(np.linalg.norm(b - a)) for a, b in zip(forces, forces[1:])]
@@ -95,6 +123,12 @@ def run_scene_cell(cell):
     return {
         "frames": frames, "finite": bool(np.isfinite(positions).all()),
         "tip_x": float(tip[0]), "tip_y": float(tip[1]), "tip_z": float(tip[2]), "lift_m": lift,
+        "grasp_moved_mm": 1e3 * moved,
+        "drift_rest_median_mm": 1e3 * float(np.median(drift_rest)) if drift_rest is not None else float("nan"),
+        "drift_rest_max_mm": 1e3 * float(drift_rest.max()) if drift_rest is not None else float("nan"),
+        "drift_after_median_mm": 1e3 * float(np.median(drift_after)) if drift_after is not None else float("nan"),
+        "drift_after_max_mm": 1e3 * float(drift_after.max()) if drift_after is not None else float("nan"),
+        "anchors_torn": int(np.sum(np.asarray(world.anchors_intact) == 0)),
         "force_max_N": max(magnitudes, default=0.0), "force_jump_max_N": max(jumps, default=0.0),
         "penetration_max_m": float(contacts["max_environment_depth"]),
         "bead_overlap_max_m": float(contacts["max_bead_overlap"]),
@@ -106,8 +140,10 @@ def run_scene_cell(cell):
 
 
 def haustra_command():
-    """The `haustra` command line (the import runs it): $HAUSTRA_BIN, else `haustra` on PATH."""
-    found = os.environ.get("HAUSTRA_BIN") or shutil.which("haustra")
+    """The `haustra` command line (the import runs it): $HAUSTRA_BIN, else the one built with this package
+    (inside it when installed, the build tree's bin/ otherwise), else `haustra` on PATH."""
+    from .._command import program
+    found = os.environ.get("HAUSTRA_BIN") or program() or shutil.which("haustra")
     if not found or not os.access(found, os.X_OK):
         raise FileNotFoundError("importing a surface runs `haustra anatomy`: set HAUSTRA_BIN to the haustra "
                                 "executable (build/release/bin/haustra) or put it on PATH")
@@ -125,12 +161,58 @@ def parse_anatomy_row(markdown, name):
     raise RuntimeError(f"haustra anatomy: no row for '{name}' in its table")
 
 
+def _split(text, at=" / "):
+    """'0.43 / 0.53' -> ('0.43', '0.53'); '1.44 (0)' -> ('1.44', '0')."""
+    text = text.strip()
+    if at in text:
+        a, b = text.split(at, 1)
+        return a.strip(), b.strip()
+    if "(" in text:
+        a, b = text.split("(", 1)
+        return a.strip(), b.rstrip(")").strip()
+    return text, ""
+
+
+def import_report(row):
+    """A surface study's import columns from the surface's row of `haustra anatomy`'s table."""
+    rest, after = _split(row.get("at rest: median / farthest mm", "")), _split(row.get("after release: median / "
+                                                                                      "farthest mm", ""))
+    skin, frame = _split(row.get("skin: worst edge × (edges past 2×)", "")), _split(row.get("frame ms (p99)", ""))
+    return {"import_organ": row.get("organ", ""), "import_length_mm": row.get("length mm", ""),
+            "import_nodes": row.get("nodes", ""), "import_beads": row.get("beads", ""),
+            "import_s": row.get("import s", ""), "protocol_rest_median_mm": rest[0], "protocol_rest_max_mm": rest[1],
+            "protocol_force_N": row.get("force N", ""), "protocol_pulled_mm": row.get("pulled mm", ""),
+            "protocol_after_median_mm": after[0], "protocol_after_max_mm": after[1],
+            "protocol_torn": row.get("torn", ""), "protocol_skin_worst": skin[0],
+            "protocol_skin_edges_past_2x": skin[1], "protocol_frame_ms": frame[0], "protocol_frame_p99_ms": frame[1],
+            "protocol_late": row.get("late", ""), "protocol_outcome": row.get("outcome", "")}
+
+
+IMPORT_RECORD = "study-import.json"  # beside the imported scene: what a resume reuses
+
+
 def import_surface(surface, out, threads=1):
     """Imports one surface as `make anatomy` does (the same C++ run: `haustra anatomy` on a folder holding
-    only it), its world on `threads` threads (a study's cells' own: one per worker's core, the same bits);
-    returns the import report fields and the grasp scene written beside the imported scene."""
+    only it, the organ protocol included), its world on `threads` threads (a study's cells' own: one per
+    worker's core, the same bits); returns the import report, the protocol's row and the scene the study's
+    cells run: protocol.toml, the imported organ with the protocol's grasper on its keyframes.
+    An import already made into `out` of the same surface file (its hash), by the same engine, is reused (a
+    resumed study does not import again): its record, study-import.json, says so."""
     surface = pathlib.Path(surface)
     out = pathlib.Path(out)
+    folder_out = out / surface.stem
+    scene = folder_out / "protocol.toml"
+    record = folder_out / IMPORT_RECORD
+    digest = hashlib.sha256(surface.read_bytes()).hexdigest()
+    if record.is_file() and scene.is_file():
+        try:
+            kept = json.loads(record.read_text())
+        except ValueError:
+            kept = {}
+        if kept.get("surface_sha256") == digest and kept.get("engine_version") == _haustra.__version__ \
+                and kept.get("threads") == threads:
+            report = dict(kept["report"], import_reused="true")
+            return {"scene": str(scene), "report": report, "seconds": kept["seconds"]}
     started = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="haustra-import-") as folder:
         for part in [surface, surface.with_name(surface.stem + "-centreline.json")]:
@@ -140,20 +222,14 @@ def import_surface(surface, out, threads=1):
                               capture_output=True, text=True)
     if done.returncode != 0 and "| surface |" not in done.stdout:
         raise RuntimeError(f"haustra anatomy {surface.name}: exit {done.returncode}: {first_line(done.stderr)}")
-    row = parse_anatomy_row(done.stdout, surface.stem)
-    frame = row.get("frame ms (p99)", "")
-    report = {"import_repairs": row.get("repairs", ""), "import_organ": row.get("organ", ""),
-              "import_units": row.get("units", ""), "import_open_ends": row.get("open ends", ""),
-              "import_length_mm": row.get("length mm", ""), "import_nodes": row.get("nodes", ""),
-              "import_beads": row.get("beads", ""), "import_rings": row.get("rings", ""),
-              "import_s": row.get("import s", ""), "import_outside": row.get("outside", ""),
-              "import_crossing": row.get("crossing", ""), "anatomy_lift_mm": row.get("lift mm", ""),
-              "anatomy_skin_err_mm": row.get("skin err mm", ""), "anatomy_frame_ms": frame.split(" ")[0],
-              "anatomy_outcome": row.get("outcome", "")}
-    scene = out / surface.stem / "grasp.toml"
+    report = import_report(parse_anatomy_row(done.stdout, surface.stem))
     if not scene.is_file():
-        raise RuntimeError(f"{surface.name}: not imported ({report['anatomy_outcome']}): no {scene}")
-    return {"scene": str(scene), "report": report, "seconds": time.perf_counter() - started}
+        raise RuntimeError(f"{surface.name}: not imported ({report['protocol_outcome']}): no {scene}")
+    seconds = time.perf_counter() - started
+    record.write_text(json.dumps({"surface": str(surface), "surface_sha256": digest, "threads": threads,
+                                  "engine_version": _haustra.__version__, "report": report, "seconds": seconds},
+                                 indent=1))
+    return {"scene": str(scene), "report": dict(report, import_reused="false"), "seconds": seconds}
 
 
 def run_empty_cell(cell):
@@ -173,8 +249,9 @@ def run_tradeoff_cell(cell):
     return {"settings_errors": json.dumps(errors), "knob_measured": json.dumps(knob)}
 
 
-GRID_PROTOCOLS = ["scripted", "grasp-and-lift"]  # what a grid study's cells may run
-PROTOCOLS = {"scripted": run_scene_cell, "grasp-and-lift": run_scene_cell, "empty": run_empty_cell,
+GRID_PROTOCOLS = ["scripted", "grasp-and-lift", "organ"]  # what a grid study's cells may run
+PROTOCOLS = {"scripted": run_scene_cell, "grasp-and-lift": run_scene_cell, "organ": run_scene_cell,
+             "empty": run_empty_cell,
              "stability": run_stability_cell, "tradeoff": run_tradeoff_cell}
 
 

@@ -33,6 +33,10 @@ def tip_errors(rows, reference):
 
 PLOTTED = [("tip_error_m", "tip error against the reference (m)"), ("force_max_N", "largest instrument force (N)"),
            ("penetration_max_m", "deepest penetration (m)"), ("frame_ms_median", "frame, median (ms)")]
+# An imported organ (the organ protocol): what the grasp did and how far the organ drifted, not a tip.
+ORGAN_PLOTTED = [("grasp_moved_mm", "grasped node moved (mm)"), ("force_max_N", "largest instrument force (N)"),
+                 ("drift_rest_max_mm", "drift left alone, farthest node (mm)"),
+                 ("drift_after_max_mm", "from rest after release, farthest node (mm)")]
 
 
 def plot_grid(rows, errors, path):
@@ -42,7 +46,8 @@ def plot_grid(rows, errors, path):
     import matplotlib.pyplot as plt
     settings = list(dict.fromkeys(r["setting"] for r in rows))
     protocols = list(dict.fromkeys(r["protocol"] for r in rows))
-    metrics = [(m, label) for m, label in PLOTTED if m != "tip_error_m" or errors]
+    organ = any(r["protocol"] == "organ" for r in rows)
+    metrics = ORGAN_PLOTTED if organ else [(m, label) for m, label in PLOTTED if m != "tip_error_m" or errors]
     fig, axes = plt.subplots(len(protocols), len(metrics), figsize=(4.2 * len(metrics), 3.4 * len(protocols)),
                              squeeze=False)
     for i, protocol in enumerate(protocols):
@@ -63,12 +68,13 @@ def plot_grid(rows, errors, path):
 
 
 def import_table(rows):
-    """One line per imported surface: what the import found (the row `make anatomy` writes for it)."""
-    lines = ["Each surface as imported (`haustra anatomy` on it alone: the same import, grasp and row as "
-             "`make anatomy`; its frame time is on the study's threads per world, beside the full-MVC "
-             "reference run):", "",
-             "| surface | repairs | organ | length mm | nodes | beads | rings | import s | outside | crossing | "
-             "lift mm | skin err mm | frame ms | outcome |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    """One line per imported surface: what the import found and its run of the organ protocol at the defaults
+    (the row `make anatomy` writes for it)."""
+    lines = ["Each surface as imported (`haustra anatomy` on it alone: the same import, organ protocol and row as "
+             "`make anatomy`; its frame time is on the study's threads per world):", "",
+             "| surface | organ | length mm | nodes | beads | import s | at rest: median / farthest mm | force N | "
+             "pulled mm | after release: median / farthest mm | torn | frame ms | outcome | reused |",
+             "|" + "---|" * 14]
     seen = set()
     for r in rows:
         if r["scene_name"] in seen:
@@ -78,9 +84,10 @@ def import_table(rows):
             lines.append(f"| {r['scene_name']} | {r['error']} |" + " |" * 12)
             continue
         lines.append("| " + " | ".join([r["scene_name"]] + [r[c] for c in (
-            "import_repairs", "import_organ", "import_length_mm", "import_nodes", "import_beads", "import_rings",
-            "import_s", "import_outside", "import_crossing", "anatomy_lift_mm", "anatomy_skin_err_mm",
-            "anatomy_frame_ms", "anatomy_outcome")]) + " |")
+            "import_organ", "import_length_mm", "import_nodes", "import_beads", "import_s")] + [
+            f"{r['protocol_rest_median_mm']} / {r['protocol_rest_max_mm']}", r["protocol_force_N"],
+            r["protocol_pulled_mm"], f"{r['protocol_after_median_mm']} / {r['protocol_after_max_mm']}",
+            r["protocol_torn"], r["protocol_frame_ms"], r["protocol_outcome"], r.get("import_reused", "")]) + " |")
     return lines
 
 
@@ -88,8 +95,8 @@ def cell_lines(rows, errors):
     """The summary's table: one line per cell; the tip error column only when the study names a reference."""
     tip_column = bool(errors)
     head = ["scene", "setting", "protocol", "status"] + (["tip error mm"] if tip_column else []) + [
-        "grasped node lift mm", "force max N", "penetration mm", "energy change J", "events (recovered/unstable)",
-        "frame ms (p99)", "cell s"]
+        "grasped node lift mm", "grasp moved mm", "force max N", "drift at rest mm (max)", "penetration mm",
+        "energy change J", "events (recovered/unstable)", "frame ms (p99)", "cell s"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         cells = [r["scene_name"], r["setting"], r["protocol"]]
@@ -97,7 +104,8 @@ def cell_lines(rows, errors):
             lines.append("| " + " | ".join(cells + [f"failed: {r['error']}"]) + " |" + " |" * (len(head) - 4))
             continue
         tip = [f"{1e3 * errors[r['key']]:.3f}" if r["key"] in errors else ""] if tip_column else []
-        cells += ["ok"] + tip + [f"{1e3 * number(r['lift_m']):.2f}", f"{number(r['force_max_N']):.3g}",
+        cells += ["ok"] + tip + [f"{1e3 * number(r['lift_m']):.2f}", f"{number(r.get('grasp_moved_mm')):.2f}",
+                                 f"{number(r['force_max_N']):.3g}", f"{number(r.get('drift_rest_max_mm')):.3f}",
                                  f"{1e3 * number(r['penetration_max_m']):.3f}", f"{number(r['energy_change_J']):.3g}",
                                  f"{r['recovered']}/{r['unstable']}",
                                  f"{number(r['frame_ms_median']):.2f} ({number(r['frame_ms_p99']):.2f})",

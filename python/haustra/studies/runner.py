@@ -143,8 +143,14 @@ def _client(scheduler, workers):
         return Client(scheduler_file=str(scheduler)), None
     if scheduler:
         return Client(scheduler), None
-    cluster = LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1, processes=True,
-                           dashboard_address=":0", silence_logs=40)
+    # The workers ignore Ctrl-C (a terminal sends it to the whole process group): the client stops the study and
+    # closes the cluster, rather than each worker printing its own traceback. They inherit the disposition.
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        cluster = LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1, processes=True,
+                               dashboard_address=":0", silence_logs=40)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
 
 
@@ -201,7 +207,7 @@ def run_cells(study, todo, out, writer, progress, serial, scheduler, workers, ce
         return
     from distributed import as_completed
     client, cluster = _client(scheduler, workers)
-    import_futures, futures = {}, []
+    futures, import_futures = [], {}
     try:
         for cell in todo:
             if cell.get("surface") is not None:
@@ -234,8 +240,10 @@ def run_cells(study, todo, out, writer, progress, serial, scheduler, workers, ce
 def run_study(study, out, serial=False, scheduler=None, workers=None, cell_runner=run_cell, show_progress=True,
               retry_failed=False):
     """Runs the cells whose rows are not yet in OUT/results.csv; returns {'ran', 'skipped', 'failed', 'seconds',
-    'rows'} ('rows': this study's, in its cell order). Rows of cells no longer in the study (a setting removed
-    from the file) are kept, after this study's. A finished table is rewritten in the study's cell order, so it
+    'rows', 'interrupted'} ('rows': this study's, in its cell order). Ctrl-C (KeyboardInterrupt, or SIGINT) or
+    SIGTERM stops it: the rows written so far stay in the table, 'interrupted' names what stopped it ("SIGINT",
+    "SIGTERM" or "Ctrl-C"; False when it ran to the end), and running it again runs only the rest. Rows of cells
+    no longer in the study (a setting removed from the file) are kept, after this study's. A finished table is rewritten in the study's cell order, so it
     does not depend on where the cells ran."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -248,10 +256,13 @@ def run_study(study, out, serial=False, scheduler=None, workers=None, cell_runne
     writer = RowWriter(table, columns, kept)
     progress = Progress(study.name, len(study.cells), len(done), enabled=show_progress)
     started = time.monotonic()
+    interrupted = False
     try:
         if todo:
             with stop_on_signals():
                 run_cells(study, todo, out, writer, progress, serial, scheduler, workers, cell_runner)
+    except KeyboardInterrupt as stop:  # Ctrl-C, or Stopped: SIGINT or SIGTERM
+        interrupted = stop.args[0] if isinstance(stop, Stopped) and stop.args else "Ctrl-C"
     finally:
         writer.close()
         progress.finish()
@@ -260,9 +271,9 @@ def run_study(study, out, serial=False, scheduler=None, workers=None, cell_runne
     everything = read_rows(table, columns)
     rows = sorted((r for r in everything if r["key"] in keys), key=lambda r: order[r["key"]])
     others = [r for r in everything if r["key"] not in keys]
-    if len(rows) == len(keys):
+    if len(rows) == len(keys) and not interrupted:
         text = ",".join(columns) + "\n" + "".join(row_line(r, columns) for r in rows + others)
         (out / "results.csv.new").write_text(text)
         os.replace(out / "results.csv.new", table)
     return {"ran": progress.done, "skipped": len(done), "failed": sum(r["status"] != "ok" for r in rows),
-            "seconds": seconds, "rows": rows}
+            "seconds": seconds, "rows": rows, "interrupted": interrupted}

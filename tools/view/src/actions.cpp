@@ -27,8 +27,9 @@ std::string stem_of(const ViewerState& v) { return v.scene_name.empty() ? std::s
 void open_path(ViewerState& v, const std::string& path) {
   v.note(fmt::format("opening {}", path));
   v.sim.post(Open{path});
-  v.scene_written = written(path);
-  v.camera_fitted = false;  // the new organ framed when it arrives
+  v.watched = {path, written(path)};
+  v.camera_fitted = false;  // the new organ framed when it arrives: by the first model after this one
+  v.fit_from_generation = v.model ? v.model->generation + 1 : 0;
   v.draw.highlight = {};
 }
 
@@ -45,10 +46,15 @@ bool scene_file_changed(ViewerState& v) {
   if (!v.model || v.model->scene_path.empty() || now - v.reload_checked < std::chrono::duration<double>(kReloadCheck))
     return false;
   v.reload_checked = now;
+  // Only the file of the scene shown, against its own time: a scene opened but not yet built (the
+  // model still the one before), or one opened by another path, is watched from now on, not reloaded.
   const auto t = written(v.model->scene_path);
-  if (v.scene_written == std::filesystem::file_time_type{}) v.scene_written = t;
-  if (t == v.scene_written) return false;
-  v.scene_written = t;
+  if (v.watched.path != v.model->scene_path) {
+    v.watched = {v.model->scene_path, t};
+    return false;
+  }
+  if (t == v.watched.time) return false;
+  v.watched.time = t;
   return true;
 }
 
@@ -104,6 +110,15 @@ void set_view(ViewerState& v, View view) {
     case View::standard: v.camera.azimuth = -1.0, v.camera.elevation = 0.45; break;
   }
   v.camera_fitted = false;
+}
+
+void keep_between_panels(ViewerState& v) {
+  // Half of what a column takes or gives back: what was in the middle of the view stays there.
+  if (v.show_panels != v.panels_were_shown) v.camera.pan(v.show_panels ? 0.5 * kPanelWidth : -0.5 * kPanelWidth, 0.0);
+  if (v.inspector_open != v.inspector_was_open)
+    v.camera.pan(v.inspector_open ? -0.5 * kInspectorWidth : 0.5 * kInspectorWidth, 0.0);
+  v.panels_were_shown = v.show_panels;
+  v.inspector_was_open = v.inspector_open;
 }
 
 void keep_above_planes(ViewerState& v) {

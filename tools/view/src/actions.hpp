@@ -27,6 +27,9 @@ enum class View { front, top, side, standard };
 void set_view(ViewerState& v, View view);
 // Keeps the camera's eye on the free side of every plane of the scene (never under the floor).
 void keep_above_planes(ViewerState& v);
+// The panels or the inspector opened or closed: the view panned so its middle stays in the middle
+// of what the columns leave.
+void keep_between_panels(ViewerState& v);
 // The camera's target on the grasped node, or the selected part, while following.
 void follow(ViewerState& v);
 

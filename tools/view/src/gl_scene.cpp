@@ -132,7 +132,7 @@ const Rgb kFloor{0.78f, 0.78f, 0.76f};
 const Rgb kGrid{0.45f, 0.45f, 0.47f};
 const Rgb kForce{0.95f, 0.55f, 0.05f};
 const Rgb kSpring{0.05f, 0.75f, 0.85f};  // the grasp's spring, drawn over everything
-const Rgb kSelected{0.98f, 0.78f, 0.25f};  // what the inspector has selected
+const Rgb kSelected{0.62f, 0.45f, 0.98f};  // what the inspector has selected
 
 bool is(const Highlight& h, Highlight::Kind kind, std::size_t index) { return h.kind == kind && h.index == index; }
 
@@ -178,15 +178,25 @@ GlScene::~GlScene() {
   glDeleteProgram(program_);
 }
 
-void GlScene::build(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o, const OrbitCamera& camera) {
-  for (Batch* b : {&opaque_, &organ_, &lines_, &planes_, &grid_, &overlay_, &tubes_}) b->clear();
-  grid_ranges_.clear();
+std::array<Eigen::Vector3d, 2> drawn_bounds(const FramePublisher::Slot& f) {
+  if (f.x.empty()) return {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   for (std::size_t k = 0; k < f.x.size(); ++k) {
     lo = lo.cwiseMin(node(f, k));
     hi = hi.cwiseMax(node(f, k));
   }
-  if (f.x.empty()) lo = hi = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < f.px.size(); ++i) {  // the skin reaches a radius beyond the nodes
+    const Eigen::Vector3d p(f.px[i], f.py[i], f.pz[i]);
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  return {lo, hi};
+}
+
+void GlScene::build(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o, const OrbitCamera& camera) {
+  for (Batch* b : {&opaque_, &organ_, &lines_, &planes_, &grid_, &overlay_, &tubes_}) b->clear();
+  grid_ranges_.clear();
+  const auto [lo, hi] = drawn_bounds(f);
   subject_lo_ = lo;
   subject_hi_ = hi;
   subject_centre_ = 0.5 * (lo + hi);

@@ -3,6 +3,7 @@
 // instruments and the overlays (beads, cage, centreline, contacts, colour by strain or
 // penetration), in OpenGL 3.3 core. Geometry is rebuilt on the CPU from each published frame; the
 // organ is drawn from its levels of detail (organ_lod.hpp) within a triangle budget.
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -25,6 +26,9 @@ struct Highlight {
   std::size_t index = 0;
   bool operator==(const Highlight&) const = default;
 };
+
+// The box around the organs as drawn: their nodes and their skin.
+std::array<Eigen::Vector3d, 2> drawn_bounds(const FramePublisher::Slot& frame);
 
 struct DrawOptions {
   bool beads = false, cage = false, centreline = false, contacts = false;

@@ -40,6 +40,7 @@ std::string knob_value(const WorldDesc& d, std::string_view name) {
   if (name == "beads_per_node") return fmt::format("{:.3g}", beads_per_node(d));
   if (name == "rings") return d.segments.empty() ? "0" : std::to_string(d.segments[0].mesh.rings_per_vertex);
   if (name == "gravity") return fmt::format("{} {} {}", d.gravity.x(), d.gravity.y(), d.gravity.z());
+  if (name == "contact") return fmt::format("{:.4g}", d.contact.coefficient);
   if (name == "rate") return std::abs(d.dt - 1e-3) < 1e-12 ? "1khz" : fmt::format("{:.4g} s", d.dt);
   return "?";
 }
@@ -86,6 +87,10 @@ KnobChange set_knob(const WorldDesc& now, std::string_view name, std::string_vie
     double x = 0, y = 0, z = 0;
     if (!(in >> x >> y >> z) || !std::isfinite(x + y + z)) refuse(name, value, "three numbers, m/s²");
     d.gravity = {x, y, z};
+  } else if (name == "contact") {
+    const double x = number(name, value);
+    if (x <= 0.0 || x > 1e6) refuse(name, value, "a contact coefficient in (0, 1e6] (f = coefficient x E x depth^exponent)");
+    d.contact.coefficient = x;
   } else if (name == "rate") {
     if (value == "1khz")
       d.dt = 1e-3;
@@ -96,7 +101,7 @@ KnobChange set_knob(const WorldDesc& now, std::string_view name, std::string_vie
   } else {
     throw Error(
         ErrorCode::invalid_argument,
-        fmt::format("no knob '{}' (mode, iterations, filter, law, beads_per_node, rings, gravity, rate)", name));
+        fmt::format("no knob '{}' (mode, iterations, filter, law, beads_per_node, rings, gravity, contact, rate)", name));
   }
   c.what = fmt::format("{} {} -> {}", name, knob_value(now, name), knob_value(d, name));
   return c;

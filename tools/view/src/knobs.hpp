@@ -1,6 +1,7 @@
 #pragma once
 // The run-time knobs (solver mode and iterations, the inertia filter, tissue law, beads per node,
-// MVC rings, gravity, the 1 kHz rate): each one a change to a WorldDesc and a line for the log.
+// MVC rings, gravity, the contact coefficient, the 1 kHz rate): each one a change to a WorldDesc
+// and a line for the log.
 // The model is immutable while stepping, so every change is applied by a rebuild that keeps the
 // state (World::reconfigure).
 #include <optional>
@@ -18,7 +19,7 @@ struct KnobChange {
 
 // Sets knob `name` to `value` (the script's and the panel's words: mode lagged|newton|fast,
 // iterations N, filter on|off, law hooke|exp2, beads_per_node X, rings N, gravity "x y z",
-// rate scene|1khz). scene_dt is the scene's own dt (for rate scene). Throws haustra::Error
+// contact X, rate scene|1khz). scene_dt is the scene's own dt (for rate scene). Throws haustra::Error
 // naming the knob and what it accepts.
 KnobChange set_knob(const WorldDesc& now, std::string_view name, std::string_view value, double scene_dt);
 

@@ -36,10 +36,10 @@ constexpr std::array<std::pair<const char*, const char*>, 24> kHelp = {{
     {"B", "beads"},
     {"T", "connective tissue (anchors; torn and cut ones as dots)"},
     {"Tab", "panels"},
+    {"I", "the inspector: organs, instruments, tissue, obstacles; select to highlight, edit live"},
     {"F1, H, ?", "this help"},
     {"Esc", "close this help, or quit"},
-    {"Inspector (panel)", "organs, instruments, tissue, obstacles: select to see and edit"},
-    {"Knobs (panel)", "solver, iterations, filter, law, beads, rings, gravity, rate"},
+    {"Knobs (panel)", "solver, iterations, filter, law, beads, rings, gravity, contact, rate"},
     {"--script FILE", "the same by script (tools/view/src/script.hpp)"},
 }};
 
@@ -78,6 +78,7 @@ void view_menu(ViewerState& v) {
   ImGui::MenuItem("Contacts", nullptr, &v.draw.contacts);
   ImGui::MenuItem("Connective tissue", "T", &v.draw.anchors);
   ImGui::MenuItem("Panels", "Tab", &v.show_panels);
+  ImGui::MenuItem("Inspector", "I", &v.inspector_open);
   ImGui::EndMenu();
 }
 
@@ -233,8 +234,11 @@ void draw_overlays(ViewerState& v) {
     v.notices.pop_front();
   const SimulationStats s = v.sim.stats();
   if (!v.notices.empty() || !s.busy.empty()) {
-    const float w = 520.0f;
-    ImGui::SetNextWindowPos(ImVec2(static_cast<float>(v.camera.width) - w - 12.0f, v.menu_height + 8.0f));
+    // Over the view, between the panels and the inspector: neither hides the other.
+    const float left = v.show_panels ? kPanelWidth + 16.0f : 12.0f;
+    const float right = static_cast<float>(v.camera.width) - (v.inspector_open ? kInspectorWidth + 20.0f : 12.0f);
+    const float w = std::clamp(right - left, 160.0f, 520.0f);
+    ImGui::SetNextWindowPos(ImVec2(std::max(left, right - w), v.menu_height + 8.0f));
     ImGui::SetNextWindowSize(ImVec2(w, 0));
     ImGui::SetNextWindowBgAlpha(0.75f);
     ImGui::Begin("##notices", nullptr,

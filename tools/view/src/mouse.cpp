@@ -6,6 +6,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "actions.hpp"
+
 namespace haustra::view {
 namespace {
 
@@ -121,7 +123,10 @@ void mouse_move(ViewerState& v, double x, double y) {
       m.hit = intersect_plane(v.camera.ray(x, y), m.hit, v.camera.forward());
       v.sim.post(CutAt{m.hit, kCutRadius});
       break;
-    case MouseState::Mode::orbiting: v.camera.orbit(dx, dy); break;
+    case MouseState::Mode::orbiting:
+      v.camera.orbit(dx, dy);
+      keep_above_planes(v);  // at once: the eye never goes under the floor, not even for a frame
+      break;
     case MouseState::Mode::panning: v.camera.pan(dx, dy); break;
     case MouseState::Mode::idle: break;
   }

@@ -82,10 +82,11 @@ void OrbitCamera::pan(double dx, double dy) {
 
 void OrbitCamera::zoom(double steps) { distance = std::clamp(distance * std::pow(0.9, steps), 1e-3, 1e4); }
 
-void OrbitCamera::fit(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+void OrbitCamera::fit(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double free_width) {
   target = 0.5 * (lo + hi);
   const double radius = std::max(0.5 * (hi - lo).norm(), 0.02);
-  const double half = std::atan(tan_half_fov(*this) * std::min(1.0, aspect(*this)));
+  const double shown = free_width > 0.0 ? std::min(free_width, static_cast<double>(width)) / height : aspect(*this);
+  const double half = std::atan(tan_half_fov(*this) * std::min(1.0, shown));
   distance = 1.1 * radius / std::sin(half);
 }
 

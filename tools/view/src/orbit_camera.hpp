@@ -29,8 +29,9 @@ struct OrbitCamera {
   void orbit(double dx_pixels, double dy_pixels);
   void pan(double dx_pixels, double dy_pixels);
   void zoom(double steps);  // > 0 closer
-  // Frames a box from the current direction.
-  void fit(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
+  // Frames a box from the current direction, within `free_width` pixels of the window's width (what
+  // the panels leave; 0: all of it).
+  void fit(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double free_width = 0.0);
 };
 
 // Where a ray meets the plane through `point` with `normal`; the origin when parallel.

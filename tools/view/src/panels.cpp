@@ -15,9 +15,18 @@ namespace {
 
 void status(ViewerState& v) {
   const SimulationStats s = v.sim.stats();
-  ImGui::Text("%s  frame %llu  t = %.3f s", v.scene_name.c_str(), static_cast<unsigned long long>(v.frame), v.time);
-  ImGui::Text("step %.3f ms   real time x%.2f", 1e3 * v.profile.frame_seconds, s.real_time_factor);
-  ImGui::Text("%.0f steps/s   %.0f draws/s", s.steps_per_second, static_cast<double>(ImGui::GetIO().Framerate));
+  ImGui::TextWrapped("%s", v.scene_name.c_str());  // a long name wraps: the counters keep their own line
+  ImGui::Text("frame %llu  t = %.3f s", static_cast<unsigned long long>(v.frame), v.time);
+  const double draws = static_cast<double>(ImGui::GetIO().Framerate);
+  // While paused or stepped by a script there is no rate to show: say so, not the last figures.
+  if (s.paused) {
+    ImGui::Text("paused   last step %.3f ms   %.0f draws/s", 1e3 * v.profile.frame_seconds, draws);
+  } else if (v.sim.held()) {
+    ImGui::Text("one frame per draw   step %.3f ms   %.0f draws/s", 1e3 * v.profile.frame_seconds, draws);
+  } else {
+    ImGui::Text("step %.3f ms   real time x%.2f", 1e3 * v.profile.frame_seconds, s.real_time_factor);
+    ImGui::Text("%.0f steps/s   %.0f draws/s", s.steps_per_second, draws);
+  }
   ImGui::Text("iterations %d  substeps %d  retries %d  fallbacks %d  contacts %zu", v.profile.iterations,
               v.profile.substeps, v.profile.retries, v.profile.fallbacks, v.contact_count);
   if (s.unstable) {
@@ -148,18 +157,24 @@ void turn_knob(ViewerState& v, const std::string& name, const std::string& value
   }
 }
 
+void keep_inside(const ViewerState& v) {
+  const float top = v.menu_height + 8.0f;
+  const ImVec2 pos = ImGui::GetWindowPos(), size = ImGui::GetWindowSize();
+  const float w = static_cast<float>(v.camera.width), h = static_cast<float>(v.camera.height);
+  if (size.y > h - top) ImGui::SetWindowSize(ImVec2(size.x, std::max(80.0f, h - top - 8.0f)));
+  if (size.x > w - 16.0f) ImGui::SetWindowSize(ImVec2(std::max(120.0f, w - 16.0f), ImGui::GetWindowSize().y));
+  const ImVec2 inside(std::clamp(pos.x, 0.0f, std::max(0.0f, w - 60.0f)),
+                      std::clamp(pos.y, v.menu_height, std::max(v.menu_height, h - 40.0f)));
+  if (inside.x != pos.x || inside.y != pos.y) ImGui::SetWindowPos(inside);
+}
+
 void draw_panels(ViewerState& v) {
   if (!v.show_panels) return;
   const float top = v.menu_height + 8.0f, room = static_cast<float>(v.camera.height) - top - 8.0f;
   ImGui::SetNextWindowPos(ImVec2(8, top), ImGuiCond_FirstUseEver);
   ImGui::SetNextWindowSize(ImVec2(kPanelWidth, room), ImGuiCond_FirstUseEver);
   ImGui::Begin("haustra");
-  // Kept inside the window whatever its size: a panel left outside after a shrink comes back.
-  const ImVec2 pos = ImGui::GetWindowPos(), size = ImGui::GetWindowSize();
-  const float w = static_cast<float>(v.camera.width), h = static_cast<float>(v.camera.height);
-  if (size.y > h - top) ImGui::SetWindowSize(ImVec2(size.x, std::max(80.0f, h - top - 8.0f)));
-  const ImVec2 inside(std::clamp(pos.x, 0.0f, std::max(0.0f, w - 60.0f)), std::clamp(pos.y, v.menu_height, std::max(v.menu_height, h - 40.0f)));
-  if (inside.x != pos.x || inside.y != pos.y) ImGui::SetWindowPos(inside);
+  keep_inside(v);
   status(v);
   if (ImGui::CollapsingHeader("mouse grasper force (N)", ImGuiTreeNodeFlags_DefaultOpen)) force_plot(v.plot);
   for (std::size_t i = 0; v.model && i < v.plots.size() && i < v.model->desc.instruments.size(); ++i)

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <charconv>
+#include <cmath>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -35,10 +36,12 @@ const Shape* shape_of(const std::string& command) {
                                                          {"save", {0, 0, "save"}},
                                                          {"restore", {0, 0, "restore"}},
                                                          {"screenshot", {1, 1, "screenshot FILE.png"}},
-                                                         {"key", {1, 1, "key F1|H|P|V|0|1|2|3|F|G|T|B|TAB|SPACE|RIGHT|ESC|CTRL+R|CTRL+O"}},
+                                                         {"key", {1, 1, "key F1|H|P|V|0|1|2|3|F|G|T|B|I|TAB|SPACE|RIGHT|ESC|CTRL+R|CTRL+O"}},
                                                          {"open", {1, 1, "open FILE (a scene or a surface)"}},
                                                          {"record", {1, 1, "record FILE.mp4 | record stop"}},
                                                          {"zoom", {1, 1, "zoom STEPS (the wheel; > 0 closer)"}},
+                                                         {"select", {1, 2, "select KIND I | select none"}},
+                                                         {"edit", {4, 4, "edit KIND I FIELD VALUE"}},
                                                          {"quit", {0, 0, "quit"}}};
   for (const auto& [name, shape] : shapes)
     if (name == command) return &shape;
@@ -51,6 +54,13 @@ double number(const std::string& word, const std::string& where, const char* wha
   if (ec != std::errc() || end != word.data() + word.size())
     throw Error(ErrorCode::parse, fmt::format("{}: '{}' is not {}", where, word, what));
   return x;
+}
+
+double index_word(const std::string& word, const std::string& where) {
+  const double i = number(word, where, "an index (0 the first)");
+  if (i < 0 || i != std::floor(i) || i > 1e9)
+    throw Error(ErrorCode::parse, fmt::format("{}: '{}' is not an index (0 the first)", where, word));
+  return i;
 }
 
 void check_word(const std::string& word, std::set<std::string> allowed, const std::string& where) {
@@ -78,7 +88,7 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
       throw Error(ErrorCode::parse,
                   fmt::format("{}: unknown command '{}' (wait, press, move, release, ctrl, shift, toggle, "
                               "colour, knob, pause, resume, step, reset, save, restore, screenshot, key, open, "
-                              "record, zoom, quit)",
+                              "record, zoom, select, edit, quit)",
                               where, l.command));
     if (l.words.size() < shape->min_words || l.words.size() > shape->max_words)
       throw Error(ErrorCode::parse, fmt::format("{}: expected `{}`", where, shape->usage));
@@ -100,12 +110,23 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
       throw Error(ErrorCode::parse, fmt::format("{}: the number of frames must be {}", where,
                                                 l.command == "move" ? "at least 1" : "0 or more"));
     if (l.command == "zoom") l.x = number(l.words[0], where, "a number of wheel steps");
+    if (l.command == "select") {
+      check_word(l.words[0], {"none", "organ", "anchors", "instrument", "plane", "sphere", "capsule", "mesh"}, where);
+      if ((l.words[0] == "none") != (l.words.size() == 1))
+        throw Error(ErrorCode::parse, fmt::format("{}: expected `select KIND I | select none`", where));
+      if (l.words.size() == 2) l.x = index_word(l.words[1], where);
+    }
+    if (l.command == "edit") {
+      check_word(l.words[0], {"organ", "instrument", "contact"}, where);
+      l.x = index_word(l.words[1], where);
+      l.y = number(l.words[3], where, "a number");
+    }
     if (l.command == "ctrl" || l.command == "shift") check_word(l.words[0], {"down", "up"}, where);
     if (l.command == "toggle") check_word(l.words[0], {"beads", "cage", "centreline", "contacts", "tissue"}, where);
     if (l.command == "colour") check_word(l.words[0], {"tissue", "strain", "penetration"}, where);
     if (l.command == "key")
       check_word(l.words[0],
-                 {"F1", "H", "P", "V", "0", "1", "2", "3", "F", "G", "T", "B", "TAB", "SPACE", "RIGHT", "ESC", "CTRL+R",
+                 {"F1", "H", "P", "V", "0", "1", "2", "3", "F", "G", "T", "B", "I", "TAB", "SPACE", "RIGHT", "ESC", "CTRL+R",
                   "CTRL+O"},
                  where);
     if (l.command == "knob" && l.words.size() > 2) {  // gravity takes three numbers

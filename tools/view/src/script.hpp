@@ -21,10 +21,14 @@ namespace haustra::view {
 //   knob NAME VALUE         a run-time knob (see knobs.hpp), e.g. knob mode lagged
 //   pause | resume | step | reset | save | restore
 //   screenshot FILE.png     the window as it is drawn (panels included)
-//   key NAME                a key pressed: F1 H P V 0 1 2 3 F G T B TAB SPACE RIGHT ESC CTRL+R CTRL+O
+//   key NAME                a key pressed: F1 H P V 0 1 2 3 F G T B I TAB SPACE RIGHT ESC CTRL+R CTRL+O
 //   open FILE               File > Open: a scene, or a surface imported first
 //   record FILE.mp4         a video from the next frame on (at the physics' own time); record stop
 //   zoom STEPS              the mouse wheel: > 0 closer
+//   select KIND I           the inspector's selection: organ|anchors|instrument|plane|sphere|capsule|mesh I,
+//                           or select none
+//   edit KIND I FIELD VALUE an inspector's edit: organ I youngs_modulus|relaxation_time V,
+//                           instrument I stiffness|damping|force_limit V, contact 0 coefficient V
 //   quit
 struct ScriptLine {
   int line = 0;

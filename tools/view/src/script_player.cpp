@@ -8,6 +8,7 @@
 #include <algorithm>
 
 #include "actions.hpp"
+#include "inspector.hpp"
 #include "mouse.hpp"
 #include "panels.hpp"
 #include "viewer_app.hpp"
@@ -22,7 +23,7 @@ void press_named_key(ViewerState& v, const std::string& name) {
       {"V", {GLFW_KEY_V, 0}},         {"0", {GLFW_KEY_0, 0}},         {"1", {GLFW_KEY_1, 0}},
       {"2", {GLFW_KEY_2, 0}},         {"3", {GLFW_KEY_3, 0}},         {"F", {GLFW_KEY_F, 0}},
       {"G", {GLFW_KEY_G, 0}},         {"T", {GLFW_KEY_T, 0}},         {"B", {GLFW_KEY_B, 0}},
-      {"TAB", {GLFW_KEY_TAB, 0}},     {"SPACE", {GLFW_KEY_SPACE, 0}}, {"RIGHT", {GLFW_KEY_RIGHT, 0}},
+      {"TAB", {GLFW_KEY_TAB, 0}},     {"I", {GLFW_KEY_I, 0}},     {"SPACE", {GLFW_KEY_SPACE, 0}}, {"RIGHT", {GLFW_KEY_RIGHT, 0}},
       {"ESC", {GLFW_KEY_ESCAPE, 0}},  {"CTRL+R", {GLFW_KEY_R, GLFW_MOD_CONTROL}},
       {"CTRL+O", {GLFW_KEY_O, GLFW_MOD_CONTROL}}};
   for (const auto& [n, key] : kKeys)
@@ -32,7 +33,7 @@ void press_named_key(ViewerState& v, const std::string& name) {
 }  // namespace
 
 bool ScriptPlayer::tick(ViewerState& v) {
-  ++ticks_;
+  ticks_ += v.video.recording() ? static_cast<std::uint64_t>(v.video_frames_per_shot) : 1;  // what was stepped
   while (next_ < lines_.size()) {
     const ScriptLine& l = lines_[next_];
     if (!started_) {
@@ -40,6 +41,7 @@ bool ScriptPlayer::tick(ViewerState& v) {
       start_tick_ = ticks_;
       v.events.push_back(
           {"script " + l.command, v.frame, v.mouse.x, v.mouse.y, false, 0, Eigen::Vector3d::Zero(), v.camera});
+      if (v.scene != nullptr) v.events.back().drawn = {v.scene->subject_lo(), v.scene->subject_hi()};
       from_x_ = v.mouse.x;
       from_y_ = v.mouse.y;
     }
@@ -103,15 +105,16 @@ bool ScriptPlayer::tick(ViewerState& v) {
     } else if (l.command == "open") {
       open_path(v, l.words[0]);
     } else if (l.command == "record") {
-      if (l.words[0] == "stop")
-        v.note(toggle_video(v, v.camera.width, v.camera.height));
-      else
-        v.video_pending = l.words[0];
+      v.video_pending = l.words[0];  // started, or stopped ("stop"), after this frame is drawn and added
     } else if (l.command == "screenshot") {
       v.screenshot_pending = l.words[0];
       ++next_;
       started_ = false;
       return true;  // taken after this window frame is drawn
+    } else if (l.command == "select") {
+      v.note(select_part(v, l.words[0], static_cast<std::size_t>(l.x)));
+    } else if (l.command == "edit") {
+      v.note(edit_value(v, l.words[0], static_cast<std::size_t>(l.x), l.words[2], l.y));
     } else if (l.command == "zoom") {
       mouse_scroll(v, l.x);
     } else if (l.command == "quit") {

@@ -17,8 +17,8 @@ class ScriptPlayer {
   std::vector<ScriptLine> lines_;
   std::size_t next_ = 0;
   bool started_ = false;  // the current line has begun (wait, move)
-  // Window frames: a scripted run steps the physics once per window frame (lockstep) unless paused,
-  // so waits and moves count these — a wait while paused still ends.
+  // Physics frames asked for: a scripted run steps the physics once per window frame (lockstep),
+  // or a video's frames per shot while it records, unless paused — a wait while paused still ends.
   std::uint64_t ticks_ = 0, start_tick_ = 0;
   double from_x_ = 0, from_y_ = 0;  // a move's start
 };

@@ -22,6 +22,7 @@
 #include "gl_scene.hpp"
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
+#include "inspector.hpp"
 #include "menus.hpp"
 #include "mouse.hpp"
 #include "panels.hpp"
@@ -47,6 +48,7 @@ void press_key(ViewerState& v, int key, int mods, int width, int height) {
     case GLFW_KEY_SPACE: v.sim.post(SetPaused{!v.sim.stats().paused}); break;
     case GLFW_KEY_RIGHT: v.sim.post(StepOnce{}); break;
     case GLFW_KEY_TAB: v.show_panels = !v.show_panels; break;
+    case GLFW_KEY_I: v.inspector_open = !v.inspector_open; break;
     case GLFW_KEY_B: v.draw.beads = !v.draw.beads; break;
     case GLFW_KEY_T: v.draw.anchors = !v.draw.anchors; break;
     case GLFW_KEY_F: v.camera_fitted = false; break;  // fit the camera to the organ again
@@ -112,6 +114,31 @@ void install_input(GLFWwindow* window) {
   });
 }
 
+// Frames the box in the middle of what the panels leave: fitted, then moved back until each of its
+// corners is seen there (a box off the view's axis looks wider than on it).
+void fit_between_panels(ViewerState& v, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  const double left = v.show_panels ? kPanelWidth : 0.0, right = v.inspector_open ? kInspectorWidth : 0.0;
+  const double free_width = std::max(80.0, v.camera.width - left - right);
+  v.camera.fit(lo, hi, free_width);
+  const auto seen = [&] {
+    for (int c = 0; c < 8; ++c) {
+      const Eigen::Vector3d p((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
+      const Eigen::Vector2d px = v.camera.project(p);
+      if (!(px.x() > left && px.x() < v.camera.width - right && px.y() > v.menu_height && px.y() < v.camera.height))
+        return false;
+    }
+    return true;
+  };
+  for (int tries = 0; tries < 30; ++tries) {
+    v.camera.target = 0.5 * (lo + hi);
+    v.camera.pan(0.5 * (left - right), 0.0);
+    if (seen()) break;
+    v.camera.distance *= 1.08;
+  }
+  v.panels_were_shown = v.show_panels;
+  v.inspector_was_open = v.inspector_open;
+}
+
 // Copies what the window needs from the newest frame and builds its geometry; the slot is held
 // only for this.
 void take_frame(ViewerState& v, GlScene& scene) {
@@ -119,6 +146,9 @@ void take_frame(ViewerState& v, GlScene& scene) {
   const FramePublisher::Slot& f = frames.acquire();
   v.model = v.sim.model();  // matches the slot: a rebuild waits for the release below
   const ModelInfo& m = *v.model;
+  v.scene_name = m.scene_name;  // another scene may have been opened
+  v.scene_dt = m.scene_dt;
+  v.scene_frames = m.scene_frames;
   const bool fresh = f.frame != v.frame || v.bead_centres.empty();
   v.frame = f.frame;
   v.time = f.time;
@@ -132,14 +162,9 @@ void take_frame(ViewerState& v, GlScene& scene) {
     const std::size_t k = m.bead_nodes[i];
     v.bead_centres[i] = {f.x[k], f.y[k], f.z[k]};
   }
-  if (!v.camera_fitted && !f.x.empty()) {
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
-    for (std::size_t k = 0; k < f.x.size(); ++k) {
-      lo = lo.cwiseMin(Eigen::Vector3d(f.x[k], f.y[k], f.z[k]));
-      hi = hi.cwiseMax(Eigen::Vector3d(f.x[k], f.y[k], f.z[k]));
-    }
-    v.camera.fit(lo, hi);
-    if (v.show_panels) v.camera.pan(0.5 * kPanelWidth, 0.0);  // the subject in the middle of what the panel leaves
+  if (!v.camera_fitted && !f.x.empty() && m.generation >= v.fit_from_generation) {
+    const auto [lo, hi] = drawn_bounds(f);
+    fit_between_panels(v, lo, hi);
     v.camera_fitted = true;
   }
   if (fresh) {
@@ -154,6 +179,11 @@ void take_frame(ViewerState& v, GlScene& scene) {
     if (v.recording) {
       Sample s{f.frame, f.time, r.grasping, 0, Eigen::Vector3d::Zero(), r.tip, r.force, r.filtered_force, 0};
       for (const std::uint8_t intact : f.details.anchors_intact) s.anchors_cut += intact == 0 ? 1 : 0;
+      if (!m.organs.empty()) {
+        const Range last = m.segment_nodes[m.organs.front().pieces.back()];
+        const std::size_t k = last.offset + last.count - 1;
+        s.end = {f.x[k], f.y[k], f.z[k]};
+      }
       if (r.grasping && r.grasped_segment < m.segment_nodes.size()) {
         s.node = m.segment_nodes[r.grasped_segment].offset + r.grasped_node;
         s.node_position = {f.x[s.node], f.y[s.node], f.z[s.node]};
@@ -181,7 +211,8 @@ void write_record(const ViewerState& v, const std::string& path) {
                             {"tip", vec(s.tip)},
                             {"force", vec(s.force)},
                             {"filtered_force", vec(s.filtered_force)},
-                            {"anchors_cut", s.anchors_cut}});
+                            {"anchors_cut", s.anchors_cut},
+                            {"end", vec(s.end)}});
   for (const InputEvent& e : v.events) {
     const OrbitCamera& c = e.camera;
     j["events"].push_back({{"kind", e.kind},
@@ -196,7 +227,8 @@ void write_record(const ViewerState& v, const std::string& path) {
                              {"target", vec(c.target)},
                              {"fov_degrees", c.fov_degrees},
                              {"width", c.width},
-                             {"height", c.height}}}});
+                             {"height", c.height}}},
+                           {"drawn", {vec(e.drawn[0]), vec(e.drawn[1])}}});
   }
   j["plot"]["raw"] = std::vector<float>(v.plot.raw.begin(), v.plot.raw.end());
   j["plot"]["filtered"] = std::vector<float>(v.plot.filtered.begin(), v.plot.filtered.end());
@@ -270,6 +302,7 @@ int loop(ViewerState& v, GLFWwindow* window, std::optional<ScriptPlayer>& script
       reload(v);
     }
     take_frame(v, scene);
+    keep_between_panels(v);
     follow(v);
     keep_above_planes(v);
     scene.draw(v.camera, v.draw, fbw, fbh);
@@ -278,14 +311,18 @@ int loop(ViewerState& v, GLFWwindow* window, std::optional<ScriptPlayer>& script
     ImGui::NewFrame();
     draw_menu_bar(v, fbw, fbh);
     draw_panels(v);
+    draw_inspector(v);
     draw_open_dialog(v);
     draw_help(v);
     draw_overlays(v);
     ImGui::Render();
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
     video_frame(v, fbw, fbh);
-    if (!v.video_pending.empty()) {  // a script's `record FILE`: from the frame after this one
-      v.note(toggle_video(v, fbw, fbh, v.video_pending));
+    if (!v.video_pending.empty()) {  // a script's `record FILE` (from the next frame) or `record stop` (after this one)
+      if (v.video_pending == "stop" && !v.video.recording())
+        v.note("record stop: no video is being recorded");
+      else
+        v.note(toggle_video(v, fbw, fbh, v.video_pending == "stop" ? std::string() : v.video_pending));
       v.video_pending.clear();
     }
     if (!v.screenshot_pending.empty()) {
@@ -298,6 +335,7 @@ int loop(ViewerState& v, GLFWwindow* window, std::optional<ScriptPlayer>& script
     if (!script && !v.video.recording()) std::this_thread::sleep_until(started + frame_budget);
   }
   if (v.video.recording()) v.note(toggle_video(v, 0, 0));
+  v.scene = nullptr;  // the scene goes with this function
   return script && v.sim.went_unstable() ? kExitUnstable : 0;
 }
 

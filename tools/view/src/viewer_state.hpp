@@ -1,6 +1,7 @@
 #pragma once
 // What the window knows between its frames: the camera, the display options, what it copied from
 // the last published frame, the force plot, the mouse's state and the log.
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <deque>
@@ -17,7 +18,8 @@
 
 namespace haustra::view {
 
-inline constexpr float kPanelWidth = 370.0f;  // the panels' column on the left, pixels
+inline constexpr float kPanelWidth = 370.0f;      // the panels' column on the left, pixels
+inline constexpr float kInspectorWidth = 330.0f;  // the inspector's column on the right, pixels
 
 // A notice on screen (a stop, a slip, a tear, a scene that would not open) until it ages out.
 struct ShownNotice {
@@ -67,6 +69,7 @@ struct Sample {
   Eigen::Vector3d node_position = Eigen::Vector3d::Zero(), tip = Eigen::Vector3d::Zero();
   Eigen::Vector3d force = Eigen::Vector3d::Zero(), filtered_force = Eigen::Vector3d::Zero();
   std::size_t anchors_cut = 0;  // anchors of connective tissue torn or cut so far
+  Eigen::Vector3d end = Eigen::Vector3d::Zero();  // the first organ's last node (a cantilever's tip)
 };
 struct InputEvent {
   std::string kind;  // press, release
@@ -76,6 +79,7 @@ struct InputEvent {
   std::size_t bead = 0;
   Eigen::Vector3d hit = Eigen::Vector3d::Zero();
   OrbitCamera camera;
+  std::array<Eigen::Vector3d, 2> drawn{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  // the organ's box as drawn
 };
 
 struct ViewerState {
@@ -86,6 +90,7 @@ struct ViewerState {
   int scene_frames = 60;
   OrbitCamera camera;
   bool camera_fitted = false;
+  std::uint64_t fit_from_generation = 0;  // a scene opened: fit to its model, not to the one before
   DrawOptions draw;
   bool show_panels = true;
 
@@ -117,14 +122,18 @@ struct ViewerState {
   bool help_open = false;
   OpenDialog open_dialog;
   bool auto_reload = true;
-  std::filesystem::file_time_type scene_written{};  // the open scene file's time, for Reload
+  struct WatchedFile {
+    std::string path;
+    std::filesystem::file_time_type time{};
+  } watched;  // the open scene's file and its time: reloaded when the time changes
   std::chrono::steady_clock::time_point reload_checked{};
   std::string capture_folder = ".";  // where P's screenshots and V's videos go
   VideoRecorder video;
   int video_frames_per_shot = 1;  // physics frames between two video frames
-  std::string video_pending;      // a script's `record FILE`: started after the next draw
+  std::string video_pending;      // a script's `record FILE` or `record stop`, after the next draw
   bool follow = false;            // the camera keeps the grasped (or selected) part in the middle
-  bool inspector_open = true;
+  bool inspector_open = false;  // I, or View > Inspector
+  bool panels_were_shown = true, inspector_was_open = false;  // as last drawn: a toggle pans the view
   std::deque<ShownNotice> notices;
   float menu_height = 0.0f;  // the main menu bar's, pixels: the panels start under it
   const GlScene* scene = nullptr;  // what is drawn: a press picks against it
