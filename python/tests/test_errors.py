@@ -24,6 +24,14 @@ def test_a_folder_or_an_empty_file_is_no_scene(tmp_path):
         haustra.World.from_scene(str(empty))
 
 
+def test_a_surface_given_as_a_scene_says_so(tmp_path):
+    # Issue 36: answered with a TOML syntax error on the OBJ's first line.
+    surface = tmp_path / "colon.obj"
+    surface.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(haustra.ParseError, match=r"colon.obj: a surface \(.obj\), not a scene file: `haustra import"):
+        haustra.World.from_scene(str(surface))
+
+
 def test_a_bad_field_names_file_line_and_field(tmp_path):
     scene = tmp_path / "bad.toml"
     scene.write_text('[world]\ndt = 0.01\n\n[[segment]]\nname = "rod"\nnodes = 20\nyoungs_modulus = -5.0\n')

@@ -536,3 +536,26 @@ TEST_CASE("C API: a frame stopped by a bead deep in an instrument's capsule name
   CHECK(!said("environment"));
   CHECK(haustra_world_destroy(w) == HAUSTRA_OK);
 }
+
+TEST_CASE("C API: a NaN centreline point is named as not finite, a surface given as a scene is named a surface") {
+  // Issue 36: a NaN point was reported as "points i and j are the same point", a surface answered
+  // with a TOML syntax error.
+  haustra_world_def def;
+  REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+  haustra_segment_def seg;
+  REQUIRE(haustra_segment_def_default(&seg) == HAUSTRA_OK);
+  const double points[] = {0.0, 0.0, 0.0, 0.1, 0.0, 0.0, std::nan(""), 0.0, 0.0, 0.3, 0.0, 0.0};
+  seg.centreline = points;
+  seg.centreline_points = 4;
+  haustra_world* w = nullptr;
+  CHECK(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(said("segments[0].centreline: point 2 is not finite"));
+  CHECK(!said("same point"));
+  const std::filesystem::path surface =
+      std::filesystem::temp_directory_path() / ("haustra-c-surface-" + std::to_string(::getpid()) + ".obj");
+  std::ofstream(surface) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  CHECK(haustra_world_create_from_scene(surface.c_str(), 1, &w) == HAUSTRA_PARSE);
+  CHECK(said("a surface (.obj), not a scene file: `haustra import"));
+  std::filesystem::remove(surface);
+  CHECK(w == nullptr);
+}

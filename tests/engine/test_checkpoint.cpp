@@ -322,6 +322,21 @@ TEST_CASE("checkpoints keep what the other setters changed: attachments, cutting
     };
     check_setter_kept("cantilever", bent(0.5), bent(-0.8));
   }
+  SUBCASE("strains written and a load per metre (decision 0102's setters)") {
+    auto written = [](double by, double per_metre) {
+      return [by, per_metre](World& w) {
+        const auto s = w.strains();
+        std::vector<double> strains(s.data.begin(), s.data.end());
+        for (std::size_t k = 1; k < strains.size(); k += 4) strains[k] += by;
+        w.set_strains(strains);
+        const std::size_t n = w.segment(0).nodes.count;
+        std::vector<double> load(3 * n, 0.0);
+        for (std::size_t k = 0; k < n; ++k) load[3 * k + 2] = per_metre;
+        w.set_distributed_load(0, load, {}, false);
+      };
+    };
+    check_setter_kept("cantilever", written(0.3, -1e-6), written(-0.4, 2e-6));
+  }
 }
 
 TEST_CASE("a checkpoint of a world a host added parts to restores into one with the same parts, not into one without") {
