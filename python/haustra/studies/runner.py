@@ -2,6 +2,7 @@
 import contextlib
 import csv
 import io
+import logging
 import math
 import multiprocessing
 import os
@@ -208,6 +209,7 @@ def run_cells(study, todo, out, writer, progress, serial, scheduler, workers, ce
     from distributed import as_completed
     client, cluster = _client(scheduler, workers)
     futures, import_futures = [], {}
+    stopped = False
     try:
         for cell in todo:
             if cell.get("surface") is not None:
@@ -226,15 +228,23 @@ def run_cells(study, todo, out, writer, progress, serial, scheduler, workers, ce
             progress.update(row)
             future.release()
     except BaseException:  # a stop (Stopped) or a failure: no cell runs on
+        stopped = True
         _stop_cells(client, cluster, futures + list(import_futures.values()))
         raise
     finally:
+        # Dask's nanny logs a traceback for each worker process it finds killed: here they were killed on
+        # purpose, so its logger is quiet while the cluster closes (and as it was afterwards).
+        dask_log = logging.getLogger("distributed")
+        level = dask_log.level
+        if stopped:
+            dask_log.setLevel(logging.CRITICAL + 1)
         # A second Ctrl-C while closing is not a reason to leave the cluster behind.
         with contextlib.suppress(Exception, Stopped):
             client.close(timeout=10)
         if cluster is not None:
             with contextlib.suppress(Exception, Stopped):
                 cluster.close(timeout=10)
+        dask_log.setLevel(level)
 
 
 def run_study(study, out, serial=False, scheduler=None, workers=None, cell_runner=run_cell, show_progress=True,
