@@ -73,12 +73,14 @@ bool is_surface(const fs::path& file) {
 ScratchImport::ScratchImport(const fs::path& surface, std::function<void(std::string_view)> progress) {
   std::string name =
       (fs::temp_directory_path() / fmt::format("haustra-import-{}-XXXXXX", surface.stem().string())).string();
-  if (mkdtemp(name.data()) == nullptr)
-    throw Error(ErrorCode::io,
-                fmt::format("{}: cannot make a temporary folder to import into ({})", name, std::strerror(errno)));
-  folder_ = name;
   {
+    // Made and listed under one lock: a signal between the two would otherwise find the folder made
+    // but not listed, and leave it behind (the signal thread waits for the lock instead).
     const std::lock_guard lock(g_live_mutex);
+    if (mkdtemp(name.data()) == nullptr)
+      throw Error(ErrorCode::io,
+                  fmt::format("{}: cannot make a temporary folder to import into ({})", name, std::strerror(errno)));
+    folder_ = name;
     live_folders().insert(folder_);
   }
   ImportOptions o;
