@@ -8,7 +8,8 @@ A stamp is the page's last line: a hash of the inputs that decide its content (i
 scenes and data in the repository it reads) and a hash of the page's own text. `check` recomputes
 both for every page below and fails naming the page and the command that regenerates it when
 either differs: an input changed since the page was written, or the page was edited by hand.
-Hashes ignore whitespace, so a change of layout alone (clang-format) stales nothing.
+Hashes ignore whitespace, so a change of layout alone (clang-format) stales nothing. A page that
+copies a generated page's tables (docs/skinning.md) must hold every one of their rows.
 
 docs/results.md is checked by content as well: its reference cases are `HAUSTRA validate --json`'s
 now (about a second), and the figures the tests of this ctest run measured
@@ -46,6 +47,8 @@ PAGES = {
     "docs/skinning-anatomy.md": ("make skinning-doc", ["studies/src/skinning_study.cpp", "studies/src/anatomy_study.cpp",
                                                        STUDIES + "skinning_study.hpp", STUDIES + "anatomy_study.hpp"]),
 }
+# Hand-written pages that copy a generated page's tables: every table row must be there verbatim.
+COPIES = {"docs/skinning.md": ["docs/skinning-table.md", "docs/skinning-anatomy.md"]}
 STAMP = re.compile(r"^<!-- generated: inputs ([0-9a-f]+), text ([0-9a-f]+) \(scripts/pages\.py\).* -->$")
 
 
@@ -133,6 +136,14 @@ def check(record, cli, full):
                          f"regenerate it with `{command}`")
         elif found.group(2) != text_hash(lines):
             stale.append(f"{page}: edited by hand since it was generated; regenerate it with `{command}`")
+    for copy, sources in COPIES.items():
+        with open(os.path.join(ROOT, copy), encoding="utf-8") as f:
+            held = set(f.read().splitlines())
+        for source in sources:
+            rows = [l for l in split(source)[0] if l.startswith("|") and l not in held]
+            if rows:
+                stale.append(f"{copy}: {len(rows)} table rows of {source} are not copied into it (first: {rows[0][:80]}); "
+                             f"copy its tables after `{PAGES[source][0]}`")
     if cli is not None:
         problems = check_validation(cli)
         if problems:
