@@ -175,6 +175,13 @@ def tradeoff(rows_csv, out):
                         textcoords="offset points")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+            # An axis within a decade gets four plain ticks; a wider one labels only its decades
+            # (matplotlib's default labels minor ticks of a narrow log axis, which run into each other).
+            if lo > 0 and hi / lo < 10:
+                axis.set_major_locator(matplotlib.ticker.MaxNLocator(4))
+                axis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+            axis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_xlabel(mine[0]["cost_name"], fontsize=8)
         ax.set_ylabel(mine[0]["error_name"], fontsize=8)
         ax.set_title(knob, fontsize=9)
