@@ -4,10 +4,12 @@
 #include <doctest/doctest.h>
 #include <haustra/haustra.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "c_sized.hpp"
@@ -114,6 +116,31 @@ TEST_CASE("C API: a double-buffered world whose host skins on its GPU hands the 
   REQUIRE(haustra_world_acquire_frame(w, &old) == HAUSTRA_OK);
   CHECK(old.frame == 30);
   REQUIRE(haustra_world_release_frame(w) == HAUSTRA_OK);
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+
+  // A render thread reading rings while the world steps: whole frames, finite, never a mesh.
+  w = sagging_chain(1, 1);
+  std::atomic<bool> stepping{true};
+  std::atomic<int> reads{0}, bad{0};
+  std::thread render([&, rings_expected = g.rings] {
+    while (stepping.load() || reads.load() == 0) {
+      haustra_frame f = sized<haustra_frame>();
+      if (haustra_world_acquire_frame(w, &f) != HAUSTRA_OK) {
+        bad += 1;
+        continue;
+      }
+      bool ok = f.gpu_ring_count == rings_expected && f.mesh_positions.count == 0;
+      for (size_t k = 0; ok && k < HAUSTRA_GPU_RING_FLOATS * f.gpu_ring_count; ++k) ok = std::isfinite(f.gpu_rings[k]);
+      bad += ok ? 0 : 1;
+      reads += 1;
+      if (haustra_world_release_frame(w) != HAUSTRA_OK) bad += 1;
+    }
+  });
+  for (int f = 0; f < 20; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  stepping = false;
+  render.join();
+  CHECK(reads.load() > 0);
+  CHECK(bad.load() == 0);
   REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
 
   // Without mesh_on_host_gpu the render thread gets the mesh and no rings.
