@@ -70,6 +70,36 @@ void BM_SmallIntestine(benchmark::State& state) {
   state.counters["mesh vertices"] = static_cast<double>(w->mesh_buffer_size());
 }
 
+// The render thread's share of a frame of the 6 m small intestine (decision 0110): a reader that
+// draws the CPU's mesh (gpu:0: acquire skins 300k vertices and their normals) or skins on its GPU
+// (gpu:1: acquire makes the rings' data for the shader alone). Each iteration steps and publishes a
+// frame untimed, then times the acquire.
+void BM_SmallIntestineReader(benchmark::State& state) {
+  const bool gpu = state.range(0) == 1;
+  const std::vector<std::string> sets{"world.threads=2"};
+  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/small-intestine.toml", sets);
+  std::unique_ptr<World> w = create_world(scene);
+  FramePublisher frames(*w);
+  frames.skin_on_gpu(gpu);
+  for (int f = 0; f < kSettleFrames; ++f) w->step();
+  std::vector<double> seconds;
+  for (auto _ : state) {
+    w->step();
+    frames.publish(*w);
+    const Clock::time_point r0 = Clock::now();
+    const FramePublisher::Slot& s = frames.acquire();
+    benchmark::DoNotOptimize(gpu ? s.gpu_rings.data() : s.px.data());
+    frames.release();
+    seconds.push_back(std::chrono::duration<double>(Clock::now() - r0).count());
+    state.SetIterationTime(seconds.back());
+  }
+  state.counters["acquire ms"] = 1e3 * quantile(seconds, 0.5);
+  state.counters["mesh vertices"] = static_cast<double>(w->mesh_buffer_size());
+  state.counters["rings"] = static_cast<double>(w->ring_count());
+  state.counters["bytes to the GPU a frame"] =
+      static_cast<double>(gpu ? haustra::kGpuRingFloats * w->ring_count() * sizeof(float) : 6 * w->mesh_buffer_size() * sizeof(float));
+}
+
 // Issue 29's `bowel` (641 nodes, one chained rod split over two cores, decision 0040), Newton with
 // the scene's 2 iterations, on `threads` threads: frames 60–300 (the grasp and the draw), each
 // timed by hand, its mesh made when read and never read. The 1 → 2 thread ratio of the medians is
@@ -99,6 +129,7 @@ void BM_Bowel(benchmark::State& state) {
 
 }  // namespace
 
+BENCHMARK(BM_SmallIntestineReader)->Arg(0)->Arg(1)->ArgNames({"gpu"})->Iterations(200)->UseManualTime()->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Bowel)->Arg(1)->Arg(2)->ArgNames({"threads"})->Iterations(2)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SmallIntestine)
     ->ArgsProduct({{2, 0}, {0, 1}})

@@ -1,5 +1,5 @@
-// The instruction-count gate's workloads: one step of `drop` and one skinning of a 10,000-vertex
-// mesh, with callgrind instrumenting and collecting only around them (valgrind --instr-atstart=no
+// The instruction-count gate's workloads: one step of `drop`, one skinning of a 10,000-vertex
+// mesh, and a render thread's acquire of it skinned on the CPU or as rings for the GPU, with callgrind instrumenting and collecting only around them (valgrind --instr-atstart=no
 // --collect-atstart=no: the set-up runs at near native speed). One thread, warmed up first, so
 // the count is the same on every run of the same binary.
 #include <valgrind/callgrind.h>
@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "haustra/frame_publisher.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/studies/skinning_study.hpp"
 #include "haustra/world.hpp"
@@ -47,6 +48,31 @@ int main(int argc, char** argv) {
     std::printf("skinned %zu vertices\n", w->mesh(0).vertices.count);
     return 0;
   }
-  std::fprintf(stderr, "usage: haustra_gate drop-frame|drop-fast-frame|skin-10k\n");
+  if (workload == "reader-cpu-10k" || workload == "reader-gpu-10k") {
+    // A render thread's acquire of a posed frame (decision 0110): the mesh skinned with its normals
+    // on the CPU, or only the rings' data for a host that skins on its GPU.
+    WorldDesc d = validation::study_organ(SkinningMethod::mean_value, 4);
+    d.threads = 1;
+    std::unique_ptr<World> w = World::create(d);
+    FramePublisher frames(*w);
+    frames.skin_on_gpu(workload == "reader-gpu-10k");
+    const auto poses = validation::study_poses();
+    w->pose_rod(0, w->base_pose(0), poses[1].strain);
+    frames.publish(*w);
+    (void)frames.acquire();  // warm
+    frames.release();
+    w->pose_rod(0, w->base_pose(0), poses[0].strain);
+    frames.publish(*w);
+    CALLGRIND_START_INSTRUMENTATION;
+    CALLGRIND_TOGGLE_COLLECT;
+    const FramePublisher::Slot& s = frames.acquire();
+    CALLGRIND_TOGGLE_COLLECT;
+    CALLGRIND_STOP_INSTRUMENTATION;
+    std::printf("acquired frame %llu: %zu vertices, %zu rings\n", static_cast<unsigned long long>(s.frame),
+                w->mesh_buffer_size(), w->ring_count());
+    frames.release();
+    return 0;
+  }
+  std::fprintf(stderr, "usage: haustra_gate drop-frame|drop-fast-frame|skin-10k|reader-cpu-10k|reader-gpu-10k\n");
   return 2;
 }

@@ -17,6 +17,7 @@
 #include <cstring>
 #include <fstream>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -391,7 +392,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         check_finite(w);
         break;
       }
-      case 23: {  // what a host reads: frames, beads' nodes, velocities, contacts, an estimate
+      case 23: {  // what a host reads: frames, beads' nodes, velocities, contacts, an estimate, the GPU binding
         haustra_counts c = sized<haustra_counts>();
         require(haustra_world_counts(w, &c) == HAUSTRA_OK, "counts");
         haustra_quat_view q{};
@@ -413,6 +414,28 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         for (std::size_t k = 0; k < written; ++k) require(contacts[k].bead < c.beads, "contact bead");
         haustra_estimate e = sized<haustra_estimate>();
         require(haustra_estimate_scene(scene, &def, &e) == HAUSTRA_OK && e.nodes > 0, "estimate");
+        // The GPU binding (decision 0110): its rings in range, and its sum the library's mesh.
+        haustra_gpu_skin g = sized<haustra_gpu_skin>();
+        require(haustra_world_gpu_skin(w, &g) == HAUSTRA_OK && g.vertices == c.mesh_vertices, "gpu skin");
+        std::vector<float> rings(HAUSTRA_GPU_RING_FLOATS * g.rings);
+        require(haustra_world_gpu_rings(w, rings.data(), rings.size()) == HAUSTRA_OK, "gpu rings");
+        haustra_vec3f_view mesh{};
+        require(haustra_world_mesh_positions(w, &mesh) == HAUSTRA_OK, "mesh view");
+        for (std::size_t i = 0; i < g.vertices; ++i) {
+          double d[3] = {0, 0, 0};
+          for (std::uint32_t k = g.vertex_slots[2 * i]; k < g.vertex_slots[2 * i] + g.vertex_slots[2 * i + 1]; ++k) {
+            require(k < g.slots && g.slot_rings[k] < g.rings, "gpu slot range");
+            const float* r = rings.data() + HAUSTRA_GPU_RING_FLOATS * g.slot_rings[k];
+            const float* co = g.slot_coefficients + 4 * std::size_t{k};
+            for (int row = 0; row < 3; ++row)
+              d[row] += double(r[4 * row]) * co[1] + double(r[4 * row + 1]) * co[2] + double(r[4 * row + 2]) * co[3] +
+                        double(r[4 * row + 3]) * co[0];
+          }
+          const double off = std::hypot(g.rest_positions[3 * i] + d[0] - mesh.x[i],
+                                        g.rest_positions[3 * i + 1] + d[1] - mesh.y[i],
+                                        g.rest_positions[3 * i + 2] + d[2] - mesh.z[i]);
+          require(off <= 1e-5 * (1.0 + std::abs(mesh.x[i]) + std::abs(mesh.y[i]) + std::abs(mesh.z[i])), "gpu sum");
+        }
         break;
       }
       default: check_finite(w); break;

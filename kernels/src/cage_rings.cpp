@@ -24,6 +24,18 @@ void ring_deltas(std::span<const RingPose> rest, std::span<const RingPose> now, 
   }
 }
 
+void gpu_ring_frame(std::span<const RingPose> rest, std::span<const RingPose> now, std::span<float> out) {
+  for (std::size_t g = 0; g < rest.size(); ++g) {
+    float* d = out.data() + kGpuRingFloats * g;
+    ring_deltas(rest.subspan(g, 1), now.subspan(g, 1), std::span<float>(d, kRingDeltaFloats));
+    const Eigen::Matrix3d carry = (now[g].rotation - rest[g].rotation) * rest[g].rotation.transpose();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) d[kRingDeltaFloats + 4 * r + c] = static_cast<float>(carry(r, c));
+      d[kRingDeltaFloats + 4 * r + 3] = 0.0f;
+    }
+  }
+}
+
 void cage_vertices(std::span<const RingPose> rings, std::span<const std::uint32_t> vertex_ring,
                    std::span<const Eigen::Vector3d> offset, std::span<Eigen::Vector3d> out) {
   for (std::size_t j = 0; j < vertex_ring.size(); ++j) {

@@ -1,6 +1,7 @@
 // The mesh at render rate (decision 0060) and deadline mode (decision 0061): a mesh made when read,
 // in the caller's thread or a reader's, has the bits of the mesh made every frame; a reader holds
-// a whole frame while the world steps on; frames over the budget are counted.
+// a whole frame while the world steps on; frames over the budget are counted; a reader that skins
+// on its GPU gets the rings' data the world gives (decision 0110).
 #include <doctest/doctest.h>
 
 #include <cstring>
@@ -125,6 +126,31 @@ TEST_CASE("deadline mode: frames over world.frame_budget are counted in the prof
                        doctest::Contains("world.frame_budget"), Error);
   CHECK_THROWS_WITH_AS(test::scene_world("demo", 1, {"world.mesh_update=sometimes"}),
                        doctest::Contains("world.mesh_update"), Error);
+}
+
+TEST_CASE("a reader that skins on its GPU gets the rings' data World::gpu_ring_frame gives, the same bits on 1 and 2 threads") {
+  // Decision 0110: the reader's acquire makes the rings alone, from the poses the stepping thread
+  // published; the world's own call makes them from its own rings.
+  std::vector<std::vector<float>> one;
+  for (const int threads : {1, 2}) {
+    auto w = test::scene_world("demo", threads, {"segment.mesh.procedural.vertices=2000"});
+    FramePublisher frames(*w);
+    frames.skin_on_gpu(true);
+    std::vector<float> own(kGpuRingFloats * w->ring_count());
+    for (int f = 0; f < 12; ++f) {
+      w->step();
+      frames.publish(*w);
+      const FramePublisher::Slot& s = frames.acquire();
+      CHECK_FALSE(s.mesh_made);  // nothing skinned on the CPU
+      w->gpu_ring_frame(own);
+      CHECK(s.gpu_rings == own);
+      frames.release();
+      if (threads == 1)
+        one.push_back(own);
+      else
+        CHECK(own == one[static_cast<std::size_t>(f)]);
+    }
+  }
 }
 
 }  // namespace haustra

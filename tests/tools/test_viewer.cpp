@@ -260,3 +260,40 @@ TEST_CASE("haustra view: a bad script line is refused before the window opens, n
   CHECK(r.code == 2);
   CHECK(r.err.find("s.txt line 2: expected `press X Y | press bead K`") != std::string::npos);
 }
+
+TEST_CASE("haustra view: the organ skinned by the GPU (the default) looks as the CPU's, and K switches between them") {
+  // Lifted by the scene's grasper, then paused, so both screenshots are of one frame: the shader's
+  // skin, then (K) the CPU's mesh.
+  const fs::path dir = scratch("gpu-skin");
+  const nlohmann::json rec = run_demo_script(dir, "skin",
+                                             "wait 100\npause\nwait 2\nscreenshot " + (dir / "gpu.png").string() +
+                                                 "\nkey K\nwait 2\nscreenshot " + (dir / "cpu.png").string() +
+                                                 "\nquit\n");
+  std::vector<std::string> switches;
+  for (const auto& e : rec["events"])
+    if (e["kind"].get<std::string>().rfind("skinning", 0) == 0) switches.push_back(e["kind"]);
+  REQUIRE(switches.size() == 2);
+  CHECK(switches[0] == "skinning gpu");  // from the first frame: llvmpipe runs the shader
+  CHECK(switches[1] == "skinning cpu");
+  CHECK(rec["organ_on_gpu"] == false);
+  const haustra::render::Image gpu = haustra::render::Image::load_png(dir / "gpu.png"),
+                               cpu = haustra::render::Image::load_png(dir / "cpu.png");
+  REQUIRE(gpu.width() == cpu.width());
+  // The same organ in the same place: tissue pixels agree, shades within what the normals' few
+  // degrees make (decision 0111).
+  long tissue = 0, both = 0;
+  double shade = 0.0;
+  for (int y = 0; y < gpu.height(); ++y)
+    for (int x = 390; x < gpu.width(); ++x) {
+      const auto a = gpu.at(x, y), b = cpu.at(x, y);
+      const bool ta = a.r > a.g + 0.15f && a.r > a.b + 0.15f, tb = b.r > b.g + 0.15f && b.r > b.b + 0.15f;
+      tissue += ta || tb ? 1 : 0;
+      both += ta && tb ? 1 : 0;
+      if (ta && tb) shade += std::abs(double(a.r) - double(b.r));
+    }
+  REQUIRE(tissue > 5000);
+  const double agree = double(both) / double(tissue), mean_shade = shade / double(std::max(both, 1L));
+  MESSAGE("tissue pixels " << tissue << ", on both " << agree << ", mean red difference " << mean_shade);
+  CHECK(agree > 0.98);
+  CHECK(mean_shade < 0.02);
+}

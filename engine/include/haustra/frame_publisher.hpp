@@ -38,6 +38,11 @@ class FramePublisher {
     std::vector<kernels::RingPose> rings;
     std::vector<float> ring_delta;  // the reader's scratch
     bool mesh_pending = false;
+    // Whether px..nz hold this frame's mesh: not for a reader that skins on its GPU (skin_on_gpu),
+    // whose acquire makes the frame's ring data alone (gpu_rings: kGpuRingFloats a ring; decision 0110).
+    bool mesh_made = false;
+    std::vector<float> gpu_rings;
+    bool gpu_pending = false;
     FrameDetails details;                       // filled when the publisher wants details
   };
 
@@ -64,6 +69,11 @@ class FramePublisher {
 
   // Whether cages are copied (a reader's toggle; takes effect from the next publish).
   void want_cages(bool on);
+  // The reader skins on its GPU (decision 0110): acquire makes the frame's ring data for the shader
+  // (Slot::gpu_rings, O(rings)) instead of skinning and the normals (O(vertices)). A reader's
+  // toggle, from its next acquire.
+  void skin_on_gpu(bool on);
+  [[nodiscard]] bool skins_on_gpu() const { return gpu_; }
 
   // The reading thread; one slot at a time. For a world whose mesh follows on read, the slot's
   // mesh is made here, in the reader's thread, before it is returned.
@@ -83,6 +93,7 @@ class FramePublisher {
   bool fresh_ = false, held_ = false;
   bool details_ = false;
   std::atomic<bool> cages_{false};  // set by the reader, read by the stepping thread
+  std::atomic<bool> gpu_{false};    // set and read by the reader
 };
 
 }  // namespace haustra

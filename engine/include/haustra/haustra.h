@@ -49,7 +49,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 14
+#define HAUSTRA_ABI_VERSION 15
 /* The oldest host ABI this library serves (haustra_check_abi). */
 #define HAUSTRA_ABI_OLDEST 14
 
@@ -190,6 +190,11 @@ typedef struct haustra_world_def {
   int max_substeps; /* the robust mode's top rung; default 64 */
   int max_retries;  /* redone attempts a frame may take; default 16 */
   int calm_frames;  /* calm frames before a climbed rung halves its substeps; default 120 */
+  /* 1: the host skins the organ meshes on its GPU (haustra_world_gpu_skin below; decision 0110): a
+   * double_buffered world's acquire makes the frame's ring data (haustra_frame.gpu_rings) and skins
+   * nothing, so the frame's mesh work is the cage alone; not with mesh_every_frame = 1. 0 (default):
+   * acquire skins the mesh on the CPU. Since ABI 15. */
+  int mesh_on_host_gpu;
 } haustra_world_def;
 
 /* One segment: a rod along a centreline (or straight), its beads, and its organ mesh. */
@@ -265,8 +270,12 @@ typedef struct haustra_frame {
   uint64_t frame;
   double time;
   haustra_vec3_view nodes;
-  haustra_vec3f_view mesh_positions;
+  haustra_vec3f_view mesh_positions; /* count 0 in a mesh_on_host_gpu world: the GPU skins */
   haustra_vec3f_view mesh_normals;
+  /* The frame's ring data for the skinning shader: HAUSTRA_GPU_RING_FLOATS floats a ring,
+   * gpu_ring_count rings (mesh_on_host_gpu worlds; NULL and 0 otherwise). Since ABI 15. */
+  const float* gpu_rings;
+  size_t gpu_ring_count;
 } haustra_frame;
 
 /* Version and ABI. haustra_check_abi: HAUSTRA_OK for an ABI from HAUSTRA_ABI_OLDEST to the
@@ -460,6 +469,35 @@ HAUSTRA_API haustra_status haustra_world_node_rotations(const haustra_world* wor
 HAUSTRA_API haustra_status haustra_world_bead_nodes(const haustra_world* world, const uint32_t** nodes, size_t* count);
 HAUSTRA_API haustra_status haustra_world_node_velocities(const haustra_world* world, double* linear, double* angular,
                                                          size_t count);
+/* Skinning on the host's GPU (since ABI 15; decision 0110; docs/skinning.md "Skinning on the host's
+ * GPU"; the shader is render/shaders/haustra_skin.glsl, installed in share/haustra/shaders). Every
+ * mesh vertex (indexed as the mesh buffers) is its rest position plus a sum over its slots, each a
+ * cage ring g and four coefficients (b, Ax, Ay, Az):
+ *     x' = x + sum_s [ dR_g (Ax, Ay, Az) + b dc_g ],   dR_g = R'_g - R_g, dc_g = c'_g - c_g,
+ * the CPU's sum (docs/skinning.md). Its normal: the rest normal under the cofactor of
+ * M = I + sum_s b (R'_g - R_g) R_g^T, normalized. haustra_world_gpu_skin's arrays are the world's
+ * (no copy), made on the first call and valid until the world is rebuilt (a segment added or
+ * removed, a material, a restore that rebuilds: as names and views) or destroyed; upload them once.
+ * haustra_world_gpu_rings copies the current frame's ring data into out[0..count), count =
+ * HAUSTRA_GPU_RING_FLOATS x rings: per ring six rows of four floats, [dR_g | dc_g] (3 rows) and
+ * [(R'_g - R_g) R_g^T | 0] (3 rows); it makes the rings alone (no vertex is skinned). A render thread
+ * of a double-buffered world reads the same from haustra_frame.gpu_rings (mesh_on_host_gpu = 1). */
+#define HAUSTRA_GPU_RING_FLOATS 24
+typedef struct haustra_gpu_skin {
+  size_t struct_size;
+  size_t vertices;                /* haustra_counts.mesh_vertices */
+  size_t rings;                   /* all segments' cage rings */
+  size_t slots;
+  uint32_t max_slots;             /* the most slots one vertex has */
+  const float* rest_positions;    /* 3 a vertex: x y z (m), the curved rest pose */
+  const float* rest_normals;      /* 3 a vertex: unit, the CPU's normals at rest (0 0 0: none) */
+  const uint32_t* vertex_slots;   /* 2 a vertex: its first slot and how many */
+  const uint32_t* slot_rings;     /* 1 a slot: the ring, 0 .. rings - 1 */
+  const float* slot_coefficients; /* 4 a slot: b, Ax, Ay, Az */
+} haustra_gpu_skin;
+HAUSTRA_API haustra_status haustra_world_gpu_skin(const haustra_world* world, haustra_gpu_skin* out);
+HAUSTRA_API haustra_status haustra_world_gpu_rings(const haustra_world* world, float* out, size_t count);
+
 /* The contacts of the last substep (since ABI 14): every bead and what it may touch, listed within
  * the margin at the substep's start; depth > 0 touches. Copied into out[0..capacity) (stride:
  * out[0].struct_size); `count` receives how many were written, `total` (may be NULL) how many there

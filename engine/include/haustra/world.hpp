@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "haustra/error.hpp"
+#include "haustra/gpu_skin.hpp"
 #include "haustra/kernels/cage_rings.hpp"
 #include "haustra/kernels/pose.hpp"
 #include "haustra/kernels/spans.hpp"
@@ -202,6 +203,14 @@ class World {
   void mesh_from_rings(std::span<const kernels::RingPose> rings, std::span<float> ring_delta,
                        kernels::Vec3View<float> positions, kernels::Vec3View<float> normals) const;
   [[nodiscard]] MeshUpdate mesh_update() const;
+  // Skinning on the host's GPU (decision 0110): the binding as GPU-ready buffers (built on the first
+  // call, in the caller's thread; kept until the world is rebuilt), and a frame's ring data,
+  // kGpuRingFloats × ring_count() floats: gpu_ring_frame makes the current frame's rings alone (no
+  // vertex is skinned); gpu_ring_frame_from makes them from poses another thread published
+  // (current_rings), reading only the model, so it may run while the world steps.
+  [[nodiscard]] const GpuSkinBinding& gpu_skin_binding() const;
+  void gpu_ring_frame(std::span<float> out) const;
+  void gpu_ring_frame_from(std::span<const kernels::RingPose> rings, std::span<float> out) const;
 
   // The deadline of a frame in seconds (world.frame_budget, decision 0061): a frame that takes
   // longer is counted in its profile (`late`) and in late_frames(). 0 turns it off.

@@ -117,15 +117,20 @@ Eigen::Vector3d finite_vec3(const double* v, const char* name) {
 }
 
 // The sizes a struct has had since it carried its size: its own, and for the two defs the sizes
-// before ABI 13 (frame limits) and ABI 11 / 12 (the ring fields, the anchors) added fields at their end.
+// before ABI 13 (frame limits), ABI 15 (mesh_on_host_gpu) and ABI 11 / 12 (the ring fields, the
+// anchors) added fields at their end; the frame's before ABI 15 (gpu_rings).
 template <class T>
 std::span<const std::size_t> sizes_of() {
   if constexpr (std::is_same_v<T, haustra_world_def>) {
-    static constexpr std::size_t sizes[] = {offsetof(haustra_world_def, max_substeps), sizeof(T)};
+    static constexpr std::size_t sizes[] = {offsetof(haustra_world_def, max_substeps),
+                                            offsetof(haustra_world_def, mesh_on_host_gpu), sizeof(T)};
     return sizes;
   } else if constexpr (std::is_same_v<T, haustra_segment_def>) {
     static constexpr std::size_t sizes[] = {offsetof(haustra_segment_def, max_rings_per_vertex),
                                             offsetof(haustra_segment_def, anchor_stiffness), sizeof(T)};
+    return sizes;
+  } else if constexpr (std::is_same_v<T, haustra_frame>) {
+    static constexpr std::size_t sizes[] = {offsetof(haustra_frame, gpu_rings), sizeof(T)};
     return sizes;
   } else {
     static constexpr std::size_t sizes[] = {sizeof(T)};
@@ -212,10 +217,11 @@ haustra_status guarded(const char* function, F&& body) noexcept {
   }
 }
 
-haustra_world* make_handle(std::unique_ptr<haustra::World> world, bool double_buffered) {
+haustra_world* make_handle(std::unique_ptr<haustra::World> world, bool double_buffered, bool gpu = false) {
   auto handle = std::make_unique<haustra_world>();
   handle->world = std::move(world);
   if (double_buffered) handle->frames = std::make_unique<haustra::FramePublisher>(*handle->world);
+  if (double_buffered && gpu) handle->frames->skin_on_gpu(true);  // the render thread's acquire skins nothing
   std::lock_guard lock(g_registry_mutex);
   registry().insert(handle.get());
   return handle.release();
@@ -233,6 +239,10 @@ haustra_world_def checked_def(const haustra_world_def& host) {
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("def.newton = {}: expected 0 (lagged), 1 (Newton) or 2 (fast)", d.newton));
   (void)flag(d.recover, "def.recover"), (void)flag(d.floor, "def.floor"), (void)flag(d.self_contact, "def.self_contact");
+  if (flag(d.mesh_on_host_gpu, "def.mesh_on_host_gpu") && d.mesh_every_frame == 1)
+    throw Error(ErrorCode::invalid_argument,
+                "def.mesh_on_host_gpu = 1 with def.mesh_every_frame = 1: a host that skins on its GPU wants the "
+                "step not to skin; set mesh_every_frame = 0");
   (void)flag(d.double_buffered, "def.double_buffered");
   return d;
 }
@@ -623,7 +633,7 @@ haustra_status haustra_world_create_from_scene_def(const char* scene_path, const
     if (scene_path == nullptr) throw Error(ErrorCode::invalid_argument, "scene_path is NULL");
     const haustra_world_def d = def != nullptr ? checked_def(*def) : world_defaults();
     const haustra::SceneDesc scene = scene_with_def(scene_path, d);
-    *out = make_handle(haustra::create_world(scene), d.double_buffered != 0);
+    *out = make_handle(haustra::create_world(scene), d.double_buffered != 0, d.mesh_on_host_gpu != 0);
   });
 }
 
@@ -688,7 +698,8 @@ haustra_status haustra_world_create(const haustra_world_def* def, const haustra_
   return guarded("haustra_world_create", [&] {
     required(out, "out");
     const haustra_world_def d = checked_def(required(def, "def"));
-    *out = make_handle(haustra::World::create(world_from_defs(d, segments, segment_count)), d.double_buffered != 0);
+    *out = make_handle(haustra::World::create(world_from_defs(d, segments, segment_count)), d.double_buffered != 0,
+                       d.mesh_on_host_gpu != 0);
   });
 }
 
@@ -825,6 +836,34 @@ haustra_status haustra_world_mesh_normals(const haustra_world* world, haustra_ve
     const haustra::World& w = held.world();
     const auto n = w.mesh_normals();
     required(out, "out") = haustra_vec3f_view{n.x.data(), n.y.data(), n.z.data(), w.mesh_buffer_size()};
+  });
+}
+
+static_assert(HAUSTRA_GPU_RING_FLOATS == haustra::kGpuRingFloats);
+
+haustra_status haustra_world_gpu_skin(const haustra_world* world, haustra_gpu_skin* out) {
+  return guarded("haustra_world_gpu_skin", [&] {
+    const Held held(world);
+    (void)known_size<haustra_gpu_skin>(required(out, "out").struct_size, "out");
+    const haustra::GpuSkinBinding& g = held.world().gpu_skin_binding();
+    write_out(out,
+              haustra_gpu_skin{sizeof(haustra_gpu_skin), g.vertices, g.rings, g.slots(), g.max_slots,
+                               g.rest_position.data(), g.rest_normal.data(), g.slot_range.data(), g.slot_ring.data(),
+                               g.slot_coefficient.data()},
+              "out");
+  });
+}
+
+haustra_status haustra_world_gpu_rings(const haustra_world* world, float* out, size_t count) {
+  return guarded("haustra_world_gpu_rings", [&] {
+    const Held held(world);
+    const haustra::World& w = held.world();
+    const std::size_t want = HAUSTRA_GPU_RING_FLOATS * w.ring_count();
+    if (count != want)
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("count = {}: expected {} (HAUSTRA_GPU_RING_FLOATS x {} rings)", count, want, w.ring_count()));
+    if (want > 0) required(out, "out");
+    w.gpu_ring_frame(std::span<float>(out, count));
   });
 }
 
@@ -1075,8 +1114,10 @@ haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* 
                             s.frame,
                             s.time,
                             {s.x.data(), s.y.data(), s.z.data(), s.x.size()},
-                            {s.px.data(), s.py.data(), s.pz.data(), s.px.size()},
-                            {s.nx.data(), s.ny.data(), s.nz.data(), s.nx.size()}},
+                            {s.px.data(), s.py.data(), s.pz.data(), s.mesh_made ? s.px.size() : 0},
+                            {s.nx.data(), s.ny.data(), s.nz.data(), s.mesh_made ? s.nx.size() : 0},
+                            h.frames->skins_on_gpu() ? s.gpu_rings.data() : nullptr,
+                            h.frames->skins_on_gpu() ? s.rings.size() : 0},
               "out");
   });
 }

@@ -19,7 +19,8 @@ void FramePublisher::size_slot(Slot& s, const World& w) const {
   for (auto* v : {&s.px, &s.py, &s.pz, &s.nx, &s.ny, &s.nz}) v->resize(w.mesh_buffer_size());
   s.rings.resize(w.ring_count());
   s.ring_delta.resize(kernels::kRingDeltaFloats * w.ring_count());
-  s.mesh_pending = false;
+  s.gpu_rings.resize(kGpuRingFloats * w.ring_count());
+  s.mesh_pending = s.gpu_pending = s.mesh_made = false;
   if (!details_) return;
   s.details.strain.resize(4 * w.node_count());
   s.details.rest_strain.resize(4 * w.node_count());
@@ -36,6 +37,7 @@ void FramePublisher::publish(const World& world) {
 }
 
 void FramePublisher::want_cages(bool on) { cages_ = on; }
+void FramePublisher::skin_on_gpu(bool on) { gpu_ = on; }
 
 const FramePublisher::Slot& FramePublisher::acquire() {
   std::unique_lock lock(mutex_);
@@ -48,12 +50,16 @@ const FramePublisher::Slot& FramePublisher::acquire() {
   }
   held_ = true;
   Slot& s = slots_[reading_];
-  if (s.mesh_pending) {
-    // Outside the lock: the stepping thread publishes meanwhile; the held slot is never written
-    // and the world's model is not changed while a slot is held (resize).
-    lock.unlock();
+  // Outside the lock: the stepping thread publishes meanwhile; the held slot is never written
+  // and the world's model is not changed while a slot is held (resize).
+  lock.unlock();
+  if (gpu_) {
+    if (s.gpu_pending) world_->gpu_ring_frame_from(s.rings, s.gpu_rings);
+    s.gpu_pending = false;
+  } else if (s.mesh_pending) {
     world_->mesh_from_rings(s.rings, s.ring_delta, {s.px, s.py, s.pz}, {s.nx, s.ny, s.nz});
     s.mesh_pending = false;
+    s.mesh_made = true;
   }
   return s;
 }
@@ -84,12 +90,15 @@ void FramePublisher::fill(Slot& s, const World& w) const {
     std::copy(from.z.begin(), from.z.end(), z.begin());
   };
   copy3(w.node_positions(), s.x, s.y, s.z);
+  w.current_rings(s.rings);  // the reader makes the mesh or the GPU's ring data (acquire)
+  s.gpu_pending = true;
   if (w.mesh_update() == MeshUpdate::on_read) {
-    w.current_rings(s.rings);  // the reader makes the mesh (acquire)
     s.mesh_pending = true;
+    s.mesh_made = false;
   } else {
     copy3(w.mesh_positions(), s.px, s.py, s.pz);
     copy3(w.mesh_normals(), s.nx, s.ny, s.nz);
+    s.mesh_made = true;
   }
   if (!details_) return;
   FrameDetails& d = s.details;

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <chrono>
+#include <memory>
 #include <source_location>
 #include <string_view>
 #include <utility>
@@ -62,6 +63,10 @@ struct World::Impl {
   // A reader's mesh from published ring poses; reads only the model (any thread, while stepping).
   void mesh_from_rings(const detail::MeshTarget& target) const;
   bool rings_stale = false, mesh_stale = false;
+  // The binding as a host's GPU reads it (World::gpu_skin_binding), made on first ask: a new model
+  // (a rebuild, a restore) comes with a new Impl, so it is never stale.
+  mutable std::unique_ptr<GpuSkinBinding> gpu_skin;
+  [[nodiscard]] GpuSkinBinding make_gpu_skin() const;
   std::uint64_t late_frames = 0;  // frames over desc.frame_budget since the world was created  // the world's own mesh is behind its rod
 
   // The API's segment (a piece of a chain, or the whole rod) that holds node `node` of rod `rod`,

@@ -61,6 +61,26 @@ void main() {
 }
 )";
 
+// The organ skinned on the GPU (decision 0110): the lit shader's outputs from the skinning shader.
+constexpr const char* kSkinMain = R"(
+layout(location = 0) in vec3 rest_position;
+layout(location = 1) in vec3 rest_normal;
+layout(location = 2) in vec4 colour;
+layout(location = 3) in uvec2 slots;
+uniform mat4 view_projection;
+out vec3 world_position;
+out vec3 world_normal;
+out vec4 vertex_colour;
+void main() {
+  vec3 p, n;
+  haustra_skin(rest_position, rest_normal, slots, p, n);
+  gl_Position = view_projection * vec4(p, 1.0);
+  world_position = p;
+  world_normal = n;
+  vertex_colour = colour;
+}
+)";
+
 unsigned compile(unsigned kind, const char* source) {
   const unsigned shader = glCreateShader(kind);
   glShaderSource(shader, 1, &source, nullptr);
@@ -152,6 +172,32 @@ GlScene::GlScene() {
   vp_location_ = glGetUniformLocation(program_, "view_projection");
   eye_location_ = glGetUniformLocation(program_, "eye");
   lit_location_ = glGetUniformLocation(program_, "lit");
+  try {  // a driver that cannot run the skinning shader draws the CPU's mesh
+    const std::string skin_source = skin_vertex_shader(kSkinMain);
+    const unsigned svs = compile(GL_VERTEX_SHADER, skin_source.c_str()), sfs = compile(GL_FRAGMENT_SHADER, kFragmentShader);
+    skin_program_ = glCreateProgram();
+    glAttachShader(skin_program_, svs);
+    glAttachShader(skin_program_, sfs);
+    glLinkProgram(skin_program_);
+    glDeleteShader(svs);
+    glDeleteShader(sfs);
+    glGetProgramiv(skin_program_, GL_LINK_STATUS, &ok);
+    skin_supported_ = ok != 0;
+  } catch (const Error&) {
+    skin_supported_ = false;
+  }
+  skin_vp_location_ = glGetUniformLocation(skin_program_, "view_projection");
+  skin_eye_location_ = glGetUniformLocation(skin_program_, "eye");
+  skin_lit_location_ = glGetUniformLocation(skin_program_, "lit");
+  glGenVertexArrays(1, &skin_vao_);
+  glGenBuffers(1, &skin_vbo_);
+  glGenBuffers(1, &skin_colour_vbo_);
+  glBindVertexArray(skin_vao_);
+  glBindBuffer(GL_ARRAY_BUFFER, skin_vbo_);
+  GpuSkinBuffers::vertex_attributes(3);
+  glBindBuffer(GL_ARRAY_BUFFER, skin_colour_vbo_);
+  glVertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, 4 * sizeof(float), nullptr);
+  glBindVertexArray(0);
   for (Batch* b : {&opaque_, &organ_, &lines_, &planes_, &grid_, &overlay_, &tubes_}) {
     glGenVertexArrays(1, &b->vao);
     glGenBuffers(1, &b->vbo);
@@ -176,15 +222,20 @@ GlScene::~GlScene() {
     glDeleteVertexArrays(1, &b->vao);
   }
   glDeleteProgram(program_);
+  glDeleteBuffers(1, &skin_vbo_);
+  glDeleteBuffers(1, &skin_colour_vbo_);
+  glDeleteVertexArrays(1, &skin_vao_);
+  if (skin_program_ != 0) glDeleteProgram(skin_program_);
 }
 
-std::array<Eigen::Vector3d, 2> drawn_bounds(const FramePublisher::Slot& f) {
+std::array<Eigen::Vector3d, 2> drawn_bounds(const FramePublisher::Slot& f, const ModelInfo& m) {
   if (f.x.empty()) return {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   for (std::size_t k = 0; k < f.x.size(); ++k) {
     lo = lo.cwiseMin(node(f, k));
     hi = hi.cwiseMax(node(f, k));
   }
+  if (!f.mesh_made) return {lo - Eigen::Vector3d::Constant(m.skin_reach), hi + Eigen::Vector3d::Constant(m.skin_reach)};
   for (std::size_t i = 0; i < f.px.size(); ++i) {  // the skin reaches a radius beyond the nodes
     const Eigen::Vector3d p(f.px[i], f.py[i], f.pz[i]);
     lo = lo.cwiseMin(p);
@@ -196,7 +247,7 @@ std::array<Eigen::Vector3d, 2> drawn_bounds(const FramePublisher::Slot& f) {
 void GlScene::build(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o, const OrbitCamera& camera) {
   for (Batch* b : {&opaque_, &organ_, &lines_, &planes_, &grid_, &overlay_, &tubes_}) b->clear();
   grid_ranges_.clear();
-  const auto [lo, hi] = drawn_bounds(f);
+  const auto [lo, hi] = drawn_bounds(f, m);
   subject_lo_ = lo;
   subject_hi_ = hi;
   subject_centre_ = 0.5 * (lo + hi);
@@ -213,19 +264,50 @@ void GlScene::build(const FramePublisher::Slot& f, const ModelInfo& m, const Dra
 
 void GlScene::prepare_lod(const FramePublisher::Slot& f, const ModelInfo& m) {
   if (m.triangles == lod_triangles_ && !lod_.chunks.empty()) return;
-  std::vector<Eigen::Vector3d> positions(f.px.size()), normals(f.px.size()), nodes(f.x.size());
-  for (std::size_t v = 0; v < f.px.size(); ++v) {
+  // The frame's mesh: the CPU's, or (rings for the GPU) the same sum on the CPU, once per model.
+  const bool rings = !f.mesh_made && m.gpu_skin && !f.gpu_pending;
+  if (!f.mesh_made && !rings) return;
+  const std::size_t n = f.mesh_made ? f.px.size() : m.gpu_skin->vertices;
+  std::vector<Eigen::Vector3d> positions(n), normals(n), nodes(f.x.size());
+  for (std::size_t v = 0; v < n; ++v) {
+    if (rings) {
+      const GpuSkinned s = gpu_skin_vertex(*m.gpu_skin, f.gpu_rings, v);
+      positions[v] = s.position;
+      normals[v] = s.normal;
+      continue;
+    }
     positions[v] = {f.px[v], f.py[v], f.pz[v]};
     normals[v] = {f.nx[v], f.ny[v], f.nz[v]};
   }
   for (std::size_t k = 0; k < f.x.size(); ++k) nodes[k] = node(f, k);
-  lod_ = m.vertex_node.size() == f.px.size() ? build_organ_lod(positions, normals, m.triangles, m.vertex_node, nodes)
-                                             : OrganLod{};
+  lod_ = m.vertex_node.size() == n ? build_organ_lod(positions, normals, m.triangles, m.vertex_node, nodes) : OrganLod{};
   lod_triangles_ = m.triangles;
+  ++lod_build_;
   glBindVertexArray(organ_.vao);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, organ_.ebo);
   glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(lod_.indices.size() * sizeof(std::uint32_t)),
                lod_.indices.data(), GL_STATIC_DRAW);
+  glBindVertexArray(0);
+}
+
+// The binding's buffers when the model changed, the LOD's vertices' attributes when the LOD did.
+void GlScene::prepare_gpu_skin(const ModelInfo& m) {
+  if (skin_binding_ != m.gpu_skin) {
+    skin_binding_ = m.gpu_skin;
+    skin_.upload_binding(*skin_binding_);
+    skin_lod_build_ = 0;
+  }
+  if (skin_lod_build_ == lod_build_) return;
+  const std::vector<SkinVertex> vertices = skin_vertices(*skin_binding_, lod_.source);
+  glBindBuffer(GL_ARRAY_BUFFER, skin_vbo_);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertices.size() * sizeof(SkinVertex)), vertices.data(),
+               GL_STATIC_DRAW);
+  skin_colours_.assign(4 * lod_.source.size(), 0.0f);
+  glBindBuffer(GL_ARRAY_BUFFER, skin_colour_vbo_);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(skin_colours_.size() * sizeof(float)), nullptr, GL_STREAM_DRAW);
+  skin_lod_build_ = lod_build_;
+  glBindVertexArray(skin_vao_);  // the LOD's indices, as the CPU path's VAO has them
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, organ_.ebo);
   glBindVertexArray(0);
 }
 
@@ -234,6 +316,19 @@ void GlScene::build_organ(const FramePublisher::Slot& f, const ModelInfo& m, con
   organ_transparent_ = o.beads || o.cage || o.centreline;
   const float alpha = organ_transparent_ ? 0.35f : 1.0f;
   prepare_lod(f, m);
+  if (m.gpu_skin && m.gpu_skin != skin_checked_) {
+    skin_checked_ = m.gpu_skin;
+    skin_fits_ = gpu_skinning_supported(*m.gpu_skin);
+  }
+  organ_on_gpu_ = wants_gpu_skinning(o) && !f.mesh_made && m.gpu_skin && !f.gpu_pending &&
+                  f.gpu_rings.size() == kGpuRingFloats * m.gpu_skin->rings && !lod_.chunks.empty();
+  if (organ_on_gpu_) {
+    prepare_gpu_skin(m);
+    skin_.upload_rings(f.gpu_rings);
+    skin_rings_.assign(f.gpu_rings.begin(), f.gpu_rings.end());
+  }
+  organ_plain_ = true;
+  organ_colour_ = {kTissue.r, kTissue.g, kTissue.b, alpha};
   lod_nodes_.resize(f.x.size());
   for (std::size_t k = 0; k < f.x.size(); ++k) lod_nodes_[k] = node(f, k);
   const LodView view{camera.view_projection().cast<double>(), camera.eye(),
@@ -250,13 +345,13 @@ void GlScene::build_organ(const FramePublisher::Slot& f, const ModelInfo& m, con
       for (std::size_t v = 0; v < m.meshes[piece].vertices.count; ++v)
         if (const std::size_t g = m.meshes[piece].vertices.offset + v; g < selected.size()) selected[g] = true;
   }
-  for (std::size_t chunk = 0; chunk < lod_.chunks.size(); ++chunk) {
+  for (std::size_t chunk = 0; chunk < lod_.chunks.size() && (organ_on_gpu_ || f.mesh_made); ++chunk) {
     if (lod_levels_[chunk] < 0) continue;
     const LodBlock& block = lod_.chunks[chunk].levels[static_cast<std::size_t>(lod_levels_[chunk])];
     const LodChunk& part = lod_.chunks[chunk];
     const double distance = (lod_nodes_[std::min<std::size_t>(part.first_node + part.node_count / 2, lod_nodes_.size() - 1)] - view.eye).norm();
-    lod_draws_.push_back(
-        {static_cast<std::uint32_t>(organ_.vertices.size()), block.first_index, block.index_count, distance});
+    lod_draws_.push_back({organ_on_gpu_ ? block.first_vertex : static_cast<std::uint32_t>(organ_.vertices.size()),
+                          block.first_index, block.index_count, distance, block.vertex_count});
     organ_triangles_drawn_ += block.index_count / 3;
     for (std::uint32_t i = 0; i < block.vertex_count; ++i) {
       const std::uint32_t v = lod_.source[block.first_vertex + i];
@@ -268,8 +363,19 @@ void GlScene::build_organ(const FramePublisher::Slot& f, const ModelInfo& m, con
         c = render::colormap(std::hypot(d1, d2) / std::max(o.strain_range, 1e-9));
       }
       if (!selected.empty() && selected[v]) c = kSelected;
+      if (organ_on_gpu_) {  // the skin is the GPU's: only a colour that is not the tissue's is sent
+        organ_plain_ = organ_plain_ && o.colour != Colouring::strain && selected.empty();
+        float* to = skin_colours_.data() + 4 * (std::size_t{block.first_vertex} + i);
+        to[0] = c.r, to[1] = c.g, to[2] = c.b, to[3] = alpha;
+        continue;
+      }
       organ_.vertices.push_back({{f.px[v], f.py[v], f.pz[v]}, {f.nx[v], f.ny[v], f.nz[v]}, {c.r, c.g, c.b, alpha}});
     }
+  }
+  if (organ_on_gpu_ && !organ_plain_) {
+    glBindBuffer(GL_ARRAY_BUFFER, skin_colour_vbo_);
+    glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(skin_colours_.size() * sizeof(float)),
+                    skin_colours_.data());
   }
   // Near chunks first: the depth test then spares the shading of what they hide.
   std::stable_sort(lod_draws_.begin(), lod_draws_.end(),
@@ -328,6 +434,18 @@ void pick_in(const Ray& ray, const std::vector<Vertex>& vertices, const std::uin
 
 std::optional<OrganHit> GlScene::pick_organ(const Ray& ray) const {
   std::optional<OrganHit> best;
+  if (organ_on_gpu_) {  // the drawn vertices where the shader put them: its sum on the CPU (gpu_skin.hpp)
+    std::vector<Vertex> drawn(lod_.source.size());
+    for (const LodDraw& d : lod_draws_)
+      for (std::uint32_t i = d.base_vertex; i < d.base_vertex + d.vertex_count; ++i) {
+        const Eigen::Vector3d p = gpu_skin_vertex(*skin_binding_, skin_rings_, lod_.source[i]).position;
+        drawn[i] = {{float(p.x()), float(p.y()), float(p.z())}, {0, 0, 1}, {0, 0, 0, 1}};
+      }
+    for (const LodDraw& d : lod_draws_)
+      pick_in(ray, drawn, lod_.indices.data() + d.first_index, d.index_count, d.base_vertex, best);
+    pick_in(ray, tubes_.vertices, tubes_.indices.data(), tubes_.indices.size(), 0, best);
+    return best;
+  }
   for (const LodDraw& d : lod_draws_)
     pick_in(ray, organ_.vertices, lod_.indices.data() + d.first_index, d.index_count, d.base_vertex, best);
   pick_in(ray, tubes_.vertices, tubes_.indices.data(), tubes_.indices.size(), 0, best);
@@ -497,6 +615,28 @@ void GlScene::draw_batch(const Batch& b, unsigned mode) {
 }
 
 void GlScene::draw_organ() {
+  if (organ_on_gpu_) {  // its own program, then back to the lit one for the tubes
+    glUseProgram(skin_program_);
+    glUniformMatrix4fv(skin_vp_location_, 1, GL_FALSE, draw_vp_.data());
+    glUniform3f(skin_eye_location_, draw_eye_.x(), draw_eye_.y(), draw_eye_.z());
+    glUniform1i(skin_lit_location_, 1);
+    skin_.bind(skin_program_, 0);
+    glBindVertexArray(skin_vao_);
+    if (organ_plain_) {  // one colour: a constant attribute, nothing sent per vertex
+      glDisableVertexAttribArray(2);
+      glVertexAttrib4f(2, organ_colour_[0], organ_colour_[1], organ_colour_[2], organ_colour_[3]);
+    } else {
+      glEnableVertexAttribArray(2);
+    }
+    for (const LodDraw& d : lod_draws_)
+      glDrawElementsBaseVertex(GL_TRIANGLES, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT,
+                               reinterpret_cast<void*>(static_cast<std::uintptr_t>(d.first_index) * sizeof(std::uint32_t)),
+                               static_cast<GLint>(d.base_vertex));
+    glUseProgram(program_);
+    glUniform1i(lit_location_, 1);
+    draw_batch(tubes_, GL_TRIANGLES);
+    return;
+  }
   glBindVertexArray(organ_.vao);
   for (const LodDraw& d : lod_draws_)
     glDrawElementsBaseVertex(GL_TRIANGLES, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT,
@@ -516,6 +656,8 @@ void GlScene::draw(const OrbitCamera& camera, const DrawOptions&, int width, int
   glUniformMatrix4fv(vp_location_, 1, GL_FALSE, vp.data());  // Eigen is column-major, as GL wants
   const Eigen::Vector3d eye_d = camera.eye();
   const Eigen::Vector3f eye = eye_d.cast<float>();
+  draw_vp_ = vp;
+  draw_eye_ = eye;
   glUniform3f(eye_location_, eye.x(), eye.y(), eye.z());
   glUniform1i(lit_location_, 1);
   glDisable(GL_BLEND);

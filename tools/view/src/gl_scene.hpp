@@ -2,14 +2,17 @@
 // The viewer's drawing: the organ mesh shaded with its normals, the floor grid, obstacles,
 // instruments and the overlays (beads, cage, centreline, contacts, colour by strain or
 // penetration), in OpenGL 3.3 core. Geometry is rebuilt on the CPU from each published frame; the
-// organ is drawn from its levels of detail (organ_lod.hpp) within a triangle budget.
+// organ is drawn from its levels of detail (organ_lod.hpp) within a triangle budget, skinned by the
+// GPU from the frame's rings where GL allows it (decision 0110), else from the CPU's mesh.
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "haustra/frame_publisher.hpp"
+#include "gpu_skin_gl.hpp"
 #include "organ_lod.hpp"
 #include "orbit_camera.hpp"
 #include "simulation.hpp"
@@ -27,8 +30,9 @@ struct Highlight {
   bool operator==(const Highlight&) const = default;
 };
 
-// The box around the organs as drawn: their nodes and their skin.
-std::array<Eigen::Vector3d, 2> drawn_bounds(const FramePublisher::Slot& frame);
+// The box around the organs as drawn: their nodes and their skin (a frame skinned by the GPU: the
+// nodes' box grown by the model's skin reach).
+std::array<Eigen::Vector3d, 2> drawn_bounds(const FramePublisher::Slot& frame, const ModelInfo& model);
 
 struct DrawOptions {
   bool beads = false, cage = false, centreline = false, contacts = false;
@@ -41,6 +45,7 @@ struct DrawOptions {
   // what keeps a 300k-vertex mesh interactive on a software renderer.
   std::size_t triangle_budget = 100'000;
   Highlight highlight;
+  bool gpu_skinning = true;  // the organ skinned by the GPU (K); the CPU's mesh where GL cannot
 };
 
 // Where a ray first meets the organ as drawn.
@@ -84,6 +89,13 @@ class GlScene {
   // Picking against what is drawn: the organ's triangles of the last build.
   [[nodiscard]] std::optional<OrganHit> pick_organ(const Ray& ray) const;
   [[nodiscard]] std::size_t organ_triangles_drawn() const { return organ_triangles_drawn_; }
+  // Whether the next frames should come as rings for the GPU (FramePublisher::skin_on_gpu): asked,
+  // and this context runs the shader for the model drawn last.
+  [[nodiscard]] bool wants_gpu_skinning(const DrawOptions& o) const {
+    return o.gpu_skinning && skin_supported_ && skin_fits_;
+  }
+  // Whether the organ of the last build was skinned by the GPU.
+  [[nodiscard]] bool organ_on_gpu() const { return organ_on_gpu_; }
 
  private:
   void build_organ(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o, const OrbitCamera& c);
@@ -93,6 +105,7 @@ class GlScene {
   void upload(Batch& b);
   void draw_batch(const Batch& b, unsigned mode);
   void draw_organ();
+  void prepare_gpu_skin(const ModelInfo& m);
 
   unsigned program_ = 0;
   int vp_location_ = -1, eye_location_ = -1, lit_location_ = -1;
@@ -112,11 +125,27 @@ class GlScene {
   struct LodDraw {
     std::uint32_t base_vertex = 0, first_index = 0, index_count = 0;
     double distance = 0.0;  // from the eye: drawn nearest first
+    std::uint32_t vertex_count = 0;
   };
   std::vector<LodDraw> lod_draws_;
   std::vector<int> lod_levels_;
   std::vector<Eigen::Vector3d> lod_nodes_;
   std::size_t organ_triangles_drawn_ = 0;
+  // Skinning on the GPU (decision 0110): its program, the binding's buffers, per LOD vertex its
+  // static attributes and (when not plain) its colour; the frame's rings kept for picking.
+  unsigned skin_program_ = 0;
+  int skin_vp_location_ = -1, skin_eye_location_ = -1, skin_lit_location_ = -1;
+  GpuSkinBuffers skin_;
+  unsigned skin_vao_ = 0, skin_vbo_ = 0, skin_colour_vbo_ = 0;
+  std::shared_ptr<const GpuSkinBinding> skin_binding_;  // uploaded to skin_
+  std::size_t skin_lod_build_ = 0, lod_build_ = 0;       // LOD builds: skin_vbo_ holds build skin_lod_build_'s
+  bool skin_supported_ = false, organ_on_gpu_ = false, organ_plain_ = true;
+  bool skin_fits_ = true;                                // the last model's binding fits a texture buffer
+  std::shared_ptr<const GpuSkinBinding> skin_checked_;   // the binding skin_fits_ is of
+  std::array<float, 4> organ_colour_{};
+  std::vector<float> skin_rings_, skin_colours_;
+  Eigen::Matrix4f draw_vp_ = Eigen::Matrix4f::Identity();  // draw()'s, for the organ's own program
+  Eigen::Vector3f draw_eye_ = Eigen::Vector3f::Zero();
   Batch tubes_;  // segments without a mesh
   bool organ_transparent_ = false;
   Eigen::Vector3d subject_centre_ = Eigen::Vector3d::Zero(), subject_lo_ = Eigen::Vector3d::Zero(),

@@ -16,7 +16,7 @@ namespace {
 constexpr double kNoticeSeconds = 8.0;  // a notice stays this long on screen
 
 // Every key and mouse action, as the help overlay lists them.
-constexpr std::array<std::pair<const char*, const char*>, 24> kHelp = {{
+constexpr std::array<std::pair<const char*, const char*>, 25> kHelp = {{
     {"left-drag on the organ", "grasp the bead under the pointer and drag it (in the view plane)"},
     {"  with Ctrl", "drag along the view axis"},
     {"  with Shift", "cut the connective tissue under the pointer, along the drag"},
@@ -35,6 +35,7 @@ constexpr std::array<std::pair<const char*, const char*>, 24> kHelp = {{
     {"G", "follow the grasped (or selected) part"},
     {"B", "beads"},
     {"T", "connective tissue (anchors; torn and cut ones as dots)"},
+    {"K", "skin the organ on the GPU (default where GL runs the shader) or on the CPU"},
     {"Tab", "panels"},
     {"I", "the inspector: organs, instruments, tissue, obstacles; select to highlight, edit live"},
     {"F1, H, ?", "this help"},
@@ -77,6 +78,7 @@ void view_menu(ViewerState& v) {
   ImGui::MenuItem("Centreline", nullptr, &v.draw.centreline);
   ImGui::MenuItem("Contacts", nullptr, &v.draw.contacts);
   ImGui::MenuItem("Connective tissue", "T", &v.draw.anchors);
+  ImGui::MenuItem("Skinning on the GPU", "K", &v.draw.gpu_skinning);
   ImGui::MenuItem("Panels", "Tab", &v.show_panels);
   ImGui::MenuItem("Inspector", "I", &v.inspector_open);
   ImGui::EndMenu();

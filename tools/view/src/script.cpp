@@ -126,7 +126,7 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
     if (l.command == "colour") check_word(l.words[0], {"tissue", "strain", "penetration"}, where);
     if (l.command == "key")
       check_word(l.words[0],
-                 {"F1", "H", "P", "V", "0", "1", "2", "3", "F", "G", "T", "B", "I", "TAB", "SPACE", "RIGHT", "ESC", "CTRL+R",
+                 {"F1", "H", "P", "V", "0", "1", "2", "3", "F", "G", "T", "K", "B", "I", "TAB", "SPACE", "RIGHT", "ESC", "CTRL+R",
                   "CTRL+O"},
                  where);
     if (l.command == "knob" && l.words.size() > 2) {  // gravity takes three numbers

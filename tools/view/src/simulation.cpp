@@ -179,6 +179,13 @@ void Simulation::publish_model() {
   const auto tris = w.mesh_triangles();
   info->triangles.assign(tris.begin(), tris.end());
   info->vertex_node = render::nearest_nodes(w);
+  if (w.mesh_buffer_size() > 0) info->gpu_skin = std::make_shared<GpuSkinBinding>(w.gpu_skin_binding());
+  const auto skin = w.mesh_positions();
+  const auto node_at = w.node_positions();
+  for (std::size_t v = 0; v < info->vertex_node.size() && v < skin.size(); ++v)
+    info->skin_reach = std::max(info->skin_reach, (Eigen::Vector3d(skin.x[v], skin.y[v], skin.z[v]) -
+                                                   node_at.get(info->vertex_node[v]))
+                                                      .norm());
   info->bead_nodes.assign(w.bead_nodes().begin(), w.bead_nodes().end());
   info->bead_radii.assign(w.bead_radii().begin(), w.bead_radii().end());
   info->anchor_nodes.assign(w.anchor_nodes().begin(), w.anchor_nodes().end());

@@ -48,6 +48,9 @@ struct ModelInfo {
   };
   std::vector<Organ> organs;
   std::vector<std::size_t> organ_of_segment;
+  // The binding as the GPU skins from it (decision 0110), copied once per model; null without a mesh.
+  std::shared_ptr<const GpuSkinBinding> gpu_skin;
+  double skin_reach = 0.0;  // m: the farthest a mesh vertex lies from its nearest node, at build
 };
 
 struct GraspAt {

@@ -51,6 +51,7 @@ void press_key(ViewerState& v, int key, int mods, int width, int height) {
     case GLFW_KEY_I: v.inspector_open = !v.inspector_open; break;
     case GLFW_KEY_B: v.draw.beads = !v.draw.beads; break;
     case GLFW_KEY_T: v.draw.anchors = !v.draw.anchors; break;
+    case GLFW_KEY_K: v.draw.gpu_skinning = !v.draw.gpu_skinning; break;
     case GLFW_KEY_F: v.camera_fitted = false; break;  // fit the camera to the organ again
     case GLFW_KEY_G: v.follow = !v.follow; break;
     case GLFW_KEY_1: set_view(v, View::front); break;
@@ -143,6 +144,7 @@ void fit_between_panels(ViewerState& v, const Eigen::Vector3d& lo, const Eigen::
 // only for this.
 void take_frame(ViewerState& v, GlScene& scene) {
   FramePublisher& frames = v.sim.frames();
+  frames.skin_on_gpu(scene.wants_gpu_skinning(v.draw));  // the frame as rings for the shader, or skinned here
   const FramePublisher::Slot& f = frames.acquire();
   v.model = v.sim.model();  // matches the slot: a rebuild waits for the release below
   const ModelInfo& m = *v.model;
@@ -163,7 +165,7 @@ void take_frame(ViewerState& v, GlScene& scene) {
     v.bead_centres[i] = {f.x[k], f.y[k], f.z[k]};
   }
   if (!v.camera_fitted && !f.x.empty() && m.generation >= v.fit_from_generation) {
-    const auto [lo, hi] = drawn_bounds(f);
+    const auto [lo, hi] = drawn_bounds(f, m);
     fit_between_panels(v, lo, hi);
     v.camera_fitted = true;
   }
@@ -192,6 +194,14 @@ void take_frame(ViewerState& v, GlScene& scene) {
     }
   }
   scene.build(f, m, v.draw, v.camera);
+  if (scene.organ_on_gpu() != v.organ_on_gpu) {  // recorded: which skinning drew the frames from here
+    InputEvent e;
+    e.kind = scene.organ_on_gpu() ? "skinning gpu" : "skinning cpu";
+    e.frame = f.frame;
+    e.camera = v.camera;
+    v.events.push_back(e);
+  }
+  v.organ_on_gpu = scene.organ_on_gpu();
   frames.release();
 }
 
@@ -202,6 +212,7 @@ void write_record(const ViewerState& v, const std::string& path) {
   j["scene"] = v.scene_name;
   j["frames"] = v.frame;
   j["unstable"] = v.sim.went_unstable();
+  j["organ_on_gpu"] = v.organ_on_gpu;  // the last frame's organ was skinned by the GPU (decision 0110)
   for (const Sample& s : v.samples)
     j["samples"].push_back({{"frame", s.frame},
                             {"time", s.time},

@@ -72,7 +72,7 @@ struct Sample {
   Eigen::Vector3d end = Eigen::Vector3d::Zero();  // the first organ's last node (a cantilever's tip)
 };
 struct InputEvent {
-  std::string kind;  // press, release
+  std::string kind;  // press, release, script ..., skinning gpu / cpu (the organ's skinning changed)
   std::uint64_t frame = 0;
   double x = 0, y = 0;
   bool on_organ = false;
@@ -132,6 +132,7 @@ struct ViewerState {
   int video_frames_per_shot = 1;  // physics frames between two video frames
   std::string video_pending;      // a script's `record FILE` or `record stop`, after the next draw
   bool follow = false;            // the camera keeps the grasped (or selected) part in the middle
+  bool organ_on_gpu = false;      // the last frame's organ was skinned by the GPU (decision 0110)
   bool inspector_open = false;  // I, or View > Inspector
   bool panels_were_shown = true, inspector_was_open = false;  // as last drawn: a toggle pans the view
   std::deque<ShownNotice> notices;

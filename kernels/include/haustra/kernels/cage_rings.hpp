@@ -26,6 +26,13 @@ void ring_poses(RodPoses<const double> rod, std::span<const std::uint32_t> stati
 // skinning kernels apply (x' = x + Σ_g [ΔR_g A_g + b_g Δc_g]). At rest it is exactly zero.
 void ring_deltas(std::span<const RingPose> rest, std::span<const RingPose> now, std::span<float> out);
 
+// What a vertex shader reads per ring to skin on a host's GPU (docs/skinning.md, "Skinning on the
+// host's GPU"): kGpuRingFloats floats, as six rows of four — rows 0–2 the same floats as
+// ring_deltas ([R' − R | c' − c]), rows 3–5 [(R' − R) Rᵀ | 0] (R the rest rotation), what carries a
+// vertex's rest normal: Σ_g b_g (R'_g − R_g) R_gᵀ + I is the rings' rotations blended by weight.
+inline constexpr std::size_t kGpuRingFloats = 24;
+void gpu_ring_frame(std::span<const RingPose> rest, std::span<const RingPose> now, std::span<float> out);
+
 // Cage vertex positions: p_j = c_g + R_g o_j for the ring g of vertex j.
 void cage_vertices(std::span<const RingPose> rings, std::span<const std::uint32_t> vertex_ring,
                    std::span<const Eigen::Vector3d> offset, std::span<Eigen::Vector3d> out);

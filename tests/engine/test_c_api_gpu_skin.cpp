@@ -1,0 +1,186 @@
+// Skinning on the host's GPU through the C API (decision 0110): the binding's buffers and a frame's
+// ring data give the library's own mesh by the shader's sum; a double-buffered world whose host
+// skins on its GPU hands the render thread rings, not a mesh; refusals name their field.
+#include <doctest/doctest.h>
+#include <haustra/haustra.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstddef>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "c_sized.hpp"
+
+namespace {
+
+bool gpu_says(const char* words) { return std::strstr(haustra_last_error(), words) != nullptr; }
+
+// The shader's sum, written out plainly from the header's words (an oracle apart from the library).
+void shader_sum(const haustra_gpu_skin& g, const std::vector<float>& rings, size_t v, double out[3]) {
+  double d[3] = {0, 0, 0};
+  for (uint32_t s = g.vertex_slots[2 * v]; s < g.vertex_slots[2 * v] + g.vertex_slots[2 * v + 1]; ++s) {
+    const float* r = rings.data() + HAUSTRA_GPU_RING_FLOATS * g.slot_rings[s];
+    const float* c = g.slot_coefficients + 4 * static_cast<size_t>(s);
+    for (int row = 0; row < 3; ++row)
+      d[row] += double(r[4 * row]) * c[1] + double(r[4 * row + 1]) * c[2] + double(r[4 * row + 2]) * c[3] +
+                double(r[4 * row + 3]) * c[0];
+  }
+  for (int k = 0; k < 3; ++k) out[k] = g.rest_positions[3 * v + k] + d[k];
+}
+
+// A chain of four pieces with procedural meshes, held at its base and sagging (as test_c_api.cpp's).
+haustra_world* sagging_chain(int double_buffered, int on_gpu) {
+  haustra_world_def def;
+  REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+  CHECK(def.mesh_on_host_gpu == 0);
+  def.threads = 1;
+  def.floor = 1;
+  def.floor_height = -0.5;
+  def.double_buffered = double_buffered;
+  def.mesh_on_host_gpu = on_gpu;
+  haustra_segment_def chain;
+  REQUIRE(haustra_segment_def_default(&chain) == HAUSTRA_OK);
+  chain.nodes = 11;
+  chain.chain_pieces = 4;
+  chain.length = 0.4;
+  chain.beads = 6;
+  chain.mesh = 1;
+  chain.mesh_vertices = 1000;
+  haustra_world* w = nullptr;
+  REQUIRE(haustra_world_create(&def, &chain, 1, &w) == HAUSTRA_OK);
+  for (int f = 0; f < 30; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  return w;
+}
+
+}  // namespace
+
+TEST_CASE("C API: the GPU binding and a frame's rings give the library's mesh to 1e-6 m") {
+  haustra_world* w = sagging_chain(0, 0);
+  haustra_counts counts = sized<haustra_counts>();
+  REQUIRE(haustra_world_counts(w, &counts) == HAUSTRA_OK);
+  haustra_gpu_skin g = sized<haustra_gpu_skin>();
+  REQUIRE(haustra_world_gpu_skin(w, &g) == HAUSTRA_OK);
+  CHECK(g.vertices == counts.mesh_vertices);
+  CHECK(g.rings > 0);
+  CHECK(g.slots >= 4 * g.vertices);  // at least rings_per_vertex = 4 each
+  CHECK(g.max_slots >= 4);
+  std::vector<float> rings(HAUSTRA_GPU_RING_FLOATS * g.rings);
+  CHECK(haustra_world_gpu_rings(w, rings.data(), rings.size() - 1) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(gpu_says("count"));
+  REQUIRE(haustra_world_gpu_rings(w, rings.data(), rings.size()) == HAUSTRA_OK);
+  haustra_vec3f_view p;
+  REQUIRE(haustra_world_mesh_positions(w, &p) == HAUSTRA_OK);
+  REQUIRE(p.count == g.vertices);
+  double worst = 0.0, moved = 0.0;
+  for (size_t v = 0; v < g.vertices; ++v) {
+    double x[3];
+    shader_sum(g, rings, v, x);
+    worst = std::max(worst, std::hypot(x[0] - p.x[v], x[1] - p.y[v], x[2] - p.z[v]));
+    moved = std::max(moved, double(std::hypot(p.x[v] - g.rest_positions[3 * v], p.y[v] - g.rest_positions[3 * v + 1],
+                                       p.z[v] - g.rest_positions[3 * v + 2])));
+  }
+  MESSAGE("the sagging chain moved up to " << moved << " m; the sum is " << worst << " m from the library's mesh");
+  CHECK(moved > 0.02);
+  CHECK(worst <= 1e-6);
+  // Unit rest normals, and every slot's ring in range.
+  for (size_t v = 0; v < g.vertices; ++v)
+    CHECK(std::hypot(g.rest_normals[3 * v], g.rest_normals[3 * v + 1], g.rest_normals[3 * v + 2]) ==
+          doctest::Approx(1.0).epsilon(1e-5));
+  size_t bad = 0;
+  for (size_t s = 0; s < g.slots; ++s) bad += g.slot_rings[s] >= g.rings ? 1 : 0;
+  CHECK(bad == 0);
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+}
+
+TEST_CASE("C API: a double-buffered world whose host skins on its GPU hands the render thread rings") {
+  haustra_world* w = sagging_chain(1, 1);
+  haustra_gpu_skin g = sized<haustra_gpu_skin>();
+  REQUIRE(haustra_world_gpu_skin(w, &g) == HAUSTRA_OK);
+  std::vector<float> rings(HAUSTRA_GPU_RING_FLOATS * g.rings);
+  REQUIRE(haustra_world_gpu_rings(w, rings.data(), rings.size()) == HAUSTRA_OK);
+  haustra_frame fr = sized<haustra_frame>();
+  REQUIRE(haustra_world_acquire_frame(w, &fr) == HAUSTRA_OK);  // lockstep: the frame just stepped
+  CHECK(fr.frame == 30);
+  CHECK(fr.mesh_positions.count == 0);  // nothing skinned on the CPU
+  CHECK(fr.mesh_normals.count == 0);
+  REQUIRE(fr.gpu_rings != nullptr);
+  REQUIRE(fr.gpu_ring_count == g.rings);
+  CHECK(std::memcmp(fr.gpu_rings, rings.data(), rings.size() * sizeof(float)) == 0);
+  REQUIRE(haustra_world_release_frame(w) == HAUSTRA_OK);
+  // A host built before ABI 15 passes the frame's older size: served, without the rings.
+  haustra_frame old{};
+  old.struct_size = offsetof(haustra_frame, gpu_rings);
+  REQUIRE(haustra_world_acquire_frame(w, &old) == HAUSTRA_OK);
+  CHECK(old.frame == 30);
+  REQUIRE(haustra_world_release_frame(w) == HAUSTRA_OK);
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+
+  // A render thread reading rings while the world steps: whole frames, finite, never a mesh.
+  w = sagging_chain(1, 1);
+  std::atomic<bool> stepping{true};
+  std::atomic<int> reads{0}, bad{0};
+  std::thread render([&, rings_expected = g.rings] {
+    while (stepping.load() || reads.load() == 0) {
+      haustra_frame f = sized<haustra_frame>();
+      if (haustra_world_acquire_frame(w, &f) != HAUSTRA_OK) {
+        bad += 1;
+        continue;
+      }
+      bool ok = f.gpu_ring_count == rings_expected && f.mesh_positions.count == 0;
+      for (size_t k = 0; ok && k < HAUSTRA_GPU_RING_FLOATS * f.gpu_ring_count; ++k) ok = std::isfinite(f.gpu_rings[k]);
+      bad += ok ? 0 : 1;
+      reads += 1;
+      if (haustra_world_release_frame(w) != HAUSTRA_OK) bad += 1;
+    }
+  });
+  for (int f = 0; f < 20; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
+  stepping = false;
+  render.join();
+  CHECK(reads.load() > 0);
+  CHECK(bad.load() == 0);
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+
+  // Without mesh_on_host_gpu the render thread gets the mesh and no rings.
+  w = sagging_chain(1, 0);
+  REQUIRE(haustra_world_acquire_frame(w, &fr) == HAUSTRA_OK);
+  CHECK(fr.mesh_positions.count > 0);
+  CHECK(fr.gpu_rings == nullptr);
+  CHECK(fr.gpu_ring_count == 0);
+  REQUIRE(haustra_world_release_frame(w) == HAUSTRA_OK);
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+}
+
+TEST_CASE("C API: mesh_on_host_gpu is checked, and a world_def of ABI 14's size still reads") {
+  haustra_world_def def;
+  REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+  haustra_segment_def seg;
+  REQUIRE(haustra_segment_def_default(&seg) == HAUSTRA_OK);
+  seg.nodes = 11;
+  haustra_world* w = nullptr;
+  def.mesh_on_host_gpu = 2;
+  CHECK(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(gpu_says("def.mesh_on_host_gpu = 2"));
+  def.mesh_on_host_gpu = 1;
+  def.mesh_every_frame = 1;
+  CHECK(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(gpu_says("mesh_every_frame"));
+  CHECK(w == nullptr);
+  def.mesh_every_frame = 0;
+  def.struct_size = offsetof(haustra_world_def, mesh_on_host_gpu);  // ABI 14's header: the field reads 0
+  REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
+  haustra_gpu_skin g = sized<haustra_gpu_skin>();
+  REQUIRE(haustra_world_gpu_skin(w, &g) == HAUSTRA_OK);  // no mesh: empty, not an error
+  CHECK(g.vertices == 0);
+  CHECK(g.rings == 0);
+  CHECK(haustra_world_gpu_rings(w, nullptr, 0) == HAUSTRA_OK);
+  g.struct_size = 3;
+  CHECK(haustra_world_gpu_skin(w, &g) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(gpu_says("out.struct_size = 3"));
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+  CHECK(haustra_abi_version() == HAUSTRA_ABI_VERSION);
+  CHECK(haustra_check_abi(14) == HAUSTRA_OK);
+  CHECK(haustra_check_abi(15) == HAUSTRA_OK);
+}
