@@ -19,7 +19,6 @@ enum class Stage : std::uint8_t {
   backward_sweep,  // node forces → generalized forces R
   condense,        // Newton: linearize and condense the system tip → base (or the banded LU's fallback);
                    // a split rod's parts also make their responses here, each in its own task (0087)
-  prefactor,       // fast mode: the next record's sweep handed to another thread, and swapped in a frame later
   solve,           // lagged: prefactored M and the strain law; Newton: the coupled unknowns' responses
                    // (a split rod's: folded with the join's result), multipliers and the step
   line_search,     // Newton: the step's fraction that lowers the frame's incremental potential

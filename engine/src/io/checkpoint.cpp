@@ -147,14 +147,12 @@ void visit_chords(Io& io, const WorldModel& model, State& st) {
     io(ws.chord_ready), io(ws.chord_frame), io(ws.chord_dt);
     io.list(ws.chord_pattern, model.segments[s].attachments.size() + model.segments[s].bead_count);
     io(ws.record), io(ws.gain), io(ws.base_solution), io(ws.responses);
-    // The prefactor planned for a coming frame (decision 0085), finished before a save: its sweep's
-    // outputs, so the restored world swaps in the record the uninterrupted one does.
-    auto& pf = ws.prefactor;
-    io(pf.pending);
-    if (!pf.pending) continue;
-    io(pf.ok), io(pf.frame), io(pf.replaces), io(pf.dt);
-    io.list(pf.pattern, model.segments[s].attachments.size() + model.segments[s].bead_count);
-    io(pf.record), io(pf.gain), io(pf.base_solution), io(pf.responses);
+    // Format 4 to 6 hold here whether fast mode's prefactor (solver.prefactor, removed by decision
+    // 0108) had a sweep in flight: always 0 now, and a file that had one is refused.
+    bool prefactor_pending = false;
+    io(prefactor_pending);
+    if (prefactor_pending)
+      io.mismatch("was saved with fast mode's prefactor in flight (solver.prefactor, removed in decision 0108)");
   }
 }
 // Appends values as raw little-endian bytes (the checkpoint is for the machine that wrote it, or
@@ -410,7 +408,6 @@ namespace haustra {
 
 std::vector<std::byte> World::save_checkpoint() const {
   const Use use(*this);
-  detail::settle_prefactors(impl_->state, impl_->scheduler);  // a prefactor's outputs are saved
   return detail::save_checkpoint(impl_->model, impl_->state, detail::parameters_of(impl_->desc));
 }
 
@@ -419,7 +416,6 @@ std::vector<std::byte> World::save_checkpoint() const {
 // yet in place, so that a checkpoint refused after it leaves the world as it was.
 void World::restore_checkpoint(std::span<const std::byte> bytes, const std::string& source) {
   const Use use(*this);
-  detail::settle_prefactors(impl_->state, impl_->scheduler);  // none writes what is restored
   const detail::OpenedCheckpoint opened = detail::open_checkpoint(impl_->model, impl_->desc, bytes, source);
   WorldDesc next = impl_->desc;
   detail::apply_parameters(opened.parameters, next);

@@ -154,10 +154,8 @@ MemoryEstimate estimate_memory(const WorldDesc& desc) {
                   2 * cols * (6 * cols + 60) * kDouble;  // the tip part's responses (decision 0087)
       } else {
         solver += gain_bytes(n, cols);
-        // Fast mode: the record, and the prefactor's (decision 0085) — a second record and gains,
-        // and its copy of a linearization (poses, loads, stiffness, law, residual: 40 doubles a node).
-        if (desc.solver.mode == SolverMode::fast)
-          solver += 2 * kernels::condensed_record_size(n) * kDouble + gain_bytes(n, cols) + n * 40 * kDouble;
+        // Fast mode: the record the chord iterations replay.
+        if (desc.solver.mode == SolverMode::fast) solver += kernels::condensed_record_size(n) * kDouble;
       }
       if (n <= detail::kBandFallbackNodes) solver += n * (kBandPerNode + 16 * cols * kDouble);
     }

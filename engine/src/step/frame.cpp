@@ -118,7 +118,7 @@ std::size_t World::Impl::run_frame(int n, bool newton, bool chord) {
       profile.iterations += 1;
       // The rods and the instruments' proxies converge together (a proxy that still moves asks
       // for another iteration, up to the most there may be).
-      if (all_converged(it + 1 >= iterations) && proxy_moved <= model.solver.attachment_tolerance) break;
+      if (all_converged(it + 1 >= iterations) && proxy_moved <= detail::kAttachmentTolerance) break;
     }
     if (model.beads.size() > 0) detail::record_bead_motion(model, state);
   }
@@ -130,15 +130,9 @@ std::size_t World::Impl::run_frame(int n, bool newton, bool chord) {
 // Newton (decision 0036): condense the linearized system tip → base, solve for the coupled unknowns
 // and the step, take the fraction of it that lowers the incremental potential (decision 0039).
 // The line search leaves the poses of the strains it took.
-// Fast mode's prefactor (decision 0085) around the condense stage: the record made for this frame
-// swapped in before it, the next one launched on another thread after it.
 void World::Impl::newton_iteration(const SubstepParameters& p) {
   backward_sweep();
-  if (detail::prefactor_swap_due(state))
-    timed(Stage::prefactor, [&] { detail::stage_prefactor_swap(model, state, scheduler, p); });
   timed(Stage::condense, [&] { detail::stage_condense(model, state, scheduler, p); });
-  if (detail::prefactor_launch_due(model, state, p))
-    timed(Stage::prefactor, [&] { detail::stage_prefactor_launch(model, state, scheduler, p); });
   timed(Stage::solve, [&] { detail::stage_newton_solve(model, state, scheduler, p); });
   timed(Stage::line_search, [&] { detail::stage_line_search(model, state, scheduler, p); });
   detail::end_unsolvable(model, state);
@@ -304,8 +298,7 @@ void World::Impl::collect_newton_counts() {
     profile.stiffenings += ws.stiffenings;
     profile.chords += ws.chords;
     profile.stalls += ws.stalls;
-    profile.prefactors += ws.prefactors;
-    ws.fallbacks = ws.backtracks = ws.stiffenings = ws.chords = ws.stalls = ws.prefactors = 0;
+    ws.fallbacks = ws.backtracks = ws.stiffenings = ws.chords = ws.stalls = 0;
   }
 }
 

@@ -534,7 +534,7 @@ void stage_newton_linearize(const WorldModel& model, WorldState& state, std::siz
       same = i < seg.attachments.size() ? ws.pattern_now[i] == ws.chord_pattern[i]
                                         : ws.pattern_now[i] <= ws.chord_pattern[i];
     ws.chord = p.chord && ws.chord_ready &&
-               state.frame - ws.chord_frame < static_cast<std::uint64_t>(model.solver.refactor_frames) &&
+               state.frame - ws.chord_frame < kRefactorFrames &&
                ws.chord_dt == p.dt && same;
   }
   NewtonSplit& sp = ws.split;

@@ -12,18 +12,6 @@ class Scheduler;
 void stage_condense(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p);
 void stage_newton_solve(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p);
 void stage_line_search(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p);
-// Fast mode's prefactor (prefactor.cpp, decision 0085), the stage `prefactor`: before the condense
-// stage, the prefactor planned for this frame waited for and swapped in as the record; after it,
-// where a rod replayed a record that comes of age two frames on, its linearization copied and the
-// whole sweep of it handed to another thread. The _due functions: whether there is any.
-bool prefactor_swap_due(const WorldState& state);
-void stage_prefactor_swap(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p);
-bool prefactor_launch_due(const WorldModel& model, const WorldState& state, const SubstepParameters& p);
-void stage_prefactor_launch(const WorldModel& model, WorldState& state, Scheduler& scheduler,
-                            const SubstepParameters& p);
-// Every prefactor in flight finished: before the state is saved, copied, restored or freed.
-void settle_prefactors(WorldState& state, Scheduler& scheduler);
-
 // Rods that neither the condensed sweep nor the banded LU could solve end their iterations here:
 // the guard reports them.
 void end_unsolvable(const WorldModel& model, WorldState& state);

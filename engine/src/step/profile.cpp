@@ -14,7 +14,6 @@ std::string_view stage_name(Stage s) noexcept {
     case Stage::free_base: return "free_base";
     case Stage::backward_sweep: return "backward_sweep";
     case Stage::condense: return "condense";
-    case Stage::prefactor: return "prefactor";
     case Stage::solve: return "solve";
     case Stage::line_search: return "line_search";
     case Stage::constraints: return "constraints";

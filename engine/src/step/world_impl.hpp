@@ -49,7 +49,6 @@ struct World::Impl {
   double motion_dt = 0.0;
 
   Impl(WorldDesc d, detail::WorldModel m);
-  ~Impl();  // waits for fast mode's prefactors in flight (they write the state)
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
 

@@ -15,7 +15,6 @@
 #include "haustra/kernels/skinning.hpp"
 #include "haustra/kernels/spans.hpp"
 #include "model/world_model.hpp"
-#include "step/background_job.hpp"
 
 namespace haustra::detail {
 
@@ -181,36 +180,6 @@ struct LineSearch {
   std::array<std::uint8_t, 2> deepens{};            // per part: a contact deepened too far
 };
 
-// Fast mode's prefactor (decision 0085): a whole sweep of one frame's linearization, made on
-// another thread into buffers of its own while that frame and the next go on, and swapped in as
-// the record two frames later — the frame the record it replaces comes of age. Planned from the
-// state alone (never from timing), so the same frames swap on 1 or 2 threads or a host's jobs.
-struct Prefactor {
-  // Its input, copied from the workspace and the state (the stepping thread goes on and changes
-  // them): the poses, loads and section lengths, the loads' and the law's stiffness, the residual.
-  Vec3Buffer position, mid_position, force, moment;
-  RotationBuffer rotation, mid_rotation;
-  std::vector<double> section_length, residual, law_tangent, bend_coupling, drag_moment_rate;
-  std::vector<Eigen::Matrix3d> force_stiffness;
-  std::vector<kernels::UnitLoad> loads;
-  std::vector<std::uint32_t> response_nodes;
-  std::array<double, 4> law_total{};
-  bool exp2 = false, has_stiffness = false, free_base = false;
-  int columns = 1;
-  // Its output: what a whole sweep leaves for chord iterations.
-  std::vector<double> gain, scratch, base_solution, record, responses;
-  bool ok = false;
-  // The plan: made from frame `frame`'s linearization (step length dt, contact pattern), to replace
-  // the record of frame `replaces` at frame frame + 2. pending: launched and not yet swapped.
-  bool pending = false;
-  std::uint64_t frame = 0, replaces = 0;
-  double dt = 0.0;
-  std::vector<std::uint32_t> pattern;
-  BackgroundJob job;
-
-  void allocate(std::size_t nodes, int max_columns, std::size_t pattern_entries);
-};
-
 // Scratch of one segment's Newton solve: the condensed sweep's gains and right-hand sides, the
 // step it gives, and — for rods up to kBandFallbackNodes — the banded LU it falls back to.
 struct NewtonWorkspace {
@@ -226,8 +195,6 @@ struct NewtonWorkspace {
   std::uint64_t chord_frame = 0;
   double chord_dt = 0.0;
   std::vector<std::uint32_t> chord_pattern, pattern_now;
-  Prefactor prefactor;                        // fast mode: the next record, made in the background
-  int prefactors = 0;                         // records this frame swapped in from a prefactor
   NewtonSplit split;                          // joint == 0: the rod is solved whole
   bool ok = true;                             // the whole rod's sweep held its pivots
   std::vector<kernels::UnitLoad> loads;       // this iteration's unit loads, by node descending
@@ -323,7 +290,6 @@ struct CollisionState {
   std::vector<std::vector<ContactCandidate>> chunk_candidates;
   std::vector<std::size_t> chunk_count;
   kernels::SphereGrid grid;
-  std::vector<std::uint32_t> sweep_order;
   // Per bead, the candidates it takes part in: (candidate << 1) | side, side 1 for the second bead.
   std::vector<std::uint32_t> bead_contact_start;
   std::vector<std::uint32_t> bead_contact;
