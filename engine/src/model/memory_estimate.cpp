@@ -13,8 +13,6 @@
 #include "haustra/world.hpp"
 #include "model/world_desc_checks.hpp"
 #include "model/world_model.hpp"
-#include "step/collision.hpp"
-#include "step/world_state.hpp"
 
 namespace haustra {
 namespace {

@@ -24,6 +24,10 @@
 namespace haustra::detail {
 
 inline constexpr std::size_t kMaxConstraintRows = 24;  // four clamps (3 position + 3 frame rows)
+// Contacts a Newton iteration couples exactly, per segment (the rest are loads): sizes its columns.
+inline constexpr std::size_t kMaxCoupledContacts = 40;
+// Rods up to this many nodes keep the banded LU as the condensed sweep's fallback.
+inline constexpr std::size_t kBandFallbackNodes = 4096;
 
 // The solver's constants (scene keys until decision 0108; no scene, test or host set them).
 // Newton keeps iterating while an active attachment misses its target by more than this (m).
@@ -189,6 +193,8 @@ struct NormalChunk {
 struct WorldModel {
   Eigen::Vector3d gravity;
   double dt = 0.0;
+  double frame_budget = 0.0;                         // s; 0: none (decision 0061); a run-time setting
+  MeshUpdate mesh_update = MeshUpdate::on_read;      // decision 0060
   SolverDesc solver;
   FilterDesc filter;
   std::vector<SegmentModel> segments;  // the rods

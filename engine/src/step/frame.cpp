@@ -157,7 +157,7 @@ void World::Impl::follow_rod() {
   const auto beads = state.collision.bead_position.view();
   for (std::size_t b = 0; b < beads.size(); ++b) beads.set(b, state.now.position.view().get(model.beads.node[b]));
   rings_stale = mesh_stale = model.any_mesh;
-  if (desc.mesh_update == MeshUpdate::every_frame) bring_mesh_up_to_date();
+  if (model.mesh_update == MeshUpdate::every_frame) bring_mesh_up_to_date();
 }
 
 // The world's own mesh at the current frame, if it is not already: rings, skinning, normals.
@@ -311,7 +311,7 @@ void World::Impl::finish_frame(const Rung& kept, Clock::time_point t0) {
   motion_dt = model.dt;
   profile.frame_seconds = seconds_since(t0);
   // Deadline mode (decision 0061): the frame is already done; the host learns it came late.
-  if (desc.frame_budget > 0.0 && profile.frame_seconds > desc.frame_budget) {
+  if (model.frame_budget > 0.0 && profile.frame_seconds > model.frame_budget) {
     profile.late = 1;
     late_frames += 1;
   }

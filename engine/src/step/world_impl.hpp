@@ -15,8 +15,8 @@
 #include "step/anchors.hpp"
 #include "step/mesh_stages.hpp"
 #include "step/rod_stages.hpp"
-#include "step/scheduler.hpp"
-#include "step/world_state.hpp"
+#include "sched/scheduler.hpp"
+#include "state/world_state.hpp"
 
 namespace haustra {
 
@@ -61,7 +61,7 @@ struct World::Impl {
   // A reader's mesh from published ring poses; reads only the model (any thread, while stepping).
   void mesh_from_rings(const detail::MeshTarget& target) const;
   bool rings_stale = false, mesh_stale = false;
-  std::uint64_t late_frames = 0;  // frames over desc.frame_budget since the world was created  // the world's own mesh is behind its rod
+  std::uint64_t late_frames = 0;  // frames over the model's frame_budget since the world was created  // the world's own mesh is behind its rod
 
   // The API's segment (a piece of a chain, or the whole rod) that holds node `node` of rod `rod`,
   // and the node's index in it; a joint node counts as the later piece's base.

@@ -1,10 +1,9 @@
 // The per-frame state (mjData) sized once from the model.
-#include "step/world_state.hpp"
+#include "state/world_state.hpp"
 
 #include <algorithm>
 
 #include "haustra/kernels/rod_forward_sweep.hpp"
-#include "step/collision.hpp"
 
 namespace haustra::detail {
 namespace {

@@ -240,8 +240,6 @@ struct NewtonWorkspace {
   void allocate(std::size_t nodes, int columns, bool with_band, std::size_t split_at);
 };
 
-// Rods up to this many nodes keep the banded LU as the condensed sweep's fallback.
-inline constexpr std::size_t kBandFallbackNodes = 4096;
 
 using ContactCandidate = Contact;
 

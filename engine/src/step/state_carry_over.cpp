@@ -1,6 +1,6 @@
 // Adding and removing segments between frames: the world rebuilt from its new description, every
 // other segment's state carried over (decision 0031).
-#include "model/state_carry_over.hpp"
+#include "step/state_carry_over.hpp"
 
 #include <algorithm>
 
