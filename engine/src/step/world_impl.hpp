@@ -117,8 +117,7 @@ struct World::Impl {
   };
 
   // frame.cpp: the frame's verbs, in pipeline order.
-  Rung attempt_until_stable(Clock::time_point t0);
-  void newton_iteration(const detail::SubstepParameters& p);
+  void keep_rung(const Failure& first, const Rung& rung);
   void lagged_iteration(const detail::SubstepParameters& p);
   void move_instruments();
   void snapshot(bool newton);
