@@ -37,6 +37,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "haustra/report_fields.h"
+
 #if defined(_WIN32)
 #define HAUSTRA_API __declspec(dllexport)
 #else
@@ -134,7 +136,9 @@ typedef struct haustra_instrument_reading {
   int cutting; /* cuts the connective tissue within its cut radius (decision 0095). Since ABI 12. */
 } haustra_instrument_reading;
 
-#define HAUSTRA_STAGE_COUNT 20
+/* The frame's stages (report_fields.h: HAUSTRA_STAGES lists them, with what each does); their
+ * names by haustra_stage_name. */
+#define HAUSTRA_STAGE_COUNT (0 HAUSTRA_STAGES(HAUSTRA_COUNT_STAGE))
 
 typedef struct haustra_profile {
   size_t struct_size;

@@ -89,11 +89,9 @@ void visit_members(Io& io, A& a) {
 }
 template <class Io, StateOf<InstrumentState> I>
 void visit_members(Io& io, I& in) {
-  io(in.tip), io(in.axis), io(in.frame), io(in.closed), io(in.cutting), io(in.scripted), io(in.grasping), io(in.grasp_segment),
-      io(in.grasp_attachment), io(in.grasp_bead), io(in.grasp_offset), io(in.grasp_rotation), io(in.force),
-      io(in.torque), io(in.filtered_force), io(in.filtered_torque), io(in.coupled), io(in.grasp_node),
-      io(in.grasp_target), io(in.target_start), io(in.coupling_force), io(in.slipped), io(in.command_tip),
-      io(in.command_start), io(in.proxy_start), io(in.proxy_force), io(in.reach);
+#define HAUSTRA_VISIT_FIELD(type, name, initial, meaning) io(in.name);
+  HAUSTRA_INSTRUMENT_STATE(HAUSTRA_VISIT_FIELD)  // state/world_state.hpp: the list, in this order
+#undef HAUSTRA_VISIT_FIELD
 }
 template <class Io, StateOf<RunTimeParameters::Coupling> C>
 void visit_members(Io& io, C& c) {
