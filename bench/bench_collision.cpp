@@ -1,4 +1,4 @@
-// Google Benchmark: the broad phase (brute force, sort-and-sweep, grid) and the narrow phase alone,
+// Google Benchmark: the broad phase (brute force, grid) and the narrow phase alone,
 // from the paper's 55 beads to 100,000, at constant bead density. The counter "time/bead" is the
 // cost per bead: flat for the grid and the narrow phase, linear in the count for brute force
 // (quadratic in total). Compare within one run: this machine is shared and noisy.
@@ -100,12 +100,6 @@ void BM_BroadPhaseBrute(benchmark::State& state) {
   run(state, [](const Beads& b, std::span<SpherePair> out) { return broad_phase_brute(b.set(), kMargin, out); });
 }
 
-void BM_BroadPhaseSweep(benchmark::State& state) {
-  std::vector<std::uint32_t> order(static_cast<std::size_t>(state.range(0)));
-  run(state,
-      [&](const Beads& b, std::span<SpherePair> out) { return broad_phase_sweep(b.set(), kMargin, order, out); });
-}
-
 void BM_BroadPhaseGrid(benchmark::State& state) {
   SphereGrid grid;
   run(state, [&](const Beads& b, std::span<SpherePair> out) {
@@ -171,7 +165,6 @@ void counts(benchmark::internal::Benchmark* b, long long largest) {
 
 // Brute force stops at 20,000 beads (2·10⁸ pair tests a call): its trend is plain by then.
 BENCHMARK(BM_BroadPhaseBrute)->Apply([](benchmark::internal::Benchmark* b) { counts(b, 20000); });
-BENCHMARK(BM_BroadPhaseSweep)->Apply([](benchmark::internal::Benchmark* b) { counts(b, 100000); });
 BENCHMARK(BM_BroadPhaseGrid)->Apply([](benchmark::internal::Benchmark* b) { counts(b, 100000); });
 BENCHMARK(BM_NarrowPhase)->Apply([](benchmark::internal::Benchmark* b) { counts(b, 100000); });
 

@@ -19,34 +19,6 @@ std::size_t broad_phase_brute(const SphereSet& s, double margin, std::span<Spher
   return count;
 }
 
-std::size_t broad_phase_sweep(const SphereSet& s, double margin, std::span<std::uint32_t> order,
-                              std::span<SpherePair> out) {
-  const std::size_t n = s.size();
-  for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(i);
-  // Ties broken by index: the same order on every run.
-  std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(n), [&](std::uint32_t a, std::uint32_t b) {
-    const double la = s.x[a] - s.radius[a], lb = s.x[b] - s.radius[b];
-    return la < lb || (la == lb && a < b);
-  });
-  std::size_t count = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint32_t a = order[i];
-    const double hi = s.x[a] + s.radius[a] + margin;
-    for (std::size_t j = i + 1; j < n; ++j) {
-      const std::uint32_t b = order[j];
-      if (s.x[b] - s.radius[b] > hi) break;
-      if (spheres_near(s, a, b, margin)) {
-        if (count < out.size()) out[count] = {std::min(a, b), std::max(a, b)};
-        ++count;
-      }
-    }
-  }
-  if (count <= out.size())
-    std::sort(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(count),
-              [](const SpherePair& p, const SpherePair& q) { return p.a < q.a || (p.a == q.a && p.b < q.b); });
-  return count;
-}
-
 namespace {
 
 constexpr int kKeyBits = 21;  // per axis: 2M cells

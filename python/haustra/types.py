@@ -26,7 +26,6 @@ class Profile(TypedDict):
     chords: int  # fast mode: Newton iterations that reused the last factorization
     stalls: int  # line searches that took no part of a step that was not small
     late: int  # 1 when the frame took longer than world.frame_budget
-    prefactors: int  # fast mode: records swapped in that were made two frames before, in the background
     newton: bool  # the frame that was kept ran Newton iterations
 
 

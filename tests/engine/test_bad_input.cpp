@@ -232,7 +232,8 @@ std::vector<BadInput> catalogue(const Scratch& s) {
       scene(m + "\n[[instrument]]\nforce_limit = 0.0\n", {"instrument[0].force_limit", "(0, 1e5]"}, ErrorCode::invalid_argument),
       scene(m + "\n[[instrument]]\nholding_force = -2\n", {"instrument[0].holding_force", "never slips"}, ErrorCode::invalid_argument),
       scene(m + "\n[solver]\nmax_iterations = 0\n", {"solver.max_iterations", "[1, 10000]"}, ErrorCode::invalid_argument),
-      scene(m + "\n[solver]\nattachment_tolerance = -1\n", {"solver.attachment_tolerance", "positive"}, ErrorCode::invalid_argument),
+      scene(m + "\n[solver]\nattachment_tolerance = 1e-5\n", {"test.toml:11", "solver.attachment_tolerance", "removed in decision 0108"}),
+      scene(m + "\n[solver]\nprefactor = true\n", {"test.toml:11", "solver.prefactor", "removed in decision 0108"}),
       // Centrelines.
       centreline(s, "c-text.json", "[0, 0, 0]", ErrorCode::parse, {"expected a JSON object"}),
       centreline(s, "c-broken.json", "{\"units\": \"mm\", \"points\": [[0, 0, 0]", ErrorCode::parse, {"not valid JSON"}),
@@ -466,7 +467,7 @@ TEST_CASE("bad-input catalogue: every case fails with its error code and a messa
   const std::vector<BadInput> cases = catalogue(scratch);
   // Exactly the catalogue's cases: one lost in an edit (a list that silently shrinks) fails here;
   // a new case raises the count.
-  CHECK(cases.size() == 157);
+  CHECK(cases.size() == 158);
   for (const BadInput& c : cases) {
     INFO(c.label);
     std::string message;

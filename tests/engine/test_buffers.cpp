@@ -6,7 +6,7 @@
 
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
-#include "step/world_state.hpp"
+#include "state/world_state.hpp"
 
 using namespace haustra;
 

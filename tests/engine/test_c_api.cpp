@@ -69,7 +69,7 @@ TEST_CASE("C API: version and ABI check") {
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION) == HAUSTRA_OK);
   CHECK(std::string(haustra_last_error()).empty());
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION + 1) == HAUSTRA_ABI_MISMATCH);
-  CHECK(says("ABI 14"));
+  CHECK(says("ABI 15"));
   CHECK(std::string(haustra_stage_name(0)) == "instruments");
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT - 1) != nullptr);
   CHECK(haustra_stage_name(HAUSTRA_STAGE_COUNT) == nullptr);

@@ -410,6 +410,8 @@ TEST_CASE(
   CHECK(haustra_abi_version() == HAUSTRA_ABI_VERSION);
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION) == HAUSTRA_OK);
   CHECK(haustra_check_abi(HAUSTRA_ABI_OLDEST) == HAUSTRA_OK);
+  CHECK(haustra_check_abi(14) == HAUSTRA_ABI_MISMATCH);
+  CHECK(said("took the stage \"prefactor\""));
   CHECK(haustra_check_abi(13) == HAUSTRA_ABI_MISMATCH);
   CHECK(said("structs before ABI 14 carry no size"));
   CHECK(haustra_check_abi(HAUSTRA_ABI_VERSION + 1) == HAUSTRA_ABI_MISMATCH);

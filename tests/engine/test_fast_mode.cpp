@@ -44,103 +44,13 @@ TEST_CASE("fast mode reaches the elastica under a large load applied at once, re
   CHECK(std::hypot(p.x[tip] - ref.x, p.z[tip] - ref.z) < 1e-4);
   CHECK(chords >= 5);
   CHECK(w->events().empty());
-  // Settled, frames reuse it until it is solver.refactor_frames (8) old.
+  // Settled, frames reuse it until it is kRefactorFrames (8) old.
   int settled = 0;
   for (int f = 0; f < 16; ++f) {
     w->step();
     settled += w->last_profile().chords;
   }
   CHECK(settled == 14);
-  // With the prefactor (decision 0085) every frame replays one: the factorization that comes of
-  // age is replaced by one made two frames early in the background.
-  auto early = create_world(test::scene_desc("cantilever", {"solver.mode=fast", "solver.prefactor=true"}));
-  for (int f = 0; f < 15; ++f) early->step();
-  int early_settled = 0;
-  for (int f = 0; f < 16; ++f) {
-    early->step();
-    early_settled += early->last_profile().chords;
-  }
-  CHECK(early_settled == 16);
-}
-
-namespace {
-
-// Per frame of a fast-mode run: whether it replayed a factorization (chords), swapped in a
-// prefactor, and ran the prefactor stage (a launch, or a swap).
-struct FastFrames {
-  std::vector<int> refactored, swapped, launched;  // frame numbers
-  int chords = 0, iterations = 0;
-};
-
-FastFrames run_fast(World& w, int frames) {
-  FastFrames out;
-  for (int f = 0; f < frames; ++f) {
-    w.step();
-    const FrameProfile& p = w.last_profile();
-    const int frame = static_cast<int>(w.frame()) - 1;
-    out.chords += p.chords;
-    out.iterations += p.iterations;
-    if (p.chords == 0) out.refactored.push_back(frame);
-    if (p.prefactors > 0) out.swapped.push_back(frame);
-    if (p.calls[static_cast<std::size_t>(Stage::prefactor)] > 0 && p.prefactors == 0) out.launched.push_back(frame);
-  }
-  return out;
-}
-
-}  // namespace
-
-TEST_CASE("fast mode's prefactor swaps in on the planned frames: launched two frames before the record comes of age, none late") {
-  // The cantilever settled under its load: nothing but the factorization's age asks for a new one.
-  // A record made from frame f's linearization serves until it is refactor_frames (8) old: frame
-  // f + 6 launches the sweep of its own linearization, frame f + 8 swaps it in (the sweep has the
-  // rest of frame f + 6 and all of f + 7 on the other core) — every 6 frames, each frame a chord
-  // frame. Without the prefactor, every 8th frame factors afresh on its own time.
-  auto w = create_world(test::scene_desc("cantilever", {"solver.mode=fast", "solver.prefactor=true"}));
-  for (int f = 0; f < 15; ++f) w->step();
-  const FastFrames fast = run_fast(*w, 40);
-  MESSAGE("cantilever, frames 15–54: swapped at " << fast.swapped.size() << " frames, refactored at "
-                                                   << fast.refactored.size());
-  CHECK(fast.refactored.empty());
-  REQUIRE(fast.swapped.size() >= 5);
-  for (std::size_t i = 1; i < fast.swapped.size(); ++i) CHECK(fast.swapped[i] - fast.swapped[i - 1] == 6);
-  for (const int s : fast.swapped)  // each swap's sweep was launched two frames before it
-    if (s > 16) CHECK(std::find(fast.launched.begin(), fast.launched.end(), s - 2) != fast.launched.end());
-  CHECK(fast.launched.size() + 1 >= fast.swapped.size());
-
-  auto plain = create_world(test::scene_desc("cantilever", {"solver.mode=fast", "solver.prefactor=false"}));
-  for (int f = 0; f < 15; ++f) plain->step();
-  const FastFrames before = run_fast(*plain, 40);
-  CHECK(before.swapped.empty());
-  CHECK(before.launched.empty());
-  REQUIRE(before.refactored.size() == 5);
-  for (std::size_t i = 1; i < before.refactored.size(); ++i)
-    CHECK(before.refactored[i] - before.refactored[i - 1] == 8);
-}
-
-TEST_CASE("fast mode's prefactor on drop: the age-limited refactorizations leave the critical path, the fall as Newton's") {
-  // drop's 300 frames (falling, landing, piling up, settling). Refactorizations stay only where a
-  // bead starts touching (and on the robust mode's frames). Measured in release: frames that
-  // factor afresh 50 → 31 of 300 (the rest swapped in), and from converged Newton at frame 10
-  // 1.2e-12 m (5e-13 m without the prefactor: the record is a frame older).
-  SceneDesc exact = test::scene_desc("drop", {"solver.iterations=40", "solver.tolerance=1e-10"});
-  auto newton = create_world(exact);
-  auto fast = create_world(test::scene_desc("drop", {"solver.mode=fast", "solver.prefactor=true"}));
-  auto plain = create_world(test::scene_desc("drop", {"solver.mode=fast", "solver.prefactor=false"}));
-  for (int f = 0; f < 10; ++f) newton->step();
-  const FastFrames early = run_fast(*fast, 10), plain_early = run_fast(*plain, 10);
-  const double at10 = largest_distance(*fast, *newton), plain_at10 = largest_distance(*plain, *newton);
-  const FastFrames with = run_fast(*fast, 290);
-  const FastFrames without = run_fast(*plain, 290);
-  const auto refactored = with.refactored.size() + early.refactored.size();
-  const auto plain_refactored = without.refactored.size() + plain_early.refactored.size();
-  MESSAGE("drop, fast mode, 300 frames: factored afresh on "
-          << refactored << " frames with the prefactor (" << with.swapped.size() + early.swapped.size()
-          << " swapped in), " << plain_refactored << " without; from converged Newton at frame 10: " << at10
-          << " m, " << plain_at10 << " m without");
-  CHECK(at10 < 1e-11);
-  CHECK(with.swapped.size() >= 20);
-  CHECK(refactored + 10 < plain_refactored);
-  CHECK(with.chords > with.iterations / 2);
 }
 
 TEST_CASE("fast mode on drop: the fall as converged Newton's, factorizations reused, fresh ones where contacts begin") {

@@ -74,8 +74,6 @@ relaxation = 0.5
 tolerance = 1e-9
 on_instability = "stop"
 max_substeps = 8
-max_axial_strain = 2.0
-max_section_angle = 1.0
 max_displacement = 10.0
 [filter]
 enabled = false
@@ -146,12 +144,11 @@ TEST_CASE("the scene reader fills the contact, bead, environment and instrument 
   const SceneDesc s = parse_scene(R"(
 [solver]
 max_iterations = 5
-attachment_tolerance = 1e-5
 [contact]
 coefficient = 20.0
 exponent = 1.5
 margin = 0.004
-broad_phase = "sweep"
+broad_phase = "grid"
 self = false
 [[segment]]
 nodes = 41
@@ -193,11 +190,10 @@ grasp = true
                                   kSceneFolder + "/contact.toml");
   const WorldDesc& w = s.world;
   CHECK(w.solver.max_iterations == 5);
-  CHECK(w.solver.attachment_tolerance == 1e-5);
   CHECK(w.contact.coefficient == 20.0);
   CHECK(w.contact.exponent == 1.5);
   CHECK(w.contact.margin == 0.004);
-  CHECK(w.contact.broad_phase == BroadPhase::sweep);
+  CHECK(w.contact.broad_phase == BroadPhase::grid);
   CHECK_FALSE(w.contact.self);
   CHECK(w.segments.at(0).beads.enabled);
   CHECK(w.segments.at(0).beads.spacing == 0.1);

@@ -27,18 +27,6 @@ std::vector<SpherePair> brute(const Spheres& s, double margin) {
   return out;
 }
 
-std::vector<SpherePair> sweep(const Spheres& s, double margin) {
-  std::vector<std::uint32_t> order(s.x.size());
-  std::vector<SpherePair> out(16);
-  std::size_t n = broad_phase_sweep(s.set(), margin, order, out);
-  if (n > out.size()) {  // the grow-and-retry protocol
-    out.resize(n);
-    n = broad_phase_sweep(s.set(), margin, order, out);
-  }
-  out.resize(n);
-  return out;
-}
-
 // The grid queried in several uneven ranges, concatenated: what a threaded caller does.
 std::vector<SpherePair> grid(const Spheres& s, double margin, double cell = 0.0) {
   SphereGrid g;
@@ -61,7 +49,6 @@ std::vector<SpherePair> grid(const Spheres& s, double margin, double cell = 0.0)
 void check_all_agree(const Spheres& s, double margin, const std::string& what) {
   const auto ref = brute(s, margin);
   INFO(what << ": " << ref.size() << " pairs by brute force");
-  CHECK(sweep(s, margin) == ref);
   CHECK(grid(s, margin) == ref);
   CHECK(grid(s, margin, 1e-3) == ref);  // a grid far finer than the spheres
   CHECK(grid(s, margin, 10.0) == ref);  // and far coarser
@@ -69,7 +56,7 @@ void check_all_agree(const Spheres& s, double margin, const std::string& what) {
 
 }  // namespace
 
-TEST_CASE("grid and sort-and-sweep return exactly the brute-force pairs") {
+TEST_CASE("the grid returns exactly the brute-force pairs") {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   SUBCASE("random") {

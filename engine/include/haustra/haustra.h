@@ -27,8 +27,8 @@
  *   sizes the struct has had (0, a newer header's) is refused with HAUSTRA_INVALID_ARGUMENT naming
  *   it. Views (haustra_vec3_view and the like) never grow and carry no size.
  * - Versions: haustra_abi_version() is the library's ABI; haustra_check_abi(HAUSTRA_ABI_VERSION)
- *   accepts a host built against this ABI or an older one back to 14 (the first whose structs all
- *   carry their size).
+ *   accepts a host built against this ABI or an older one back to 15 (14 was the first whose
+ *   structs all carry their size; 15 took a stage and a counter out of haustra_profile).
  * - Units: metres, seconds, newtons, radians; world frame.
  */
 #ifndef HAUSTRA_H
@@ -36,6 +36,8 @@
 
 #include <stddef.h>
 #include <stdint.h>
+
+#include "haustra/report_fields.h"
 
 #if defined(_WIN32)
 #define HAUSTRA_API __declspec(dllexport)
@@ -51,7 +53,7 @@ extern "C" {
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
 #define HAUSTRA_ABI_VERSION 15
 /* The oldest host ABI this library serves (haustra_check_abi). */
-#define HAUSTRA_ABI_OLDEST 14
+#define HAUSTRA_ABI_OLDEST 15
 
 typedef enum haustra_status {
   HAUSTRA_OK = 0,
@@ -134,7 +136,9 @@ typedef struct haustra_instrument_reading {
   int cutting; /* cuts the connective tissue within its cut radius (decision 0095). Since ABI 12. */
 } haustra_instrument_reading;
 
-#define HAUSTRA_STAGE_COUNT 21
+/* The frame's stages (report_fields.h: HAUSTRA_STAGES lists them, with what each does); their
+ * names by haustra_stage_name. */
+#define HAUSTRA_STAGE_COUNT (0 HAUSTRA_STAGES(HAUSTRA_COUNT_STAGE))
 
 typedef struct haustra_profile {
   size_t struct_size;
@@ -150,7 +154,6 @@ typedef struct haustra_profile {
   int stalls;      /* Newton iterations whose line search took none of a step that was not small */
   int iterations;  /* fixed-point iterations run, summed over substeps */
   int late;        /* 1 when the frame took longer than the world's frame budget (decision 0061) */
-  int prefactors;  /* fast mode: records swapped in that were made two frames before, in the background */
   /* One field per counter of report_fields.h's HAUSTRA_PROFILE_COUNTERS (new ones at the end). */
 } haustra_profile;
 

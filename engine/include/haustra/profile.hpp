@@ -8,31 +8,12 @@
 
 namespace haustra {
 
+// The stages, listed once with what each does in report_fields.h (HAUSTRA_STAGES), in pipeline order.
 enum class Stage : std::uint8_t {
-  instruments,     // scripted poses, grasps and releases
-  snapshot,        // a substep's start: the strains, poses and bases its drag and potential measure from
-  collide,         // beads follow nodes; broad and narrow phase → contact candidates
-  contacts,        // penalty forces (and their stiffness) at the current positions
-  proxy,           // instruments' capsules where their couplings and contacts balance (0096)
-  loads,           // gravity + external loads + contacts → node forces
-  free_base,       // rigid drag of free bases
-  backward_sweep,  // node forces → generalized forces R
-  condense,        // Newton: linearize and condense the system tip → base (or the banded LU's fallback);
-                   // a split rod's parts also make their responses here, each in its own task (0087)
-  prefactor,       // fast mode: the next record's sweep handed to another thread, and swapped in a frame later
-  solve,           // lagged: prefactored M and the strain law; Newton: the coupled unknowns' responses
-                   // (a split rod's: folded with the join's result), multipliers and the step
-  line_search,     // Newton: the step's fraction that lowers the frame's incremental potential
-  constraints,     // lagged: attachments, implicit through the Schur complement
-  forward_sweep,   // strains → node poses
-  filter,          // inertia filter
-  contraction,     // lagged: the next step from the new strains, to see that the iteration contracts
-  guard,           // finite values and bounds
-  report,          // penetrations and instrument forces at the frame's end
-  cage,            // cage rings follow the rod
-  skin,            // the organ meshes follow the rings (rigid-group MVC); a chain's cuts welded
-  normals,         // per-vertex normals of the skinned meshes
-  count
+#define HAUSTRA_STAGE_ENUM(name, meaning) name,
+  HAUSTRA_STAGES(HAUSTRA_STAGE_ENUM)
+#undef HAUSTRA_STAGE_ENUM
+      count
 };
 
 inline constexpr std::size_t kStageCount = static_cast<std::size_t>(Stage::count);

@@ -11,6 +11,33 @@
 
 /* The tables keep one field per line. */
 /* clang-format off */
+/* The frame's stages in pipeline order, X(name, meaning): the C++ enum Stage (profile.hpp), the
+ * stages' names (stage_name, haustra_stage_name, Python's profile) and HAUSTRA_STAGE_COUNT
+ * (haustra.h) come from this list. A new stage at the end keeps the C ABI's stage indices. */
+#define HAUSTRA_STAGES(X)                                                                           \
+  X(instruments, "scripted poses, grasps and releases")                                             \
+  X(snapshot, "a substep's start: the strains, poses and bases its drag and potential measure from") \
+  X(collide, "beads follow nodes; broad and narrow phase -> contact candidates")                    \
+  X(contacts, "penalty forces (and their stiffness) at the current positions")                      \
+  X(proxy, "instruments' capsules where their couplings and contacts balance (0096)")               \
+  X(loads, "gravity + external loads + contacts -> node forces")                                   \
+  X(free_base, "rigid drag of free bases")                                                          \
+  X(backward_sweep, "node forces -> generalized forces R")                                          \
+  X(condense, "Newton: linearize and condense the system tip -> base (or the banded LU's fallback); a split rod's parts also make their responses here, each in its own task (0087)") \
+  X(solve, "lagged: prefactored M and the strain law; Newton: the coupled unknowns' responses (a split rod's: folded with the join's result), multipliers and the step") \
+  X(line_search, "Newton: the step's fraction that lowers the frame's incremental potential")       \
+  X(constraints, "lagged: attachments, implicit through the Schur complement")                      \
+  X(forward_sweep, "strains -> node poses")                                                         \
+  X(filter, "inertia filter")                                                                       \
+  X(contraction, "lagged: the next step from the new strains, to see that the iteration contracts") \
+  X(guard, "finite values and bounds")                                                              \
+  X(report, "penetrations and instrument forces at the frame's end")                                \
+  X(cage, "cage rings follow the rod")                                                              \
+  X(skin, "the organ meshes follow the rings (rigid-group MVC); a chain's cuts welded")             \
+  X(normals, "per-vertex normals of the skinned meshes")
+
+/* How many entries a list has: (0 LIST(HAUSTRA_COUNT_STAGE)) is a constant expression in C. */
+#define HAUSTRA_COUNT_STAGE(name, meaning) +1
 /* FrameProfile's counters (beside its per-stage times and calls, its frame time and `newton`). */
 #define HAUSTRA_PROFILE_COUNTERS(X)                                                                 \
   X(int, substeps, 1, "substeps the frame was split into")                                          \
@@ -21,8 +48,7 @@
   X(int, stiffenings, 0, "Newton steps solved again with stiffened law rows (the plain step went uphill)") \
   X(int, chords, 0, "fast mode: Newton iterations that reused the last factorization")                   \
   X(int, stalls, 0, "Newton iterations whose line search took no part of a step that was not small (a guard failure)") \
-  X(int, late, 0, "1 when the frame took longer than world.frame_budget (decision 0061)")                \
-  X(int, prefactors, 0, "fast mode: records swapped in that were made two frames before, in the background (decision 0085)")
+  X(int, late, 0, "1 when the frame took longer than world.frame_budget (decision 0061)")
 
 /* ContactReport: the contacts at the end of the last frame. */
 #define HAUSTRA_CONTACT_FIELDS(X)                                                                   \

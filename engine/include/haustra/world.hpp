@@ -28,7 +28,7 @@
 namespace haustra {
 
 namespace detail {
-struct CarryMap;  // where a world's parts go when it is rebuilt (engine/src/model/state_carry_over.hpp)
+struct CarryMap;  // where a world's parts go when it is rebuilt (engine/src/step/state_carry_over.hpp)
 }  // namespace detail
 
 // What one frame may cost (decision 0100): the robust mode's ladder (Newton, then twice the

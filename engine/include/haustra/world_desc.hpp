@@ -254,7 +254,7 @@ struct SegmentDesc {
   int chain_pieces = 1;
 };
 
-enum class BroadPhase : std::uint8_t { automatic, brute, grid, sweep };
+enum class BroadPhase : std::uint8_t { automatic, brute, grid };
 
 // Which pairs of beads that overlap or touch in the rest pose never collide: those of one segment
 // (its own folds, as built), or any two (organs imported from one body touch where the segmentation
@@ -366,16 +366,11 @@ struct SolverDesc {
   double tolerance = 0.0;   // stop iterating when the largest strain change × h is below this
   // Newton only: past `iterations`, a segment keeps iterating, up to this many in all, while the
   // contact line search cut its last step short or an active attachment misses its target by more
-  // than `attachment_tolerance` (m). A grasp that starts to pull or a contact that opens then
+  // than kAttachmentTolerance (1 µm). A grasp that starts to pull or a contact that opens then
   // converges within the frame; steady frames and rods without contacts or attachments pay nothing.
+  // (How close is close enough, how old fast mode's factorization may grow, and the guard's limits
+  // other than max_displacement are the model's constants: decision 0108.)
   int max_iterations = 8;
-  double attachment_tolerance = 1e-6;
-  // Fast mode only: a factorization serves at most this many frames.
-  int refactor_frames = 8;
-  // Fast mode only: the factorization that comes of age is made two frames early, on another
-  // thread, and swapped in (decision 0085); false: made on the frame that needs it, on its critical
-  // path. Off by default: on this project's 2-vCPU machine it did not shorten the tail (0085).
-  bool prefactor = false;
   InstabilityPolicy on_instability = InstabilityPolicy::recover;
   // What a frame may cost (decision 0100): the robust mode's ladder climbs no higher than
   // max_substeps and redoes a frame at most max_retries times (a frame it cannot hold within them
@@ -383,17 +378,10 @@ struct SolverDesc {
   int max_substeps = 64;
   int max_retries = 16;
   int calm_frames = 120;
-  // Guard limits, checked at the end of every frame. The guard also watches the lagged scheme for
-  // a strain change that reverses every frame without decaying: a fixed-point iteration that does
-  // not converge, even when every value stays within bounds.
-  double max_axial_strain = 4.0;                // |ε|
-  double max_section_angle = std::numbers::pi;  // |u| h, rad per section
-  // No node may move more than this many segment lengths in one frame. A model without inertia may
-  // jump to a new equilibrium within a frame, so this only catches runaways, not fast motion.
+  // The guard, checked at the end of every frame: no node may move more than this many segment
+  // lengths in one frame. A model without inertia may jump to a new equilibrium within a frame, so
+  // this only catches runaways, not fast motion.
   double max_displacement = 4.0;
-  // An active attachment may miss its target by at most this many segment lengths after a frame:
-  // Newton holds it exactly and the lagged scheme to second order, so more means a failed solve.
-  double max_attachment_error = 0.01;
 };
 
 struct FilterDesc {

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "haustra/error.hpp"
-#include "step/scheduler.hpp"
+#include "sched/scheduler.hpp"
 
 namespace haustra {
 

@@ -601,7 +601,9 @@ haustra_status haustra_check_abi(int abi_version) {
                                      abi_version, HAUSTRA_ABI_VERSION, HAUSTRA_VERSION, HAUSTRA_ABI_OLDEST,
                                      HAUSTRA_ABI_VERSION,
                                      abi_version > HAUSTRA_ABI_VERSION ? ": the host's header is newer than the library"
-                                                                       : ": structs before ABI 14 carry no size"));
+                                     : abi_version == 14 ? ": ABI 15 took the stage \"prefactor\" and the counter "
+                                                           "\"prefactors\" out of haustra_profile (decision 0108)"
+                                                         : ": structs before ABI 14 carry no size"));
                  }) == HAUSTRA_OK
              ? HAUSTRA_OK
              : HAUSTRA_ABI_MISMATCH;

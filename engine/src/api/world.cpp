@@ -310,6 +310,7 @@ void World::set_frame_budget(double seconds) {
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("frame_budget = {}: expected seconds in [0, 3600] (0: no budget)", seconds));
   impl_->desc.frame_budget = seconds;
+  impl_->model.frame_budget = seconds;
 }
 double World::frame_budget() const { return impl_->desc.frame_budget; }
 std::uint64_t World::late_frames() const { return impl_->late_frames; }

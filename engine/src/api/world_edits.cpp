@@ -1,7 +1,7 @@
 // What a host adds to a world or takes out of it between frames (decision 0106): instruments,
 // obstacles, a chain's attachments and its ranges of connective tissue. Each is a change of the
 // description, rebuilt as adding a segment is, with every state carried over by a map of where the
-// parts go (model/state_carry_over.hpp).
+// parts go (step/state_carry_over.hpp).
 #include <fmt/format.h>
 
 #include <type_traits>
@@ -10,7 +10,7 @@
 #include "haustra/error.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/world.hpp"
-#include "model/state_carry_over.hpp"
+#include "step/state_carry_over.hpp"
 #include "step/world_impl.hpp"
 
 namespace haustra {

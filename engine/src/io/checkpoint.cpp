@@ -1,12 +1,6 @@
-// Checkpoints: the state a later frame depends on, to bytes and back, and to files (decision 0026).
+// Checkpoints: the state a later frame depends on, to bytes and back (decision 0026); the World's
+// calls that save and restore it, and files, are in api/world_checkpoint.cpp.
 #include "io/checkpoint.hpp"
-
-#include <filesystem>
-#include <fstream>
-
-#include "model/world_desc_checks.hpp"
-#include "step/newton_stages.hpp"
-#include "step/world_impl.hpp"
 
 #include <fmt/format.h>
 
@@ -17,7 +11,6 @@
 #include <cstring>
 
 #include "haustra/error.hpp"
-#include "io/bounded_input.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -96,11 +89,9 @@ void visit_members(Io& io, A& a) {
 }
 template <class Io, StateOf<InstrumentState> I>
 void visit_members(Io& io, I& in) {
-  io(in.tip), io(in.axis), io(in.frame), io(in.closed), io(in.cutting), io(in.scripted), io(in.grasping), io(in.grasp_segment),
-      io(in.grasp_attachment), io(in.grasp_bead), io(in.grasp_offset), io(in.grasp_rotation), io(in.force),
-      io(in.torque), io(in.filtered_force), io(in.filtered_torque), io(in.coupled), io(in.grasp_node),
-      io(in.grasp_target), io(in.target_start), io(in.coupling_force), io(in.slipped), io(in.command_tip),
-      io(in.command_start), io(in.proxy_start), io(in.proxy_force), io(in.reach);
+#define HAUSTRA_VISIT_FIELD(type, name, initial, meaning) io(in.name);
+  HAUSTRA_INSTRUMENT_STATE(HAUSTRA_VISIT_FIELD)  // state/world_state.hpp: the list, in this order
+#undef HAUSTRA_VISIT_FIELD
 }
 template <class Io, StateOf<RunTimeParameters::Coupling> C>
 void visit_members(Io& io, C& c) {
@@ -147,14 +138,12 @@ void visit_chords(Io& io, const WorldModel& model, State& st) {
     io(ws.chord_ready), io(ws.chord_frame), io(ws.chord_dt);
     io.list(ws.chord_pattern, model.segments[s].attachments.size() + model.segments[s].bead_count);
     io(ws.record), io(ws.gain), io(ws.base_solution), io(ws.responses);
-    // The prefactor planned for a coming frame (decision 0085), finished before a save: its sweep's
-    // outputs, so the restored world swaps in the record the uninterrupted one does.
-    auto& pf = ws.prefactor;
-    io(pf.pending);
-    if (!pf.pending) continue;
-    io(pf.ok), io(pf.frame), io(pf.replaces), io(pf.dt);
-    io.list(pf.pattern, model.segments[s].attachments.size() + model.segments[s].bead_count);
-    io(pf.record), io(pf.gain), io(pf.base_solution), io(pf.responses);
+    // Format 4 to 6 hold here whether fast mode's prefactor (solver.prefactor, removed by decision
+    // 0108) had a sweep in flight: always 0 now, and a file that had one is refused.
+    bool prefactor_pending = false;
+    io(prefactor_pending);
+    if (prefactor_pending)
+      io.mismatch("was saved with fast mode's prefactor in flight (solver.prefactor, removed in decision 0108)");
   }
 }
 // Appends values as raw little-endian bytes (the checkpoint is for the machine that wrote it, or
@@ -405,92 +394,3 @@ void restore_state(const WorldModel& model, WorldState& state, const OpenedCheck
 }
 
 }  // namespace haustra::detail
-
-namespace haustra {
-
-std::vector<std::byte> World::save_checkpoint() const {
-  const Use use(*this);
-  detail::settle_prefactors(impl_->state, impl_->scheduler);  // a prefactor's outputs are saved
-  return detail::save_checkpoint(impl_->model, impl_->state, detail::parameters_of(impl_->desc));
-}
-
-// The checkpoint's run-time parameters are put back (decision 0099): checked as the setters check
-// them; a material other than the world's rebuilds the rods as set_material does, into a world not
-// yet in place, so that a checkpoint refused after it leaves the world as it was.
-void World::restore_checkpoint(std::span<const std::byte> bytes, const std::string& source) {
-  const Use use(*this);
-  detail::settle_prefactors(impl_->state, impl_->scheduler);  // none writes what is restored
-  const detail::OpenedCheckpoint opened = detail::open_checkpoint(impl_->model, impl_->desc, bytes, source);
-  WorldDesc next = impl_->desc;
-  detail::apply_parameters(opened.parameters, next);
-  try {
-    detail::check_world_desc(next);
-    for (std::size_t i = 0; i < next.instruments.size(); ++i)
-      if ((next.instruments[i].coupling_stiffness == 0.0) != (impl_->desc.instruments[i].coupling_stiffness == 0.0))
-        throw FieldError(ErrorCode::invalid_argument, fmt::format("instrument[{}].coupling_stiffness", i),
-                         "a rigid grasp (0) and a coupled one differ in their constraints: only a rebuild switches");
-  } catch (const Error& e) {
-    throw Error(ErrorCode::parse, fmt::format("checkpoint '{}': its run-time parameters do not suit this world: {}; "
-                                              "the world was left as it was",
-                                              source, e.what()));
-  }
-  std::unique_ptr<Impl> fresh;
-  if (!detail::same_materials(opened.parameters, impl_->desc)) {
-    std::vector<std::size_t> rod_map(impl_->model.segments.size());
-    for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
-    fresh = rebuilt(next, rod_map, false, true);
-  }
-  Impl& target = fresh ? *fresh : *impl_;
-  detail::restore_state(target.model, target.state, opened, source);
-  detail::apply_parameters(opened.parameters, target.desc);
-  detail::apply_parameters(opened.parameters, target.model);
-  if (fresh) impl_ = std::move(fresh);
-  impl_->state.frame_start.copy_from(impl_->state.now);
-  impl_->profile = FrameProfile{};
-  impl_->motion_dt = 0.0;
-  impl_->follow_rod();
-}
-
-void World::save_checkpoint_file(const std::string& path) const {
-  const Use use(*this);
-  const std::vector<std::byte> bytes = save_checkpoint();
-  const std::filesystem::path target(path);
-  std::filesystem::path temp = target;
-  temp += ".partial";
-  {
-    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    if (!out)
-      throw Error(ErrorCode::io, fmt::format("checkpoint '{}': cannot open '{}' for writing", path, temp.string()));
-    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    out.close();
-    if (!out) {
-      std::error_code ignored;
-      std::filesystem::remove(temp, ignored);
-      throw Error(ErrorCode::io,
-                  fmt::format("checkpoint '{}': writing {} bytes failed (disk full?)", path, bytes.size()));
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(temp, target, ec);
-  if (ec)
-    throw Error(ErrorCode::io,
-                fmt::format("checkpoint '{}': cannot rename '{}' over it: {}", path, temp.string(), ec.message()));
-}
-
-bool World::checkpoint_rebuilds(const std::string& path) const {
-  const Use use(*this);
-  const std::string text = io::read_bounded_file(path, "checkpoint", io::kMaxCheckpointBytes);
-  const detail::OpenedCheckpoint opened =
-      detail::open_checkpoint(impl_->model, impl_->desc, std::as_bytes(std::span(text)), path);
-  return !detail::same_materials(opened.parameters, impl_->desc);
-}
-
-void World::restore_checkpoint_file(const std::string& path) {
-  const Use use(*this);
-  // A checkpoint holds a few hundred bytes per node and bead: 1 GiB is far beyond any world. A
-  // regular file only (a FIFO would block, a device never end).
-  const std::string text = io::read_bounded_file(path, "checkpoint", io::kMaxCheckpointBytes);
-  restore_checkpoint(std::as_bytes(std::span(text)), path);
-}
-
-}  // namespace haustra

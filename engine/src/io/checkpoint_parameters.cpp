@@ -41,6 +41,7 @@ void apply_parameters(const RunTimeParameters& p, WorldDesc& desc) {
 void apply_parameters(const RunTimeParameters& p, WorldModel& model) {
   model.gravity = p.gravity;
   model.dt = p.dt;
+  model.frame_budget = p.frame_budget;
   model.solver.max_substeps = p.max_substeps;
   model.solver.max_retries = p.max_retries;
   model.solver.calm_frames = p.calm_frames;

@@ -393,10 +393,13 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
     w.frame_budget = r.number(*t, "frame_budget", "world.frame_budget", w.frame_budget);
   }
   if (const toml::table* t = r.table(root, "solver", "solver")) {
+    r.refuse_removed(*t, "solver",
+                     {"prefactor", "attachment_tolerance", "refactor_frames", "max_axial_strain", "max_section_angle",
+                      "max_attachment_error"},
+                     "removed in decision 0108 (the model's constants now; fast mode's prefactor is gone)");
     r.check_keys(*t, "solver",
-                 {"mode", "iterations", "substeps", "relaxation", "tolerance", "max_iterations", "attachment_tolerance",
-                  "refactor_frames", "prefactor", "on_instability", "max_substeps", "max_retries", "calm_frames",
-                  "max_axial_strain", "max_section_angle", "max_displacement", "max_attachment_error"});
+                 {"mode", "iterations", "substeps", "relaxation", "tolerance", "max_iterations", "on_instability",
+                  "max_substeps", "max_retries", "calm_frames", "max_displacement"});
     SolverDesc& s = w.solver;
     s.mode = r.choice<SolverMode>(
         *t, "mode", "solver.mode", s.mode,
@@ -406,21 +409,13 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
     s.relaxation = r.number(*t, "relaxation", "solver.relaxation", s.relaxation);
     s.tolerance = r.number(*t, "tolerance", "solver.tolerance", s.tolerance);
     s.max_iterations = r.integer(*t, "max_iterations", "solver.max_iterations", s.max_iterations);
-    s.refactor_frames = r.integer(*t, "refactor_frames", "solver.refactor_frames", s.refactor_frames);
-    s.prefactor = r.boolean(*t, "prefactor", "solver.prefactor", s.prefactor);
-    s.attachment_tolerance =
-        r.number(*t, "attachment_tolerance", "solver.attachment_tolerance", s.attachment_tolerance);
     s.on_instability =
         r.choice<InstabilityPolicy>(*t, "on_instability", "solver.on_instability", s.on_instability,
                                     {{"recover", InstabilityPolicy::recover}, {"stop", InstabilityPolicy::stop}});
     s.max_substeps = r.integer(*t, "max_substeps", "solver.max_substeps", s.max_substeps);
     s.max_retries = r.integer(*t, "max_retries", "solver.max_retries", s.max_retries);
     s.calm_frames = r.integer(*t, "calm_frames", "solver.calm_frames", s.calm_frames);
-    s.max_axial_strain = r.number(*t, "max_axial_strain", "solver.max_axial_strain", s.max_axial_strain);
-    s.max_section_angle = r.number(*t, "max_section_angle", "solver.max_section_angle", s.max_section_angle);
     s.max_displacement = r.number(*t, "max_displacement", "solver.max_displacement", s.max_displacement);
-    s.max_attachment_error =
-        r.number(*t, "max_attachment_error", "solver.max_attachment_error", s.max_attachment_error);
   }
   if (const toml::table* t = r.table(root, "filter", "filter")) {
     r.check_keys(*t, "filter", {"enabled", "zeta_scale"});
@@ -439,7 +434,6 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
     c.broad_phase = r.choice<BroadPhase>(*t, "broad_phase", "contact.broad_phase", c.broad_phase,
                                          {{"auto", BroadPhase::automatic},
                                           {"grid", BroadPhase::grid},
-                                          {"sweep", BroadPhase::sweep},
                                           {"brute", BroadPhase::brute}});
     c.self = r.boolean(*t, "self", "contact.self", c.self);
     c.rest_exclusions = r.choice<RestExclusions>(*t, "rest_exclusions", "contact.rest_exclusions", c.rest_exclusions,

@@ -54,6 +54,14 @@ class Reader {
     throw FieldError(ErrorCode::parse, path, detail, fmt::format("{}: {}: {}", where(file_, source), path, detail));
   }
 
+  // Rejects keys the format once had and no longer has, saying so (an unknown key's message would
+  // only list the keys there are).
+  void refuse_removed(const toml::table& t, const std::string& path, std::initializer_list<std::string_view> removed,
+                      std::string_view why) const {
+    for (const std::string_view key : removed)
+      if (const toml::node* n = t.get(key)) fail(n, path + "." + std::string(key), fmt::format("this key was {}", why));
+  }
+
   // Rejects keys a table does not know, naming the ones it does.
   void check_keys(const toml::table& t, const std::string& path, std::initializer_list<std::string_view> known) const {
     for (const auto& [key, node] : t) {

@@ -16,7 +16,7 @@
 #include "haustra/kernels/contact_geometry.hpp"
 #include "haustra/rod_curve.hpp"
 #include "model/binding_arcs.hpp"
-#include "step/scheduler.hpp"
+#include "sched/scheduler.hpp"
 
 namespace haustra::detail {
 namespace {

@@ -13,8 +13,6 @@
 #include "haustra/world.hpp"
 #include "model/world_desc_checks.hpp"
 #include "model/world_model.hpp"
-#include "step/collision.hpp"
-#include "step/world_state.hpp"
 
 namespace haustra {
 namespace {
@@ -154,10 +152,8 @@ MemoryEstimate estimate_memory(const WorldDesc& desc) {
                   2 * cols * (6 * cols + 60) * kDouble;  // the tip part's responses (decision 0087)
       } else {
         solver += gain_bytes(n, cols);
-        // Fast mode: the record, and the prefactor's (decision 0085) — a second record and gains,
-        // and its copy of a linearization (poses, loads, stiffness, law, residual: 40 doubles a node).
-        if (desc.solver.mode == SolverMode::fast)
-          solver += 2 * kernels::condensed_record_size(n) * kDouble + gain_bytes(n, cols) + n * 40 * kDouble;
+        // Fast mode: the record the chord iterations replay.
+        if (desc.solver.mode == SolverMode::fast) solver += kernels::condensed_record_size(n) * kDouble;
       }
       if (n <= detail::kBandFallbackNodes) solver += n * (kBandPerNode + 16 * cols * kDouble);
     }

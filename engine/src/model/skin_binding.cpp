@@ -10,7 +10,7 @@
 #include <span>
 
 #include "haustra/kernels/mean_value_coordinates.hpp"
-#include "step/scheduler.hpp"
+#include "sched/scheduler.hpp"
 
 namespace haustra::detail {
 namespace {

@@ -19,8 +19,6 @@ namespace {
 void check_solver(const SolverDesc& s) {
   check_int("solver.iterations", s.iterations, 1, 10000);
   check_int("solver.max_iterations", s.max_iterations, 1, 10000);
-  check_int("solver.refactor_frames", s.refactor_frames, 1, 1000000);
-  check_positive("solver.attachment_tolerance", s.attachment_tolerance, "m", 1.0);
   check_int("solver.substeps", s.substeps, 1, 1 << 16);
   check_int("solver.max_substeps", s.max_substeps, s.substeps, 1 << 16);
   check_int("solver.max_retries", s.max_retries, 0, 64);
@@ -28,10 +26,7 @@ void check_solver(const SolverDesc& s) {
   if (!(s.relaxation > 0.0) || s.relaxation > 1.0)
     fail("solver.relaxation", fmt::format("expected a value in (0, 1], got {}", s.relaxation));
   check_range("solver.tolerance", s.tolerance, 0.0, 1.0, "a dimensionless tolerance");
-  check_positive("solver.max_axial_strain", s.max_axial_strain, "(strain)", 1e3);
-  check_positive("solver.max_section_angle", s.max_section_angle, "rad", 2.0 * std::numbers::pi);
   check_positive("solver.max_displacement", s.max_displacement, "segment lengths per frame", 1e6);
-  check_positive("solver.max_attachment_error", s.max_attachment_error, "segment lengths", 1e6);
 }
 
 // Connective tissue's ranges (decision 0095); whether a range holds a node is checked where the

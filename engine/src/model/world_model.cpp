@@ -343,6 +343,8 @@ WorldModel build_world_model_here(const WorldDesc& desc, const WorldModel* bindi
   WorldModel m;
   m.gravity = desc.gravity;
   m.dt = desc.dt;
+  m.frame_budget = desc.frame_budget;
+  m.mesh_update = desc.mesh_update;
   m.solver = desc.solver;
   m.filter = desc.filter;
 

@@ -2,6 +2,7 @@
 // The constant part of a world (MuJoCo's mjModel): built once from a WorldDesc, never written while
 // stepping. Per-node arrays are contiguous across segments; a segment is an offset+count range.
 #include <array>
+#include <numbers>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -23,6 +24,22 @@
 namespace haustra::detail {
 
 inline constexpr std::size_t kMaxConstraintRows = 24;  // four clamps (3 position + 3 frame rows)
+// Contacts a Newton iteration couples exactly, per segment (the rest are loads): sizes its columns.
+inline constexpr std::size_t kMaxCoupledContacts = 40;
+// Rods up to this many nodes keep the banded LU as the condensed sweep's fallback.
+inline constexpr std::size_t kBandFallbackNodes = 4096;
+
+// The solver's constants (scene keys until decision 0108; no scene, test or host set them).
+// Newton keeps iterating while an active attachment misses its target by more than this (m).
+inline constexpr double kAttachmentTolerance = 1e-6;
+// Fast mode: a factorization serves at most this many frames (decision 0037).
+inline constexpr std::uint64_t kRefactorFrames = 8;
+// The guard's limits beside solver.max_displacement: |ε|, |u| h (rad per section), and how many
+// segment lengths an active attachment may miss its target by after a frame (Newton holds it
+// exactly and the lagged scheme to second order, so more means a failed solve).
+inline constexpr double kMaxAxialStrain = 4.0;
+inline constexpr double kMaxSectionAngle = std::numbers::pi;
+inline constexpr double kMaxAttachmentError = 0.01;
 
 // An attachment slot: scene attachments hold a fixed node; grasp slots (one per instrument and
 // segment) take whichever node an instrument closes on, at run time. The node and whether the
@@ -176,6 +193,8 @@ struct NormalChunk {
 struct WorldModel {
   Eigen::Vector3d gravity;
   double dt = 0.0;
+  double frame_budget = 0.0;                         // s; 0: none (decision 0061); a run-time setting
+  MeshUpdate mesh_update = MeshUpdate::on_read;      // decision 0060
   SolverDesc solver;
   FilterDesc filter;
   std::vector<SegmentModel> segments;  // the rods

@@ -10,7 +10,7 @@
 
 #include "haustra/kernels/tissue_anchor.hpp"
 #include "model/world_model.hpp"
-#include "step/world_state.hpp"
+#include "state/world_state.hpp"
 
 namespace haustra::detail {
 

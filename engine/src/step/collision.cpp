@@ -134,13 +134,12 @@ void init_collision_state(const WorldModel& model, WorldState& state) {
   cs.candidates.reserve(16 * nb + 64);
   cs.bead_contact.reserve(32 * nb + 64);
   cs.pairs.resize(16 * nb + 64);
-  cs.sweep_order.resize(nb);
 }
 
 namespace {
 
 // Bead pairs within reach, ascending (a, b), into cs.pairs: a grid in chunks over the scheduler,
-// or one sweep or brute-force pass; returns their count.
+// or one brute-force pass; returns their count.
 std::size_t bead_pairs(const WorldModel& model, const kernels::SphereSet& set, double margin, CollisionState& cs,
                        Scheduler& scheduler) {
   const std::size_t nb = model.beads.size();
@@ -169,8 +168,7 @@ std::size_t bead_pairs(const WorldModel& model, const kernels::SphereSet& set, d
     }
   } else {
     for (;;) {
-      pair_count = method == BroadPhase::brute ? kernels::broad_phase_brute(set, margin, cs.pairs)
-                                               : kernels::broad_phase_sweep(set, margin, cs.sweep_order, cs.pairs);
+      pair_count = kernels::broad_phase_brute(set, margin, cs.pairs);
       if (pair_count <= cs.pairs.size()) break;
       cs.pairs.resize(2 * pair_count);
     }

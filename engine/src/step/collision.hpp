@@ -12,12 +12,11 @@
 //                     would not converge in a fold). The others enter its Jacobian node by node.
 //   stage_contact_report — at a frame's end: depths at the final positions.
 #include "model/world_model.hpp"
-#include "step/scheduler.hpp"
-#include "step/world_state.hpp"
+#include "sched/scheduler.hpp"
+#include "state/world_state.hpp"
 
 namespace haustra::detail {
 
-inline constexpr std::size_t kMaxCoupledContacts = 40;  // per segment and Newton iteration
 
 void init_collision_state(const WorldModel& model, WorldState& state);
 void stage_collide(const WorldModel& model, WorldState& state, Scheduler& scheduler);

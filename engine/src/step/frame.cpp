@@ -52,19 +52,13 @@ void World::Impl::per_active_segment(Stage stage, F&& fn) {
 
 // ---- One frame ------------------------------------------------------------------------------------
 
+// The frame is attempted up the robust mode's ladder until an attempt passes the guard (decision
+// 0007); when no rung holds, stop_unstable restores the last good frame and throws Error(unstable).
 void World::Impl::step() {
   const Clock::time_point t0 = Clock::now();
   profile = FrameProfile{};
   move_instruments();
   state.frame_start.copy_from(state.now);
-  const Rung kept = attempt_until_stable(t0);  // throws Error(unstable) when no rung holds
-  report();
-  follow_rod();
-  finish_frame(kept, t0);
-}
-
-// Attempts at the frame, up the robust mode's ladder until one passes the guard (decision 0007).
-World::Impl::Rung World::Impl::attempt_until_stable(Clock::time_point t0) {
   Rung rung{state.robust_substeps, state.robust_newton};
   Failure first{model.segments.size(), {}, rung};
   for (;;) {
@@ -79,6 +73,14 @@ World::Impl::Rung World::Impl::attempt_until_stable(Clock::time_point t0) {
     rung = escalate(rung);
     profile.retries += 1;
   }
+  keep_rung(first, rung);
+  report();
+  follow_rod();
+  finish_frame(rung, t0);
+}
+
+// The rung a frame held on is kept for the next ones; after a calm spell extra substeps are shed.
+void World::Impl::keep_rung(const Failure& first, const Rung& rung) {
   if (first.happened(model)) {
     record(recovered_event(first, rung));
     state.robust_substeps = rung.substeps;
@@ -90,7 +92,6 @@ World::Impl::Rung World::Impl::attempt_until_stable(Clock::time_point t0) {
     state.robust_substeps = std::max(base.substeps, state.robust_substeps / 2);
     state.robust_good_frames = 0;
   }
-  return rung;
 }
 
 // One attempt at a frame with `n` substeps, lagged or Newton. Returns the first segment that
@@ -111,37 +112,28 @@ std::size_t World::Impl::run_frame(int n, bool newton, bool chord) {
       const double proxy_moved = proxies(p);
       contacts();
       loads(p);
-      if (newton)
-        newton_iteration(p);
-      else
+      if (newton) {
+        // Newton (decision 0036): condense the linearized system tip → base, solve for the
+        // coupled unknowns and the step, take the fraction of it that lowers the incremental
+        // potential (decision 0039); the line search leaves the poses of the strains it took.
+        backward_sweep();
+        timed(Stage::condense, [&] { detail::stage_condense(model, state, scheduler, p); });
+        timed(Stage::solve, [&] { detail::stage_newton_solve(model, state, scheduler, p); });
+        timed(Stage::line_search, [&] { detail::stage_line_search(model, state, scheduler, p); });
+        detail::end_unsolvable(model, state);
+      } else {
         lagged_iteration(p);
+      }
       profile.iterations += 1;
       // The rods and the instruments' proxies converge together (a proxy that still moves asks
       // for another iteration, up to the most there may be).
-      if (all_converged(it + 1 >= iterations) && proxy_moved <= model.solver.attachment_tolerance) break;
+      if (all_converged(it + 1 >= iterations) && proxy_moved <= detail::kAttachmentTolerance) break;
     }
     if (model.beads.size() > 0) detail::record_bead_motion(model, state);
   }
   filter();
   if (!newton) contraction(p);
   return guard_segments(p);
-}
-
-// Newton (decision 0036): condense the linearized system tip → base, solve for the coupled unknowns
-// and the step, take the fraction of it that lowers the incremental potential (decision 0039).
-// The line search leaves the poses of the strains it took.
-// Fast mode's prefactor (decision 0085) around the condense stage: the record made for this frame
-// swapped in before it, the next one launched on another thread after it.
-void World::Impl::newton_iteration(const SubstepParameters& p) {
-  backward_sweep();
-  if (detail::prefactor_swap_due(state))
-    timed(Stage::prefactor, [&] { detail::stage_prefactor_swap(model, state, scheduler, p); });
-  timed(Stage::condense, [&] { detail::stage_condense(model, state, scheduler, p); });
-  if (detail::prefactor_launch_due(model, state, p))
-    timed(Stage::prefactor, [&] { detail::stage_prefactor_launch(model, state, scheduler, p); });
-  timed(Stage::solve, [&] { detail::stage_newton_solve(model, state, scheduler, p); });
-  timed(Stage::line_search, [&] { detail::stage_line_search(model, state, scheduler, p); });
-  detail::end_unsolvable(model, state);
 }
 
 // The paper's lagged scheme: a free base moved rigidly against the total drag first, then the
@@ -163,7 +155,7 @@ void World::Impl::follow_rod() {
   const auto beads = state.collision.bead_position.view();
   for (std::size_t b = 0; b < beads.size(); ++b) beads.set(b, state.now.position.view().get(model.beads.node[b]));
   rings_stale = mesh_stale = model.any_mesh;
-  if (desc.mesh_update == MeshUpdate::every_frame) bring_mesh_up_to_date();
+  if (model.mesh_update == MeshUpdate::every_frame) bring_mesh_up_to_date();
 }
 
 // The world's own mesh at the current frame, if it is not already: rings, skinning, normals.
@@ -304,8 +296,7 @@ void World::Impl::collect_newton_counts() {
     profile.stiffenings += ws.stiffenings;
     profile.chords += ws.chords;
     profile.stalls += ws.stalls;
-    profile.prefactors += ws.prefactors;
-    ws.fallbacks = ws.backtracks = ws.stiffenings = ws.chords = ws.stalls = ws.prefactors = 0;
+    ws.fallbacks = ws.backtracks = ws.stiffenings = ws.chords = ws.stalls = 0;
   }
 }
 
@@ -318,7 +309,7 @@ void World::Impl::finish_frame(const Rung& kept, Clock::time_point t0) {
   motion_dt = model.dt;
   profile.frame_seconds = seconds_since(t0);
   // Deadline mode (decision 0061): the frame is already done; the host learns it came late.
-  if (desc.frame_budget > 0.0 && profile.frame_seconds > desc.frame_budget) {
+  if (model.frame_budget > 0.0 && profile.frame_seconds > model.frame_budget) {
     profile.late = 1;
     late_frames += 1;
   }

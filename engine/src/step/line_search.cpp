@@ -10,7 +10,7 @@
 #include "step/instruments.hpp"
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
-#include "step/scheduler.hpp"
+#include "sched/scheduler.hpp"
 #include "step/segment_law.hpp"
 
 namespace haustra::detail {

@@ -4,7 +4,7 @@
 #include "haustra/kernels/cage_rings.hpp"
 #include "haustra/kernels/skinning.hpp"
 #include "model/world_model.hpp"
-#include "step/world_state.hpp"
+#include "state/world_state.hpp"
 
 namespace haustra::detail {
 

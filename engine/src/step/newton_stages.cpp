@@ -14,7 +14,7 @@
 #include "step/instruments.hpp"
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
-#include "step/scheduler.hpp"
+#include "sched/scheduler.hpp"
 #include "step/segment_law.hpp"
 
 namespace haustra::detail {
@@ -534,7 +534,7 @@ void stage_newton_linearize(const WorldModel& model, WorldState& state, std::siz
       same = i < seg.attachments.size() ? ws.pattern_now[i] == ws.chord_pattern[i]
                                         : ws.pattern_now[i] <= ws.chord_pattern[i];
     ws.chord = p.chord && ws.chord_ready &&
-               state.frame - ws.chord_frame < static_cast<std::uint64_t>(model.solver.refactor_frames) &&
+               state.frame - ws.chord_frame < kRefactorFrames &&
                ws.chord_dt == p.dt && same;
   }
   NewtonSplit& sp = ws.split;
@@ -596,12 +596,11 @@ void plan_newton_condense(const WorldModel& model, WorldState& state, std::span<
     for (std::uint8_t j = 0; j < open[b].task.count; ++j) tasks.push_back({{open[b].task.part[j], 0, 0, 0}, 1});
 }
 
-void stage_newton_condense_task(const WorldModel& model, WorldState& state, const CondenseTask& task,
-                                const SubstepParameters& p) {
-  if (task.count == 1) {
-    condense_part(model, state, model.solve_parts[task.part[0]], p);
-    return;
-  }
+namespace {
+
+// Four whole rods of one node count, the residual column alone, condensed together in SIMD lanes
+// (kernels/rod_condense_lanes: the same bits as one by one).
+void condense_lanes(const WorldModel& model, WorldState& state, const CondenseTask& task, const SubstepParameters& p) {
   std::array<kernels::RodLinearization, kernels::kCondensedLanes> lin;
   std::array<const kernels::RodLinearization*, kernels::kCondensedLanes> rods{};
   std::array<kernels::StrainView<const double>, kernels::kCondensedLanes> residuals{};
@@ -623,25 +622,10 @@ void stage_newton_condense_task(const WorldModel& model, WorldState& state, cons
   }
 }
 
-bool stage_newton_join(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p) {
-  return join(model, state, rod, p);
-}
+}  // namespace
 
-void stage_newton_responses(const WorldModel& model, WorldState& state, std::size_t rod, int half,
-                            const SubstepParameters& p) {
-  responses_half(model, state, rod, half, p);
-}
-
-void stage_newton_multipliers(const WorldModel& model, WorldState& state, std::size_t rod) {
-  multipliers(model, state, rod);
-}
-
-void stage_newton_step_part(const WorldModel& model, WorldState& state, const SolvePart& part,
-                            const SubstepParameters& p) {
-  step_part(model, state, part, p);
-}
-
-// The stages over the whole world, as frame.cpp runs them in each Newton iteration.
+// The stages over the whole world, as frame.cpp runs them in each Newton iteration: each spreads its
+// steps over the scheduler (per rod, per solve part, per task), for the rods still iterating.
 
 void stage_condense(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p) {
   const std::size_t segs = model.segments.size();
@@ -651,10 +635,15 @@ void stage_condense(const WorldModel& model, WorldState& state, Scheduler& sched
   });
   for (std::size_t s = 0; s < segs; ++s) state.segment_solving[s] = active(s) && state.segment_solvable[s] != 0;
   plan_newton_condense(model, state, state.segment_solving);
-  scheduler.for_each(state.condense_tasks.size(),
-                     [&](std::size_t i) { stage_newton_condense_task(model, state, state.condense_tasks[i], p); });
+  scheduler.for_each(state.condense_tasks.size(), [&](std::size_t i) {
+    const CondenseTask& task = state.condense_tasks[i];
+    if (task.count == 1)
+      condense_part(model, state, model.solve_parts[task.part[0]], p);
+    else
+      condense_lanes(model, state, task, p);
+  });
   scheduler.for_each(segs, [&](std::size_t s) {
-    if (active(s)) state.segment_solvable[s] = stage_newton_join(model, state, s, p) ? 1 : 0;
+    if (active(s)) state.segment_solvable[s] = join(model, state, s, p) ? 1 : 0;
   });
 }
 
@@ -663,13 +652,13 @@ void stage_newton_solve(const WorldModel& model, WorldState& state, Scheduler& s
   const auto solving = [&](std::size_t s) { return state.segment_converged[s] == 0 && state.segment_solvable[s] != 0; };
   scheduler.for_each(2 * segs, [&](std::size_t i) {
     const std::size_t s = i / 2;
-    if (solving(s)) stage_newton_responses(model, state, s, static_cast<int>(i % 2), p);
+    if (solving(s)) responses_half(model, state, s, static_cast<int>(i % 2), p);
   });
   scheduler.for_each(segs, [&](std::size_t s) {
-    if (solving(s)) stage_newton_multipliers(model, state, s);
+    if (solving(s)) multipliers(model, state, s);
   });
   scheduler.for_each(model.solve_parts.size(), [&](std::size_t i) {
-    if (solving(model.solve_parts[i].rod)) stage_newton_step_part(model, state, model.solve_parts[i], p);
+    if (solving(model.solve_parts[i].rod)) step_part(model, state, model.solve_parts[i], p);
   });
 }
 

@@ -1,6 +1,7 @@
 #pragma once
-// The Newton stages of a frame, one segment at a time (newton_stages.cpp): each reads the constant
-// model and writes only its own segment's slice of the state, so segments run in parallel.
+// The Newton stages of a frame (newton_stages.cpp, line_search.cpp): three world-wide stages that
+// dispatch their steps over the scheduler; each step reads the constant model and writes only its
+// own rod's or solve part's slice of the state, so they run in parallel.
 #include "step/rod_stages.hpp"
 
 namespace haustra::detail {
@@ -12,18 +13,6 @@ class Scheduler;
 void stage_condense(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p);
 void stage_newton_solve(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p);
 void stage_line_search(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p);
-// Fast mode's prefactor (prefactor.cpp, decision 0085), the stage `prefactor`: before the condense
-// stage, the prefactor planned for this frame waited for and swapped in as the record; after it,
-// where a rod replayed a record that comes of age two frames on, its linearization copied and the
-// whole sweep of it handed to another thread. The _due functions: whether there is any.
-bool prefactor_swap_due(const WorldState& state);
-void stage_prefactor_swap(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p);
-bool prefactor_launch_due(const WorldModel& model, const WorldState& state, const SubstepParameters& p);
-void stage_prefactor_launch(const WorldModel& model, WorldState& state, Scheduler& scheduler,
-                            const SubstepParameters& p);
-// Every prefactor in flight finished: before the state is saved, copied, restored or freed.
-void settle_prefactors(WorldState& state, Scheduler& scheduler);
-
 // Rods that neither the condensed sweep nor the banded LU could solve end their iterations here:
 // the guard reports them.
 void end_unsolvable(const WorldModel& model, WorldState& state);
@@ -36,19 +25,12 @@ void end_unsolvable(const WorldModel& model, WorldState& state);
 void stage_newton_linearize(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p);
 // The condense stage's tasks for this iteration (rods being solved: `solving`): one per solve
 // part, but whole rods with the residual column alone go four at a time, of one node count, in
-// SIMD lanes (kernels/rod_condense_lanes: the same bits as one by one).
+// SIMD lanes (kernels/rod_condense_lanes: the same bits as one by one). Then per part, in
+// newton_stages.cpp, condense_part (kernels/rod_condensed: the condensed sweep), and per rod the
+// join. The solve stage, per half of a rod's columns: the responses at the coupled unknowns'
+// nodes; per rod: the coupled unknowns (attachment rows, coupled contact pairs); per part: the
+// Newton step at its nodes.
 void plan_newton_condense(const WorldModel& model, WorldState& state, std::span<const std::uint8_t> solving);
-void stage_newton_condense_task(const WorldModel& model, WorldState& state, const CondenseTask& task,
-                                const SubstepParameters& p);
-bool stage_newton_join(const WorldModel& model, WorldState& state, std::size_t rod, const SubstepParameters& p);
-// The solve stage. Per half of a rod's columns: the responses at the coupled unknowns' nodes. Per
-// rod: the coupled unknowns (attachment rows, coupled contact pairs). Per part: the Newton step at
-// its nodes.
-void stage_newton_responses(const WorldModel& model, WorldState& state, std::size_t rod, int half,
-                            const SubstepParameters& p);
-void stage_newton_multipliers(const WorldModel& model, WorldState& state, std::size_t rod);
-void stage_newton_step_part(const WorldModel& model, WorldState& state, const SolvePart& part,
-                            const SubstepParameters& p);
 // The line search stage (line_search.cpp): Newton's step taken as the fraction of it that lowers
 // the frame's incremental potential (the attachments' exact-penalty merit included) enough and
 // deepens no contact too far. Per rod, begin: the step's slope (the law stiffened and the system

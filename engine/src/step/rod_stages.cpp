@@ -426,7 +426,6 @@ GuardResult guard_solvable(const WorldModel& /*model*/, const WorldState& state,
 GuardResult guard_strains(const WorldModel& model, const WorldState& state, std::size_t segment,
                           const SubstepParameters& /*p*/) {
   const SegmentModel& seg = model.segments[segment];
-  const SolverDesc& lim = model.solver;
   const std::size_t off = seg.node_offset;
   const std::size_t n = seg.node_count;
   const double* q = state.now.strain.data() + 4 * off;
@@ -435,21 +434,21 @@ GuardResult guard_strains(const WorldModel& model, const WorldState& state, std:
       if (!std::isfinite(q[4 * k + c])) return {false, k, Stage::solve, "strain (not finite)", q[4 * k + c], 0.0};
     // Node values too: a pattern alternating from node to node averages out in every section
     // (the kinematics never see it) but is the mark of a load the solve could not take.
-    if (std::abs(q[4 * k + 3]) > lim.max_axial_strain)
-      return {false, k, Stage::solve, "axial strain at a node", q[4 * k + 3], lim.max_axial_strain};
+    if (std::abs(q[4 * k + 3]) > kMaxAxialStrain)
+      return {false, k, Stage::solve, "axial strain at a node", q[4 * k + 3], kMaxAxialStrain};
   }
   for (std::size_t k = 0; k + 1 < n; ++k) {
     const double h = model.section_length[off + k];
     const Eigen::Vector3d u(0.5 * (q[4 * k] + q[4 * k + 4]), 0.5 * (q[4 * k + 1] + q[4 * k + 5]),
                             0.5 * (q[4 * k + 2] + q[4 * k + 6]));
     const double eps = 0.5 * (q[4 * k + 3] + q[4 * k + 7]);
-    if (std::abs(eps) > lim.max_axial_strain)
-      return {false, k, Stage::solve, "axial strain", eps, lim.max_axial_strain};
+    if (std::abs(eps) > kMaxAxialStrain)
+      return {false, k, Stage::solve, "axial strain", eps, kMaxAxialStrain};
     if (-eps > kCollapsedCompression)
       return {
           false, k, Stage::solve, "compression (−axial strain) of a collapsing section", -eps, kCollapsedCompression};
-    if (u.norm() * h > lim.max_section_angle)
-      return {false, k, Stage::solve, "bend and twist angle of one section (rad)", u.norm() * h, lim.max_section_angle};
+    if (u.norm() * h > kMaxSectionAngle)
+      return {false, k, Stage::solve, "bend and twist angle of one section (rad)", u.norm() * h, kMaxSectionAngle};
   }
   return {};
 }
@@ -505,16 +504,15 @@ GuardResult guard_bead_depths(const WorldModel& model, const WorldState& state, 
 GuardResult guard_attachments(const WorldModel& model, const WorldState& state, std::size_t segment,
                               const SubstepParameters& /*p*/) {
   const SegmentModel& seg = model.segments[segment];
-  const SolverDesc& lim = model.solver;
   std::size_t k = 0;
   const double miss = attachment_miss(model, state, segment, k) / seg.info.length;
-  if (miss > lim.max_attachment_error)
+  if (miss > kMaxAttachmentError)
     return {false,
             k,
             Stage::constraints,
             "attachment's distance from its target (segment lengths)",
             miss,
-            lim.max_attachment_error};
+            kMaxAttachmentError};
   return {};
 }
 
@@ -630,7 +628,7 @@ bool iteration_converged(const WorldModel& model, const WorldState& state, std::
   // is still off target.
   std::size_t node = 0;
   return past_fixed_count && state.segment_step_cut[segment] == 0 &&
-         attachment_miss(model, state, segment, node) <= model.solver.attachment_tolerance;
+         attachment_miss(model, state, segment, node) <= kAttachmentTolerance;
 }
 
 }  // namespace haustra::detail

@@ -7,7 +7,7 @@
 
 #include "haustra/profile.hpp"
 #include "model/world_model.hpp"
-#include "step/world_state.hpp"
+#include "state/world_state.hpp"
 
 namespace haustra::detail {
 

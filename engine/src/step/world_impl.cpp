@@ -27,8 +27,6 @@ World::Impl::Impl(WorldDesc d, detail::WorldModel m)
   follow_rod();  // the meshes at rest, before the first step
 }
 
-World::Impl::~Impl() { detail::settle_prefactors(state, scheduler); }
-
 // The API's segment (a piece of a chain, or the whole rod) that holds node `node` of rod `rod`,
 // and the node's index in it; a joint node counts as the later piece's base.
 std::pair<std::size_t, std::size_t> World::Impl::piece_of(std::size_t rod, std::size_t node) const {

@@ -16,8 +16,8 @@
 #include "step/anchors.hpp"
 #include "step/mesh_stages.hpp"
 #include "step/rod_stages.hpp"
-#include "step/scheduler.hpp"
-#include "step/world_state.hpp"
+#include "sched/scheduler.hpp"
+#include "state/world_state.hpp"
 
 namespace haustra {
 
@@ -50,7 +50,6 @@ struct World::Impl {
   double motion_dt = 0.0;
 
   Impl(WorldDesc d, detail::WorldModel m);
-  ~Impl();  // waits for fast mode's prefactors in flight (they write the state)
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
 
@@ -67,7 +66,7 @@ struct World::Impl {
   // (a rebuild, a restore) comes with a new Impl, so it is never stale.
   mutable std::unique_ptr<GpuSkinBinding> gpu_skin;
   [[nodiscard]] GpuSkinBinding make_gpu_skin() const;
-  std::uint64_t late_frames = 0;  // frames over desc.frame_budget since the world was created  // the world's own mesh is behind its rod
+  std::uint64_t late_frames = 0;  // frames over the model's frame_budget since the world was created  // the world's own mesh is behind its rod
 
   // The API's segment (a piece of a chain, or the whole rod) that holds node `node` of rod `rod`,
   // and the node's index in it; a joint node counts as the later piece's base.
@@ -123,8 +122,7 @@ struct World::Impl {
   };
 
   // frame.cpp: the frame's verbs, in pipeline order.
-  Rung attempt_until_stable(Clock::time_point t0);
-  void newton_iteration(const detail::SubstepParameters& p);
+  void keep_rung(const Failure& first, const Rung& rung);
   void lagged_iteration(const detail::SubstepParameters& p);
   void move_instruments();
   void snapshot(bool newton);

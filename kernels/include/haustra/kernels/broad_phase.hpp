@@ -2,8 +2,8 @@
 // Broad phase over spheres (beads): every pair whose spheres, grown by a margin, overlap:
 //   |c_a − c_b| ≤ r_a + r_b + margin,  a < b,
 // reported in ascending (a, b) order so that results do not depend on how the work was split.
-// Three methods that must agree exactly: brute force (the reference, best for tiny sets), a
-// sort-and-sweep along x, and a uniform grid (cost per sphere flat in the count). The grid is
+// Two methods that must agree exactly: brute force (the reference, best for tiny sets) and a
+// uniform grid (cost per sphere flat in the count). The grid is
 // built once and queried over ranges of spheres, so a caller can spread the queries over threads.
 #include <cstdint>
 #include <span>
@@ -29,13 +29,9 @@ struct SphereSet {
   return dx * dx + dy * dy + dz * dz <= reach * reach;
 }
 
-// The three methods write at most out.size() pairs and return how many there are; when the
+// Both methods write at most out.size() pairs and return how many there are; when the
 // return exceeds out.size(), the caller grows `out` and calls again.
 std::size_t broad_phase_brute(const SphereSet& s, double margin, std::span<SpherePair> out);
-
-// Sort-and-sweep along x. order: scratch of s.size().
-std::size_t broad_phase_sweep(const SphereSet& s, double margin, std::span<std::uint32_t> order,
-                              std::span<SpherePair> out);
 
 // Uniform grid. Each sphere is entered in the cell of its centre; cells are as wide as the widest
 // reach (2r + margin) among the spheres, so a sphere meets only spheres centred in its own cell

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "model/world_model.hpp"
-#include "step/world_state.hpp"
+#include "state/world_state.hpp"
 
 namespace haustra::detail {
 

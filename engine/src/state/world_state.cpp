@@ -1,10 +1,9 @@
 // The per-frame state (mjData) sized once from the model.
-#include "step/world_state.hpp"
+#include "state/world_state.hpp"
 
 #include <algorithm>
 
 #include "haustra/kernels/rod_forward_sweep.hpp"
-#include "step/collision.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -98,30 +97,6 @@ void NewtonWorkspace::allocate(std::size_t nodes, int columns, bool with_band, s
   strain_before.assign(4 * nodes, 0.0);
 }
 
-void Prefactor::allocate(std::size_t nodes, int max_columns, std::size_t pattern_entries) {
-  position.resize(nodes);
-  mid_position.resize(nodes);
-  force.resize(nodes);
-  moment.resize(nodes);
-  rotation.resize(nodes);
-  mid_rotation.resize(nodes);
-  section_length.assign(nodes - 1, 0.0);
-  residual.assign(4 * nodes, 0.0);
-  law_tangent.assign(4 * nodes, 0.0);
-  bend_coupling.assign(nodes, 0.0);
-  drag_moment_rate.assign(nodes, 0.0);
-  force_stiffness.assign(nodes, Eigen::Matrix3d::Zero());
-  const auto cols = static_cast<std::size_t>(max_columns);
-  loads.reserve(2 * cols);
-  response_nodes.reserve(2 * cols);
-  gain.assign(kernels::condensed_gain_size(nodes, max_columns), 0.0);
-  scratch.assign(kernels::condensed_scratch_size(max_columns), 0.0);
-  base_solution.assign(10 * cols, 0.0);
-  record.assign(kernels::condensed_record_size(nodes), 0.0);
-  responses.assign(2 * cols * 6 * cols, 0.0);
-  pattern.reserve(pattern_entries);
-}
-
 void PersistentState::copy_from(const PersistentState& o) {
   std::copy(o.strain.begin(), o.strain.end(), strain.begin());
   copy_vec3(position, o.position);
@@ -177,7 +152,6 @@ void init_world_state(const WorldModel& model, WorldState& state) {
       const std::size_t pattern = seg.attachments.size() + seg.bead_count;
       ws.chord_pattern.reserve(pattern);
       ws.pattern_now.reserve(pattern);
-      ws.prefactor.allocate(seg.node_count, cols, pattern);
     }
     state.newton[s].bead_start.assign(seg.bead_count, Eigen::Vector3d::Zero());
   }

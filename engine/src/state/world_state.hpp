@@ -14,8 +14,8 @@
 #include "haustra/kernels/rod_newton.hpp"
 #include "haustra/kernels/skinning.hpp"
 #include "haustra/kernels/spans.hpp"
+#include "haustra/report_fields.h"
 #include "model/world_model.hpp"
-#include "step/background_job.hpp"
 
 namespace haustra::detail {
 
@@ -181,36 +181,6 @@ struct LineSearch {
   std::array<std::uint8_t, 2> deepens{};            // per part: a contact deepened too far
 };
 
-// Fast mode's prefactor (decision 0085): a whole sweep of one frame's linearization, made on
-// another thread into buffers of its own while that frame and the next go on, and swapped in as
-// the record two frames later — the frame the record it replaces comes of age. Planned from the
-// state alone (never from timing), so the same frames swap on 1 or 2 threads or a host's jobs.
-struct Prefactor {
-  // Its input, copied from the workspace and the state (the stepping thread goes on and changes
-  // them): the poses, loads and section lengths, the loads' and the law's stiffness, the residual.
-  Vec3Buffer position, mid_position, force, moment;
-  RotationBuffer rotation, mid_rotation;
-  std::vector<double> section_length, residual, law_tangent, bend_coupling, drag_moment_rate;
-  std::vector<Eigen::Matrix3d> force_stiffness;
-  std::vector<kernels::UnitLoad> loads;
-  std::vector<std::uint32_t> response_nodes;
-  std::array<double, 4> law_total{};
-  bool exp2 = false, has_stiffness = false, free_base = false;
-  int columns = 1;
-  // Its output: what a whole sweep leaves for chord iterations.
-  std::vector<double> gain, scratch, base_solution, record, responses;
-  bool ok = false;
-  // The plan: made from frame `frame`'s linearization (step length dt, contact pattern), to replace
-  // the record of frame `replaces` at frame frame + 2. pending: launched and not yet swapped.
-  bool pending = false;
-  std::uint64_t frame = 0, replaces = 0;
-  double dt = 0.0;
-  std::vector<std::uint32_t> pattern;
-  BackgroundJob job;
-
-  void allocate(std::size_t nodes, int max_columns, std::size_t pattern_entries);
-};
-
 // Scratch of one segment's Newton solve: the condensed sweep's gains and right-hand sides, the
 // step it gives, and — for rods up to kBandFallbackNodes — the banded LU it falls back to.
 struct NewtonWorkspace {
@@ -226,8 +196,6 @@ struct NewtonWorkspace {
   std::uint64_t chord_frame = 0;
   double chord_dt = 0.0;
   std::vector<std::uint32_t> chord_pattern, pattern_now;
-  Prefactor prefactor;                        // fast mode: the next record, made in the background
-  int prefactors = 0;                         // records this frame swapped in from a prefactor
   NewtonSplit split;                          // joint == 0: the rod is solved whole
   bool ok = true;                             // the whole rod's sweep held its pivots
   std::vector<kernels::UnitLoad> loads;       // this iteration's unit loads, by node descending
@@ -273,43 +241,53 @@ struct NewtonWorkspace {
   void allocate(std::size_t nodes, int columns, bool with_band, std::size_t split_at);
 };
 
-// Rods up to this many nodes keep the banded LU as the condensed sweep's fallback.
-inline constexpr std::size_t kBandFallbackNodes = 4096;
 
 using ContactCandidate = Contact;
 
+// An instrument's state that a later frame reads, each field listed once, X(type, name, initial,
+// meaning), in the order checkpoints write it (format 6): InstrumentState declares its fields from
+// the list and checkpoint.cpp visits them from it. Where the capsule is: its commanded tip, or a
+// proxy's (decision 0096), which the commanded one pulls through a capped spring–damper; the axis
+// is commanded either way. The virtual coupling (coupling_stiffness > 0): the grasped node, the
+// grasp point this frame and last, the coupling's force; a slip waits for the jaws to open.
+// clang-format off
+#define HAUSTRA_INSTRUMENT_STATE(X)                                                                  \
+  X(Eigen::Vector3d, tip, Eigen::Vector3d::Zero(), "the capsule's tip")                               \
+  X(Eigen::Vector3d, axis, Eigen::Vector3d::UnitZ(), "its axis")                                      \
+  X(Eigen::Quaterniond, frame, Eigen::Quaterniond::Identity(), "d3 along the axis")                   \
+  X(bool, closed, false, "the jaws")                                                                  \
+  X(bool, cutting, false, "cuts the tissue within its cut radius every frame (decision 0095)")        \
+  X(bool, scripted, true, "follows its keyframes until the host sets a pose")                         \
+  X(bool, grasping, false, "holds a node")                                                            \
+  X(std::size_t, grasp_segment, 0, "the grasped rod")                                                 \
+  X(std::size_t, grasp_attachment, 0, "global attachment index")                                      \
+  X(std::uint32_t, grasp_bead, 0, "the grasped bead")                                                 \
+  X(Eigen::Vector3d, grasp_offset, Eigen::Vector3d::Zero(), "node in the instrument frame")           \
+  X(Eigen::Quaterniond, grasp_rotation, Eigen::Quaterniond::Identity(), "node frame in the instrument frame") \
+  X(Eigen::Vector3d, force, Eigen::Vector3d::Zero(), "N on the instrument")                           \
+  X(Eigen::Vector3d, torque, Eigen::Vector3d::Zero(), "N·m on the instrument")                        \
+  X(Eigen::Vector3d, filtered_force, Eigen::Vector3d::Zero(), "the force, low-passed")                \
+  X(Eigen::Vector3d, filtered_torque, Eigen::Vector3d::Zero(), "the torque, low-passed")              \
+  X(bool, coupled, false, "a virtual coupling holds the grasp")                                       \
+  X(std::uint32_t, grasp_node, 0, "the grasped node (global index)")                                  \
+  X(Eigen::Vector3d, grasp_target, Eigen::Vector3d::Zero(), "the grasp point this frame")             \
+  X(Eigen::Vector3d, target_start, Eigen::Vector3d::Zero(), "… and at the frame's start")             \
+  X(Eigen::Vector3d, coupling_force, Eigen::Vector3d::Zero(), "the coupling's force on the instrument") \
+  X(bool, slipped, false, "a slip waits for the jaws to open")                                        \
+  X(Eigen::Vector3d, command_tip, Eigen::Vector3d::Zero(), "the commanded tip")                       \
+  X(Eigen::Vector3d, command_start, Eigen::Vector3d::Zero(), "… at the frame's start")                \
+  X(Eigen::Vector3d, proxy_start, Eigen::Vector3d::Zero(), "the proxy's tip at the substep's start")  \
+  X(Eigen::Vector3d, proxy_force, Eigen::Vector3d::Zero(), "the coupling's pull on the proxy, N")     \
+  X(double, reach, 0.0, "m the proxy may still travel towards its command: its contacts' margin")
+// clang-format on
+
 struct InstrumentState {
-  // Where the capsule is: its commanded tip, or a proxy's (decision 0096), which the commanded one
-  // pulls through a capped spring–damper. The axis is commanded either way.
-  Eigen::Vector3d tip = Eigen::Vector3d::Zero();
-  Eigen::Vector3d command_tip = Eigen::Vector3d::Zero();
-  Eigen::Vector3d command_start = Eigen::Vector3d::Zero();  // at the frame's start
-  Eigen::Vector3d proxy_start = Eigen::Vector3d::Zero();    // the proxy's tip at the substep's start
-  Eigen::Vector3d proxy_force = Eigen::Vector3d::Zero();    // the coupling's pull on the proxy, N
+  HAUSTRA_INSTRUMENT_STATE(HAUSTRA_DECLARE_FIELD)
+  // Scratch of a frame, not carried over: what the grasp may pull with this substep, and the
+  // event text's numbers of a slip.
   double grasp_limit = 0.0;  // N the grasp may pull with: the force limit less the capsule's push
-  double reach = 0.0;  // m the proxy may still travel towards its command: its contacts' margin
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
-  Eigen::Quaterniond frame = Eigen::Quaterniond::Identity();  // d3 along the axis
-  bool closed = false;
-  bool cutting = false;  // cuts the tissue within its cut radius every frame (decision 0095)
-  bool scripted = true;  // follows its keyframes until the host sets a pose
-  bool grasping = false;
-  std::size_t grasp_segment = 0;
-  std::size_t grasp_attachment = 0;  // global attachment index
-  std::uint32_t grasp_bead = 0;
-  Eigen::Vector3d grasp_offset = Eigen::Vector3d::Zero();              // node in the instrument frame
-  Eigen::Quaterniond grasp_rotation = Eigen::Quaterniond::Identity();  // node frame in the instrument frame
-  // The virtual coupling (coupling_stiffness > 0): the grasped node (global index), the grasp point
-  // this frame and last, the coupling's force on the instrument; a slip waits for the jaws to open.
-  bool coupled = false;
-  std::uint32_t grasp_node = 0;
-  Eigen::Vector3d grasp_target = Eigen::Vector3d::Zero(), target_start = Eigen::Vector3d::Zero();
-  Eigen::Vector3d coupling_force = Eigen::Vector3d::Zero();
-  bool slipped = false;
   double slip_pull = 0.0;    // N: the spring's force when it slipped (for the event's text)
   double slip_strain = 0.0;  // the organ's axial strain when it tore out of the jaws (0: it slipped)
-  Eigen::Vector3d force = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
-  Eigen::Vector3d filtered_force = Eigen::Vector3d::Zero(), filtered_torque = Eigen::Vector3d::Zero();
 };
 
 struct CollisionState {
@@ -323,7 +301,6 @@ struct CollisionState {
   std::vector<std::vector<ContactCandidate>> chunk_candidates;
   std::vector<std::size_t> chunk_count;
   kernels::SphereGrid grid;
-  std::vector<std::uint32_t> sweep_order;
   // Per bead, the candidates it takes part in: (candidate << 1) | side, side 1 for the second bead.
   std::vector<std::uint32_t> bead_contact_start;
   std::vector<std::uint32_t> bead_contact;

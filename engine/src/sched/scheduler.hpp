@@ -7,16 +7,11 @@
 #include <oneapi/tbb/task_arena.h>
 #include <algorithm>
 #include <array>
-#include <thread>
 
 #include "haustra/world_desc.hpp"
-#include "step/background_job.hpp"
 
 #if defined(__SANITIZE_THREAD__)
 #include <sanitizer/tsan_interface.h>
-// In libtsan, not in GCC 12's header.
-extern "C" void __tsan_ignore_thread_begin();
-extern "C" void __tsan_ignore_thread_end();
 #endif
 
 namespace haustra::detail {
@@ -43,18 +38,6 @@ class TaskOrder {
   void joined(std::size_t tasks) {
     for (std::size_t t = 0; t < std::min(tasks, kAddresses); ++t) __tsan_acquire(&done_[t]);
   }
-  // oneTBB's enqueue builds its task object (vtable, allocator, the closure's copy) in header code
-  // after dispatched() has released, and a worker already awake may run it before this thread
-  // releases again. Those writes are ordered by oneTBB's queue, which TSan cannot see, so they are
-  // left unrecorded — only while an Unseen lives, only on the enqueuing thread (ended even if the
-  // enqueue throws).
-  struct Unseen {
-    Unseen() { __tsan_ignore_thread_begin(); }
-    ~Unseen() { __tsan_ignore_thread_end(); }
-    Unseen(const Unseen&) = delete;
-    Unseen& operator=(const Unseen&) = delete;
-  };
-
  private:
   static constexpr std::size_t kAddresses = 4096;
   std::array<char, kAddresses> done_{};
@@ -65,7 +48,6 @@ struct TaskOrder {
   static void begin() {}
   void end(std::size_t) {}
   void joined(std::size_t) {}
-  struct Unseen {};
 };
 #endif
 
@@ -126,72 +108,8 @@ class Scheduler {
       order.end(i);
     };
     order.dispatched();
-    // Isolated: a thread waiting for this loop's tasks never takes a background job meanwhile.
-    arena_.execute([&] {
-      tbb::this_task_arena::isolate(
-          [&] { tbb::parallel_for(std::size_t{0}, count, body, tbb::simple_partitioner{}); });
-    });
+    arena_.execute([&] { tbb::parallel_for(std::size_t{0}, count, body, tbb::simple_partitioner{}); });
     order.joined(count);
-  }
-
-  // `run(data)` on another thread while the caller goes on; join() waits for it. One thread: run
-  // at once, inline, at the same point. oneTBB: enqueued in the stages' arena, where its worker
-  // takes it between the stages' loops (it may take ~1 ms to come: hence fast mode's two frames of
-  // lead); if none has by the join, the caller runs it itself there. A host's jobs: one range of the host's; its next
-  // wait — a stage's or the join's — returns only once it has run (the host's wait covers every
-  // range enqueued since the last one).
-  void launch(BackgroundJob& job, BackgroundJob::Run run, void* data) {
-    settle(job);
-    job.run_ = run;
-    job.data_ = data;
-    job.launched_ = true;
-    if (threads_ == 1) {
-      run(data);
-      job.stage_.store(BackgroundJob::kDone, std::memory_order_relaxed);
-      return;
-    }
-    job.stage_.store(BackgroundJob::kQueued, std::memory_order_relaxed);
-    job.outstanding_.store(1, std::memory_order_relaxed);
-    TaskOrder order;
-    order.dispatched();
-    if (jobs_.enabled()) {
-      const JobSystemDesc::Task task = [](void* job_data, std::size_t, std::size_t) {
-        TaskOrder::begin();
-        BackgroundJob::task(*static_cast<BackgroundJob*>(job_data));
-      };
-      jobs_.enqueue(jobs_.host, task, &job, 0, 1);
-      return;
-    }
-    BackgroundJob* const pointer = &job;
-    [[maybe_unused]] const TaskOrder::Unseen unseen;
-    arena_.enqueue([pointer] {
-      TaskOrder::begin();
-      BackgroundJob::task(*pointer);
-    });
-  }
-
-  // Waits until a launched job has run (or runs it here, on oneTBB, if no worker has taken it).
-  void join(BackgroundJob& job) {
-    if (!job.launched_) return;
-    job.launched_ = false;
-    if (jobs_.enabled()) {
-      if (job.stage_.load(std::memory_order_acquire) != BackgroundJob::kDone) jobs_.wait(jobs_.host);
-      while (job.stage_.load(std::memory_order_acquire) != BackgroundJob::kDone) std::this_thread::yield();
-      return;
-    }
-    int expected = BackgroundJob::kQueued;
-    if (job.stage_.compare_exchange_strong(expected, BackgroundJob::kTaken, std::memory_order_acq_rel)) {
-      job.run_(job.data_);
-      job.stage_.store(BackgroundJob::kDone, std::memory_order_relaxed);
-      return;
-    }
-    while (job.stage_.load(std::memory_order_acquire) != BackgroundJob::kDone) std::this_thread::yield();
-  }
-
-  // Joined, and no worker's task holds it any more: its memory may be reused, copied or freed.
-  void settle(BackgroundJob& job) {
-    join(job);
-    while (job.outstanding_.load(std::memory_order_acquire) != 0) std::this_thread::yield();
   }
 
  private:

@@ -1,6 +1,6 @@
 // Adding and removing segments between frames: the world rebuilt from its new description, every
 // other segment's state carried over (decision 0031).
-#include "model/state_carry_over.hpp"
+#include "step/state_carry_over.hpp"
 
 #include <algorithm>
 
@@ -47,20 +47,6 @@ void carry_chords(const std::vector<NewtonWorkspace>& from, std::size_t a, std::
   t.gain = f.gain;
   t.base_solution = f.base_solution;
   t.responses = f.responses;
-  // A prefactor planned for a coming frame (decision 0085; settled before the rebuild) comes along.
-  const Prefactor& fp = f.prefactor;
-  Prefactor& tp = t.prefactor;
-  if (!fp.pending || fp.record.size() != tp.record.size() || fp.pattern.size() > tp.pattern.capacity()) return;
-  tp.pending = true;
-  tp.ok = fp.ok;
-  tp.frame = fp.frame;
-  tp.replaces = fp.replaces;
-  tp.dt = fp.dt;
-  tp.pattern = fp.pattern;
-  tp.record = fp.record;
-  tp.gain = fp.gain;
-  tp.base_solution = fp.base_solution;
-  tp.responses = fp.responses;
 }
 
 }  // namespace
@@ -200,7 +186,6 @@ std::unique_ptr<World::Impl> World::rebuilt(const WorldDesc& next, std::span<con
 // The new model is built first: a description it refuses leaves the world as it was.
 std::unique_ptr<World::Impl> World::rebuilt(const WorldDesc& next, const detail::CarryMap& map, bool carry_solver,
                                             bool keep_mesh_binding) const {
-  detail::settle_prefactors(impl_->state, impl_->scheduler);  // what is carried over is finished
   auto fresh =
       std::make_unique<Impl>(next, detail::build_world_model(next, keep_mesh_binding ? &impl_->model : nullptr));
   detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, map, carry_solver);

@@ -1,0 +1,1 @@
+// The step/ header tests/data/rooms-upward/model/upward.cpp includes (never compiled).
