@@ -77,7 +77,14 @@ void BM_Loop(benchmark::State& state) {
   }
   report(state, count);
 }
-BENCHMARK(BM_Loop)->ArgNames({"worlds"})->Arg(1)->Arg(10)->Arg(100)->Arg(1000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Loop)
+    ->ArgNames({"worlds"})
+    ->Arg(1)
+    ->Arg(10)
+    ->Arg(100)
+    ->Arg(1000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 

@@ -17,8 +17,8 @@ namespace {
 using namespace haustra;
 using Clock = std::chrono::steady_clock;
 
-constexpr int kSettleFrames = 100;    // the first 0.1 s: the pile settling onto the floor
-constexpr int kRenderEvery = 17;      // a 60 Hz reader beside 1 kHz physics
+constexpr int kSettleFrames = 100;  // the first 0.1 s: the pile settling onto the floor
+constexpr int kRenderEvery = 17;    // a 60 Hz reader beside 1 kHz physics
 constexpr double kHapticBudget = 1e-3;
 
 double quantile(std::vector<double> v, double q) {
@@ -96,8 +96,8 @@ void BM_SmallIntestineReader(benchmark::State& state) {
   state.counters["acquire ms"] = 1e3 * quantile(seconds, 0.5);
   state.counters["mesh vertices"] = static_cast<double>(w->mesh_buffer_size());
   state.counters["rings"] = static_cast<double>(w->ring_count());
-  state.counters["bytes to the GPU a frame"] =
-      static_cast<double>(gpu ? haustra::kGpuRingFloats * w->ring_count() * sizeof(float) : 6 * w->mesh_buffer_size() * sizeof(float));
+  state.counters["bytes to the GPU a frame"] = static_cast<double>(
+      gpu ? haustra::kGpuRingFloats * w->ring_count() * sizeof(float) : 6 * w->mesh_buffer_size() * sizeof(float));
 }
 
 // Issue 29's `bowel` (641 nodes, one chained rod split over two cores, decision 0040), Newton with
@@ -129,7 +129,13 @@ void BM_Bowel(benchmark::State& state) {
 
 }  // namespace
 
-BENCHMARK(BM_SmallIntestineReader)->Arg(0)->Arg(1)->ArgNames({"gpu"})->Iterations(200)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SmallIntestineReader)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgNames({"gpu"})
+    ->Iterations(200)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Bowel)->Arg(1)->Arg(2)->ArgNames({"threads"})->Iterations(2)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SmallIntestine)
     ->ArgsProduct({{2, 0}, {0, 1}})

@@ -1,5 +1,6 @@
 // The instruction-count gate's workloads: one step of `drop`, one skinning of a 10,000-vertex
-// mesh, and a render thread's acquire of it skinned on the CPU or as rings for the GPU, with callgrind instrumenting and collecting only around them (valgrind --instr-atstart=no
+// mesh, and a render thread's acquire of it skinned on the CPU or as rings for the GPU, with callgrind instrumenting
+// and collecting only around them (valgrind --instr-atstart=no
 // --collect-atstart=no: the set-up runs at near native speed). One thread, warmed up first, so
 // the count is the same on every run of the same binary.
 #include <valgrind/callgrind.h>

@@ -431,9 +431,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
               d[row] += double(r[4 * row]) * co[1] + double(r[4 * row + 1]) * co[2] + double(r[4 * row + 2]) * co[3] +
                         double(r[4 * row + 3]) * co[0];
           }
-          const double off = std::hypot(g.rest_positions[3 * i] + d[0] - mesh.x[i],
-                                        g.rest_positions[3 * i + 1] + d[1] - mesh.y[i],
-                                        g.rest_positions[3 * i + 2] + d[2] - mesh.z[i]);
+          const double off =
+              std::hypot(g.rest_positions[3 * i] + d[0] - mesh.x[i], g.rest_positions[3 * i + 1] + d[1] - mesh.y[i],
+                         g.rest_positions[3 * i + 2] + d[2] - mesh.z[i]);
           require(off <= 1e-5 * (1.0 + std::abs(mesh.x[i]) + std::abs(mesh.y[i]) + std::abs(mesh.z[i])), "gpu sum");
         }
         break;

@@ -11,6 +11,8 @@ packages=(
   libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libfmt-dev libpng-dev
   # instruction-count gate and sanitizer runtimes
   valgrind
+  # the house style, checked by make test (.clang-format, scripts/check-format.sh)
+  clang-format
   # the Python module (`make python`) and its tests and examples (decision 0043)
   python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-matplotlib
   # the stubs checked against the module and a typed example (decision 0080)

@@ -8,7 +8,8 @@ A stamp is the page's last line: a hash of the inputs that decide its content (i
 scenes and data in the repository it reads) and a hash of the page's own text. `check` recomputes
 both for every page below and fails naming the page and the command that regenerates it when
 either differs: an input changed since the page was written, or the page was edited by hand.
-Hashes ignore whitespace, so a change of layout alone (clang-format) stales nothing. A page that
+Hashes ignore whitespace, and C++ comments and the seams of adjacent string literals in the inputs,
+so a change of layout alone (clang-format reflows comments and splits long literals) stales nothing. A page that
 copies a generated page's tables (docs/skinning.md) must hold every one of their rows.
 
 docs/results.md is checked by content as well: its reference cases are `HAUSTRA validate --json`'s
@@ -59,6 +60,17 @@ def digest(texts):
     return h.hexdigest()[:16]
 
 
+# A C++ string or character literal (kept), or a comment (dropped).
+CPP_TOKEN = re.compile(rb'"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\'|//[^\n]*|/\*.*?\*/', re.S)
+
+
+def without_comments(name, text):
+    if not name.endswith((".cpp", ".hpp", ".h", ".c")):
+        return text
+    text = CPP_TOKEN.sub(lambda m: m.group(0) if m.group(0)[:1] in (b'"', b"'") else b" ", text)
+    return re.sub(rb'"\s*"', b"", text)  # adjacent literals are one (clang-format splits long ones)
+
+
 def inputs_hash(page):
     files = sorted({f for pattern in PAGES[page][1] for f in glob.glob(os.path.join(ROOT, pattern))})
     missing = [p for p in PAGES[page][1] if not glob.glob(os.path.join(ROOT, p))]
@@ -67,7 +79,8 @@ def inputs_hash(page):
     texts = []
     for f in files:
         with open(f, "rb") as stream:
-            texts.append((os.path.relpath(f, ROOT), stream.read()))
+            name = os.path.relpath(f, ROOT)
+            texts.append((name, without_comments(name, stream.read())))
     return digest(texts)
 
 

@@ -77,7 +77,8 @@ std::string organ_name(const std::vector<fs::path>& surfaces, const std::vector<
   while (!common.empty() && std::string("-_. ").find(common.back()) != std::string::npos) common.pop_back();
   if (common.size() < 3) common = surfaces.front().stem().string();
   std::string name = common;
-  for (int k = 2; std::find(taken.begin(), taken.end(), name) != taken.end(); ++k) name = fmt::format("{}-{}", common, k);
+  for (int k = 2; std::find(taken.begin(), taken.end(), name) != taken.end(); ++k)
+    name = fmt::format("{}-{}", common, k);
   return name;
 }
 
@@ -155,7 +156,8 @@ Organs make_organs(const ImportOptions& o, Surfaces& s, SurfacesReport& out, con
     const Polyline line = organ_rod(oi, layout, r, profile, phase);
     const TriangleMesh surface = surface_along(layout, line, r, oi.mesh.string());
     std::string from;  // its surfaces' names
-    for (const fs::path& f : organ.surfaces) from += fmt::format("{}{}", from.empty() ? "" : ", ", f.filename().string());
+    for (const fs::path& f : organ.surfaces)
+      from += fmt::format("{}{}", from.empty() ? "" : ", ", f.filename().string());
     write_surface_and_centreline(layouts.size() == 1 ? stem : stem + "-" + organ.name, surface, line, from, r);
     organs.options.push_back(oi);
     organs.profiles.push_back(std::move(profile));
@@ -188,8 +190,8 @@ Body make_body(const ImportOptions& o, const Surfaces& surfaces, SurfacesReport&
                             "organs and the body must share one frame and unit (the body: {}; the organs: {})",
                             o.body.string(), 100.0 * out.outside_body, body.units_reason, surfaces.units_reason));
   out.body_file = (out.scene.parent_path() / out.scene.stem()).string() + "-body.obj";
-  write_obj(out.body_file, body.mesh, fmt::format("the body around the organs, closed by haustra import from {}",
-                                                  o.body.filename().string()));
+  write_obj(out.body_file, body.mesh,
+            fmt::format("the body around the organs, closed by haustra import from {}", o.body.filename().string()));
   phase(fmt::format("body: {} triangles, {:.1f} L, {} open end{} capped", out.body_triangles, 1e3 * body.volume,
                     body.capped, body.capped == 1 ? "" : "s"),
         t);
@@ -217,8 +219,8 @@ void build_surfaces_once(const SurfacesSceneInputs& in, SurfacesReport& out, con
       if (field != nullptr && field->field().starts_with("segment[")) i = std::stoul(field->field().substr(8));
       if (i < out.organs.size() && retry_cage(options[i], out.organs[i].report, e, seconds_since(t))) {
         write_surfaces_scene(in);
-        phase(fmt::format("build {} failed at {}'s cage; trying {} beads with rings of {}", attempt,
-                          out.organs[i].name, out.organs[i].report.beads, out.organs[i].report.ring_vertices),
+        phase(fmt::format("build {} failed at {}'s cage; trying {} beads with rings of {}", attempt, out.organs[i].name,
+                          out.organs[i].report.beads, out.organs[i].report.ring_vertices),
               t);
         continue;
       }
@@ -243,8 +245,8 @@ std::string SurfacesReport::text() const {
     for (const auto& f : organ.surfaces) files += fmt::format("{}{}", files.empty() ? "" : ", ", f.filename().string());
     std::string what = organ.report.text();
     what = what.substr(0, what.rfind("import took"));  // the whole import's time is below
-    t += fmt::format("organ {} of {}: {} ({} surface{}: {})\n", i + 1, organs.size(), organ.name,
-                     organ.surfaces.size(), organ.surfaces.size() == 1 ? "" : "s", files);
+    t += fmt::format("organ {} of {}: {} ({} surface{}: {})\n", i + 1, organs.size(), organ.name, organ.surfaces.size(),
+                     organ.surfaces.size() == 1 ? "" : "s", files);
     for (std::size_t at = 0; at < what.size();) {
       const std::size_t end = std::min(what.find('\n', at), what.size());
       t += fmt::format("  {}\n", what.substr(at, end - at));

@@ -194,7 +194,8 @@ std::string OrganLayout::text() const {
     t += fmt::format(", walled: {} lumen shell{} inside the outer wall", lumens.size(), lumens.size() == 1 ? "" : "s");
   const std::size_t off = left_out.size() - joined_off_path.size();  // left out and not skinned
   if (off > 0)
-    t += fmt::format("; {} piece{} left out (side branches or pieces not joined to the organ)", off, off == 1 ? "" : "s");
+    t += fmt::format("; {} piece{} left out (side branches or pieces not joined to the organ)", off,
+                     off == 1 ? "" : "s");
   if (!joined_off_path.empty())
     t += fmt::format("; {} piece{} joined off its path (a flexure's wedge, a branch): skinned with it",
                      joined_off_path.size(), joined_off_path.size() == 1 ? "" : "s");
@@ -236,7 +237,9 @@ Path longest_path(const std::vector<OrganPiece>& pieces, const std::vector<Junct
     next[junctions[j].a].emplace_back(junctions[j].b, j);
     next[junctions[j].b].emplace_back(junctions[j].a, j);
   }
-  auto loop_of = [&](std::size_t j, std::size_t p) { return junctions[j].a == p ? junctions[j].loop_a : junctions[j].loop_b; };
+  auto loop_of = [&](std::size_t j, std::size_t p) {
+    return junctions[j].a == p ? junctions[j].loop_a : junctions[j].loop_b;
+  };
   std::vector<double> weight(n);
   for (std::size_t p = 0; p < n; ++p) weight[p] = piece_length(pieces[p]);
   std::vector<std::size_t> best, current, best_via, via;  // via: the junction each piece was entered by
@@ -380,7 +383,8 @@ std::vector<OrganLayout> organ_layouts(std::vector<TriangleMesh> meshes, const s
   std::vector<std::vector<std::size_t>> lumens(paths.size()), left_out(paths.size()), joined(paths.size());
   for (std::size_t o = 0; o < paths.size(); ++o) {
     std::vector<bool> its(n, false);  // the outer pieces of the surfaces it took
-    for (std::size_t p = 0; p < n; ++p) its[p] = pieces[p].inside_of < 0 && taker[pieces[p].source] == static_cast<int>(o);
+    for (std::size_t p = 0; p < n; ++p)
+      its[p] = pieces[p].inside_of < 0 && taker[pieces[p].source] == static_cast<int>(o);
     for (const std::size_t p : joined_to(paths[o], junctions, its))
       if (organ[p] < 0) joined[o].push_back(p);
   }

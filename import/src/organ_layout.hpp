@@ -14,8 +14,8 @@ struct OrganPiece {
   TriangleMesh mesh;
   std::vector<std::vector<std::uint32_t>> loops;  // boundary loops, each in order
   double area = 0.0;
-  int inside_of = -1;       // the outer piece this lumen lies inside; −1 for an outer wall
-  std::size_t source = 0;   // the surface (file) it came from, where several make one scene
+  int inside_of = -1;      // the outer piece this lumen lies inside; −1 for an outer wall
+  std::size_t source = 0;  // the surface (file) it came from, where several make one scene
 };
 
 // Where the open ends of two outer pieces meet.
@@ -26,10 +26,10 @@ struct Junction {
 
 struct OrganLayout {
   std::vector<OrganPiece> pieces;
-  std::vector<std::size_t> path;           // outer pieces in order along the organ
-  std::vector<int> start_loop, end_loop;   // per path entry: the loop it meets its neighbour at (−1: free)
-  std::vector<std::size_t> lumens;         // pieces inside outer pieces on the path
-  std::vector<std::size_t> left_out;       // pieces not on the path (side branches, loose pieces)
+  std::vector<std::size_t> path;          // outer pieces in order along the organ
+  std::vector<int> start_loop, end_loop;  // per path entry: the loop it meets its neighbour at (−1: free)
+  std::vector<std::size_t> lumens;        // pieces inside outer pieces on the path
+  std::vector<std::size_t> left_out;      // pieces not on the path (side branches, loose pieces)
   // Of several surfaces: outer pieces joined to the path but off it (a flexure's wedge, a branch),
   // also in left_out; skinned with the organ, not followed by its centreline.
   std::vector<std::size_t> joined_off_path;

@@ -24,8 +24,7 @@ double tissue_anchor_tension(const Eigen::Vector3d& x, const Eigen::Vector3d& ta
 }
 
 AnchorResponse tissue_anchor(const Eigen::Vector3d& x, const Eigen::Vector3d& x_start, const Eigen::Vector3d& target,
-                             double k, double slack, double damping_rate, double support,
-                             const Eigen::Vector3d& down) {
+                             double k, double slack, double damping_rate, double support, const Eigen::Vector3d& down) {
   AnchorResponse r;
   const Eigen::Vector3d moved = x - x_start;
   r.force = -damping_rate * moved;

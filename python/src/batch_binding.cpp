@@ -31,8 +31,8 @@ class PyBatch {
     for (const py::handle item : worlds) {
       if (!py::isinstance<PyWorld>(item))
         throw Error(ErrorCode::invalid_argument,
-                    fmt::format("Batch: expected a list of haustra.World, got a {}", py::str(item.get_type().attr(
-                                                                                       "__name__")).cast<std::string>()));
+                    fmt::format("Batch: expected a list of haustra.World, got a {}",
+                                py::str(item.get_type().attr("__name__")).cast<std::string>()));
       objects_.push_back(py::reinterpret_borrow<py::object>(item));
       worlds_.push_back(&item.cast<PyWorld&>());
     }
@@ -79,9 +79,11 @@ class PyBatch {
         return false;
       };
       Batch::AfterFrame after;
-      if (record) after = [&](std::size_t i, std::uint64_t f) { recorders[i]->capture(*engines[i], static_cast<long>(f)); };
+      if (record)
+        after = [&](std::size_t i, std::uint64_t f) { recorders[i]->capture(*engines[i], static_cast<long>(f)); };
       batch_.step(engines, static_cast<std::uint64_t>(frames), outcomes, after, keep_going);
-      for (std::size_t i = 0; i < engines.size(); ++i) worlds_[i]->frames_stepped(static_cast<long>(outcomes[i].frames));
+      for (std::size_t i = 0; i < engines.size(); ++i)
+        worlds_[i]->frames_stepped(static_cast<long>(outcomes[i].frames));
     }
     locks.clear();
     py::list recordings, done;

@@ -6,10 +6,11 @@
 
 namespace haustra::python {
 
-void bind_errors(pybind11::module_& m);     // errors.cpp: haustra.Error and one subclass per code
-void bind_world(pybind11::module_& m);      // world_binding.cpp: haustra.World
+void bind_errors(pybind11::module_& m);  // errors.cpp: haustra.Error and one subclass per code
+void bind_world(pybind11::module_& m);   // world_binding.cpp: haustra.World
 void bind_functions(pybind11::module_& m);
-void bind_batch(pybind11::module_& m);      // batch_binding.cpp: haustra.Batch  // functions.cpp: validate, save_mesh, estimate_memory
+void bind_batch(
+    pybind11::module_& m);  // batch_binding.cpp: haustra.Batch  // functions.cpp: validate, save_mesh, estimate_memory
 
 // errors.cpp: sets the Python error for an engine error (its haustra.Error subclass, code, field).
 void set_python_error(const Error& e);

@@ -60,10 +60,11 @@ void set_python_error(const Error& e) {
 
 void bind_errors(py::module_& m) {
   ExceptionTypes& t = types();
-  t.base = new_type(m, "Error", py::make_tuple(py::handle(PyExc_RuntimeError)),
-                    "An error from the engine. `code` names its kind ('invalid_argument', 'io', 'parse', "
-                    "'invalid_geometry', 'unstable', 'internal', 'busy'); `field` the scene field it is about, or None. "
-                    "The message names the file, line and field where there is one.");
+  t.base =
+      new_type(m, "Error", py::make_tuple(py::handle(PyExc_RuntimeError)),
+               "An error from the engine. `code` names its kind ('invalid_argument', 'io', 'parse', "
+               "'invalid_geometry', 'unstable', 'internal', 'busy'); `field` the scene field it is about, or None. "
+               "The message names the file, line and field where there is one.");
   auto sub = [&](const char* name, PyObject* builtin, const char* doc) {
     return new_type(m, name, builtin != nullptr ? py::make_tuple(t.base, py::handle(builtin)) : py::make_tuple(t.base),
                     doc);

@@ -65,8 +65,7 @@ std::span<const double> flat(const Doubles& a) { return {a.data(), static_cast<s
 // Node indices from an int array: negative from the end, each in range, else InvalidIndexError.
 std::vector<std::uint32_t> node_indices(const World& world, const py::object& nodes, const char* call) {
   const py::array given = py::array::ensure(nodes);
-  if (!given || given.ndim() != 1 ||
-      !(given.size() == 0 || given.dtype().kind() == 'i' || given.dtype().kind() == 'u'))
+  if (!given || given.ndim() != 1 || !(given.size() == 0 || given.dtype().kind() == 'i' || given.dtype().kind() == 'u'))
     throw Error(ErrorCode::invalid_argument, fmt::format("{}: nodes must be a one-dimensional sequence of ints", call));
   const auto a = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(given);
   const auto count = static_cast<std::int64_t>(world.node_count());
@@ -74,9 +73,10 @@ std::vector<std::uint32_t> node_indices(const World& world, const py::object& no
   for (py::ssize_t i = 0; i < a.size(); ++i) {
     const std::int64_t k = a.data()[i];
     if (k < -count || k >= count)
-      throw IndexOutOfRange(fmt::format("{}: nodes[{}] = {} is out of range (the world has {} nodes: 0 to {}, or "
-                                        "-{} to -1 from the end)",
-                                        call, i, k, count, count - 1, count));
+      throw IndexOutOfRange(
+          fmt::format("{}: nodes[{}] = {} is out of range (the world has {} nodes: 0 to {}, or "
+                      "-{} to -1 from the end)",
+                      call, i, k, count, count - 1, count));
     out[static_cast<std::size_t>(i)] = static_cast<std::uint32_t>(k < 0 ? k + count : k);
   }
   return out;
@@ -144,9 +144,9 @@ void bind_world_writing(WorldClass& c) {
         }
         const Eigen::Quaterniond rot(q.data()[0], q.data()[1], q.data()[2], q.data()[3]);
         if (!rot.coeffs().allFinite() || std::abs(rot.norm() - 1.0) > 1e-6)
-          throw Error(ErrorCode::invalid_argument,
-                      fmt::format("set_base_pose: rotation has norm {}: expected a unit quaternion (w, x, y, z)",
-                                  rot.norm()));
+          throw Error(
+              ErrorCode::invalid_argument,
+              fmt::format("set_base_pose: rotation has norm {}: expected a unit quaternion (w, x, y, z)", rot.norm()));
         world->set_base_pose(s, {rot, vector3(position, "position")});
       },
       py::arg("segment"), py::arg("position"), py::arg("rotation"),

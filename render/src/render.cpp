@@ -344,9 +344,8 @@ struct Shader {
       const Geometry& g = geoms[h.geometry];
       const auto& tri = g.triangles[h.triangle];
       const Eigen::Vector3d p = origin + h.distance * dir;
-      if (g.material.cut_away && (g.vertices[tri[1]] - g.vertices[tri[0]])
-                                         .cross(g.vertices[tri[2]] - g.vertices[tri[0]])
-                                         .dot(dir) < 0.0 &&
+      if (g.material.cut_away &&
+          (g.vertices[tri[1]] - g.vertices[tri[0]]).cross(g.vertices[tri[2]] - g.vertices[tri[0]]).dot(dir) < 0.0 &&
           ++passed < 16) {  // its near wall, from outside: not a layer
         t0 = h.distance + eps;
         --layer;

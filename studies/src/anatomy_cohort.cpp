@@ -23,11 +23,11 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using Points = std::vector<Eigen::Vector3d>;
 
-constexpr double kAbove = 0.03;    // m: the grasper's tip above the middle of the centreline
-constexpr double kReach = 0.03;    // m: it closes on what lies within this of its tip
-constexpr double kClear = 0.05;    // m: it waits this far above the organ's highest point, alone
-constexpr double kDescent = 0.5;   // s: it comes down from there before it closes
-constexpr int kSampleEvery = 15;   // frames between measures of the mesh (a quarter second at 60 Hz)
+constexpr double kAbove = 0.03;   // m: the grasper's tip above the middle of the centreline
+constexpr double kReach = 0.03;   // m: it closes on what lies within this of its tip
+constexpr double kClear = 0.05;   // m: it waits this far above the organ's highest point, alone
+constexpr double kDescent = 0.5;  // s: it comes down from there before it closes
+constexpr int kSampleEvery = 15;  // frames between measures of the mesh (a quarter second at 60 Hz)
 
 std::string first_line(const std::string& s) { return s.substr(0, s.find('\n')); }
 
@@ -59,7 +59,7 @@ double percentile(std::vector<double> v, double p) {
 struct Edges {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;
   std::vector<double> rest;
-  std::vector<std::uint8_t> torn;  // passed twice its rest length, over the rod's own stretch, at some measure
+  std::vector<std::uint8_t> torn;   // passed twice its rest length, over the rod's own stretch, at some measure
   std::vector<std::uint32_t> node;  // per vertex
 };
 
@@ -80,7 +80,8 @@ Edges edges_of(const World& w, const Points& rest) {
   for (std::size_t v = 0; v < rest.size(); ++v) {
     double best = 1e300;
     for (std::size_t k = 0; k < nodes.size(); ++k)
-      if (const double d = (nodes.get(k) - rest[v]).squaredNorm(); d < best) best = d, e.node[v] = static_cast<std::uint32_t>(k);
+      if (const double d = (nodes.get(k) - rest[v]).squaredNorm(); d < best)
+        best = d, e.node[v] = static_cast<std::uint32_t>(k);
   }
   return e;
 }
@@ -141,9 +142,9 @@ InstrumentDesc grasper(const World& rest, const Eigen::Vector3d& gravity, const 
   g.axis = up;
   g.tip = high;
   const double closes = p.rest + kDescent, release = closes + p.pull + p.hold;
-  g.keyframes = {{0.0, high, up, false},         {p.rest, high, up, false},  {closes, tip, up, true},
-                 {closes + p.pull, aside, up, true}, {release, aside, up, false},
-                 {release + kDescent, aside + (high - tip), up, false}};
+  g.keyframes = {{0.0, high, up, false},      {p.rest, high, up, false},
+                 {closes, tip, up, true},     {closes + p.pull, aside, up, true},
+                 {release, aside, up, false}, {release + kDescent, aside + (high - tip), up, false}};
   return g;
 }
 
@@ -194,9 +195,10 @@ void run_phases(World& world, const OrganProtocol& p, CohortRow& row) {
 // import's scene with it appended (`protocol.toml` beside it).
 std::string instrument_toml(const InstrumentDesc& g) {
   auto v = [](const Eigen::Vector3d& x) { return fmt::format("[{:.9g}, {:.9g}, {:.9g}]", x.x(), x.y(), x.z()); };
-  std::string t = fmt::format("\n[[instrument]]   # the organ protocol's grasper (docs/anatomy.md)\nname = \"{}\"\n"
-                              "grasp_reach = {}\naxis = {}\ntip = {}\n",
-                              g.name, g.grasp_reach, v(g.axis), v(g.tip));
+  std::string t = fmt::format(
+      "\n[[instrument]]   # the organ protocol's grasper (docs/anatomy.md)\nname = \"{}\"\n"
+      "grasp_reach = {}\naxis = {}\ntip = {}\n",
+      g.name, g.grasp_reach, v(g.axis), v(g.tip));
   for (const InstrumentKeyframe& k : g.keyframes)
     t += fmt::format("[[instrument.keyframe]]\ntime = {}\ntip = {}\naxis = {}\ngrasp = {}\n", k.time, v(k.tip),
                      v(k.axis), k.grasp);
@@ -295,9 +297,8 @@ std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std
   return rows;
 }
 
-CohortRow run_abdomen(const std::filesystem::path& folder, const std::string& prefix,
-                      const std::filesystem::path& body, const std::filesystem::path& out,
-                      const OrganProtocol& protocol) {
+CohortRow run_abdomen(const std::filesystem::path& folder, const std::string& prefix, const std::filesystem::path& body,
+                      const std::filesystem::path& out, const OrganProtocol& protocol) {
   CohortRow row;
   row.name = fmt::format("abdomen: {}* and {}", prefix, body.filename().string());
   std::vector<std::filesystem::path> surfaces;
@@ -394,7 +395,8 @@ std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::files
     }
     const ImportReport& i = r.report;
     t += fmt::format(
-        "| {} | {} | {:.0f} | {} | {} | {:.1f} | {:.2f} / {:.2f} | {:.2f} | {:.1f} | {:.2f} / {:.2f} | {} | {:.2f} ({}) | "
+        "| {} | {} | {:.0f} | {} | {} | {:.1f} | {:.2f} / {:.2f} | {:.2f} | {:.1f} | {:.2f} / {:.2f} | {} | {:.2f} "
+        "({}) | "
         "{:.2f} ({:.2f}) | {} | {} |\n",
         r.name, i.layout, 1e3 * i.length, i.nodes, i.beads, i.seconds, 1e3 * r.rest_median, 1e3 * r.rest_max,
         r.largest_force, 1e3 * r.pulled, 1e3 * r.after_median, 1e3 * r.after_max, r.torn, r.stretch_worst,

@@ -127,7 +127,8 @@ std::vector<StabilityCell> stability_cells(const StabilityOptions& o) {
 StabilityCell run_stability_cell(StabilityCell c, const StabilityOptions& o) {
   std::string event;
   bool finite = true;
-  const std::string lagged_error = run_cell(c, SolverMode::lagged, InstabilityPolicy::stop, o.max_substeps, finite, event);
+  const std::string lagged_error =
+      run_cell(c, SolverMode::lagged, InstabilityPolicy::stop, o.max_substeps, finite, event);
   c.finite = finite;
   if (lagged_error.empty()) {
     c.outcome = "lagged";

@@ -106,7 +106,8 @@ TradeoffKnob run_tradeoff_knob(const std::string& name) {
     if (known == name) return run();
   std::string names;
   for (const auto& [known, run] : knob_functions()) names += (names.empty() ? "'" : ", '") + known + "'";
-  throw Error(ErrorCode::invalid_argument, fmt::format("trade-off study: no knob '{}' (expected one of {})", name, names));
+  throw Error(ErrorCode::invalid_argument,
+              fmt::format("trade-off study: no knob '{}' (expected one of {})", name, names));
 }
 
 TradeoffStudy run_tradeoff_study(const std::function<void(const std::string&)>& progress) {

@@ -53,7 +53,8 @@ TEST_CASE("batch on 2 threads: every world the same bits as stepped alone (threa
 
 TEST_CASE("batch (thread): a failing world stops alone, a world listed twice is refused, a stop stops") {
   auto owned = varied_worlds(3);
-  owned[1]->set_external_load(owned[1]->node_count() - 1, {0.0, 0.0, -1e5}, Eigen::Vector3d::Zero());  // the most a load may be
+  owned[1]->set_external_load(owned[1]->node_count() - 1, {0.0, 0.0, -1e5},
+                              Eigen::Vector3d::Zero());  // the most a load may be
   std::vector<World*> worlds{owned[0].get(), owned[1].get(), owned[2].get()};
   Batch batch(2);
   std::vector<Batch::Outcome> outcomes(3);

@@ -94,13 +94,18 @@ TEST_CASE("C API on a host thread of 1 MiB of stack: deep, endless and blocking 
     std::vector<std::string> words;
   };
   const std::vector<Case> cases = {
-      {f.write("header.toml", "[" + nested("a.", "", 100'000) + "a]\n"), HAUSTRA_INVALID_ARGUMENT,
+      {f.write("header.toml", "[" + nested("a.", "", 100'000) + "a]\n"),
+       HAUSTRA_INVALID_ARGUMENT,
        {"header.toml:1:1", "nests more than 64 levels"}},  // 200 KB
-      {f.write("arrays.toml", "x = " + nested("[", "]", 5'000) + "\n"), HAUSTRA_INVALID_ARGUMENT,
+      {f.write("arrays.toml", "x = " + nested("[", "]", 5'000) + "\n"),
+       HAUSTRA_INVALID_ARGUMENT,
        {"arrays.toml:1:68", "nests more than 64"}},  // 10 KB
-      {f.write("centreline.toml", "[[segment]]\nnodes = 21\n[segment.rest]\nshape = \"centreline\"\nfile = \"deep.json\"\n"),
-       HAUSTRA_INVALID_ARGUMENT, {"centreline.toml:5", "deep.json:1:", "nests more than 64"}},
-      {f.write("mesh.toml", segment + "[segment.mesh]\nfile = \"deep.gltf\"\n"), HAUSTRA_INVALID_ARGUMENT,
+      {f.write("centreline.toml",
+               "[[segment]]\nnodes = 21\n[segment.rest]\nshape = \"centreline\"\nfile = \"deep.json\"\n"),
+       HAUSTRA_INVALID_ARGUMENT,
+       {"centreline.toml:5", "deep.json:1:", "nests more than 64"}},
+      {f.write("mesh.toml", segment + "[segment.mesh]\nfile = \"deep.gltf\"\n"),
+       HAUSTRA_INVALID_ARGUMENT,
        {"mesh.toml:6", "deep.gltf:1:", "nests more than 64"}},
       {"/dev/zero", HAUSTRA_IO, {"/dev/zero: a character device, not a scene file"}},
       {(f.dir / "pipe.toml").string(), HAUSTRA_IO, {"pipe.toml: a FIFO (named pipe), not a scene file"}},
@@ -167,8 +172,9 @@ TEST_CASE("C API, one thread at a time: calls from another thread during a step 
   jobs.stepped();
   other.join();
   CHECK(inside.status == HAUSTRA_BUSY);
-  CHECK(inside.message == "haustra_world_step: called from inside a step of this world (a job system's callback?): the "
-                          "world takes calls again once its step returns");
+  CHECK(inside.message ==
+        "haustra_world_step: called from inside a step of this world (a job system's callback?): the "
+        "world takes calls again once its step returns");
   REQUIRE(other_thread.size() == 4);
   for (const Outcome& o : other_thread) {
     INFO(o.message);
@@ -188,9 +194,8 @@ TEST_CASE("C API, one thread at a time: calls from another thread during a step 
 }
 
 TEST_CASE("C API: a checkpoint keeps gravity, dt, the material and the frame limits set before the save") {
-  const std::string file = (std::filesystem::temp_directory_path() /
-                            ("haustra-c-hosts-" + std::to_string(::getpid()) + ".ckpt"))
-                               .string();
+  const std::string file =
+      (std::filesystem::temp_directory_path() / ("haustra-c-hosts-" + std::to_string(::getpid()) + ".ckpt")).string();
   haustra_world* w = nullptr;
   REQUIRE(haustra_world_create_from_scene(kTwoSegments.c_str(), 1, &w) == HAUSTRA_OK);
   for (int f = 0; f < 5; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
@@ -300,7 +305,8 @@ TEST_CASE("C API: flags are 0 or 1, a NaN drag and out-of-range loads and values
          d.floor_height = 1e300;
        },
        "environment.plane[0].point"},
-      {[](auto&, auto& s) { s.youngs_modulus = 1e-300; }, "segment[0].youngs_modulus: 1e-300 Pa is below the plausible minimum 1 Pa"},
+      {[](auto&, auto& s) { s.youngs_modulus = 1e-300; },
+       "segment[0].youngs_modulus: 1e-300 Pa is below the plausible minimum 1 Pa"},
       {[](auto&, auto& s) { s.length = 1e-300; }, "segment[0].rest.length"},
       {[](auto& d, auto&) { d.max_retries = 65; }, "solver.max_retries"},
   };
@@ -378,7 +384,8 @@ Costs step_and_count(haustra_world* w, int frames) {
 
 }  // namespace
 
-TEST_CASE("C API: a frame's cost is bounded by the host's limits, a frame refused by them is an event naming the limit") {
+TEST_CASE(
+    "C API: a frame's cost is bounded by the host's limits, a frame refused by them is an event naming the limit") {
   const StiffFloor floor;
   SUBCASE("the defaults: Newton with 8 substeps, and 90 of 100 frames slow after it") {
     haustra_world* w = floor.world(nullptr);
@@ -428,9 +435,9 @@ TEST_CASE("C API: a frame's cost is bounded by the host's limits, a frame refuse
     REQUIRE(n == 5);
     CHECK(events[1].kind == HAUSTRA_EVENT_UNSTABLE);
     CHECK(events[1].frame == 8);
-    CHECK(std::string(events[1].message).find("The frame's retries ran out (2 of solver.max_retries = 2) before "
-                                              "Newton with 8 substeps (solver.max_substeps) was tried") !=
-          std::string::npos);
+    CHECK(std::string(events[1].message)
+              .find("The frame's retries ran out (2 of solver.max_retries = 2) before "
+                    "Newton with 8 substeps (solver.max_substeps) was tried") != std::string::npos);
     // Given what it needs, the world steps on from its last good frame.
     const haustra_frame_limits enough{sizeof(haustra_frame_limits), 8, 16, 20};
     REQUIRE(haustra_world_set_frame_limits(w, &enough) == HAUSTRA_OK);

@@ -28,8 +28,8 @@ length = 1.0
 )";
 
 haustra_world* world_of(const std::string& text, const char* tag) {
-  const auto path = std::filesystem::temp_directory_path() /
-                    ("haustra-c-loads-" + std::to_string(::getpid()) + "-" + tag + ".toml");
+  const auto path =
+      std::filesystem::temp_directory_path() / ("haustra-c-loads-" + std::to_string(::getpid()) + "-" + tag + ".toml");
   std::ofstream(path) << text;
   haustra_world* w = nullptr;
   const haustra_status s = haustra_world_create_from_scene(path.c_str(), 1, &w);

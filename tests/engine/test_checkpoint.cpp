@@ -4,9 +4,9 @@
 
 #include <algorithm>
 #include <cstring>
-#include <functional>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 
 #include "haustra/error.hpp"
 #include "haustra/profile.hpp"
@@ -225,11 +225,17 @@ MaterialDesc scaled(const World& w, double factor) {
 TEST_CASE("checkpoints keep what every setter changed, set before or after the save (decision 0099)") {
   SUBCASE("gravity") {
     check_setter_kept(
-        "grasp-push", [](World& w) { w.set_gravity({0.0, -3.0, -9.0}); },
-        [](World& w) { w.set_gravity({1.0, 0.0, -5.0}); });
+        "grasp-push",
+        [](World& w) {
+          w.set_gravity({0.0, -3.0, -9.0});
+        },
+        [](World& w) {
+          w.set_gravity({1.0, 0.0, -5.0});
+        });
   }
   SUBCASE("dt") {
-    check_setter_kept("grasp-push", [](World& w) { w.set_dt(0.002); }, [](World& w) { w.set_dt(0.0005); });
+    check_setter_kept(
+        "grasp-push", [](World& w) { w.set_dt(0.002); }, [](World& w) { w.set_dt(0.0005); });
   }
   SUBCASE("a grasp's coupling") {
     check_setter_kept(
@@ -347,8 +353,8 @@ TEST_CASE("a checkpoint of a world a host added parts to restores into one with 
 }
 
 TEST_CASE("checkpoints keep connective tissue cut after the save undone, and cut before it cut") {
-  const std::string text = std::string(test::kMinimalScene) +
-                           "[[segment.anchors]]\nstiffness = 500.0\nsupport = 200.0\n";
+  const std::string text =
+      std::string(test::kMinimalScene) + "[[segment.anchors]]\nstiffness = 500.0\nsupport = 200.0\n";
   auto original = create_world(parse_scene(text, std::string(HAUSTRA_SOURCE_DIR) + "/scenes/anchors.toml"));
   for (int f = 0; f < 5; ++f) original->step();
   CHECK(original->cut_tissue(original->anchor_targets()[3], 0.01) > 0);

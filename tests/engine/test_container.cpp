@@ -126,13 +126,13 @@ TEST_CASE("a bead chain outside a container is pushed back in, however far out i
     sc.world.gravity = Eigen::Vector3d::Zero();
     auto w = create_world(sc);
     CAPTURE(out);
-    for (std::size_t b = 0; b < w->bead_count(); ++b)
-      REQUIRE(w->node_positions().get(w->bead_nodes()[b]).z() > 0.5);
+    for (std::size_t b = 0; b < w->bead_count(); ++b) REQUIRE(w->node_positions().get(w->bead_nodes()[b]).z() > 0.5);
     for (int f = 0; f < 120; ++f) w->step();
     double farthest = -1.0;  // beyond the lid, of any bead's centre
     for (std::size_t b = 0; b < w->bead_count(); ++b)
       farthest = std::max(farthest, w->node_positions().get(w->bead_nodes()[b]).z() - 0.5);
-    MESSAGE("started " << out << " m outside; after 2 s the farthest bead centre is " << farthest << " m past the wall");
+    MESSAGE("started " << out << " m outside; after 2 s the farthest bead centre is " << farthest
+                       << " m past the wall");
     CHECK(farthest < -0.5 * kChainBeadRadius);  // inside, by at least half a radius
   }
   // Through the wall x = 0.5, half of it out: pushed back along its own axis.

@@ -123,7 +123,8 @@ TEST_CASE("a grasp pulled past its holding force lets go with an event, and the 
   for (const Event& ev : w->events()) CHECK(ev.kind != Event::Kind::unstable);
 }
 
-TEST_CASE("a coupled grasp with nothing moving keeps its node on target, with no drag, at any distance from the origin") {
+TEST_CASE(
+    "a coupled grasp with nothing moving keeps its node on target, with no drag, at any distance from the origin") {
   // A straight elastic rod without weight or drag, clamped, its middle grasped; nothing is commanded
   // to move, so the damper (on the node's velocity relative to the grasp point's) has nothing to do.
   for (const double height : {0.0, 1.0, 10.0}) {

@@ -109,7 +109,9 @@ TEST_CASE("fast mode on drop: the fall as converged Newton's, factorizations reu
   CHECK(a->contacts().max_bead_overlap_ratio < 0.3);
 }
 
-TEST_CASE("fast mode keeps a long rod whole and reuses its factorization (decision 0062), the same bits with 1 and 2 threads") {
+TEST_CASE(
+    "fast mode keeps a long rod whole and reuses its factorization (decision 0062), the same bits with 1 and 2 "
+    "threads") {
   // The bowel: one chained rod of 641 nodes, which Newton solves in two parts (decision 0040). Split,
   // fast mode had no record to replay and refactored every frame (0 chords).
   auto run = [](int threads) {

@@ -128,7 +128,9 @@ TEST_CASE("deadline mode: frames over world.frame_budget are counted in the prof
                        doctest::Contains("world.mesh_update"), Error);
 }
 
-TEST_CASE("a reader that skins on its GPU gets the rings' data World::gpu_ring_frame gives, the same bits on 1 and 2 threads") {
+TEST_CASE(
+    "a reader that skins on its GPU gets the rings' data World::gpu_ring_frame gives, the same bits on 1 and 2 "
+    "threads") {
   // Decision 0110: the reader's acquire makes the rings alone, from the poses the stepping thread
   // published; the world's own call makes them from its own rings.
   std::vector<std::vector<float>> one;

@@ -53,8 +53,9 @@ TEST_CASE("one thread at a time: a second thread's step, change or mesh read dur
   jobs.stepped();
   other.join();
   REQUIRE(messages.size() == 6);
-  CHECK(messages[0] == "World::step: the world is in use by another thread: one thread at a time steps, changes or "
-                       "reads a world's meshes (decision 0100); call again once its call returns");
+  CHECK(messages[0] ==
+        "World::step: the world is in use by another thread: one thread at a time steps, changes or "
+        "reads a world's meshes (decision 0100); call again once its call returns");
   CHECK(messages[1].find("World::set_gravity: the world is in use by another thread") == 0);
   CHECK(messages[3].find("World::mesh_positions: the world is in use") == 0);
   // Nothing the refused calls would have done was done: the world steps on as one never disturbed.
@@ -73,8 +74,9 @@ TEST_CASE("one thread at a time: a call from inside the world's own step, on the
   w->step();
   jobs.stepped();
   other.join();
-  CHECK(message == "World::set_dt: called from inside a step of this world (a job system's callback?): the world "
-                   "takes calls again once its step returns");
+  CHECK(message ==
+        "World::set_dt: called from inside a step of this world (a job system's callback?): the world "
+        "takes calls again once its step returns");
   CHECK(w->dt() == doctest::Approx(1.0 / 60.0));
   w->set_dt(0.01);  // after the step, the same thread may
   CHECK(w->dt() == 0.01);

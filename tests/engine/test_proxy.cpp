@@ -77,7 +77,9 @@ MeshObstacleDesc body_box() {
   return d;
 }
 
-TEST_CASE("a proxy instrument commanded 2 cm into a bead, the floor, a wall or the body: force within its limit, capsule outside") {
+TEST_CASE(
+    "a proxy instrument commanded 2 cm into a bead, the floor, a wall or the body: force within its limit, capsule "
+    "outside") {
   const PlaneDesc floor{"floor", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ()};
   const PlaneDesc wall{"wall", Eigen::Vector3d(0.0, 0.3, 0.0), -Eigen::Vector3d::UnitY()};
   const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
@@ -85,8 +87,8 @@ TEST_CASE("a proxy instrument commanded 2 cm into a bead, the floor, a wall or t
   const Push bead = push(true, Eigen::Vector3d(0.5, 0.0, 0.0402), up, up, {floor}, true);
   // The floor beside the rod, and a wall 30 cm from it (the shaft along the wall's normal).
   const Push into_floor = push(true, Eigen::Vector3d(0.5, 0.15, 0.0), up, up, {floor});
-  const Push into_wall = push(true, Eigen::Vector3d(0.5, 0.3, 0.05), -Eigen::Vector3d::UnitY(),
-                              -Eigen::Vector3d::UnitY(), {floor, wall});
+  const Push into_wall =
+      push(true, Eigen::Vector3d(0.5, 0.3, 0.05), -Eigen::Vector3d::UnitY(), -Eigen::Vector3d::UnitY(), {floor, wall});
   // Out through the body's wall at y = 0.5 (its inside is −y there), the handle inward.
   const MeshObstacleDesc body = body_box();
   const Push into_body = push(true, Eigen::Vector3d(0.5, 0.5, 0.1), -Eigen::Vector3d::UnitY(),
@@ -97,8 +99,8 @@ TEST_CASE("a proxy instrument commanded 2 cm into a bead, the floor, a wall or t
                                 {"wall", into_wall},
                                 {"body", into_body}}) {
     INFO(name << ": " << p.stop);
-    MESSAGE(name << ": largest force " << p.largest << " N, tip " << p.deepest * 1e3 << " mm in, "
-                 << p.lag * 1e3 << " mm short of its command at the end");
+    MESSAGE(name << ": largest force " << p.largest << " N, tip " << p.deepest * 1e3 << " mm in, " << p.lag * 1e3
+                 << " mm short of its command at the end");
     CHECK(p.stop.empty());
     CHECK(p.largest <= 8.0 * (1.0 + 1e-9));  // the default force limit, every frame
     CHECK(p.largest > 7.0);                  // it did push, up to the limit

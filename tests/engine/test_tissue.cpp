@@ -59,7 +59,8 @@ TEST_CASE("tissue: a free rod on uniform anchors sinks by q / k everywhere, each
     const double share = 0.5 * ((k > 0 ? h[k - 1] : 0.0) + (k + 1 < w->node_count() ? h[k] : 0.0));
     worst_tension = std::max(worst_tension, std::abs(tension[k] - q * share) / (q * share));
   }
-  MESSAGE("uniform sag " << expected * 1e3 << " mm; relative errors: sag " << worst_sag << ", tension " << worst_tension);
+  MESSAGE("uniform sag " << expected * 1e3 << " mm; relative errors: sag " << worst_sag << ", tension "
+                         << worst_tension);
   REQUIRE(w->anchor_count() == w->node_count());
   // Uniform load on a uniform foundation needs no bending: exact to rounding (measured 1.0e-14).
   test::measured("tissue: free rod's sag against q/k (relative)", worst_sag, 1e-13);
@@ -74,7 +75,8 @@ TEST_CASE("tissue: a clamped rod on anchors sags as a beam on a two-parameter (P
   // foundation's shear term. B w'''' − k R² w'' + k w = q, clamped at x = 0: w = q/k (1 − e^{−ax}
   // (cos bx + (a/b) sin bx)), a ± ib the root of B s⁴ − k R² s² + k = 0 with positive real part.
   const double shear = kFoundation * 0.02 * 0.02;
-  const std::complex<double> p(0.5 * shear / bending, 0.5 * std::sqrt(4.0 * kFoundation / bending - std::pow(shear / bending, 2)));
+  const std::complex<double> p(0.5 * shear / bending,
+                               0.5 * std::sqrt(4.0 * kFoundation / bending - std::pow(shear / bending, 2)));
   const std::complex<double> s = std::sqrt(p);
   const double a = s.real(), b = s.imag();
   REQUIRE(a * kLength > 10.0);  // the free end is far from the clamp: the semi-infinite solution

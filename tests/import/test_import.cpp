@@ -86,29 +86,28 @@ Imported import_and_run(const import::ImportOptions& o) {
 // of every surface: at rest every vertex within 5 mm of where the segmentation put it (the median
 // within 1 mm); the pull never stops, its force never above the limit; back within 5 mm after the
 // release, or the anchors that tore (or the grasp that tore out) reported.
-import::CohortRow organ_protocol(const std::string& surface) {
-  import::OrganProtocol p;
-  p.rest = 2.0;
-  p.hold = 0.5;
-  p.after = 2.0;
-  const import::CohortRow row = import::run_cohort_surface(kAnatomy / (surface + ".obj"), scratch(surface), p);
-  MESSAGE(row.name << ": " << (row.imported ? row.report.text() : row.error) << "at rest " << row.rest_median * 1e3
-                   << " / " << row.rest_max * 1e3 << " mm, force " << row.largest_force << " N, pulled "
-                   << row.pulled * 1e3 << " mm, after " << row.after_median * 1e3 << " / " << row.after_max * 1e3
-                   << " mm, torn " << row.torn << ", grasp torn out " << row.slipped << ", skin " << row.stretch_worst
-                   << " (" << row.stretch_edges << " edges past 2x); " << row.error);
-  REQUIRE(row.imported);
-  CHECK(row.ran);
-  CHECK(row.unstable == 0);
-  CHECK(row.outside == 0);
-  CHECK(row.grasped);
-  CHECK(row.rest_max <= 5e-3);
-  CHECK(row.rest_median <= 1e-3);
-  CHECK(row.largest_force <= row.force_limit * (1.0 + 1e-9));
-  CHECK(row.largest_force > 0.5);  // it did pull
-  CHECK((row.after_max <= 5e-3 || row.torn > 0 || row.slipped));
-  CHECK(row.holds);
-  return row;
+import::CohortRow organ_protocol(const std::string& surface){import::OrganProtocol p;
+p.rest = 2.0;
+p.hold = 0.5;
+p.after = 2.0;
+const import::CohortRow row = import::run_cohort_surface(kAnatomy / (surface + ".obj"), scratch(surface), p);
+MESSAGE(row.name << ": " << (row.imported ? row.report.text() : row.error) << "at rest " << row.rest_median * 1e3
+                 << " / " << row.rest_max * 1e3 << " mm, force " << row.largest_force << " N, pulled "
+                 << row.pulled * 1e3 << " mm, after " << row.after_median * 1e3 << " / " << row.after_max * 1e3
+                 << " mm, torn " << row.torn << ", grasp torn out " << row.slipped << ", skin " << row.stretch_worst
+                 << " (" << row.stretch_edges << " edges past 2x); " << row.error);
+REQUIRE(row.imported);
+CHECK(row.ran);
+CHECK(row.unstable == 0);
+CHECK(row.outside == 0);
+CHECK(row.grasped);
+CHECK(row.rest_max <= 5e-3);
+CHECK(row.rest_median <= 1e-3);
+CHECK(row.largest_force <= row.force_limit * (1.0 + 1e-9));
+CHECK(row.largest_force > 0.5);  // it did pull
+CHECK((row.after_max <= 5e-3 || row.torn > 0 || row.slipped));
+CHECK(row.holds);
+return row;
 }
 
 fs::path organ_file(const fs::path& file, const std::vector<std::pair<double, Eigen::Vector3d>>& pieces, double scale) {
@@ -527,7 +526,8 @@ TEST_CASE("haustra import: bad input fails with a clear message") {
                        doctest::Contains("ball.obj: no tube in this mesh: it is closed"), Error);
 }
 
-TEST_CASE("an anatomy row is the same on 1 and 2 threads but its frame time (a study's import runs on its cells' threads)") {
+TEST_CASE(
+    "an anatomy row is the same on 1 and 2 threads but its frame time (a study's import runs on its cells' threads)") {
   const fs::path surface = kAnatomy / "HuBMAPVHM-00070-large-intestine-Appendix.obj";
   import::OrganProtocol p;
   p.rest = 0.5, p.pull = 0.5, p.hold = 0.25, p.after = 0.5;

@@ -10,9 +10,9 @@
 
 #include "haustra/error.hpp"
 #include "haustra/import/import.hpp"
-#include "haustra/studies/anatomy_cohort.hpp"
 #include "haustra/mesh_io.hpp"
 #include "haustra/scene.hpp"
+#include "haustra/studies/anatomy_cohort.hpp"
 #include "haustra/studies/anatomy_study.hpp"
 
 namespace fs = std::filesystem;
@@ -33,7 +33,7 @@ fs::path fresh_dir(const std::string& name) {
 // by its triangles' centres: two surfaces whose open ends share their points. The second is moved
 // by `shift` (mm).
 std::pair<fs::path, fs::path> cut_organ(const fs::path& dir, const Eigen::Vector3d& shift) {
-  import::write_procedural_organ(dir / "whole.obj", {{0.3, Eigen::Vector3d::Zero()}}, 1000.0);
+  import::write_procedural_organ(dir / "whole.obj", {{ 0.3, Eigen::Vector3d::Zero() }}, 1000.0);
   const TriangleMesh whole = load_mesh(dir / "whole.obj");
   std::vector<std::uint8_t> first(whole.triangles.size()), second(whole.triangles.size());
   for (std::size_t t = 0; t < whole.triangles.size(); ++t) {
@@ -62,13 +62,12 @@ fs::path box_body(const fs::path& file, const Eigen::Vector3d& lo, const Eigen::
   return file;
 }
 
-import::ImportOptions surfaces(const std::vector<fs::path>& meshes, const fs::path& out) {
-  import::ImportOptions o;
-  o.mesh = meshes.front();
-  o.more_meshes.assign(meshes.begin() + 1, meshes.end());
-  o.out = out;
-  return o;
-}
+import::ImportOptions surfaces(const std::vector<fs::path>& meshes, const fs::path& out){import::ImportOptions o;
+o.mesh = meshes.front();
+o.more_meshes.assign(meshes.begin() + 1, meshes.end());
+o.out = out;
+return o;
+}  // namespace
 
 std::string bytes_of(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -143,9 +142,10 @@ TEST_CASE("haustra import of several surfaces: open ends that meet make one orga
 TEST_CASE("haustra import of several surfaces: a flexure's wedge shares its one rim with its neighbour: one organ") {
   // HF--HF's one boundary loop runs along the cuts to both its neighbours; HF-HF+ shares 75 of its points.
   const fs::path dir = fresh_dir("wedge");
-  const import::SurfacesReport r = import::import_surfaces(
-      surfaces({kSurfaceData / "EdinGCA-00020-large-intestine-HF--HF.obj", kSurfaceData / "EdinGCA-00020-large-intestine-HF-HF+.obj"},
-               dir / "flexure.toml"));
+  const import::SurfacesReport r =
+      import::import_surfaces(surfaces({kSurfaceData / "EdinGCA-00020-large-intestine-HF--HF.obj",
+                                        kSurfaceData / "EdinGCA-00020-large-intestine-HF-HF+.obj"},
+                                       dir / "flexure.toml"));
   MESSAGE(r.text());
   REQUIRE(r.organs.size() == 1);
   CHECK(r.organs[0].name == "EdinGCA-00020-large-intestine-HF");  // what the surfaces' names share
@@ -216,12 +216,14 @@ TEST_CASE("haustra import --gravity: axes, vectors, supine and prone read, anyth
   CHECK_THROWS_WITH_AS(import::import_surfaces(o), doctest::Contains("--nodes: applies to one surface"), Error);
 }
 
-TEST_CASE("haustra import of several surfaces: the same files give the same scene, bit for bit, and one in a body "
-          "gives one surface's organ") {
+TEST_CASE(
+    "haustra import of several surfaces: the same files give the same scene, bit for bit, and one in a body "
+    "gives one surface's organ") {
   const fs::path dir = fresh_dir("same");
   const auto [lower, upper] = cut_organ(dir / ".", Eigen::Vector3d(100.0, 0.0, 0.0));
   const fs::path body = box_body(dir / "body.obj", {-200.0, -100.0, -100.0}, {200.0, 150.0, 400.0});
-  import::ImportOptions a = surfaces({lower, upper}, dir / "a" / "s.toml"), b = surfaces({lower, upper}, dir / "b" / "s.toml");
+  import::ImportOptions a = surfaces({lower, upper}, dir / "a" / "s.toml"),
+                        b = surfaces({lower, upper}, dir / "b" / "s.toml");
   a.body = b.body = body;
   (void)import::import_surfaces(a);
   (void)import::import_surfaces(b);
@@ -240,7 +242,8 @@ TEST_CASE("haustra import of several surfaces: the same files give the same scen
   CHECK(bytes_of(dir / "one" / "s-centreline.json") == bytes_of(dir / "alone" / "s-centreline.json"));
 }
 
-TEST_CASE("an abdomen (two organs in a body) goes through the organ protocol and holds, the grasp on its longest organ") {
+TEST_CASE(
+    "an abdomen (two organs in a body) goes through the organ protocol and holds, the grasp on its longest organ") {
   const fs::path dir = fresh_dir("abdomen-protocol");
   // Two organs side by side (the upper half 100 mm aside), both named organ-*, and a trunk around them.
   fs::create_directories(dir / "surfaces");
@@ -260,7 +263,7 @@ TEST_CASE("an abdomen (two organs in a body) goes through the organ protocol and
   CHECK(row.grasped);
   CHECK(row.rest_max <= 1e-3);  // the support lets the weight sink it 0.5 mm
   CHECK(row.largest_force <= row.force_limit * (1.0 + 1e-9));
-  CHECK(row.pulled > 0.01);     // it followed the grasper
+  CHECK(row.pulled > 0.01);  // it followed the grasper
   CHECK(row.after_max <= 5e-3);
   CHECK(row.holds);
   CHECK(fs::exists(dir / "out" / "protocol.toml"));

@@ -296,7 +296,8 @@ TEST_CASE("localization study: error falls with K, and MVC follows rigid cross-s
   const auto& adaptive = s.rows[6];  // at least 4 rings, more until 2 % of the weight or less is left out
   MESSAGE("K = 4: " << k4.max_error << " m from full MVC, " << k4.slots << " rings; per vertex: " << adaptive.max_error
                     << " m, " << adaptive.slots << " rings on average");
-  CHECK(adaptive.max_error < 1e-3);  // the bound it is chosen for (measured 0.31 mm folded, 0.97 renormalized; K = 4: 0.63 mm)
+  CHECK(adaptive.max_error <
+        1e-3);  // the bound it is chosen for (measured 0.31 mm folded, 0.97 renormalized; K = 4: 0.63 mm)
   CHECK(adaptive.max_error < k4.max_error);
   CHECK(adaptive.slots > 4.0);
   const auto& lbs = s.rows[7];
@@ -338,7 +339,7 @@ TEST_CASE(
                                         << chosen.mean_rings_per_vertex << ", up to " << chosen.rings_per_vertex
                                         << "), K = 4 " << k4.slots_per_vertex << ", all " << full.slots_per_vertex);
   CHECK(chosen.rings_per_vertex <= 7);
-  CHECK(chosen.slots_per_vertex <= 2.0 * k4.slots_per_vertex);  // the cost bound, counted
+  CHECK(chosen.slots_per_vertex <= 2.0 * k4.slots_per_vertex);   // the cost bound, counted
   CHECK(full.slots_per_vertex > 3.0 * chosen.slots_per_vertex);  // dense: full MVC would cost far more
   std::mt19937 rng(29);
   double worst = 0.0, worst_k4 = 0.0, moved = 0.0;

@@ -74,8 +74,8 @@ TEST_CASE("tissue anchor: free within its slack, a spring of k beyond it, the da
   CHECK((sunk.force - Eigen::Vector3d(0, 0, 1.0)).norm() < 1e-15);
   CHECK(sunk.stiffness(2, 2) == 500.0);
   CHECK(sunk.stiffness(0, 0) == 0.0);
-  const auto lifted = tissue_anchor(Eigen::Vector3d(0, 0, 0.05), Eigen::Vector3d(0, 0, 0.05), target, 0.0, 0.0, 0.0,
-                                    500.0, down);
+  const auto lifted =
+      tissue_anchor(Eigen::Vector3d(0, 0, 0.05), Eigen::Vector3d(0, 0, 0.05), target, 0.0, 0.0, 0.0, 500.0, down);
   CHECK(lifted.force.norm() == 0.0);
   CHECK(lifted.energy == 0.0);
   // No slack: linear, k I everywhere (the target itself included).

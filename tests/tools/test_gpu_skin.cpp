@@ -129,7 +129,7 @@ Skinned run_shader(const GpuSkinBinding& b, std::span<const float> rings) {
 }
 
 struct Errors {
-  double position = 0.0, moved = 0.0;  // m: the worst vertex against the CPU; the most a vertex moved from rest
+  double position = 0.0, moved = 0.0;         // m: the worst vertex against the CPU; the most a vertex moved from rest
   double normal_max = 0.0, normal_p99 = 0.0;  // degrees against the CPU's normals
 };
 
@@ -163,14 +163,15 @@ Errors check_frame(const World& w, const std::string& what, double moved_at_leas
   const Skinned gpu = run_shader(b, rings);
   const Errors e = compare(w, b, gpu);
   MESSAGE(what << ": " << b.vertices << " vertices, " << b.slots() << " slots (at most " << b.max_slots
-               << " a vertex); moved up to " << e.moved << " m; shader vs CPU " << e.position
-               << " m, normals " << e.normal_max << " deg at most, " << e.normal_p99 << " deg 99th pct");
+               << " a vertex); moved up to " << e.moved << " m; shader vs CPU " << e.position << " m, normals "
+               << e.normal_max << " deg at most, " << e.normal_p99 << " deg 99th pct");
   CHECK(e.moved > moved_at_least);  // a deformed organ, not the rest pose
-  CHECK(e.position <= 1e-6);      // the bound
+  CHECK(e.position <= 1e-6);        // the bound
   const auto p = w.mesh_positions();
   double reference = 0.0;
   for (std::size_t v = 0; v < b.vertices; ++v)
-    reference = std::max(reference, (gpu_skin_vertex(b, rings, v).position - Eigen::Vector3d(p.x[v], p.y[v], p.z[v])).norm());
+    reference =
+        std::max(reference, (gpu_skin_vertex(b, rings, v).position - Eigen::Vector3d(p.x[v], p.y[v], p.z[v])).norm());
   CHECK(reference <= 1e-6);
   return e;
 }

@@ -42,10 +42,12 @@ Torus torus(double R, double r, int around, int across, int node_count) {
       const Eigen::Vector3d n = std::cos(b) * radial + std::sin(b) * Eigen::Vector3d::UnitZ();
       t.positions.push_back(R * radial + r * n);
       t.normals.push_back(n);
-      t.vertex_node.push_back(static_cast<std::uint32_t>(std::lround(a / (2.0 * std::numbers::pi) * node_count) %
-                                                         node_count));
+      t.vertex_node.push_back(
+          static_cast<std::uint32_t>(std::lround(a / (2.0 * std::numbers::pi) * node_count) % node_count));
     }
-  auto id = [&](int i, int j) { return static_cast<std::uint32_t>(((i + around) % around) * across + (j + across) % across); };
+  auto id = [&](int i, int j) {
+    return static_cast<std::uint32_t>(((i + around) % around) * across + (j + across) % across);
+  };
   for (int i = 0; i < around; ++i)
     for (int j = 0; j < across; ++j) {
       t.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
@@ -76,7 +78,8 @@ std::size_t open_edges(const std::vector<Triangle>& triangles) {
       const std::uint32_t a = t[static_cast<std::size_t>(e)], b = t[static_cast<std::size_t>((e + 1) % 3)];
       ++uses[{std::min(a, b), std::max(a, b)}];
     }
-  return static_cast<std::size_t>(std::count_if(uses.begin(), uses.end(), [](const auto& u) { return u.second % 2 == 1; }));
+  return static_cast<std::size_t>(
+      std::count_if(uses.begin(), uses.end(), [](const auto& u) { return u.second % 2 == 1; }));
 }
 
 }  // namespace

@@ -154,10 +154,12 @@ TEST_CASE("haustra view: a grasp made while paused takes hold at the next step, 
 TEST_CASE("haustra view: Shift-drag on the organ cuts its connective tissue, a plain press still grasps") {
   const fs::path dir = scratch("cut");
   // The demo on connective tissue (appended to its last [[segment]]).
-  const fs::path scene = write(dir / "tissue.toml", slurp(fs::path(kSource) / "scenes" / "demo.toml") +
-                                                        "\n[[segment.anchors]]\nstiffness = 1000.0\nsupport = 5000.0\n");
+  const fs::path scene =
+      write(dir / "tissue.toml", slurp(fs::path(kSource) / "scenes" / "demo.toml") +
+                                     "\n[[segment.anchors]]\nstiffness = 1000.0\nsupport = 5000.0\n");
   const nlohmann::json rec =
-      run_demo_script(dir, "cut", "wait 10\nshift down\npress bead 5\nmove by 40 0 10\nrelease\nshift up\nwait 5\n"
+      run_demo_script(dir, "cut",
+                      "wait 10\nshift down\npress bead 5\nmove by 40 0 10\nrelease\nshift up\nwait 5\n"
                       "press bead 20\nwait 5\nrelease\nwait 3\nquit\n",
                       (dir / "tissue.toml").string());
   (void)scene;
@@ -265,10 +267,10 @@ TEST_CASE("haustra view: the organ skinned by the GPU (the default) looks as the
   // Lifted by the scene's grasper, then paused, so both screenshots are of one frame: the shader's
   // skin, then (K) the CPU's mesh.
   const fs::path dir = scratch("gpu-skin");
-  const nlohmann::json rec = run_demo_script(dir, "skin",
-                                             "wait 100\npause\nwait 2\nscreenshot " + (dir / "gpu.png").string() +
-                                                 "\nkey K\nwait 2\nscreenshot " + (dir / "cpu.png").string() +
-                                                 "\nquit\n");
+  const nlohmann::json rec =
+      run_demo_script(dir, "skin",
+                      "wait 100\npause\nwait 2\nscreenshot " + (dir / "gpu.png").string() +
+                          "\nkey K\nwait 2\nscreenshot " + (dir / "cpu.png").string() + "\nquit\n");
   std::vector<std::string> switches;
   for (const auto& e : rec["events"])
     if (e["kind"].get<std::string>().rfind("skinning", 0) == 0) switches.push_back(e["kind"]);

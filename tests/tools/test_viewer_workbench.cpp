@@ -51,22 +51,23 @@ TEST_CASE("haustra view: a video at the physics' own time, the help overlay, Fil
   const fs::path scene = dir / "cantilever.toml";
   fs::copy_file(kSource + "/scenes/cantilever.toml", scene);
   const fs::path video = dir / "pull.mp4";
-  const nlohmann::json rec = run_demo_script(dir, "bench",
-                                             "wait 2\nrecord " + video.string() +
-                                                 "\nwait 120\nrecord stop\nwait 1\n"
-                                                 "screenshot " + (dir / "plain.png").string() +
-                                                 "\nkey F1\nwait 1\nscreenshot " + (dir / "help.png").string() +
-                                                 "\nkey ESC\nopen " + scene.string() +
-                                                 "\nwait 10\nkey CTRL+R\nwait 3\nquit\n");
+  const nlohmann::json rec =
+      run_demo_script(dir, "bench",
+                      "wait 2\nrecord " + video.string() +
+                          "\nwait 120\nrecord stop\nwait 1\n"
+                          "screenshot " +
+                          (dir / "plain.png").string() + "\nkey F1\nwait 1\nscreenshot " + (dir / "help.png").string() +
+                          "\nkey ESC\nopen " + scene.string() + "\nwait 10\nkey CTRL+R\nwait 3\nquit\n");
   const std::string log = log_of(rec);
   INFO(log);
   // 120 physics frames of 1/60 s recorded at 30 frames a second of simulated time: 60 frames, 2 s.
   CHECK(log.find("2 physics frames each") != std::string::npos);
   CHECK(log.find("pull.mp4: 60 frames") != std::string::npos);
-  const Result p = run("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
-                       "stream=nb_read_frames,width,height,r_frame_rate -of default=noprint_wrappers=1 " +
-                           video.string(),
-                       dir);
+  const Result p =
+      run("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+          "stream=nb_read_frames,width,height,r_frame_rate -of default=noprint_wrappers=1 " +
+              video.string(),
+          dir);
   const std::string stream = slurp(dir / "stdout.txt");
   INFO(p.err);
   INFO(stream);
@@ -121,12 +122,15 @@ TEST_CASE("haustra view: the inspector's edit of E makes the cantilever stiffer,
   CHECK(log.find("select: no organ 5 (the scene has 1)") != std::string::npos);
 }
 
-TEST_CASE("haustra view: the front, top, side and default views each hold the whole organ, and orbiting stays above the floor") {
+TEST_CASE(
+    "haustra view: the front, top, side and default views each hold the whole organ, and orbiting stays above the "
+    "floor") {
   const fs::path dir = scratch("cameras");
-  const nlohmann::json rec = run_demo_script(dir, "views",
-                                             "wait 2\npause\nkey 1\nwait 1\nwait 1\nkey 2\nwait 1\nwait 1\nkey 3\nwait 1\nwait 1\n"
-                                             "key 0\nwait 1\nwait 1\npress 1200 120\nmove by 0 -600 10\nrelease\n"
-                                             "wait 1\nwait 1\nquit\n");
+  const nlohmann::json rec =
+      run_demo_script(dir, "views",
+                      "wait 2\npause\nkey 1\nwait 1\nwait 1\nkey 2\nwait 1\nwait 1\nkey 3\nwait 1\nwait 1\n"
+                      "key 0\nwait 1\nwait 1\npress 1200 120\nmove by 0 -600 10\nrelease\n"
+                      "wait 1\nwait 1\nquit\n");
   int views = 0, checked_orbit = 0;
   const auto& events = rec["events"];
   // Each view as drawn: the camera a frame after the key (or the orbit), when the fit has been made.

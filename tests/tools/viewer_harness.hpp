@@ -107,7 +107,7 @@ inline Coverage coverage(const fs::path& png) {
 
 // Runs the viewer on the demo with `script` (written to DIR/NAME.txt) and reads back its record.
 inline nlohmann::json run_demo_script(const fs::path& dir, const std::string& name, const std::string& script,
-                               const std::string& scene = kSource + "/scenes/demo.toml") {
+                                      const std::string& scene = kSource + "/scenes/demo.toml") {
   const fs::path file = write(dir / (name + ".txt"), script);
   const Result r =
       run(kXvfb + kViewer + " " + scene + " --script " + file.string() + " --record " + (dir / "record.json").string(),

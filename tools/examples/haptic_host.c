@@ -252,10 +252,11 @@ int main(int argc, char** argv) {
   haustra_world_late_frames(sh.world, &late);
   if (timed > 0) {
     qsort(frame_seconds, timed, sizeof(double), by_value);
-    printf("physics frame (%d threads): median %.0f us, p99 %.0f us, p99.9 %.0f us, max %.0f us; %llu of %zu over the 1 ms budget\n",
-           threads, 1e6 * quantile(frame_seconds, timed, 0.5), 1e6 * quantile(frame_seconds, timed, 0.99),
-           1e6 * quantile(frame_seconds, timed, 0.999), 1e6 * frame_seconds[timed - 1], (unsigned long long)late,
-           timed);
+    printf(
+        "physics frame (%d threads): median %.0f us, p99 %.0f us, p99.9 %.0f us, max %.0f us; %llu of %zu over the 1 "
+        "ms budget\n",
+        threads, 1e6 * quantile(frame_seconds, timed, 0.5), 1e6 * quantile(frame_seconds, timed, 0.99),
+        1e6 * quantile(frame_seconds, timed, 0.999), 1e6 * frame_seconds[timed - 1], (unsigned long long)late, timed);
   }
   free(frame_seconds);
   free(velocities);

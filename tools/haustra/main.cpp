@@ -628,7 +628,7 @@ void declare_import(CLI::App& app, Commands& c) {
   c.import_cmd->add_flag("--reverse", c.import_options.reverse, "run the rod from the other end");
 
   c.anatomy_cmd = app.add_subcommand(
-            "anatomy",
+      "anatomy",
       "import every surface of a folder with the defaults and put each through the organ protocol (left alone, "
       "grasped, pulled 5 cm, released): docs/anatomy.md's table");
   c.anatomy_cmd->add_option("folder", c.anatomy_folder, "folder of surfaces (.obj)")

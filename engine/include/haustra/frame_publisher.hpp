@@ -22,7 +22,7 @@ struct FrameDetails {
   std::vector<Contact> contacts;
   std::vector<InstrumentReading> instruments;
   std::vector<std::vector<Eigen::Vector3d>> cages;  // per segment: cage vertices (when wanted)
-  std::vector<std::uint8_t> anchors_intact;        // per anchor of connective tissue: 1 while it holds
+  std::vector<std::uint8_t> anchors_intact;         // per anchor of connective tissue: 1 while it holds
   FrameProfile profile;
 };
 
@@ -43,7 +43,7 @@ class FramePublisher {
     bool mesh_made = false;
     std::vector<float> gpu_rings;
     bool gpu_pending = false;
-    FrameDetails details;                       // filled when the publisher wants details
+    FrameDetails details;  // filled when the publisher wants details
   };
 
   // details: also copy FrameDetails every frame; cages: and the cage vertices.

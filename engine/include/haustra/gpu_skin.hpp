@@ -16,11 +16,11 @@ namespace haustra {
 inline constexpr std::size_t kGpuRingFloats = kernels::kGpuRingFloats;
 
 struct GpuSkinBinding {
-  std::size_t vertices = 0;  // World::mesh_buffer_size(): indexed as mesh_positions
-  std::size_t rings = 0;     // World::ring_count(): all segments' cage rings
-  std::uint32_t max_slots = 0;          // the most slots a vertex has
-  std::vector<float> rest_position;     // 3 a vertex (x y z), the curved rest pose
-  std::vector<float> rest_normal;       // 3 a vertex: the CPU's normals at rest (zero: no normals)
+  std::size_t vertices = 0;               // World::mesh_buffer_size(): indexed as mesh_positions
+  std::size_t rings = 0;                  // World::ring_count(): all segments' cage rings
+  std::uint32_t max_slots = 0;            // the most slots a vertex has
+  std::vector<float> rest_position;       // 3 a vertex (x y z), the curved rest pose
+  std::vector<float> rest_normal;         // 3 a vertex: the CPU's normals at rest (zero: no normals)
   std::vector<std::uint32_t> slot_range;  // 2 a vertex: its first slot and how many
   std::vector<std::uint32_t> slot_ring;   // a slot: the ring (0 .. rings − 1)
   std::vector<float> slot_coefficient;    // 4 a slot: b, Ax, Ay, Az

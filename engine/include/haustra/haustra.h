@@ -488,8 +488,8 @@ HAUSTRA_API haustra_status haustra_world_node_velocities(const haustra_world* wo
 #define HAUSTRA_GPU_RING_FLOATS 24
 typedef struct haustra_gpu_skin {
   size_t struct_size;
-  size_t vertices;                /* haustra_counts.mesh_vertices */
-  size_t rings;                   /* all segments' cage rings */
+  size_t vertices; /* haustra_counts.mesh_vertices */
+  size_t rings;    /* all segments' cage rings */
   size_t slots;
   uint32_t max_slots;             /* the most slots one vertex has */
   const float* rest_positions;    /* 3 a vertex: x y z (m), the curved rest pose */
@@ -619,8 +619,8 @@ typedef struct haustra_event {
   uint64_t frame; /* the frame it happened in */
   size_t segment; /* the segment (a chain's piece) and its local node */
   size_t node;
-  int stage;        /* the stage that failed or reported it (haustra_stage_name) */
-  int substeps;     /* of the rung the frame ran on */
+  int stage;         /* the stage that failed or reported it (haustra_stage_name) */
+  int substeps;      /* of the rung the frame ran on */
   char message[512]; /* what happened and what to change, NUL-terminated */
 } haustra_event;
 HAUSTRA_API haustra_status haustra_world_take_events(haustra_world* world, haustra_event* out, size_t capacity,

@@ -156,9 +156,9 @@ class World {
   // towards where the anatomy holds it (its target) until it tears (an event) or is cut. Chains'
   // anchors belong to their rod, like attachments.
   [[nodiscard]] std::size_t anchor_count() const;
-  [[nodiscard]] std::span<const std::uint32_t> anchor_nodes() const;  // global node index
+  [[nodiscard]] std::span<const std::uint32_t> anchor_nodes() const;      // global node index
   [[nodiscard]] std::span<const Eigen::Vector3d> anchor_targets() const;  // m
-  [[nodiscard]] std::span<const std::uint8_t> anchors_intact() const;  // 1 while it holds
+  [[nodiscard]] std::span<const std::uint8_t> anchors_intact() const;     // 1 while it holds
   // Each anchor's tension now, N (0 once torn or cut), into out (anchor_count() values).
   void anchor_tensions(std::span<double> out) const;
   // Dissection: cuts every intact anchor whose tissue (from the tube's wall round its node to its
@@ -193,8 +193,8 @@ class World {
 
   // The mesh at render rate (decision 0060). With world.mesh_update = "on_read" (the default) a
   // step leaves the meshes behind; the accessors above bring them up to the current frame in the
-  // caller's thread (so, like step(), not from two threads at once). A reader on another thread instead takes the ring poses from the stepping
-  // thread (current_rings, cheap) and makes the mesh from them itself (mesh_from_rings, which
+  // caller's thread (so, like step(), not from two threads at once). A reader on another thread instead takes the ring
+  // poses from the stepping thread (current_rings, cheap) and makes the mesh from them itself (mesh_from_rings, which
   // reads only the model and may run while the world steps): the same bits either way.
   [[nodiscard]] std::size_t ring_count() const;  // all segments' cage rings
   void current_rings(std::span<kernels::RingPose> out) const;

@@ -110,7 +110,7 @@ struct PointLoadDesc {
 // A load per metre of rest length on the nodes from `from` to `to` (decision 0102), lumped onto
 // them by their share of the rest length (half of each section beside them within the range).
 struct DistributedLoadDesc {
-  int from = 0;                                      // negative counts from the tip
+  int from = 0;  // negative counts from the tip
   int to = -1;
   Eigen::Vector3d force = Eigen::Vector3d::Zero();   // N/m, world frame, constant direction
   Eigen::Vector3d moment = Eigen::Vector3d::Zero();  // N·m/m, world frame
@@ -344,8 +344,8 @@ struct InstrumentDesc {
   // grasp's and the capsule's together — never exceeds force_limit. false (or a rigid grasp,
   // coupling_stiffness = 0): a kinematic capsule at the commanded pose, its contacts unbounded.
   bool proxy = true;
-  double coupling_damping = 2.0;       // N·s/m, on the node's velocity relative to the grasp point's
-  double force_limit = 8.0;            // N
+  double coupling_damping = 2.0;  // N·s/m, on the node's velocity relative to the grasp point's
+  double force_limit = 8.0;       // N
   // A grasp pulled harder than this lets go (the tissue slips out of the jaws: an event, decision
   // 0058); 0 (the default): it never slips, the force limit alone bounds the pull. Closing again
   // grasps anew.

@@ -1,11 +1,11 @@
 // Batch: many worlds stepped on a pool of the batch's own width (decision 0103).
 #include "haustra/batch.hpp"
 
+#include <fmt/format.h>
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/partitioner.h>
 #include <oneapi/tbb/task_arena.h>
-#include <fmt/format.h>
 
 #include <algorithm>
 #include <atomic>
@@ -24,7 +24,8 @@ struct Batch::Impl {
 
 Batch::Batch(int threads) {
   if (threads < 0 || threads > 1024)
-    throw Error(ErrorCode::invalid_argument, fmt::format("Batch: threads = {}: expected 0 (every core) to 1024", threads));
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("Batch: threads = {}: expected 0 (every core) to 1024", threads));
   impl_ = std::make_unique<Impl>(threads);
 }
 
@@ -35,9 +36,9 @@ int Batch::threads() const { return impl_->threads; }
 void Batch::step(std::span<World* const> worlds, std::uint64_t frames, std::span<Outcome> outcomes,
                  const AfterFrame& after_frame, const KeepGoing& keep_going) {
   if (outcomes.size() != worlds.size())
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("Batch::step: {} outcomes for {} worlds: expected one per world", outcomes.size(),
-                            worlds.size()));
+    throw Error(
+        ErrorCode::invalid_argument,
+        fmt::format("Batch::step: {} outcomes for {} worlds: expected one per world", outcomes.size(), worlds.size()));
   std::vector<const World*> sorted(worlds.begin(), worlds.end());
   std::sort(sorted.begin(), sorted.end());
   if (std::find(sorted.begin(), sorted.end(), nullptr) != sorted.end())

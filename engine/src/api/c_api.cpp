@@ -238,7 +238,8 @@ haustra_world_def checked_def(const haustra_world_def& host) {
   if (d.newton < 0 || d.newton > 2)
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("def.newton = {}: expected 0 (lagged), 1 (Newton) or 2 (fast)", d.newton));
-  (void)flag(d.recover, "def.recover"), (void)flag(d.floor, "def.floor"), (void)flag(d.self_contact, "def.self_contact");
+  (void)flag(d.recover, "def.recover"), (void)flag(d.floor, "def.floor"),
+      (void)flag(d.self_contact, "def.self_contact");
   if (flag(d.mesh_on_host_gpu, "def.mesh_on_host_gpu") && d.mesh_every_frame == 1)
     throw Error(ErrorCode::invalid_argument,
                 "def.mesh_on_host_gpu = 1 with def.mesh_every_frame = 1: a host that skins on its GPU wants the "
@@ -276,8 +277,9 @@ void apply_world_fields(const haustra_world_def& d, bool only_changed, haustra::
     floor.point = Eigen::Vector3d(0.0, 0.0, d.floor_height);
     w.environment.planes.push_back(floor);
   } else if (d.floor_height != 0.0) {
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("def.floor_height = {}: set with def.floor = 0 (no floor); set floor = 1 for one", d.floor_height));
+    throw Error(
+        ErrorCode::invalid_argument,
+        fmt::format("def.floor_height = {}: set with def.floor = 0 (no floor); set floor = 1 for one", d.floor_height));
   }
 }
 
@@ -848,11 +850,11 @@ haustra_status haustra_world_gpu_skin(const haustra_world* world, haustra_gpu_sk
     const Held held(world);
     (void)known_size<haustra_gpu_skin>(required(out, "out").struct_size, "out");
     const haustra::GpuSkinBinding& g = held.world().gpu_skin_binding();
-    write_out(out,
-              haustra_gpu_skin{sizeof(haustra_gpu_skin), g.vertices, g.rings, g.slots(), g.max_slots,
-                               g.rest_position.data(), g.rest_normal.data(), g.slot_range.data(), g.slot_ring.data(),
-                               g.slot_coefficient.data()},
-              "out");
+    write_out(
+        out,
+        haustra_gpu_skin{sizeof(haustra_gpu_skin), g.vertices, g.rings, g.slots(), g.max_slots, g.rest_position.data(),
+                         g.rest_normal.data(), g.slot_range.data(), g.slot_ring.data(), g.slot_coefficient.data()},
+        "out");
   });
 }
 
@@ -862,8 +864,9 @@ haustra_status haustra_world_gpu_rings(const haustra_world* world, float* out, s
     const haustra::World& w = held.world();
     const std::size_t want = HAUSTRA_GPU_RING_FLOATS * w.ring_count();
     if (count != want)
-      throw Error(ErrorCode::invalid_argument,
-                  fmt::format("count = {}: expected {} (HAUSTRA_GPU_RING_FLOATS x {} rings)", count, want, w.ring_count()));
+      throw Error(
+          ErrorCode::invalid_argument,
+          fmt::format("count = {}: expected {} (HAUSTRA_GPU_RING_FLOATS x {} rings)", count, want, w.ring_count()));
     if (want > 0) required(out, "out");
     w.gpu_ring_frame(std::span<float>(out, count));
   });
@@ -896,8 +899,9 @@ haustra_status haustra_world_set_distributed_load(haustra_world* world, size_t s
     const Held held(world);
     haustra::World& w = held.world();
     const std::span<const double> forces(&required(force_per_length, "force_per_length"), 3 * count);
-    const std::span<const double> moments =
-        moment_per_length == nullptr ? std::span<const double>() : std::span<const double>(moment_per_length, 3 * count);
+    const std::span<const double> moments = moment_per_length == nullptr
+                                                ? std::span<const double>()
+                                                : std::span<const double>(moment_per_length, 3 * count);
     w.set_distributed_load(segment, forces, moments, flag(add, "add"));  // checks the segment, the count and values
   });
 }
@@ -1012,9 +1016,8 @@ haustra_status haustra_world_dt(const haustra_world* world, double* dt) {
 
 haustra_status haustra_world_set_instrument_coupling(haustra_world* world, size_t instrument, double stiffness,
                                                      double damping, double force_limit) {
-  return guarded("haustra_world_set_instrument_coupling", [&] {
-    live(world).world().set_instrument_coupling(instrument, stiffness, damping, force_limit);
-  });
+  return guarded("haustra_world_set_instrument_coupling",
+                 [&] { live(world).world().set_instrument_coupling(instrument, stiffness, damping, force_limit); });
 }
 
 haustra_status haustra_world_material(const haustra_world* world, size_t segment, haustra_material* out) {

@@ -64,15 +64,17 @@ void World::Use::take(std::string_view call) {
   const std::thread::id me = std::this_thread::get_id();
   if (world_.user_.load(std::memory_order_acquire) == me) {  // only this thread could have set it
     if (world_.stepping_)
-      throw Error(ErrorCode::busy, prefix + "called from inside a step of this world (a job system's callback?): "
-                                            "the world takes calls again once its step returns");
+      throw Error(ErrorCode::busy, prefix +
+                                       "called from inside a step of this world (a job system's callback?): "
+                                       "the world takes calls again once its step returns");
     ++world_.holds_;
     return;
   }
   std::thread::id none{};
   if (!world_.user_.compare_exchange_strong(none, me, std::memory_order_acquire, std::memory_order_relaxed))
-    throw Error(ErrorCode::busy, prefix + "the world is in use by another thread: one thread at a time steps, changes "
-                                          "or reads a world's meshes (decision 0100); call again once its call returns");
+    throw Error(ErrorCode::busy, prefix +
+                                     "the world is in use by another thread: one thread at a time steps, changes "
+                                     "or reads a world's meshes (decision 0100); call again once its call returns");
   world_.holds_ = 1;
 }
 
@@ -137,11 +139,11 @@ void World::set_external_load(std::size_t node, const Eigen::Vector3d& force, co
   const Use use(*this);
   impl_->check_node(node);
   if (!bounded(force) || !bounded(moment))
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("external load: force ({:.6g}, {:.6g}, {:.6g}) N and moment ({:.6g}, {:.6g}, {:.6g}) N·m "
-                            "must be finite and within ±{:g} in each component",
-                            force.x(), force.y(), force.z(), moment.x(), moment.y(), moment.z(),
-                            detail::kMaxVectorComponent));
+    throw Error(
+        ErrorCode::invalid_argument,
+        fmt::format("external load: force ({:.6g}, {:.6g}, {:.6g}) N and moment ({:.6g}, {:.6g}, {:.6g}) N·m "
+                    "must be finite and within ±{:g} in each component",
+                    force.x(), force.y(), force.z(), moment.x(), moment.y(), moment.z(), detail::kMaxVectorComponent));
   impl_->state.external_force.view().set(node, force);
   impl_->state.external_moment.view().set(node, moment);
 }
@@ -282,8 +284,8 @@ std::size_t World::ring_count() const { return impl_->model.ring_total; }
 void World::current_rings(std::span<kernels::RingPose> out) const {
   const Use use(*this);
   if (out.size() != impl_->model.ring_total)
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("current_rings: {} ring poses given, the world has {}", out.size(), impl_->model.ring_total));
+    throw Error(ErrorCode::invalid_argument, fmt::format("current_rings: {} ring poses given, the world has {}",
+                                                         out.size(), impl_->model.ring_total));
   if (!impl_->rings_stale) {  // already made this frame: the same bits, copied
     std::copy(impl_->state.mesh.ring_pose.begin(), impl_->state.mesh.ring_pose.end(), out.begin());
     return;
@@ -299,8 +301,8 @@ void World::mesh_from_rings(std::span<const kernels::RingPose> rings, std::span<
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("mesh_from_rings: expected {} rings, {} floats of scratch and {} vertices", m.ring_total,
                             kernels::kRingDeltaFloats * m.ring_total, m.mesh_vertex_total));
-  impl_->mesh_from_rings({rings, ring_delta, {positions.x, positions.y, positions.z},
-                          {normals.x, normals.y, normals.z}});
+  impl_->mesh_from_rings(
+      {rings, ring_delta, {positions.x, positions.y, positions.z}, {normals.x, normals.y, normals.z}});
 }
 MeshUpdate World::mesh_update() const { return impl_->desc.mesh_update; }
 

@@ -60,7 +60,9 @@ GpuSkinBinding World::Impl::make_gpu_skin() const {
   g.rings = model.ring_total;
   std::vector<kernels::RingPose> rest(model.ring_total);
   for (const detail::SegmentMesh& mesh : model.meshes_of)
-    if (mesh.enabled) std::copy(mesh.cage.ring_rest.begin(), mesh.cage.ring_rest.end(), rest.begin() + std::ptrdiff_t(mesh.ring_offset));
+    if (mesh.enabled)
+      std::copy(mesh.cage.ring_rest.begin(), mesh.cage.ring_rest.end(),
+                rest.begin() + std::ptrdiff_t(mesh.ring_offset));
   std::vector<float> delta(kernels::kRingDeltaFloats * model.ring_total);
   detail::FloatVec3Buffer p, n;
   p.resize(g.vertices);
@@ -114,9 +116,10 @@ void World::gpu_ring_frame(std::span<float> out) const {
 void World::gpu_ring_frame_from(std::span<const kernels::RingPose> rings, std::span<float> out) const {
   const detail::WorldModel& m = impl_->model;
   if (rings.size() != m.ring_total || out.size() != kGpuRingFloats * m.ring_total)
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("gpu_ring_frame: expected {} ring poses and {} floats (kGpuRingFloats a ring), given {} and {}",
-                            m.ring_total, kGpuRingFloats * m.ring_total, rings.size(), out.size()));
+    throw Error(
+        ErrorCode::invalid_argument,
+        fmt::format("gpu_ring_frame: expected {} ring poses and {} floats (kGpuRingFloats a ring), given {} and {}",
+                    m.ring_total, kGpuRingFloats * m.ring_total, rings.size(), out.size()));
   for (const detail::SegmentMesh& mesh : m.meshes_of) {
     if (!mesh.enabled) continue;
     const std::size_t n = mesh.cage.ring_station.size();

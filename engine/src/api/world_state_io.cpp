@@ -3,8 +3,8 @@
 // so a refused call leaves the world as it was.
 #include <fmt/format.h>
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <numbers>
 #include <vector>
 
@@ -47,9 +47,10 @@ void World::set_strains(std::span<const double> strains) {
       refuse(fmt::format("set_strains: node {}'s strain {} is {}: expected finite numbers", i / 4, i % 4, strains[i]));
   for (std::size_t i = 3; i < strains.size(); i += 4)
     if (!(strains[i] > -1.0))
-      refuse(fmt::format("set_strains: node {}'s axial strain ε = {}: a section cannot shrink to nothing (expected "
-                         "ε > −1)",
-                         i / 4, strains[i]));
+      refuse(
+          fmt::format("set_strains: node {}'s axial strain ε = {}: a section cannot shrink to nothing (expected "
+                      "ε > −1)",
+                      i / 4, strains[i]));
   std::copy(strains.begin(), strains.end(), st.now.strain.begin());
   impl_->motion_dt = 0.0;
   for (std::size_t s = 0; s < m.segments.size(); ++s) {
@@ -79,8 +80,8 @@ void World::set_node_poses(kernels::Vec3View<const double> positions, kernels::R
       refuse(fmt::format("set_node_poses: node {}'s position is beyond ±{:g} m in a component", k,
                          detail::kMaxVectorComponent));
     if (std::abs(q.norm() - 1.0) > 1e-6)
-      refuse(fmt::format("set_node_poses: node {}'s rotation has norm {}: expected a unit quaternion (w, x, y, z)",
-                         k, q.norm()));
+      refuse(fmt::format("set_node_poses: node {}'s rotation has norm {}: expected a unit quaternion (w, x, y, z)", k,
+                         q.norm()));
   }
   // Each section's strain from its nodes' relative pose: the rotation's logarithm over the section's
   // length gives (κ1, κ2, τ); the translation is then (1 + ε) times that of the unstretched section,
@@ -98,14 +99,16 @@ void World::set_node_poses(kernels::Vec3View<const double> positions, kernels::R
       const double stretch = chord.dot(unit) / unit.squaredNorm();
       const double shear = (chord - stretch * unit).norm();
       if (shear > shear_tolerance * h)
-        refuse(fmt::format("set_node_poses: segment '{}', section {} (nodes {} and {}): the poses shear it by {:.3g} m "
-                           "over its {:.3g} m (allowed: {:.3g} of its length): the rod is unshearable, so its node "
-                           "positions and frames must come from one configuration (or write strains)",
-                           seg.info.name, k, o + k, o + k + 1, shear, h, shear_tolerance));
+        refuse(
+            fmt::format("set_node_poses: segment '{}', section {} (nodes {} and {}): the poses shear it by {:.3g} m "
+                        "over its {:.3g} m (allowed: {:.3g} of its length): the rod is unshearable, so its node "
+                        "positions and frames must come from one configuration (or write strains)",
+                        seg.info.name, k, o + k, o + k + 1, shear, h, shear_tolerance));
       if (!(stretch > 0.0))
-        refuse(fmt::format("set_node_poses: segment '{}', section {}: node {} lies behind node {} along its frame "
-                           "(a section cannot turn back on itself)",
-                           seg.info.name, k, o + k + 1, o + k));
+        refuse(
+            fmt::format("set_node_poses: segment '{}', section {}: node {} lies behind node {} along its frame "
+                        "(a section cannot turn back on itself)",
+                        seg.info.name, k, o + k + 1, o + k));
       for (int c = 0; c < 3; ++c) section[4 * (o + k) + static_cast<std::size_t>(c)] = u[c];
       section[4 * (o + k) + 3] = stretch - 1.0;
     }
@@ -169,8 +172,8 @@ void World::set_node_positions(kernels::Vec3View<const double> positions) {
         const Eigen::Vector3d axis = Eigen::Vector3d::UnitZ().cross(c);
         const double theta = std::atan2(axis.norm(), c.z());
         steepest = std::max(steepest, theta);
-        const Eigen::Vector3d turn = axis.norm() > 1e-15 ? Eigen::Vector3d(2.0 * theta * axis.normalized())
-                                                         : Eigen::Vector3d::Zero();
+        const Eigen::Vector3d turn =
+            axis.norm() > 1e-15 ? Eigen::Vector3d(2.0 * theta * axis.normalized()) : Eigen::Vector3d::Zero();
         bends[k] = frame * turn / m.section_length[o + k];
         frame = (frame * kernels::rotation_exp(turn)).normalized();
         if (out) frames.set(o + k + 1, frame);
@@ -181,7 +184,8 @@ void World::set_node_positions(kernels::Vec3View<const double> positions) {
       const Eigen::Vector3d e1 = guess * Eigen::Vector3d::UnitX(), e2 = guess * Eigen::Vector3d::UnitY();
       propagate((kernels::rotation_exp(a.x() * e1 + a.y() * e2) * guess).normalized(), false);
       Eigen::VectorXd r(3 * static_cast<Eigen::Index>(n > 2 ? n - 2 : 0));
-      for (std::size_t k = 1; k + 1 < n; ++k) r.segment<3>(3 * static_cast<Eigen::Index>(k - 1)) = bends[k] - bends[k - 1];
+      for (std::size_t k = 1; k + 1 < n; ++k)
+        r.segment<3>(3 * static_cast<Eigen::Index>(k - 1)) = bends[k] - bends[k - 1];
       return r;
     };
     Eigen::Vector2d tilt = Eigen::Vector2d::Zero();
@@ -199,13 +203,15 @@ void World::set_node_positions(kernels::Vec3View<const double> positions) {
       if (step.norm() < 1e-12) break;
     }
     const Eigen::Vector3d e1 = guess * Eigen::Vector3d::UnitX(), e2 = guess * Eigen::Vector3d::UnitY();
-    const double steepest = propagate((kernels::rotation_exp(tilt.x() * e1 + tilt.y() * e2) * guess).normalized(), true);
+    const double steepest =
+        propagate((kernels::rotation_exp(tilt.x() * e1 + tilt.y() * e2) * guess).normalized(), true);
     if (steepest > 0.25 * std::numbers::pi) {
       std::size_t k = 0;
       while (k + 1 < n && 0.5 * bends[k].norm() * m.section_length[o + k] <= 0.25 * std::numbers::pi) ++k;
-      refuse(fmt::format("set_node_positions: segment '{}', section {} (nodes {} and {}): the points turn it by "
-                         "{:.0f}° (more than 90° within one section): smooth the points or use more nodes",
-                         seg.info.name, k, o + k, o + k + 1, 2.0 * steepest * 180.0 / std::numbers::pi));
+      refuse(
+          fmt::format("set_node_positions: segment '{}', section {} (nodes {} and {}): the points turn it by "
+                      "{:.0f}° (more than 90° within one section): smooth the points or use more nodes",
+                      seg.info.name, k, o + k, o + k + 1, 2.0 * steepest * 180.0 / std::numbers::pi));
     }
   }
   set_node_poses(positions, frames, 1e-6);
@@ -216,7 +222,8 @@ void World::set_node_positions(kernels::Vec3View<const double> positions) {
   for (const detail::SegmentModel& seg : m.segments) {
     const std::size_t o = seg.node_offset, n = seg.node_count;
     for (std::size_t k = 0; k + 1 < n; ++k)
-      for (std::size_t c = 0; c < 4; ++c) section[4 * (o + k) + c] = 0.5 * (q[4 * (o + k) + c] + q[4 * (o + k + 1) + c]);
+      for (std::size_t c = 0; c < 4; ++c)
+        section[4 * (o + k) + c] = 0.5 * (q[4 * (o + k) + c] + q[4 * (o + k + 1) + c]);
     for (std::size_t k = 0; k < n; ++k)
       for (std::size_t c = 0; c < 4; ++c) {
         const double before = k > 0 ? section[4 * (o + k - 1) + c] : section[4 * (o + k) + c];
@@ -234,9 +241,9 @@ void World::set_base_pose(std::size_t segment, const kernels::Pose& base) {
   const Use use(*this);  // one thread at a time (decision 0100)
   const std::size_t rod = impl_->piece(segment).rod;
   const detail::SegmentModel& seg = impl_->model.segments[rod];
-  const std::vector<double> strains(impl_->state.now.strain.begin() + static_cast<std::ptrdiff_t>(4 * seg.node_offset),
-                                    impl_->state.now.strain.begin() +
-                                        static_cast<std::ptrdiff_t>(4 * (seg.node_offset + seg.node_count)));
+  const std::vector<double> strains(
+      impl_->state.now.strain.begin() + static_cast<std::ptrdiff_t>(4 * seg.node_offset),
+      impl_->state.now.strain.begin() + static_cast<std::ptrdiff_t>(4 * (seg.node_offset + seg.node_count)));
   pose_rod(seg.first_piece, base, strains);
 }
 
@@ -245,17 +252,19 @@ void World::set_external_loads(std::span<const std::uint32_t> nodes, std::span<c
   const Use use(*this);  // one thread at a time (decision 0100)
   auto& st = impl_->state;
   if (forces.size() != 3 * nodes.size() || (!moments.empty() && moments.size() != 3 * nodes.size()))
-    refuse(fmt::format("set_external_loads: {} nodes need {} force values (3 each) and {} moment values or none; got "
-                       "{} and {}",
-                       nodes.size(), 3 * nodes.size(), 3 * nodes.size(), forces.size(), moments.size()));
+    refuse(
+        fmt::format("set_external_loads: {} nodes need {} force values (3 each) and {} moment values or none; got "
+                    "{} and {}",
+                    nodes.size(), 3 * nodes.size(), 3 * nodes.size(), forces.size(), moments.size()));
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     impl_->check_node(nodes[i]);
     for (std::size_t j = 0; j < 3; ++j)
       if (!(std::abs(forces[3 * i + j]) <= detail::kMaxVectorComponent) ||
           (!moments.empty() && !(std::abs(moments[3 * i + j]) <= detail::kMaxVectorComponent)))
-        refuse(fmt::format("set_external_loads: the load on node {} (entry {}) is not finite or beyond ±{:g} N (N·m) "
-                           "in a component: no step holds it",
-                           nodes[i], i, detail::kMaxVectorComponent));
+        refuse(
+            fmt::format("set_external_loads: the load on node {} (entry {}) is not finite or beyond ±{:g} N (N·m) "
+                        "in a component: no step holds it",
+                        nodes[i], i, detail::kMaxVectorComponent));
   }
   if (!add)  // replaced first, so a node listed twice gets the sum of its entries
     for (std::uint32_t node : nodes) {
@@ -277,9 +286,10 @@ void World::set_distributed_load(std::size_t segment, std::span<const double> fo
   const detail::SegmentPiece& piece = impl_->piece(segment);
   const std::size_t o = piece.info.nodes.offset, n = piece.info.nodes.count;
   if (force_per_length.size() != 3 * n || (!moment_per_length.empty() && moment_per_length.size() != 3 * n))
-    refuse(fmt::format("set_distributed_load: segment '{}' has {} nodes: expected {} force values (N/m, 3 per node) "
-                       "and {} moment values (N·m/m) or none; got {} and {}",
-                       piece.info.name, n, 3 * n, 3 * n, force_per_length.size(), moment_per_length.size()));
+    refuse(
+        fmt::format("set_distributed_load: segment '{}' has {} nodes: expected {} force values (N/m, 3 per node) "
+                    "and {} moment values (N·m/m) or none; got {} and {}",
+                    piece.info.name, n, 3 * n, 3 * n, force_per_length.size(), moment_per_length.size()));
   std::vector<std::uint32_t> nodes(n);
   std::vector<double> forces(3 * n), moments(moment_per_length.empty() ? 0 : 3 * n);
   const std::span<const double> h = impl_->model.section_length;

@@ -21,8 +21,9 @@ std::span<const std::uint8_t> World::anchors_intact() const { return impl_->stat
 void World::anchor_tensions(std::span<double> out) const {
   const detail::AnchorModel& an = impl_->model.anchors;
   if (out.size() != an.size())
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("World::anchor_tensions: expected {} values (one per anchor), got {}", an.size(), out.size()));
+    throw Error(
+        ErrorCode::invalid_argument,
+        fmt::format("World::anchor_tensions: expected {} values (one per anchor), got {}", an.size(), out.size()));
   const auto pos = impl_->state.now.position.view();
   for (std::size_t a = 0; a < an.size(); ++a)
     out[a] = impl_->state.now.anchor_intact[a] != 0
@@ -36,7 +37,8 @@ std::size_t World::cut_tissue(const Eigen::Vector3d& centre, double radius) {
     throw FieldError(ErrorCode::invalid_argument, "centre", "expected three finite numbers within ±1e5 (m)",
                      "World::cut_tissue: centre: expected three finite numbers within ±1e5 (m)");
   if (!(radius > 0.0) || !(radius <= detail::kMaxVectorComponent))
-    throw FieldError(ErrorCode::invalid_argument, "radius", fmt::format("expected a radius in (0, 1e5] m, got {}", radius),
+    throw FieldError(ErrorCode::invalid_argument, "radius",
+                     fmt::format("expected a radius in (0, 1e5] m, got {}", radius),
                      fmt::format("World::cut_tissue: radius: expected a radius in (0, 1e5] m, got {}", radius));
   return impl_->cut_tissue(centre, radius);
 }

@@ -75,7 +75,8 @@ std::string read_bounded_file(const std::filesystem::path& file, std::string_vie
     const ssize_t n = ::read(d.fd, block.data(), block.size());
     if (n < 0 && errno == EINTR) continue;
     if (n < 0)
-      throw Error(ErrorCode::io, fmt::format("{}: reading the {} failed ({})", file.string(), what, std::strerror(errno)));
+      throw Error(ErrorCode::io,
+                  fmt::format("{}: reading the {} failed ({})", file.string(), what, std::strerror(errno)));
     if (n == 0) break;
     text.append(block.data(), static_cast<std::size_t>(n));
     if (text.size() > max_bytes) refuse_size(file, what, text.size(), max_bytes);  // it grew while read

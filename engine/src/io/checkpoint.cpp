@@ -104,7 +104,8 @@ void visit_members(Io& io, M& m) {
   io(d.youngs_modulus), io(d.poisson_ratio), io(d.density), io(response), io(d.exp2_alpha), io(d.exp2_beta),
       io(d.exp2_gamma), io(d.failure_strain), io(m.relaxation_time);
   if constexpr (!std::is_const_v<M>) {
-    if (response > static_cast<std::uint8_t>(TissueResponse::exp2)) io.mismatch("names a tissue law this build does not know");
+    if (response > static_cast<std::uint8_t>(TissueResponse::exp2))
+      io.mismatch("names a tissue law this build does not know");
     d.response = static_cast<TissueResponse>(response);
   }
 }
@@ -357,11 +358,13 @@ OpenedCheckpoint open_checkpoint(const WorldModel& model, const WorldDesc& desc,
   head(h.fingerprint);
   ModelHeader mine = header_of(model);
   mine.fingerprint = h.fingerprint;  // compared once the model holds the checkpoint's material (restore_state)
-  if (h != mine) refuse(source, fmt::format("saved from a world of {}; this world has {}", describe(h), describe(mine)));
+  if (h != mine)
+    refuse(source, fmt::format("saved from a world of {}; this world has {}", describe(h), describe(mine)));
   std::uint64_t size = 0;
   head(size);
   const std::size_t header_bytes = magic.size() + sizeof version + 8 * sizeof(std::uint64_t);
-  if (bytes.size() - header_bytes < sizeof(std::uint64_t) || size != bytes.size() - header_bytes - sizeof(std::uint64_t))
+  if (bytes.size() - header_bytes < sizeof(std::uint64_t) ||
+      size != bytes.size() - header_bytes - sizeof(std::uint64_t))
     refuse(source, fmt::format("{} bytes where its header promises {}", bytes.size(), header_bytes + size + 8));
   const std::span<const std::byte> payload = bytes.subspan(header_bytes, size);
   std::uint64_t checksum = 0;

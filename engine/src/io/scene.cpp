@@ -59,8 +59,7 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
                                {{"mvc", SkinningMethod::mean_value}, {"linear-blend", SkinningMethod::linear_blend}});
   d.rings_per_vertex = r.integer(t, "rings_per_vertex", path + ".rings_per_vertex", d.rings_per_vertex);
   d.weight_left_out = r.number(t, "weight_left_out", path + ".weight_left_out", d.weight_left_out);
-  d.max_rings_per_vertex =
-      r.integer(t, "max_rings_per_vertex", path + ".max_rings_per_vertex", d.max_rings_per_vertex);
+  d.max_rings_per_vertex = r.integer(t, "max_rings_per_vertex", path + ".max_rings_per_vertex", d.max_rings_per_vertex);
   d.mean_rings_per_vertex =
       r.number(t, "mean_rings_per_vertex", path + ".mean_rings_per_vertex", d.mean_rings_per_vertex);
   d.skin_cost_limit = r.number(t, "skin_cost_limit", path + ".skin_cost_limit", d.skin_cost_limit);
@@ -232,12 +231,32 @@ void read_anchors(const Reader& r, const toml::table& t, const std::string& path
 
 SegmentDesc read_segment(const Reader& r, const toml::table& t, const std::string& path,
                          const std::filesystem::path& scene_dir) {
-  r.check_keys(t, path, {"name",          "nodes",         "rest",           "law",
-                         "base",          "base_position", "base_tangent",   "base_normal",
-                         "drag",          "radius",        "wall_thickness", "youngs_modulus",
-                         "poisson_ratio", "density",       "linear_density", "relaxation_time",
-                         "attachment",    "load",          "distributed_load",          "beads",          "mesh",
-                         "chain",         "tissue",        "anchors",        "failure_strain"});
+  r.check_keys(t, path,
+               {"name",
+                "nodes",
+                "rest",
+                "law",
+                "base",
+                "base_position",
+                "base_tangent",
+                "base_normal",
+                "drag",
+                "radius",
+                "wall_thickness",
+                "youngs_modulus",
+                "poisson_ratio",
+                "density",
+                "linear_density",
+                "relaxation_time",
+                "attachment",
+                "load",
+                "distributed_load",
+                "beads",
+                "mesh",
+                "chain",
+                "tissue",
+                "anchors",
+                "failure_strain"});
   SegmentDesc s;
   s.name = r.string(t, "name", path + ".name", path);
   s.nodes = r.integer(t, "nodes", path + ".nodes", s.nodes);
@@ -431,13 +450,13 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
     c.coefficient = r.number(*t, "coefficient", "contact.coefficient", c.coefficient);
     c.exponent = r.number(*t, "exponent", "contact.exponent", c.exponent);
     c.margin = r.number(*t, "margin", "contact.margin", c.margin);
-    c.broad_phase = r.choice<BroadPhase>(*t, "broad_phase", "contact.broad_phase", c.broad_phase,
-                                         {{"auto", BroadPhase::automatic},
-                                          {"grid", BroadPhase::grid},
-                                          {"brute", BroadPhase::brute}});
+    c.broad_phase = r.choice<BroadPhase>(
+        *t, "broad_phase", "contact.broad_phase", c.broad_phase,
+        {{"auto", BroadPhase::automatic}, {"grid", BroadPhase::grid}, {"brute", BroadPhase::brute}});
     c.self = r.boolean(*t, "self", "contact.self", c.self);
-    c.rest_exclusions = r.choice<RestExclusions>(*t, "rest_exclusions", "contact.rest_exclusions", c.rest_exclusions,
-                                                 {{"segment", RestExclusions::segment}, {"world", RestExclusions::world}});
+    c.rest_exclusions =
+        r.choice<RestExclusions>(*t, "rest_exclusions", "contact.rest_exclusions", c.rest_exclusions,
+                                 {{"segment", RestExclusions::segment}, {"world", RestExclusions::world}});
   }
   if (const toml::table* t = r.table(root, "environment", "environment"))
     read_environment(r, *t, file.parent_path(), w.environment);

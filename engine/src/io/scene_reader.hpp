@@ -207,7 +207,8 @@ class Reader {
     for (std::size_t i = 0; i < a->size(); ++i) {
       const toml::array* p = a->get(i)->as_array();
       bool ok = p != nullptr && p->size() == 3;
-      for (std::size_t j = 0; ok && j < 3; ++j) ok = p->get(j)->is_number() && std::isfinite(*p->get(j)->value<double>());
+      for (std::size_t j = 0; ok && j < 3; ++j)
+        ok = p->get(j)->is_number() && std::isfinite(*p->get(j)->value<double>());
       if (!ok) fail(a->get(i), fmt::format("{}[{}]", path, i), "expected [x, y, z] of three finite numbers");
       out.emplace_back(*p->get(0)->value<double>(), *p->get(1)->value<double>(), *p->get(2)->value<double>());
     }

@@ -57,14 +57,14 @@ void check_container(const MeshObstacleDesc& mesh, const std::string& where) {
     throw FieldError(
         ErrorCode::invalid_geometry, where + ".container",
         fmt::format("{} is not closed ({} edges are not shared by exactly two triangles): a container must be a "
-                     "closed surface, the boundary of the volume that holds the beads",
-                     file, open));
+                    "closed surface, the boundary of the volume that holds the beads",
+                    file, open));
   if (against > 0)
     throw FieldError(
         ErrorCode::invalid_geometry, where + ".container",
         fmt::format("{} is not wound one way ({} edges shared by neighbours facing opposite ways): a container's "
-                     "inside is read from its winding",
-                     file, against));
+                    "inside is read from its winding",
+                    file, against));
 }
 
 // Node indices of one segment's beads, ascending and distinct.

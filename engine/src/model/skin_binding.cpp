@@ -452,10 +452,9 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
       rings_per_vertex <= 0 ? rings : std::min(rings, static_cast<std::size_t>(rings_per_vertex));
   // At most max_rings_per_vertex (decision 0083): what a vertex's weight would want beyond them is
   // folded onto the kept rings nearest along the rod.
-  const std::size_t at_most =
-      max_rings_per_vertex <= 0
-          ? rings
-          : std::max(at_least, std::min(rings, static_cast<std::size_t>(max_rings_per_vertex)));
+  const std::size_t at_most = max_rings_per_vertex <= 0
+                                  ? rings
+                                  : std::max(at_least, std::min(rings, static_cast<std::size_t>(max_rings_per_vertex)));
   const std::size_t pack_rings = weight_left_out > 0.0 ? at_most : at_least;
   std::vector<double> arc(rings);  // along the rod: the binding pose is straight along z
   for (std::size_t g = 0; g < rings; ++g) arc[g] = cage.ring_binding[g].centre.z();

@@ -145,8 +145,10 @@ StaticMeshes::DepthGrid StaticMeshes::depth_grid(std::size_t c) const {
   DepthGrid g;
   g.cell = std::max((hi - lo).maxCoeff(), 1e-9) / 32.0;
   g.lo = lo;
-  for (int i = 0; i < 3; ++i) g.n[static_cast<std::size_t>(i)] = std::max(1, static_cast<int>(std::ceil((hi[i] - lo[i]) / g.cell)));
-  g.depth.reserve(static_cast<std::size_t>(g.n[0]) * static_cast<std::size_t>(g.n[1]) * static_cast<std::size_t>(g.n[2]));
+  for (int i = 0; i < 3; ++i)
+    g.n[static_cast<std::size_t>(i)] = std::max(1, static_cast<int>(std::ceil((hi[i] - lo[i]) / g.cell)));
+  g.depth.reserve(static_cast<std::size_t>(g.n[0]) * static_cast<std::size_t>(g.n[1]) *
+                  static_cast<std::size_t>(g.n[2]));
   double last = std::numeric_limits<double>::infinity();
   for (int k = 0; k < g.n[2]; ++k)
     for (int j = 0; j < g.n[1]; ++j)
@@ -168,8 +170,10 @@ double StaticMeshes::DepthGrid::deeper_than(const Eigen::Vector3d& p) const {
     at[i] = static_cast<int>(x);
   }
   const Eigen::Vector3d centre = lo + cell * Eigen::Vector3d(at[0] + 0.5, at[1] + 0.5, at[2] + 0.5);
-  const std::size_t index = (static_cast<std::size_t>(at[2]) * static_cast<std::size_t>(n[1]) +
-                             static_cast<std::size_t>(at[1])) * static_cast<std::size_t>(n[0]) + static_cast<std::size_t>(at[0]);
+  const std::size_t index =
+      (static_cast<std::size_t>(at[2]) * static_cast<std::size_t>(n[1]) + static_cast<std::size_t>(at[1])) *
+          static_cast<std::size_t>(n[0]) +
+      static_cast<std::size_t>(at[0]);
   return depth[index] - (p - centre).norm();
 }
 

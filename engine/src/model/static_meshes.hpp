@@ -57,8 +57,8 @@ class StaticMeshes {
   // The closest point on triangle `triangle` of `mesh` and the outward pseudo-normal of the feature
   // (face, edge or vertex) that holds it.
   [[nodiscard]] static std::pair<Eigen::Vector3d, Eigen::Vector3d> closest_feature(const Mesh& mesh,
-                                                                                    std::uint32_t triangle,
-                                                                                    const Eigen::Vector3d& p);
+                                                                                   std::uint32_t triangle,
+                                                                                   const Eigen::Vector3d& p);
 
   std::vector<Mesh> meshes_;                // in the description's order
   std::unique_ptr<EmbreeScene> obstacles_;  // its geometry g is meshes_[obstacle_mesh_[g]]

@@ -46,8 +46,8 @@ void check_anchors(const SegmentDesc& d, const std::string& where) {
       fail(w + ".stiffness", "an anchor with neither stiffness, damping nor support holds nothing");
     if (a.target == AnchorTarget::root) {
       if (a.root.size() < 2)
-        fail(w + ".root", fmt::format("expected a root line of two points or more, [[x, y, z], ...] in m, got {}",
-                                      a.root.size()));
+        fail(w + ".root",
+             fmt::format("expected a root line of two points or more, [[x, y, z], ...] in m, got {}", a.root.size()));
       for (std::size_t j = 0; j < a.root.size(); ++j) check_vector(fmt::format("{}.root[{}]", w, j), a.root[j], false);
     }
   }

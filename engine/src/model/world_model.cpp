@@ -210,11 +210,12 @@ void append_anchors(const SegmentDesc& d, const std::string& where, const RestSh
   const double tolerance = 1e-9 * rest.length;  // a range ending on a node includes it
   for (std::size_t ri = 0; ri < d.anchors.size(); ++ri) {
     const AnchorsDesc& a = d.anchors[ri];
-    AnchorRange range{a.name.empty() ? fmt::format("{}.anchors[{}]", where, ri) : a.name,
-                      m.segments.size(), m.anchors.size(), 0};
+    AnchorRange range{a.name.empty() ? fmt::format("{}.anchors[{}]", where, ri) : a.name, m.segments.size(),
+                      m.anchors.size(), 0};
     for (std::size_t k = 0; k < n; ++k) {
       if (arc[k] < a.from * rest.length - tolerance || arc[k] > a.to * rest.length + tolerance) continue;
-      const double share = 0.5 * ((k > 0 ? rest.section_length[k - 1] : 0.0) + (k + 1 < n ? rest.section_length[k] : 0.0));
+      const double share =
+          0.5 * ((k > 0 ? rest.section_length[k - 1] : 0.0) + (k + 1 < n ? rest.section_length[k] : 0.0));
       const Eigen::Vector3d at = poses.node_position.get(k);
       const Eigen::Vector3d target = a.target == AnchorTarget::root ? nearest_on_polyline(a.root, at) : at;
       m.anchors.node.push_back(static_cast<std::uint32_t>(seg.node_offset + k));
@@ -354,7 +355,8 @@ WorldModel build_world_model_here(const WorldDesc& desc, const WorldModel* bindi
   for (std::size_t si = 0; si < desc.segments.size(); ++si) build_rod(desc, si, m, initial_positions, rest_poses);
   std::vector<TriangleMesh> meshes = load_organ_meshes(desc, rest_poses, m);
   build_beads(desc, initial_positions, rest_poses, meshes, m);
-  for (SegmentModel& seg : m.segments) seg.has_load_stiffness = seg.has_drag || seg.bead_count > 0 || seg.anchor_count > 0;
+  for (SegmentModel& seg : m.segments)
+    seg.has_load_stiffness = seg.has_drag || seg.bead_count > 0 || seg.anchor_count > 0;
   if (binding_from != nullptr)
     take_mesh_binding(*binding_from, m);
   else

@@ -2,8 +2,8 @@
 // The constant part of a world (MuJoCo's mjModel): built once from a WorldDesc, never written while
 // stepping. Per-node arrays are contiguous across segments; a segment is an offset+count range.
 #include <array>
-#include <numbers>
 #include <cstdint>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
@@ -125,8 +125,8 @@ class StaticMeshes;
 // ordered by rod, then range, then node; a rod's anchors are [anchor_offset, + anchor_count).
 // Constant; whether an anchor still holds is state (torn or cut).
 struct AnchorModel {
-  std::vector<std::uint32_t> node;  // global node index
-  std::vector<std::uint32_t> range;  // into WorldModel::anchor_ranges
+  std::vector<std::uint32_t> node;      // global node index
+  std::vector<std::uint32_t> range;     // into WorldModel::anchor_ranges
   std::vector<Eigen::Vector3d> target;  // m, where the anatomy holds the node
   std::vector<double> stiffness;        // N/m: stiffness per length × the node's share of the rod
   std::vector<double> damping;          // N·s/m, likewise
@@ -193,8 +193,8 @@ struct NormalChunk {
 struct WorldModel {
   Eigen::Vector3d gravity;
   double dt = 0.0;
-  double frame_budget = 0.0;                         // s; 0: none (decision 0061); a run-time setting
-  MeshUpdate mesh_update = MeshUpdate::on_read;      // decision 0060
+  double frame_budget = 0.0;                     // s; 0: none (decision 0061); a run-time setting
+  MeshUpdate mesh_update = MeshUpdate::on_read;  // decision 0060
   SolverDesc solver;
   FilterDesc filter;
   std::vector<SegmentModel> segments;  // the rods

@@ -38,6 +38,7 @@ class TaskOrder {
   void joined(std::size_t tasks) {
     for (std::size_t t = 0; t < std::min(tasks, kAddresses); ++t) __tsan_acquire(&done_[t]);
   }
+
  private:
   static constexpr std::size_t kAddresses = 4096;
   std::array<char, kAddresses> done_{};

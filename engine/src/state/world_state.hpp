@@ -241,7 +241,6 @@ struct NewtonWorkspace {
   void allocate(std::size_t nodes, int columns, bool with_band, std::size_t split_at);
 };
 
-
 using ContactCandidate = Contact;
 
 // An instrument's state that a later frame reads, each field listed once, X(type, name, initial,

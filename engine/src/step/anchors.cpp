@@ -51,7 +51,8 @@ void tear_anchors(const WorldModel& model, WorldState& state, std::vector<TornAn
   const auto pos = state.now.position.view();
   for (std::size_t a = 0; a < an.size(); ++a) {
     if (state.now.anchor_intact[a] == 0) continue;
-    const double tension = kernels::tissue_anchor_tension(pos.get(an.node[a]), an.target[a], an.stiffness[a], an.slack[a]);
+    const double tension =
+        kernels::tissue_anchor_tension(pos.get(an.node[a]), an.target[a], an.stiffness[a], an.slack[a]);
     if (tension <= an.strength[a]) continue;
     state.now.anchor_intact[a] = 0;
     torn.push_back({a, tension});

@@ -17,7 +17,6 @@
 
 namespace haustra::detail {
 
-
 void init_collision_state(const WorldModel& model, WorldState& state);
 void stage_collide(const WorldModel& model, WorldState& state, Scheduler& scheduler);
 void stage_contacts(const WorldModel& model, WorldState& state, Scheduler& scheduler);

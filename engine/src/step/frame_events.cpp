@@ -56,7 +56,8 @@ Event World::Impl::unstable_event(std::size_t failed, const GuardResult& g, cons
   if (model.solver.on_instability != InstabilityPolicy::recover)
     it = append(e, it, ". solver.on_instability is \"stop\". ");
   else if (can_escalate(rung))
-    it = append(e, it, ". The frame's retries ran out ({} of solver.max_retries = {}) before Newton with {} substeps "
+    it = append(e, it,
+                ". The frame's retries ran out ({} of solver.max_retries = {}) before Newton with {} substeps "
                 "(solver.max_substeps) was tried. ",
                 profile.retries, model.solver.max_retries, model.solver.max_substeps);
   else
@@ -89,10 +90,12 @@ Event World::Impl::slipped_event(std::size_t instrument) const {
   std::tie(e.segment, e.node) = piece_of(s.grasp_segment, node);
   e.stage = Stage::report;
   const auto name = std::string_view(model.pieces[e.segment].info.name);
-  char* it = append(e, e.text.data(), "frame {}: instrument '{}' ({}) lost its grasp on segment '{}' ({}), node {}: ",
-                    state.frame, d.name, instrument, name, e.segment, e.node);
+  char* it = append(e, e.text.data(),
+                    "frame {}: instrument '{}' ({}) lost its grasp on segment '{}' ({}), node {}: ", state.frame,
+                    d.name, instrument, name, e.segment, e.node);
   if (s.slip_strain > 0.0)
-    it = append(e, it, "the organ it pulled stretched to {:.3g}, past the strain its wall takes ({:.3g}): torn out of "
+    it = append(e, it,
+                "the organ it pulled stretched to {:.3g}, past the strain its wall takes ({:.3g}): torn out of "
                 "its jaws",
                 s.slip_strain, model.segments[s.grasp_segment].failure_strain);
   else
@@ -134,7 +137,8 @@ void World::Impl::record_anchors(Event::Kind kind, std::span<const detail::TornA
     const std::uint32_t range = model.anchors.range[anchors[i].anchor];
     std::size_t j = i;
     double largest = 0.0;
-    while (j < anchors.size() && model.anchors.range[anchors[j].anchor] == range) largest = std::max(largest, anchors[j++].tension);
+    while (j < anchors.size() && model.anchors.range[anchors[j].anchor] == range)
+      largest = std::max(largest, anchors[j++].tension);
     record(anchors_event(kind, anchors[i].anchor, anchors[j - 1].anchor - anchors[i].anchor + 1, largest));
     i = j;
   }

@@ -145,7 +145,7 @@ void stage_instruments(const WorldModel& model, WorldState& state, double time) 
     if (!is_proxy(d)) s.tip = s.command_tip;
     s.reach = (s.command_tip - s.tip).norm();
     s.grasp_limit = grasp_limit(d, s);  // until its proxy is solved again this frame
-    if (!s.closed) s.slipped = false;  // opened: the next close grasps anew
+    if (!s.closed) s.slipped = false;   // opened: the next close grasps anew
     if (s.closed && !s.grasping && !s.slipped) grasp(model, state, i);
     if (!s.closed && s.grasping) release(state, i);
     if (s.grasping) {

@@ -5,12 +5,12 @@
 #include <cmath>
 
 #include "haustra/kernels/rod_forward_sweep.hpp"
+#include "sched/scheduler.hpp"
 #include "step/anchors.hpp"
 #include "step/collision.hpp"
 #include "step/instruments.hpp"
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
-#include "sched/scheduler.hpp"
 #include "step/segment_law.hpp"
 
 namespace haustra::detail {

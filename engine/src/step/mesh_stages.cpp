@@ -23,9 +23,9 @@ void stage_ring_deltas(const WorldModel& model, const MeshTarget& target, std::s
   const SegmentMesh& mesh = model.meshes_of[piece];
   if (!mesh.enabled) return;
   const std::size_t rings = mesh.cage.ring_station.size();
-  kernels::ring_deltas(mesh.cage.ring_rest, target.ring_pose.subspan(mesh.ring_offset, rings),
-                       target.ring_delta.subspan(kernels::kRingDeltaFloats * mesh.ring_offset,
-                                                 kernels::kRingDeltaFloats * rings));
+  kernels::ring_deltas(
+      mesh.cage.ring_rest, target.ring_pose.subspan(mesh.ring_offset, rings),
+      target.ring_delta.subspan(kernels::kRingDeltaFloats * mesh.ring_offset, kernels::kRingDeltaFloats * rings));
 }
 
 void stage_skin(const WorldModel& model, const MeshTarget& target, std::size_t chunk) {
@@ -43,16 +43,16 @@ void stage_skin(const WorldModel& model, const MeshTarget& target, std::size_t c
 
 void stage_weld_seams(const WorldModel& model, const MeshTarget& target) {
   if (model.seam_group_members.empty()) return;
-  kernels::weld_vertex_groups(model.seam_group_start, model.seam_group_members, target.position.x,
-                              target.position.y, target.position.z);
+  kernels::weld_vertex_groups(model.seam_group_start, model.seam_group_members, target.position.x, target.position.y,
+                              target.position.z);
 }
 
 void stage_normals(const WorldModel& model, const MeshTarget& target, std::size_t chunk) {
   const NormalChunk& c = model.normal_chunks[chunk];
   kernels::vertex_normals_blocked({model.normal_slot_start, model.normal_slots, model.normal_gather_pairs},
                                   c.first_block, model.vertex_corner_start, model.vertex_corner_pairs,
-                                  target.position.x, target.position.y, target.position.z, c.first_vertex,
-                                  c.vertices, target.normal);
+                                  target.position.x, target.position.y, target.position.z, c.first_vertex, c.vertices,
+                                  target.normal);
 }
 
 }  // namespace haustra::detail

@@ -9,12 +9,12 @@
 #include "haustra/kernels/rod_condensed.hpp"
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "haustra/kernels/rod_newton.hpp"
+#include "sched/scheduler.hpp"
 #include "step/anchors.hpp"
 #include "step/collision.hpp"
 #include "step/instruments.hpp"
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
-#include "sched/scheduler.hpp"
 #include "step/segment_law.hpp"
 
 namespace haustra::detail {
@@ -533,9 +533,8 @@ void stage_newton_linearize(const WorldModel& model, WorldState& state, std::siz
     for (std::size_t i = 0; same && i < ws.pattern_now.size(); ++i)
       same = i < seg.attachments.size() ? ws.pattern_now[i] == ws.chord_pattern[i]
                                         : ws.pattern_now[i] <= ws.chord_pattern[i];
-    ws.chord = p.chord && ws.chord_ready &&
-               state.frame - ws.chord_frame < kRefactorFrames &&
-               ws.chord_dt == p.dt && same;
+    ws.chord =
+        p.chord && ws.chord_ready && state.frame - ws.chord_frame < kRefactorFrames && ws.chord_dt == p.dt && same;
   }
   NewtonSplit& sp = ws.split;
   if (sp.joint == 0) return;

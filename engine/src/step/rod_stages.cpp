@@ -442,8 +442,7 @@ GuardResult guard_strains(const WorldModel& model, const WorldState& state, std:
     const Eigen::Vector3d u(0.5 * (q[4 * k] + q[4 * k + 4]), 0.5 * (q[4 * k + 1] + q[4 * k + 5]),
                             0.5 * (q[4 * k + 2] + q[4 * k + 6]));
     const double eps = 0.5 * (q[4 * k + 3] + q[4 * k + 7]);
-    if (std::abs(eps) > kMaxAxialStrain)
-      return {false, k, Stage::solve, "axial strain", eps, kMaxAxialStrain};
+    if (std::abs(eps) > kMaxAxialStrain) return {false, k, Stage::solve, "axial strain", eps, kMaxAxialStrain};
     if (-eps > kCollapsedCompression)
       return {
           false, k, Stage::solve, "compression (−axial strain) of a collapsing section", -eps, kCollapsedCompression};
@@ -534,13 +533,12 @@ GuardResult guard_energy(const WorldModel& model, const WorldState& state, std::
     double work = outside_work_bound(model, state, segment);
     if (work >= 0.0) {
       work += container_release(model, state, segment);  // pushing a bead back in works on the rod
-      const double before =
-          segment_energy(model, state, state.frame_start.strain, state.frame_start.position.view(),
-                         state.frame_start.rotation.view(), segment)
+      const double before = segment_energy(model, state, state.frame_start.strain, state.frame_start.position.view(),
+                                           state.frame_start.rotation.view(), segment)
+                                .total();
+      const double after =
+          segment_energy(model, state, state.now.strain, state.now.position.view(), state.now.rotation.view(), segment)
               .total();
-      const double after = segment_energy(model, state, state.now.strain, state.now.position.view(),
-                                          state.now.rotation.view(), segment)
-                               .total();
       double weight = 0.0;
       for (std::size_t node = off; node < off + n; ++node) weight += model.node_mass[node];
       const double allowance =

@@ -13,11 +13,11 @@
 #include "haustra/error.hpp"
 #include "haustra/world.hpp"
 #include "model/world_model.hpp"
+#include "sched/scheduler.hpp"
+#include "state/world_state.hpp"
 #include "step/anchors.hpp"
 #include "step/mesh_stages.hpp"
 #include "step/rod_stages.hpp"
-#include "sched/scheduler.hpp"
-#include "state/world_state.hpp"
 
 namespace haustra {
 
@@ -31,9 +31,9 @@ struct World::Impl {
   detail::WorldState state;
   detail::Scheduler scheduler;
   FrameProfile profile;
-  std::vector<Event> events;          // waiting to be taken (World::take_events), at most kMaxEvents
-  std::uint64_t events_dropped = 0;  // lost since the last take: the queue was full
-  std::vector<std::size_t> slipped;  // instruments whose grasp slipped this frame (capacity: all of them)
+  std::vector<Event> events;             // waiting to be taken (World::take_events), at most kMaxEvents
+  std::uint64_t events_dropped = 0;      // lost since the last take: the queue was full
+  std::vector<std::size_t> slipped;      // instruments whose grasp slipped this frame (capacity: all of them)
   std::vector<detail::TornAnchor> torn;  // anchors torn or cut this frame (capacity: all of them)
   std::vector<detail::GuardResult> guard;
   // A rung of the robust mode's ladder: how a frame is attempted.
@@ -66,7 +66,8 @@ struct World::Impl {
   // (a rebuild, a restore) comes with a new Impl, so it is never stale.
   mutable std::unique_ptr<GpuSkinBinding> gpu_skin;
   [[nodiscard]] GpuSkinBinding make_gpu_skin() const;
-  std::uint64_t late_frames = 0;  // frames over the model's frame_budget since the world was created  // the world's own mesh is behind its rod
+  std::uint64_t late_frames =
+      0;  // frames over the model's frame_budget since the world was created  // the world's own mesh is behind its rod
 
   // The API's segment (a piece of a chain, or the whole rod) that holds node `node` of rod `rod`,
   // and the node's index in it; a joint node counts as the later piece's base.

@@ -32,9 +32,7 @@ struct Window {
     if (window == nullptr) throw std::runtime_error("no OpenGL 3.3 window");
     glfwMakeContextCurrent(window);
   }
-  ~Window() {
-    glfwDestroyWindow(window);
-  }
+  ~Window() { glfwDestroyWindow(window); }
 };
 
 // One window frame: geometry from the latest frame, drawn and finished. range(0): samples (MSAA).
@@ -66,7 +64,8 @@ void draw_scene(benchmark::State& state, const std::string& scene_file) {
     scene.draw(camera, options, 1280, 720);
     glFinish();
   }
-  state.counters["draws_per_second"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["draws_per_second"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
   state.counters["mesh_vertices"] = static_cast<double>(model->vertex_node.size());
   state.counters["triangles"] = static_cast<double>(model->triangles.size());
   state.counters["drawn"] = static_cast<double>(scene.organ_triangles_drawn());

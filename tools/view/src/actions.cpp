@@ -60,9 +60,9 @@ bool scene_file_changed(ViewerState& v) {
 
 std::string take_screenshot(ViewerState& v, const std::string& path) {
   const std::string file =
-      path.empty() ? (std::filesystem::path(v.capture_folder) / fmt::format("{}-frame{}.png", stem_of(v), v.frame))
-                         .string()
-                   : path;
+      path.empty()
+          ? (std::filesystem::path(v.capture_folder) / fmt::format("{}-frame{}.png", stem_of(v), v.frame)).string()
+          : path;
   v.screenshot_pending = file;
   return file;
 }
@@ -84,9 +84,9 @@ std::string toggle_video(ViewerState& v, int width, int height, const std::strin
   v.video_frames_per_shot = std::max(1, static_cast<int>(std::lround(1.0 / (30.0 * dt))));
   const double fps = 1.0 / (v.video_frames_per_shot * dt);
   const std::string file =
-      path.empty() ? (std::filesystem::path(v.capture_folder) / fmt::format("{}-frame{}.mp4", stem_of(v), v.frame))
-                         .string()
-                   : path;
+      path.empty()
+          ? (std::filesystem::path(v.capture_folder) / fmt::format("{}-frame{}.mp4", stem_of(v), v.frame)).string()
+          : path;
   try {
     v.video.start(file, width, height, fps);
     v.sim.hold(true);
@@ -126,7 +126,7 @@ void keep_above_planes(ViewerState& v) {
   // Floors only (planes facing up against gravity): a wall may stand between the eye and the organ,
   // drawn from its free side only, so it never hides it.
   const Eigen::Vector3d up = v.model->desc.gravity.norm() > 0.0 ? Eigen::Vector3d(-v.model->desc.gravity.normalized())
-                                                                 : Eigen::Vector3d::UnitZ();
+                                                                : Eigen::Vector3d::UnitZ();
   for (const PlaneDesc& p : v.model->desc.environment.planes) {
     const Eigen::Vector3d n = p.normal.normalized();
     if (n.dot(up) < 0.7) continue;

@@ -43,10 +43,10 @@ void VideoRecorder::start(const std::string& path, int width, int height, double
     std::filesystem::create_directories(dir);
   // The window's frames as they come, its size cut to even (H.264's 4:2:0 wants it), at the
   // simulated time's rate.
-  const std::string command =
-      fmt::format("ffmpeg -loglevel error -y -f rawvideo -pix_fmt rgb24 -video_size {}x{} -framerate {:.6f} -i - "
-                  "-vf 'crop=trunc(iw/2)*2:trunc(ih/2)*2' -pix_fmt yuv420p '{}'",
-                  width, height, fps, path);
+  const std::string command = fmt::format(
+      "ffmpeg -loglevel error -y -f rawvideo -pix_fmt rgb24 -video_size {}x{} -framerate {:.6f} -i - "
+      "-vf 'crop=trunc(iw/2)*2:trunc(ih/2)*2' -pix_fmt yuv420p '{}'",
+      width, height, fps, path);
   if (std::system("command -v ffmpeg > /dev/null 2>&1") != 0)
     throw Error(ErrorCode::io, "a video needs ffmpeg (scripts/install-deps.sh installs it: apt-get install ffmpeg)");
   // ffmpeg failing must not kill the window with SIGPIPE: a write that fails stops the video.

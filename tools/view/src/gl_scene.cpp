@@ -151,7 +151,7 @@ const Rgb kBody{0.80f, 0.70f, 0.62f};  // a container, seen from inside
 const Rgb kFloor{0.78f, 0.78f, 0.76f};
 const Rgb kGrid{0.45f, 0.45f, 0.47f};
 const Rgb kForce{0.95f, 0.55f, 0.05f};
-const Rgb kSpring{0.05f, 0.75f, 0.85f};  // the grasp's spring, drawn over everything
+const Rgb kSpring{0.05f, 0.75f, 0.85f};    // the grasp's spring, drawn over everything
 const Rgb kSelected{0.62f, 0.45f, 0.98f};  // what the inspector has selected
 
 bool is(const Highlight& h, Highlight::Kind kind, std::size_t index) { return h.kind == kind && h.index == index; }
@@ -174,7 +174,8 @@ GlScene::GlScene() {
   lit_location_ = glGetUniformLocation(program_, "lit");
   try {  // a driver that cannot run the skinning shader draws the CPU's mesh
     const std::string skin_source = skin_vertex_shader(kSkinMain);
-    const unsigned svs = compile(GL_VERTEX_SHADER, skin_source.c_str()), sfs = compile(GL_FRAGMENT_SHADER, kFragmentShader);
+    const unsigned svs = compile(GL_VERTEX_SHADER, skin_source.c_str()),
+                   sfs = compile(GL_FRAGMENT_SHADER, kFragmentShader);
     skin_program_ = glCreateProgram();
     glAttachShader(skin_program_, svs);
     glAttachShader(skin_program_, sfs);
@@ -244,7 +245,8 @@ std::array<Eigen::Vector3d, 2> drawn_bounds(const FramePublisher::Slot& f, const
   return {lo, hi};
 }
 
-void GlScene::build(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o, const OrbitCamera& camera) {
+void GlScene::build(const FramePublisher::Slot& f, const ModelInfo& m, const DrawOptions& o,
+                    const OrbitCamera& camera) {
   for (Batch* b : {&opaque_, &organ_, &lines_, &planes_, &grid_, &overlay_, &tubes_}) b->clear();
   grid_ranges_.clear();
   const auto [lo, hi] = drawn_bounds(f, m);
@@ -280,7 +282,8 @@ void GlScene::prepare_lod(const FramePublisher::Slot& f, const ModelInfo& m) {
     normals[v] = {f.nx[v], f.ny[v], f.nz[v]};
   }
   for (std::size_t k = 0; k < f.x.size(); ++k) nodes[k] = node(f, k);
-  lod_ = m.vertex_node.size() == n ? build_organ_lod(positions, normals, m.triangles, m.vertex_node, nodes) : OrganLod{};
+  lod_ =
+      m.vertex_node.size() == n ? build_organ_lod(positions, normals, m.triangles, m.vertex_node, nodes) : OrganLod{};
   lod_triangles_ = m.triangles;
   ++lod_build_;
   glBindVertexArray(organ_.vao);
@@ -349,7 +352,9 @@ void GlScene::build_organ(const FramePublisher::Slot& f, const ModelInfo& m, con
     if (lod_levels_[chunk] < 0) continue;
     const LodBlock& block = lod_.chunks[chunk].levels[static_cast<std::size_t>(lod_levels_[chunk])];
     const LodChunk& part = lod_.chunks[chunk];
-    const double distance = (lod_nodes_[std::min<std::size_t>(part.first_node + part.node_count / 2, lod_nodes_.size() - 1)] - view.eye).norm();
+    const double distance =
+        (lod_nodes_[std::min<std::size_t>(part.first_node + part.node_count / 2, lod_nodes_.size() - 1)] - view.eye)
+            .norm();
     lod_draws_.push_back({organ_on_gpu_ ? block.first_vertex : static_cast<std::uint32_t>(organ_.vertices.size()),
                           block.first_index, block.index_count, distance, block.vertex_count});
     organ_triangles_drawn_ += block.index_count / 3;
@@ -491,7 +496,8 @@ void GlScene::build_overlays(const FramePublisher::Slot& f, const ModelInfo& m, 
     std::vector<bool> of_selected(some ? m.node_count : 0, false);
     if (some)
       for (std::size_t piece : m.organs[o.highlight.index].pieces)
-        for (std::size_t k = 0; k < m.segment_nodes[piece].count; ++k) of_selected[m.segment_nodes[piece].offset + k] = true;
+        for (std::size_t k = 0; k < m.segment_nodes[piece].count; ++k)
+          of_selected[m.segment_nodes[piece].offset + k] = true;
     for (std::size_t a = 0; a < m.anchor_nodes.size() && a < d.anchors_intact.size(); ++a) {
       if (d.anchors_intact[a] != 0)
         line(lines_, node(f, m.anchor_nodes[a]), m.anchor_targets[a],
@@ -629,9 +635,10 @@ void GlScene::draw_organ() {
       glEnableVertexAttribArray(2);
     }
     for (const LodDraw& d : lod_draws_)
-      glDrawElementsBaseVertex(GL_TRIANGLES, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT,
-                               reinterpret_cast<void*>(static_cast<std::uintptr_t>(d.first_index) * sizeof(std::uint32_t)),
-                               static_cast<GLint>(d.base_vertex));
+      glDrawElementsBaseVertex(
+          GL_TRIANGLES, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT,
+          reinterpret_cast<void*>(static_cast<std::uintptr_t>(d.first_index) * sizeof(std::uint32_t)),
+          static_cast<GLint>(d.base_vertex));
     glUseProgram(program_);
     glUniform1i(lit_location_, 1);
     draw_batch(tubes_, GL_TRIANGLES);
@@ -639,9 +646,10 @@ void GlScene::draw_organ() {
   }
   glBindVertexArray(organ_.vao);
   for (const LodDraw& d : lod_draws_)
-    glDrawElementsBaseVertex(GL_TRIANGLES, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT,
-                             reinterpret_cast<void*>(static_cast<std::uintptr_t>(d.first_index) * sizeof(std::uint32_t)),
-                             static_cast<GLint>(d.base_vertex));
+    glDrawElementsBaseVertex(
+        GL_TRIANGLES, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT,
+        reinterpret_cast<void*>(static_cast<std::uintptr_t>(d.first_index) * sizeof(std::uint32_t)),
+        static_cast<GLint>(d.base_vertex));
   draw_batch(tubes_, GL_TRIANGLES);
 }
 

@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "haustra/frame_publisher.hpp"
 #include "gpu_skin_gl.hpp"
-#include "organ_lod.hpp"
+#include "haustra/frame_publisher.hpp"
 #include "orbit_camera.hpp"
+#include "organ_lod.hpp"
 #include "simulation.hpp"
 
 namespace haustra::view {
@@ -138,10 +138,10 @@ class GlScene {
   GpuSkinBuffers skin_;
   unsigned skin_vao_ = 0, skin_vbo_ = 0, skin_colour_vbo_ = 0;
   std::shared_ptr<const GpuSkinBinding> skin_binding_;  // uploaded to skin_
-  std::size_t skin_lod_build_ = 0, lod_build_ = 0;       // LOD builds: skin_vbo_ holds build skin_lod_build_'s
+  std::size_t skin_lod_build_ = 0, lod_build_ = 0;      // LOD builds: skin_vbo_ holds build skin_lod_build_'s
   bool skin_supported_ = false, organ_on_gpu_ = false, organ_plain_ = true;
-  bool skin_fits_ = true;                                // the last model's binding fits a texture buffer
-  std::shared_ptr<const GpuSkinBinding> skin_checked_;   // the binding skin_fits_ is of
+  bool skin_fits_ = true;                               // the last model's binding fits a texture buffer
+  std::shared_ptr<const GpuSkinBinding> skin_checked_;  // the binding skin_fits_ is of
   std::array<float, 4> organ_colour_{};
   std::vector<float> skin_rings_, skin_colours_;
   Eigen::Matrix4f draw_vp_ = Eigen::Matrix4f::Identity();  // draw()'s, for the organ's own program

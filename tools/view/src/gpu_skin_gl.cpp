@@ -85,7 +85,8 @@ void GpuSkinBuffers::vertex_attributes(unsigned slot_location) {
   glEnableVertexAttribArray(0);
   glEnableVertexAttribArray(1);
   glEnableVertexAttribArray(slot_location);
-  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(SkinVertex), reinterpret_cast<void*>(offsetof(SkinVertex, rest)));
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(SkinVertex),
+                        reinterpret_cast<void*>(offsetof(SkinVertex, rest)));
   glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, sizeof(SkinVertex),
                         reinterpret_cast<void*>(offsetof(SkinVertex, normal)));
   glVertexAttribIPointer(slot_location, 2, GL_UNSIGNED_INT, sizeof(SkinVertex),

@@ -46,9 +46,9 @@ class GpuSkinBuffers {
   [[nodiscard]] bool ready() const { return rings_ != 0; }
 
  private:
-  unsigned buffers_[3] = {0, 0, 0};   // rings, coefficients, slot rings
+  unsigned buffers_[3] = {0, 0, 0};  // rings, coefficients, slot rings
   unsigned textures_[3] = {0, 0, 0};
-  unsigned rings_ = 0;                // ring count (0: nothing uploaded)
+  unsigned rings_ = 0;  // ring count (0: nothing uploaded)
 };
 
 }  // namespace haustra::view

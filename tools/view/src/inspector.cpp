@@ -90,7 +90,8 @@ std::optional<std::string> refused(const Field& f, double x) {
 
 std::string select_part(ViewerState& v, std::string_view kind, std::size_t index) {
   const std::optional<Kind> k = kind_of(kind);
-  if (!k) return fmt::format("select: '{}' is not organ, anchors, instrument, plane, sphere, capsule, mesh or none", kind);
+  if (!k)
+    return fmt::format("select: '{}' is not organ, anchors, instrument, plane, sphere, capsule, mesh or none", kind);
   if (*k != Kind::none && (!v.model || index >= count_of(*v.model, *k)))
     return fmt::format("select: no {} {} (the scene has {})", kind, index, v.model ? count_of(*v.model, *k) : 0);
   v.draw.highlight = {*k, *k == Kind::none ? 0 : index};
@@ -98,8 +99,7 @@ std::string select_part(ViewerState& v, std::string_view kind, std::size_t index
   return *k == Kind::none ? std::string("selection cleared") : fmt::format("selected {} {}", kind, index);
 }
 
-std::string edit_value(ViewerState& v, std::string_view kind, std::size_t index, std::string_view field,
-                       double value) {
+std::string edit_value(ViewerState& v, std::string_view kind, std::size_t index, std::string_view field, double value) {
   if (!v.model) return "edit: no scene open";
   const ModelInfo& m = *v.model;
   if (kind == "contact") {
@@ -136,8 +136,8 @@ std::string edit_value(ViewerState& v, std::string_view kind, std::size_t index,
 namespace {
 
 // A number field: shows the model's value, and on Enter or leaving the field edits it.
-void number_field(ViewerState& v, const char* label, std::string_view kind, std::size_t index,
-                  std::string_view field, double now, const char* format) {
+void number_field(ViewerState& v, const char* label, std::string_view kind, std::size_t index, std::string_view field,
+                  double now, const char* format) {
   static std::string editing;  // the field being typed in keeps its text until it is left
   static double typed = 0.0;
   const std::string id = fmt::format("{}/{}/{}", kind, index, field);
@@ -177,8 +177,8 @@ void organ_details(ViewerState& v, std::size_t i) {
       return n >= r.offset && n < r.offset + r.count;
     }));
   }
-  ImGui::TextWrapped("%s: %zu piece%s, %zu nodes, %zu beads", o.name.c_str(), o.pieces.size(), o.pieces.size() == 1 ? "" : "s",
-              nodes, beads);
+  ImGui::TextWrapped("%s: %zu piece%s, %zu nodes, %zu beads", o.name.c_str(), o.pieces.size(),
+                     o.pieces.size() == 1 ? "" : "s", nodes, beads);
   ImGui::Text("length now %.1f mm, radius %.1f mm", 1e3 * organ_length_now(v, o), 1e3 * o.desc.cross_section.radius);
   ImGui::Text("mesh %zu vertices, %zu anchors of tissue", vertices, o.anchors);
   ImGui::Text("density %.0f kg/m3, Poisson %.2f", o.desc.material.density, o.desc.material.poisson_ratio);
@@ -190,7 +190,8 @@ void organ_details(ViewerState& v, std::size_t i) {
 void instrument_details(ViewerState& v, std::size_t i) {
   const ModelInfo& m = *v.model;
   const InstrumentDesc& d = m.desc.instruments[i];
-  ImGui::TextWrapped("%s: radius %.1f mm, length %.0f mm", instrument_name(m, i).c_str(), 1e3 * d.radius, 1e3 * d.length);
+  ImGui::TextWrapped("%s: radius %.1f mm, length %.0f mm", instrument_name(m, i).c_str(), 1e3 * d.radius,
+                     1e3 * d.length);
   if (i < v.instruments.size()) {
     const InstrumentReading& r = v.instruments[i];
     ImGui::Text("%s, force %.2f N", r.grasping ? "grasping" : r.closed ? "closed" : "open", r.force.norm());
@@ -204,7 +205,9 @@ void instrument_details(ViewerState& v, std::size_t i) {
 void obstacle_details(const ViewerState& v) {
   const EnvironmentDesc& e = v.model->desc.environment;
   const Highlight h = v.draw.highlight;
-  const auto vec = [](const Eigen::Vector3d& p) { return fmt::format("({:.3f}, {:.3f}, {:.3f})", p.x(), p.y(), p.z()); };
+  const auto vec = [](const Eigen::Vector3d& p) {
+    return fmt::format("({:.3f}, {:.3f}, {:.3f})", p.x(), p.y(), p.z());
+  };
   if (h.kind == Kind::plane) {
     const PlaneDesc& p = e.planes[h.index];
     ImGui::TextWrapped("plane %s: point %s m, normal %s", p.name.c_str(), vec(p.point).c_str(), vec(p.normal).c_str());
@@ -237,7 +240,8 @@ void tree(ViewerState& v) {
   }
   if (ImGui::TreeNodeEx("connective tissue", ImGuiTreeNodeFlags_DefaultOpen)) {
     for (std::size_t i = 0; i < m.organs.size(); ++i)
-      if (m.organs[i].anchors > 0) leaf(v, Kind::anchors, i, fmt::format("{}: {} anchors", m.organs[i].name, m.organs[i].anchors));
+      if (m.organs[i].anchors > 0)
+        leaf(v, Kind::anchors, i, fmt::format("{}: {} anchors", m.organs[i].name, m.organs[i].anchors));
     ImGui::TreePop();
   }
   if (ImGui::TreeNodeEx("instruments", ImGuiTreeNodeFlags_DefaultOpen)) {
@@ -264,8 +268,10 @@ void details(ViewerState& v) {
     organ_details(v, h.index);
   } else if (h.kind == Kind::anchors) {
     const ModelInfo::Organ& o = v.model->organs[h.index];
-    ImGui::TextWrapped("%s's connective tissue: %zu anchors (lines to their roots; torn and cut ones marked). "
-                       "Shift-drag on the organ cuts them.", o.name.c_str(), o.anchors);
+    ImGui::TextWrapped(
+        "%s's connective tissue: %zu anchors (lines to their roots; torn and cut ones marked). "
+        "Shift-drag on the organ cuts them.",
+        o.name.c_str(), o.anchors);
   } else if (h.kind == Kind::instrument) {
     instrument_details(v, h.index);
   } else {

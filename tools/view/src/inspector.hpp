@@ -18,8 +18,7 @@ std::string select_part(ViewerState& v, std::string_view kind, std::size_t index
 // instrument I stiffness|damping|force_limit V, contact 0 coefficient V. Checked here (a value no
 // step can hold is refused at once, naming the field and the range), then posted to the physics
 // thread, which announces the rebuild it needs on screen. Returns what was asked, or the refusal.
-std::string edit_value(ViewerState& v, std::string_view kind, std::size_t index, std::string_view field,
-                       double value);
+std::string edit_value(ViewerState& v, std::string_view kind, std::size_t index, std::string_view field, double value);
 
 void draw_inspector(ViewerState& v);
 

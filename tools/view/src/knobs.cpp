@@ -89,7 +89,8 @@ KnobChange set_knob(const WorldDesc& now, std::string_view name, std::string_vie
     d.gravity = {x, y, z};
   } else if (name == "contact") {
     const double x = number(name, value);
-    if (x <= 0.0 || x > 1e6) refuse(name, value, "a contact coefficient in (0, 1e6] (f = coefficient x E x depth^exponent)");
+    if (x <= 0.0 || x > 1e6)
+      refuse(name, value, "a contact coefficient in (0, 1e6] (f = coefficient x E x depth^exponent)");
     d.contact.coefficient = x;
   } else if (name == "rate") {
     if (value == "1khz")
@@ -101,7 +102,8 @@ KnobChange set_knob(const WorldDesc& now, std::string_view name, std::string_vie
   } else {
     throw Error(
         ErrorCode::invalid_argument,
-        fmt::format("no knob '{}' (mode, iterations, filter, law, beads_per_node, rings, gravity, contact, rate)", name));
+        fmt::format("no knob '{}' (mode, iterations, filter, law, beads_per_node, rings, gravity, contact, rate)",
+                    name));
   }
   c.what = fmt::format("{} {} -> {}", name, knob_value(now, name), knob_value(d, name));
   return c;

@@ -115,8 +115,11 @@ void legend(ViewerState& v) {
   constexpr float kWidth = 240.0f, kHeight = 14.0f;
   for (int i = 0; i < kSteps; ++i) {
     const render::Rgb c = render::colormap(static_cast<double>(i) / (kSteps - 1));
-    const auto srgb = [](float x) { return static_cast<int>(255.0f * std::pow(std::clamp(x, 0.0f, 1.0f), 1.0f / 2.2f)); };
-    dl->AddRectFilled(ImVec2(at.x + kWidth * i / kSteps, at.y), ImVec2(at.x + kWidth * (i + 1) / kSteps, at.y + kHeight),
+    const auto srgb = [](float x) {
+      return static_cast<int>(255.0f * std::pow(std::clamp(x, 0.0f, 1.0f), 1.0f / 2.2f));
+    };
+    dl->AddRectFilled(ImVec2(at.x + kWidth * i / kSteps, at.y),
+                      ImVec2(at.x + kWidth * (i + 1) / kSteps, at.y + kHeight),
                       IM_COL32(srgb(c.r), srgb(c.g), srgb(c.b), 255));
   }
   const ImU32 text = IM_COL32(20, 20, 30, 255);
@@ -140,7 +143,8 @@ std::vector<std::string> list_openable(const std::filesystem::path& folder) {
       continue;
     }
     std::string ext = e.path().extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     if (ext == ".toml" || ext == ".obj" || ext == ".stl" || ext == ".off" || ext == ".gltf" || ext == ".glb")
       files.push_back(name);
   }

@@ -63,7 +63,8 @@ std::unordered_map<std::uint32_t, std::uint32_t> cluster(std::span<const Eigen::
     mean /= static_cast<double>(members.size());
     std::uint32_t best = members.front();
     for (std::uint32_t v : members)
-      if (const double d = (p[v] - mean).squaredNorm(), e = (p[best] - mean).squaredNorm(); d < e || (d == e && v < best))
+      if (const double d = (p[v] - mean).squaredNorm(), e = (p[best] - mean).squaredNorm();
+          d < e || (d == e && v < best))
         best = v;
     for (std::uint32_t v : members) rep[v] = best;
   }
@@ -112,9 +113,8 @@ LodBlock append_block(OrganLod& lod, const std::vector<Triangle>& triangles) {
 }  // namespace
 
 OrganLod build_organ_lod(std::span<const Eigen::Vector3d> positions, std::span<const Eigen::Vector3d> normals,
-                         std::span<const Triangle> triangles,
-                         std::span<const std::uint32_t> vertex_node, std::span<const Eigen::Vector3d> nodes,
-                         std::size_t triangles_per_chunk) {
+                         std::span<const Triangle> triangles, std::span<const std::uint32_t> vertex_node,
+                         std::span<const Eigen::Vector3d> nodes, std::size_t triangles_per_chunk) {
   OrganLod lod;
   lod.mean_edge = mean_edge_length(positions, triangles);
   if (triangles.empty()) return lod;

@@ -22,7 +22,7 @@ struct LodBlock {
 
 struct LodChunk {
   std::uint32_t first_node = 0, node_count = 0;  // its triangles' nodes (the frame's node positions)
-  double reach = 0.0;  // m: the farthest of its vertices from their node, at build
+  double reach = 0.0;                            // m: the farthest of its vertices from their node, at build
   std::array<LodBlock, kLodLevels> levels;
 };
 
@@ -34,8 +34,9 @@ struct OrganLod {
   [[nodiscard]] double cell(int level) const { return level == 0 ? 0.0 : mean_edge * double(1 << level); }
 };
 
-// positions, normals: the mesh's vertices at build (a cell keeps apart vertices facing apart); vertex_node: each vertex's nearest node; nodes: the
-// nodes at build; triangles_per_chunk: about how many of the mesh's triangles each chunk takes.
+// positions, normals: the mesh's vertices at build (a cell keeps apart vertices facing apart); vertex_node: each
+// vertex's nearest node; nodes: the nodes at build; triangles_per_chunk: about how many of the mesh's triangles each
+// chunk takes.
 [[nodiscard]] OrganLod build_organ_lod(std::span<const Eigen::Vector3d> positions,
                                        std::span<const Eigen::Vector3d> normals,
                                        std::span<const std::array<std::uint32_t, 3>> triangles,

@@ -93,8 +93,7 @@ void display(ViewerState& v) {
   ImGui::Checkbox("centreline", &v.draw.centreline);
   ImGui::SameLine();
   ImGui::Checkbox("contacts", &v.draw.contacts);
-  if (v.model && !v.model->anchor_nodes.empty())
-    ImGui::Checkbox("tissue (T; Shift-drag cuts it)", &v.draw.anchors);
+  if (v.model && !v.model->anchor_nodes.empty()) ImGui::Checkbox("tissue (T; Shift-drag cuts it)", &v.draw.anchors);
   int colour = static_cast<int>(v.draw.colour);
   if (ImGui::Combo("colour", &colour, "tissue\0strain (bending, 1/m)\0penetration (depth / r)\0"))
     v.draw.colour = static_cast<Colouring>(colour);

@@ -20,29 +20,30 @@ struct Shape {
 };
 
 const Shape* shape_of(const std::string& command) {
-  static const std::pair<std::string, Shape> shapes[] = {{"wait", {1, 1, "wait FRAMES"}},
-                                                         {"press", {2, 2, "press X Y | press bead K"}},
-                                                         {"move", {2, 4, "move X Y [FRAMES] | move by DX DY [FRAMES]"}},
-                                                         {"release", {0, 0, "release"}},
-                                                         {"ctrl", {1, 1, "ctrl down|up"}},
-                                                         {"shift", {1, 1, "shift down|up"}},
-                                                         {"toggle", {1, 1, "toggle beads|cage|centreline|contacts|tissue"}},
-                                                         {"colour", {1, 1, "colour tissue|strain|penetration"}},
-                                                         {"knob", {2, 4, "knob NAME VALUE"}},
-                                                         {"pause", {0, 0, "pause"}},
-                                                         {"resume", {0, 0, "resume"}},
-                                                         {"step", {0, 0, "step"}},
-                                                         {"reset", {0, 0, "reset"}},
-                                                         {"save", {0, 0, "save"}},
-                                                         {"restore", {0, 0, "restore"}},
-                                                         {"screenshot", {1, 1, "screenshot FILE.png"}},
-                                                         {"key", {1, 1, "key F1|H|P|V|0|1|2|3|F|G|T|B|I|TAB|SPACE|RIGHT|ESC|CTRL+R|CTRL+O"}},
-                                                         {"open", {1, 1, "open FILE (a scene or a surface)"}},
-                                                         {"record", {1, 1, "record FILE.mp4 | record stop"}},
-                                                         {"zoom", {1, 1, "zoom STEPS (the wheel; > 0 closer)"}},
-                                                         {"select", {1, 2, "select KIND I | select none"}},
-                                                         {"edit", {4, 4, "edit KIND I FIELD VALUE"}},
-                                                         {"quit", {0, 0, "quit"}}};
+  static const std::pair<std::string, Shape> shapes[] = {
+      {"wait", {1, 1, "wait FRAMES"}},
+      {"press", {2, 2, "press X Y | press bead K"}},
+      {"move", {2, 4, "move X Y [FRAMES] | move by DX DY [FRAMES]"}},
+      {"release", {0, 0, "release"}},
+      {"ctrl", {1, 1, "ctrl down|up"}},
+      {"shift", {1, 1, "shift down|up"}},
+      {"toggle", {1, 1, "toggle beads|cage|centreline|contacts|tissue"}},
+      {"colour", {1, 1, "colour tissue|strain|penetration"}},
+      {"knob", {2, 4, "knob NAME VALUE"}},
+      {"pause", {0, 0, "pause"}},
+      {"resume", {0, 0, "resume"}},
+      {"step", {0, 0, "step"}},
+      {"reset", {0, 0, "reset"}},
+      {"save", {0, 0, "save"}},
+      {"restore", {0, 0, "restore"}},
+      {"screenshot", {1, 1, "screenshot FILE.png"}},
+      {"key", {1, 1, "key F1|H|P|V|0|1|2|3|F|G|T|B|I|TAB|SPACE|RIGHT|ESC|CTRL+R|CTRL+O"}},
+      {"open", {1, 1, "open FILE (a scene or a surface)"}},
+      {"record", {1, 1, "record FILE.mp4 | record stop"}},
+      {"zoom", {1, 1, "zoom STEPS (the wheel; > 0 closer)"}},
+      {"select", {1, 2, "select KIND I | select none"}},
+      {"edit", {4, 4, "edit KIND I FIELD VALUE"}},
+      {"quit", {0, 0, "quit"}}};
   for (const auto& [name, shape] : shapes)
     if (name == command) return &shape;
   return nullptr;
@@ -125,9 +126,8 @@ std::vector<ScriptLine> read_script(const std::filesystem::path& file) {
     if (l.command == "toggle") check_word(l.words[0], {"beads", "cage", "centreline", "contacts", "tissue"}, where);
     if (l.command == "colour") check_word(l.words[0], {"tissue", "strain", "penetration"}, where);
     if (l.command == "key")
-      check_word(l.words[0],
-                 {"F1", "H", "P", "V", "0", "1", "2", "3", "F", "G", "T", "K", "B", "I", "TAB", "SPACE", "RIGHT", "ESC", "CTRL+R",
-                  "CTRL+O"},
+      check_word(l.words[0], {"F1", "H", "P", "V", "0",   "1",     "2",     "3",   "F",      "G",
+                              "T",  "K", "B", "I", "TAB", "SPACE", "RIGHT", "ESC", "CTRL+R", "CTRL+O"},
                  where);
     if (l.command == "knob" && l.words.size() > 2) {  // gravity takes three numbers
       l.words[1] = fmt::format("{}", fmt::join(l.words.begin() + 1, l.words.end(), " "));

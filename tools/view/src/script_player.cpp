@@ -18,14 +18,26 @@ namespace {
 
 // A key by the name a script gives it, pressed as the keyboard would.
 void press_named_key(ViewerState& v, const std::string& name) {
-  static const std::pair<const char*, std::pair<int, int>> kKeys[] = {
-      {"F1", {GLFW_KEY_F1, 0}},       {"H", {GLFW_KEY_H, 0}},         {"P", {GLFW_KEY_P, 0}},
-      {"V", {GLFW_KEY_V, 0}},         {"0", {GLFW_KEY_0, 0}},         {"1", {GLFW_KEY_1, 0}},
-      {"2", {GLFW_KEY_2, 0}},         {"3", {GLFW_KEY_3, 0}},         {"F", {GLFW_KEY_F, 0}},
-      {"G", {GLFW_KEY_G, 0}},         {"T", {GLFW_KEY_T, 0}},         {"K", {GLFW_KEY_K, 0}},         {"B", {GLFW_KEY_B, 0}},
-      {"TAB", {GLFW_KEY_TAB, 0}},     {"I", {GLFW_KEY_I, 0}},     {"SPACE", {GLFW_KEY_SPACE, 0}}, {"RIGHT", {GLFW_KEY_RIGHT, 0}},
-      {"ESC", {GLFW_KEY_ESCAPE, 0}},  {"CTRL+R", {GLFW_KEY_R, GLFW_MOD_CONTROL}},
-      {"CTRL+O", {GLFW_KEY_O, GLFW_MOD_CONTROL}}};
+  static const std::pair<const char*, std::pair<int, int>> kKeys[] = {{"F1", {GLFW_KEY_F1, 0}},
+                                                                      {"H", {GLFW_KEY_H, 0}},
+                                                                      {"P", {GLFW_KEY_P, 0}},
+                                                                      {"V", {GLFW_KEY_V, 0}},
+                                                                      {"0", {GLFW_KEY_0, 0}},
+                                                                      {"1", {GLFW_KEY_1, 0}},
+                                                                      {"2", {GLFW_KEY_2, 0}},
+                                                                      {"3", {GLFW_KEY_3, 0}},
+                                                                      {"F", {GLFW_KEY_F, 0}},
+                                                                      {"G", {GLFW_KEY_G, 0}},
+                                                                      {"T", {GLFW_KEY_T, 0}},
+                                                                      {"K", {GLFW_KEY_K, 0}},
+                                                                      {"B", {GLFW_KEY_B, 0}},
+                                                                      {"TAB", {GLFW_KEY_TAB, 0}},
+                                                                      {"I", {GLFW_KEY_I, 0}},
+                                                                      {"SPACE", {GLFW_KEY_SPACE, 0}},
+                                                                      {"RIGHT", {GLFW_KEY_RIGHT, 0}},
+                                                                      {"ESC", {GLFW_KEY_ESCAPE, 0}},
+                                                                      {"CTRL+R", {GLFW_KEY_R, GLFW_MOD_CONTROL}},
+                                                                      {"CTRL+O", {GLFW_KEY_O, GLFW_MOD_CONTROL}}};
   for (const auto& [n, key] : kKeys)
     if (name == n) press_key(v, key.first, key.second, v.camera.width, v.camera.height);
 }

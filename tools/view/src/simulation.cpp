@@ -183,9 +183,9 @@ void Simulation::publish_model() {
   const auto skin = w.mesh_positions();
   const auto node_at = w.node_positions();
   for (std::size_t v = 0; v < info->vertex_node.size() && v < skin.size(); ++v)
-    info->skin_reach = std::max(info->skin_reach, (Eigen::Vector3d(skin.x[v], skin.y[v], skin.z[v]) -
-                                                   node_at.get(info->vertex_node[v]))
-                                                      .norm());
+    info->skin_reach =
+        std::max(info->skin_reach,
+                 (Eigen::Vector3d(skin.x[v], skin.y[v], skin.z[v]) - node_at.get(info->vertex_node[v])).norm());
   info->bead_nodes.assign(w.bead_nodes().begin(), w.bead_nodes().end());
   info->bead_radii.assign(w.bead_radii().begin(), w.bead_radii().end());
   info->anchor_nodes.assign(w.anchor_nodes().begin(), w.anchor_nodes().end());
@@ -355,8 +355,8 @@ void Simulation::apply(Command& command) {
           MaterialDesc material = organ.desc.material;
           material.youngs_modulus = c.youngs_modulus;
           edit(fmt::format("{}: E {:.4g} -> {:.4g} Pa, relaxation {:.3g} -> {:.3g} s (rods rebuilt, meshes kept)",
-                           organ.name, organ.desc.material.youngs_modulus, c.youngs_modulus,
-                           organ.desc.relaxation_time, c.relaxation_time),
+                           organ.name, organ.desc.material.youngs_modulus, c.youngs_modulus, organ.desc.relaxation_time,
+                           c.relaxation_time),
                [&](World& world) { world.set_material(organ.pieces.front(), material, c.relaxation_time); });
         } else if constexpr (std::is_same_v<T, EditCoupling>) {
           if (c.instrument >= w.instrument_count()) return;
@@ -364,7 +364,9 @@ void Simulation::apply(Command& command) {
           edit(fmt::format("{}: coupling {:.4g} -> {:.4g} N/m, {:.3g} -> {:.3g} N s/m, limit {:.3g} -> {:.3g} N",
                            was.name, was.coupling_stiffness, c.stiffness, was.coupling_damping, c.damping,
                            was.force_limit, c.force_limit),
-               [&](World& world) { world.set_instrument_coupling(c.instrument, c.stiffness, c.damping, c.force_limit); });
+               [&](World& world) {
+                 world.set_instrument_coupling(c.instrument, c.stiffness, c.damping, c.force_limit);
+               });
         } else if constexpr (std::is_same_v<T, Reconfigure>) {
           try {
             KnobChange change = set_knob(world_->desc(), c.knob, c.value, scene_.world.dt);

@@ -36,9 +36,9 @@ struct ModelInfo {
   std::vector<std::vector<std::array<std::uint32_t, 3>>> cage_triangles;  // per segment
   std::vector<std::uint32_t> bead_nodes;
   std::vector<double> bead_radii;
-  std::vector<std::uint32_t> anchor_nodes;  // connective tissue: the node each anchor holds ...
+  std::vector<std::uint32_t> anchor_nodes;      // connective tissue: the node each anchor holds ...
   std::vector<Eigen::Vector3d> anchor_targets;  // ... and where
-  std::size_t mouse = 0;  // the instrument the mouse drives (the viewer adds it to the scene)
+  std::size_t mouse = 0;                        // the instrument the mouse drives (the viewer adds it to the scene)
   // The organs as the scene names them (a chain is one organ of several pieces), for the inspector.
   struct Organ {
     std::string name;
@@ -91,9 +91,8 @@ struct RestoreCheckpoint {};
 struct Reconfigure {
   std::string knob, value;
 };
-using Command =
-    std::variant<GraspAt, MoveTip, Release, CutAt, Open, SetPaused, StepOnce, Reset, SaveCheckpoint,
-                 RestoreCheckpoint, Reconfigure, EditMaterial, EditCoupling>;
+using Command = std::variant<GraspAt, MoveTip, Release, CutAt, Open, SetPaused, StepOnce, Reset, SaveCheckpoint,
+                             RestoreCheckpoint, Reconfigure, EditMaterial, EditCoupling>;
 
 // What the window shows on screen beside the log: a stop, a recovery, a grasp that let go,
 // tissue torn or cut, a scene that would not open.
@@ -116,8 +115,8 @@ class Simulation {
  public:
   // Builds the world from the scene (plus the mouse's instrument); throws haustra::Error as
   // `haustra run` does. checkpoint: a file for save/restore ("" keeps checkpoints in memory).
-  Simulation(const SceneDesc& scene, int threads, std::string checkpoint_file, bool start_paused,
-             bool lockstep = false, std::string scene_path = {}, std::vector<std::string> sets = {});
+  Simulation(const SceneDesc& scene, int threads, std::string checkpoint_file, bool start_paused, bool lockstep = false,
+             std::string scene_path = {}, std::vector<std::string> sets = {});
   ~Simulation();
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;

@@ -66,8 +66,9 @@ void press_key(ViewerState& v, int key, int mods, int width, int height) {
       if ((mods & GLFW_MOD_SHIFT) != 0) v.help_open = !v.help_open;  // ?
       break;
     case GLFW_KEY_O:
-      if (ctrl) v.open_dialog.open = true, v.open_dialog.folder = std::filesystem::current_path(),
-                v.open_dialog.entries = list_openable(v.open_dialog.folder);
+      if (ctrl)
+        v.open_dialog.open = true, v.open_dialog.folder = std::filesystem::current_path(),
+        v.open_dialog.entries = list_openable(v.open_dialog.folder);
       break;
     case GLFW_KEY_R:
       if (ctrl) reload(v);

@@ -8,7 +8,7 @@ namespace haustra::view {
 
 struct ViewerOptions {
   std::string scene;
-  std::string source;  // what was given, when `scene` was made from it (a surface imported first)
+  std::string source;             // what was given, when `scene` was made from it (a surface imported first)
   std::vector<std::string> sets;  // scene overrides, as `haustra run --set`
   int threads = 0;
   std::string script;      // scripted input (script.hpp)
@@ -16,7 +16,7 @@ struct ViewerOptions {
   std::string record;      // JSON of what happened (for tests)
   std::string checkpoint;  // file for Save / Restore ("" : in memory)
   int width = 1280, height = 720;
-  int samples = -1;  // multisampling: -1 picks 4 on a GPU and none on a software renderer
+  int samples = -1;                       // multisampling: -1 picks 4 on a GPU and none on a software renderer
   std::size_t triangle_budget = 100'000;  // the organ's drawn triangles at most (DrawOptions)
   bool paused = false;
 };

@@ -68,7 +68,7 @@ struct Sample {
   std::size_t node = 0;  // global index of the grasped node
   Eigen::Vector3d node_position = Eigen::Vector3d::Zero(), tip = Eigen::Vector3d::Zero();
   Eigen::Vector3d force = Eigen::Vector3d::Zero(), filtered_force = Eigen::Vector3d::Zero();
-  std::size_t anchors_cut = 0;  // anchors of connective tissue torn or cut so far
+  std::size_t anchors_cut = 0;                    // anchors of connective tissue torn or cut so far
   Eigen::Vector3d end = Eigen::Vector3d::Zero();  // the first organ's last node (a cantilever's tip)
 };
 struct InputEvent {
@@ -133,10 +133,10 @@ struct ViewerState {
   std::string video_pending;      // a script's `record FILE` or `record stop`, after the next draw
   bool follow = false;            // the camera keeps the grasped (or selected) part in the middle
   bool organ_on_gpu = false;      // the last frame's organ was skinned by the GPU (decision 0110)
-  bool inspector_open = false;  // I, or View > Inspector
+  bool inspector_open = false;    // I, or View > Inspector
   bool panels_were_shown = true, inspector_was_open = false;  // as last drawn: a toggle pans the view
   std::deque<ShownNotice> notices;
-  float menu_height = 0.0f;  // the main menu bar's, pixels: the panels start under it
+  float menu_height = 0.0f;        // the main menu bar's, pixels: the panels start under it
   const GlScene* scene = nullptr;  // what is drawn: a press picks against it
 };
 

@@ -86,20 +86,20 @@ GravityChoice parse_gravity(const std::string& value);
 // (decision 0093), gravity as asked. Built once. Throws as import_surface does, naming the surface.
 struct SurfacesReport {
   struct Organ {
-    std::string name;                               // the segment's: its surfaces' common name
-    std::vector<std::filesystem::path> surfaces;    // on its path, in order along it
-    ImportReport report;                            // as one surface's import would say it
+    std::string name;                             // the segment's: its surfaces' common name
+    std::vector<std::filesystem::path> surfaces;  // on its path, in order along it
+    ImportReport report;                          // as one surface's import would say it
   };
   std::vector<Organ> organs;
-  std::vector<std::filesystem::path> unused;        // surfaces no organ took (nothing in them joins)
+  std::vector<std::filesystem::path> unused;  // surfaces no organ took (nothing in them joins)
   // The body, when given.
-  std::filesystem::path body, body_file;            // as given; as written beside the scene (metres)
+  std::filesystem::path body, body_file;  // as given; as written beside the scene (metres)
   std::string body_units_reason, body_repairs;
   std::size_t body_vertices = 0, body_triangles = 0;  // as written
-  int body_capped = 0;                              // open ends (the scan's) closed by a fan each
-  double body_volume = 0.0;                         // m³
-  double outside_body = 0.0;                        // fraction of the organs' vertices outside it
-  std::array<double, 3> gravity{0.0, 0.0, -9.81};   // m/s², as written
+  int body_capped = 0;                                // open ends (the scan's) closed by a fan each
+  double body_volume = 0.0;                           // m³
+  double outside_body = 0.0;                          // fraction of the organs' vertices outside it
+  std::array<double, 3> gravity{0.0, 0.0, -9.81};     // m/s², as written
   std::string gravity_reason;
   std::filesystem::path scene;
   double build_seconds = 0.0, seconds = 0.0;

@@ -13,10 +13,10 @@ namespace haustra::import {
 
 // The protocol's phases, s (docs/anatomy.md's; the tests run shorter ones).
 struct OrganProtocol {
-  double rest = 10.0;    // left alone
-  double pull = 1.0;     // grasped and pulled 5 cm sideways
-  double hold = 1.0;     // held there
-  double after = 3.0;    // released, left alone
+  double rest = 10.0;      // left alone
+  double pull = 1.0;       // grasped and pulled 5 cm sideways
+  double hold = 1.0;       // held there
+  double after = 3.0;      // released, left alone
   double distance = 0.05;  // m, sideways
   int threads = 2;
 };
@@ -24,8 +24,8 @@ struct OrganProtocol {
 struct CohortRow {
   std::string name;
   bool imported = false, ran = false, holds = false;
-  std::string error;  // the import's or the run's message, first line
-  ImportReport report;  // what the import found (valid when imported)
+  std::string error;                           // the import's or the run's message, first line
+  ImportReport report;                         // what the import found (valid when imported)
   std::size_t mesh_vertices = 0, outside = 0;  // binding pose: vertices outside the cage
   int frames = 0;
   std::size_t recovered = 0, unstable = 0, torn = 0;  // events: frames redone, frames that failed, anchors torn
@@ -33,10 +33,10 @@ struct CohortRow {
   // Left alone: how far the mesh's vertices went from where the segmentation put them (m), the
   // median vertex and the farthest, the largest over the phase.
   double rest_median = 0.0, rest_max = 0.0;
-  bool grasped = false;       // the grasper took hold
-  double largest_force = 0.0;  // N, reported for the grasper over the pull, the hold and the release
-  double force_limit = 0.0;    // N, the grasper's
-  double pulled = 0.0;         // m the grasped node moved sideways by the end of the hold
+  bool grasped = false;                        // the grasper took hold
+  double largest_force = 0.0;                  // N, reported for the grasper over the pull, the hold and the release
+  double force_limit = 0.0;                    // N, the grasper's
+  double pulled = 0.0;                         // m the grasped node moved sideways by the end of the hold
   double after_median = 0.0, after_max = 0.0;  // m from where the segmentation put them, at the end
   // The skin: the largest ratio of a mesh edge's length to its rest length, over the rod's own
   // stretch where it is, over the run, and how many edges passed twice that at some measure.
@@ -64,9 +64,8 @@ std::vector<CohortRow> run_cohort(const std::filesystem::path& folder, const std
 // An abdomen: every .obj of `folder` whose name starts with `prefix`, and `body` around them,
 // imported as one scene (decision 0094) into `out` and put through the protocol (the grasper on the
 // middle of its longest organ). Never throws: a failure is the row's error.
-CohortRow run_abdomen(const std::filesystem::path& folder, const std::string& prefix,
-                      const std::filesystem::path& body, const std::filesystem::path& out,
-                      const OrganProtocol& protocol = {});
+CohortRow run_abdomen(const std::filesystem::path& folder, const std::string& prefix, const std::filesystem::path& body,
+                      const std::filesystem::path& out, const OrganProtocol& protocol = {});
 
 // docs/anatomy.md: generated, dated, the machine named.
 std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::filesystem::path& folder,
