@@ -99,26 +99,11 @@ Coverage coverage(const EmbreeScene& wall, const Polyline& p, double reach, int 
   return c;
 }
 
-Polyline remove_backtracks(const Polyline& p, double near, double loop) {
+Polyline remove_backtracks(const Polyline& p) {
   Polyline out;
-  std::vector<double> arc;  // of each kept point
   for (const Eigen::Vector3d& q : p) {
-    while (out.size() >= 2 && (q - out.back()).dot(out.back() - out[out.size() - 2]) < 0.0) {
-      out.pop_back();
-      arc.pop_back();
-    }
-    if (near > 0.0 && !out.empty()) {  // the earliest point within `loop` of arc that q returns to
-      for (std::size_t j = out.size(); j-- > 0 && arc.back() - arc[j] < 4.0 * loop;)
-        if (arc.back() - arc[j] > loop && (q - out[j]).norm() < near) {
-          out.resize(j + 1);
-          arc.resize(j + 1);
-          break;
-        }
-    }
-    if (out.empty() || (q - out.back()).norm() > 0.0) {
-      arc.push_back(out.empty() ? 0.0 : arc.back() + (q - out.back()).norm());
-      out.push_back(q);
-    }
+    while (out.size() >= 2 && (q - out.back()).dot(out.back() - out[out.size() - 2]) < 0.0) out.pop_back();
+    if (out.empty() || (q - out.back()).norm() > 0.0) out.push_back(q);
   }
   return out;
 }

@@ -24,9 +24,8 @@ struct Coverage {
 Coverage coverage(const EmbreeScene& wall, const Polyline& p, double reach, int min_hits = 12);
 
 // Spurs cut: a point that would make the line turn back on itself (its step against the one before)
-// removes the points before it until the line runs forward again; and a point that comes back
-// within `near` of a point more than `loop` of arc behind it erases the loop between them.
-Polyline remove_backtracks(const Polyline& p, double near = 0.0, double loop = 0.0);
+// removes the points before it until the line runs forward again.
+Polyline remove_backtracks(const Polyline& p);
 
 // Radius of curvature at every point, from the circle through the points ±half_window away.
 std::vector<double> bend_radii(const Polyline& p, double spacing, double half_window);

@@ -136,8 +136,8 @@ bool orient(Stretch& line, bool reverse) {
 
 // Closed ends: the centres run onto the tip; the line stops a radius short of it. Where pieces meet,
 // their rims' centres may step back a little: the line never turns back. Returns the line kept
-// and, in `radius`, the median section radius along it; in `looped`, the length of loops erased.
-Polyline cut_tips(const Stretch& line, double& radius, double& looped) {
+// and, in `radius`, the median section radius along it.
+Polyline cut_tips(const Stretch& line, double& radius) {
   std::size_t cut_start = 0, cut_end = 0;
   if (!line.start_open) cut_start = tip_cut(line);
   if (!line.end_open) {
@@ -152,13 +152,10 @@ Polyline cut_tips(const Stretch& line, double& radius, double& looped) {
   std::vector<double> radii(line.radius.begin() + first, line.radius.end() - last);
   std::nth_element(radii.begin(), radii.begin() + static_cast<std::ptrdiff_t>(radii.size() / 2), radii.end());
   radius = radii[radii.size() / 2];
-  // And a line that comes back within half a radius of itself, more than two radii further on,
-  // has run round a loop that is no part of a tube (a tube's U-turn keeps its legs two radii apart):
-  // the loop goes.
-  const Polyline cut(line.centre.begin() + first, line.centre.end() - last);
-  Polyline kept = remove_backtracks(cut, 0.5 * radius, 2.0 * radius);
-  looped = polyline_length(remove_backtracks(cut)) - polyline_length(kept);
-  return kept;
+  // A line that comes back within half a radius of itself a few radii on is kept (decision 0113):
+  // a tube cannot, but where a loop is fused where it starts, the line leaves and comes back
+  // through the centroids of the contours round the fusion.
+  return remove_backtracks(Polyline(line.centre.begin() + first, line.centre.end() - last));
 }
 
 // The last radius at each end laid straight along the line's direction one to two radii in: the
@@ -187,18 +184,16 @@ OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
   out.reversed = orient(line, reverse);
   out.open_ends = (line.start_open ? 1 : 0) + (line.end_open ? 1 : 0);
   const double before = polyline_length(line.centre);
-  double radius = 0.0, looped = 0.0;
-  const Polyline kept = cut_tips(line, radius, looped);
-  out.looped = looped;
-  out.pulled_back = std::max(0.0, before - polyline_length(kept) - looped);
+  double radius = 0.0;
+  const Polyline kept = cut_tips(line, radius);
+  out.pulled_back = std::max(0.0, before - polyline_length(kept));
   out.points =
-      resample(straight_ends(remove_backtracks(smooth(resample(kept, kLineSpacing), kLineSpacing, 0.5 * radius),
-                                               0.5 * radius, 2.0 * radius),
+      resample(straight_ends(remove_backtracks(smooth(resample(kept, kLineSpacing), kLineSpacing, 0.5 * radius)),
                              kLineSpacing, radius),
                kLineSpacing);
   out.text = fmt::format(
       "computed: the area centroids of a harmonic function's level sets on the outer wall ({} piece{}, {} open "
-      "end{}{}{}{}{}), smoothed over {:.1f} mm",
+      "end{}{}{}{}), smoothed over {:.1f} mm",
       layout.path.size(), layout.path.size() == 1 ? "" : "s", out.open_ends, out.open_ends == 1 ? "" : "s",
       out.capped_loops > 0
           ? fmt::format(", {} side opening{} capped for the solve", out.capped_loops, out.capped_loops == 1 ? "" : "s")
@@ -209,10 +204,6 @@ OrganCentreline organ_centreline(const OrganLayout& layout, bool reverse) {
       out.folded > 0.0 ? fmt::format(", {:.0f} mm where the wall folds back inside itself (its other shell) left out",
                                      1e3 * out.folded)
                        : "",
-      out.looped > 1e-3 ? fmt::format(", {:.0f} mm of loops no tube makes (the line back within half a radius of "
-                                      "itself) left out",
-                                      1e3 * out.looped)
-                        : "",
       0.5e3 * radius);
   return out;
 }

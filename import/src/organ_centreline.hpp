@@ -17,7 +17,6 @@ struct OrganCentreline {
   int capped_loops = 0;      // side openings and holes capped for the solves
   double pulled_back = 0.0;  // m taken off at closed ends
   double folded = 0.0;       // m left out where the wall folds back inside itself
-  double looped = 0.0;       // m of loops no tube makes, erased
   bool reversed = false;     // the wider end was at the far end: the line runs from it
   std::string text;          // for the report
 };

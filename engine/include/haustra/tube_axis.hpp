@@ -66,15 +66,17 @@ struct TubeAxis {
 };
 
 // Throws Error{invalid_geometry} when the ends coincide or the surface is not connected between them.
-// `spacing`: the largest gap wanted between consecutive section centres (levels are refined until met).
+// `spacing`: the largest gap wanted between consecutive section centres (levels are refined until met;
+// a level at each vertex's u besides, so a loop hanging from a fusion within a sliver of u is crossed).
 TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::uint32_t>>& loops, const TubeEnd& start,
                    const TubeEnd& end, double spacing);
 
 // One contour per level, the levels by ascending u, each a level's closed contours (one along a
 // simple tube, several where loops are fused into handles): the longest line through their centres
 // that steps only from a contour to its continuation on the next level (one is the other's nearest,
-// within a few `spacing`s or the contours' own size), so it follows the tube round its loops rather
-// than across a fusion, and never zigzags between parallel contours.
+// within a few `spacing`s or the larger contour's size), so it follows the tube round its loops
+// rather than across a fusion, and never zigzags between parallel contours. Only steps within a few
+// `spacing`s count: a jump where contours split or merge is allowed but adds nothing.
 std::vector<CrossSection> section_path(const std::vector<std::vector<CrossSection>>& levels, double spacing);
 
 // The value of a monotone table (xs ascending) at x, linear between entries, clamped at its ends.

@@ -247,6 +247,11 @@ std::vector<std::size_t> nearest_contours(const std::vector<CrossSection>& here,
 std::vector<CrossSection> section_path(const std::vector<std::vector<CrossSection>>& levels, double spacing) {
   const std::size_t n = levels.size();
   if (n == 0) return {};
+  // The way's worth is its length along the tube: a step between levels, which the levels' refinement
+  // keeps within a spacing or so; a longer one is a jump between branches where contours split or
+  // merge, allowed (so the way can enter a loop) but worth nothing (so it never jumps for the jump's
+  // own length, into a bulge of the wall and back).
+  auto along = [&](double d) { return d <= 4.0 * spacing ? d : 0.0; };
   std::vector<std::vector<double>> score(n);
   std::vector<std::vector<std::size_t>> from(n);
   score[0].assign(levels[0].size(), 0.0);
@@ -262,19 +267,20 @@ std::vector<CrossSection> section_path(const std::vector<std::vector<CrossSectio
       for (std::size_t i = 0; i < below.size(); ++i) {
         // A step continues a contour when one of the two is the other's nearest (where contours
         // split or merge, every branch is someone's nearest) and it lies within a few spacings or
-        // the contours' own size; a step to a parallel contour is neither, however close.
+        // the larger contour's size (a branch's contour is born within the contour it leaves, whose
+        // centroid lies between the branches); a step to a parallel contour is neither, however close.
         const CrossSection& p = below[i];
         const double d = (c.centre - p.centre).norm();
-        const double reach = std::max(4.0 * spacing, 0.5 * (std::sqrt(c.area) + std::sqrt(p.area)));
+        const double reach = std::max(4.0 * spacing, std::max(std::sqrt(c.area), std::sqrt(p.area)));
         const bool continues = down[j] == i || up[i] == j;
-        if (continues && d <= reach && score[k - 1][i] + d > score[k][j]) {
-          score[k][j] = score[k - 1][i] + d;
+        if (continues && d <= reach && score[k - 1][i] + along(d) > score[k][j]) {
+          score[k][j] = score[k - 1][i] + along(d);
           from[k][j] = i;
         }
       }
       if (score[k][j] == -kNoPath) {  // nothing continues it: the nearest, so the way never breaks
         const std::size_t i = down[j];
-        score[k][j] = score[k - 1][i] + (c.centre - below[i].centre).norm();
+        score[k][j] = score[k - 1][i] + along((c.centre - below[i].centre).norm());
         from[k][j] = i;
       }
     }
@@ -349,11 +355,41 @@ TubeAxis tube_axis(const TriangleMesh& mesh, const std::vector<std::vector<std::
     levels.swap(refined);
     if (!split) break;
   }
+  // And a level between each two consecutive values u takes at the vertices: where loops of the
+  // organ are fused, the flow runs through the fusion and a whole loop hanging from it lies within
+  // a sliver of u that the levels above step over (the widest contour, the flow's, moves little
+  // there); a level at every vertex's own value crosses the loop all along.
+  std::vector<double> at_vertices = u;
+  at_vertices.resize(mesh.vertices.size());  // the caps' centres were the solve's alone
+  std::sort(at_vertices.begin(), at_vertices.end());
+  std::vector<std::pair<double, bool>> all_u;  // (level, one of the levels above)
+  for (double l : level_u) all_u.emplace_back(l, true);
+  for (std::size_t k = 1; k < at_vertices.size(); ++k)
+    if (at_vertices[k] > at_vertices[k - 1] && at_vertices[k - 1] > 0.0 && at_vertices[k] < 1.0)
+      all_u.emplace_back(0.5 * (at_vertices[k] + at_vertices[k - 1]), false);
+  std::sort(all_u.begin(), all_u.end());
   // Levels the contour extraction found nothing at (a rounding corner) are left out.
   std::vector<std::vector<CrossSection>> found;
-  for (auto& l : levels)
-    if (!l.empty()) found.push_back(std::move(l));
-  axis.sections = section_path(found, spacing);
+  std::vector<bool> kept_level;
+  for (std::size_t k = 0, j = 0; k < all_u.size(); ++k) {
+    std::vector<CrossSection> l;
+    if (all_u[k].second) {
+      while (level_u[j] < all_u[k].first) ++j;
+      l = std::move(levels[j]);
+    } else {
+      l = level_sections(all_u[k].first);
+    }
+    if (l.empty()) continue;
+    found.push_back(std::move(l));
+    kept_level.push_back(all_u[k].second);
+  }
+  // The way through them; of the vertices' levels only a section `spacing` on from the one before
+  // is kept (along a simple tube the levels above are already that close, and the vertices' levels
+  // add nothing but the contours' jitter).
+  const std::vector<CrossSection> way = section_path(found, spacing);
+  for (std::size_t k = 0; k < way.size(); ++k)
+    if (kept_level[k] || axis.sections.empty() || (way[k].centre - axis.sections.back().centre).norm() >= spacing)
+      axis.sections.push_back(way[k]);
   u.resize(mesh.vertices.size());  // the caps' centres were the solve's alone
   axis.u = std::move(u);
   return axis;
