@@ -15,10 +15,12 @@ if [[ "${1:-}" == "--fix" ]]; then
   clang-format -i "${files[@]}"
   exit 0
 fi
+# One clang-format for every file (a process per file took 8 s); its errors name the files.
 bad=()
-for f in "${files[@]}"; do
-  clang-format --dry-run --Werror "$f" >/dev/null 2>&1 || bad+=("$f")
-done
+if ! report=$(clang-format --dry-run --Werror "${files[@]}" 2>&1 >/dev/null); then
+  mapfile -t bad < <(printf '%s\n' "$report" | sed -n 's/^\([^:]*\):[0-9]*:[0-9]*: error: .*/\1/p' | sort -u)
+  [[ ${#bad[@]} -gt 0 ]] || bad=("(clang-format failed: $report)")
+fi
 if [[ ${#bad[@]} -gt 0 ]]; then
   echo "check-format: ${#bad[@]} of ${#files[@]} files are not in the house style (.clang-format):" >&2
   printf '  %s\n' "${bad[@]}" >&2
