@@ -313,6 +313,8 @@ TEST_CASE("localization study: error falls with K, and MVC follows rigid cross-s
 // One of the 60 pieces of scenes/small-intestine.toml at 2 mm sections (51 nodes, 26 beads over
 // 10 cm, radius 12.5 mm): rings 2 mm apart on a tube 25 mm wide, so a vertex's weight spreads over
 // many rings (decision 0083).
+#endif
+
 namespace {
 WorldDesc dense_piece(int vertices = 5000) {
   WorldDesc d = straight_organ(4, vertices);
@@ -325,8 +327,6 @@ WorldDesc dense_piece(int vertices = 5000) {
   return d;
 }
 }  // namespace
-
-#endif
 
 TEST_CASE(
     "a dense cage (a piece of the 3,001-node small intestine) with max_rings_per_vertex = 7: under 2 × the slots of 4 "
