@@ -116,6 +116,18 @@ fs::path organ_file(const fs::path& file, const std::vector<std::pair<double, Ei
   return file;
 }
 
+// One helix turn of radius R and the given pitch between two straight 0.1 m ends, written in
+// millimetres: a pitch under the organ's diameter presses the walls of its two ends together.
+fs::path helix_organ_file(const fs::path& file, double R, double pitch) {
+  const double c = pitch / (2.0 * std::numbers::pi);
+  const double k = R / (R * R + c * c), tau = c / (R * R + c * c);
+  return organ_file(file,
+                    {{0.1, Eigen::Vector3d::Zero()},
+                     {2.0 * std::numbers::pi * std::sqrt(R * R + c * c), Eigen::Vector3d(k, 0, tau)},
+                     {0.1, Eigen::Vector3d::Zero()}},
+                    1000.0);
+}
+
 double hausdorff(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {
   const auto one_way = [](const auto& from, const auto& to) {
     double worst = 0.0;
@@ -233,13 +245,7 @@ TEST_CASE("haustra import: a procedural organ bent at 1.2 times its radius, clos
 TEST_CASE("haustra import: a procedural organ whose loop touches itself, in millimetres") {
   const fs::path dir = scratch("loop");
   // A helix turn of radius 50 mm whose pitch (42 mm) brings the walls of its two ends together.
-  const double R = 0.05, c = 0.042 / (2.0 * std::numbers::pi);
-  const double k = R / (R * R + c * c), tau = c / (R * R + c * c);
-  const fs::path mesh = organ_file(dir / "loop.obj",
-                                   {{0.1, Eigen::Vector3d::Zero()},
-                                    {2.0 * std::numbers::pi * std::sqrt(R * R + c * c), Eigen::Vector3d(k, 0, tau)},
-                                    {0.1, Eigen::Vector3d::Zero()}},
-                                   1000.0);
+  const fs::path mesh = helix_organ_file(dir / "loop.obj", 0.05, 0.042);
   const Imported r = import_and_run(options(mesh, {}, dir / "loop.toml"));
   MESSAGE(r.report.text() << "skin error " << r.skin_error);
   CHECK(r.report.units == "mm");
@@ -294,13 +300,7 @@ std::pair<double, double> skin_and_rod_stretch(World& world, const std::vector<E
 // other loop and the skin between them tears: the counter-case.
 TEST_CASE("two loops of one organ touching, pulled 10 cm apart: the skin goes with its own loop, not the other") {
   const fs::path dir = scratch("loops-apart");
-  const double R = 0.07, c = 0.038 / (2.0 * std::numbers::pi);
-  const double k = R / (R * R + c * c), tau = c / (R * R + c * c);
-  const fs::path mesh = organ_file(dir / "loops.obj",
-                                   {{0.1, Eigen::Vector3d::Zero()},
-                                    {2.0 * std::numbers::pi * std::sqrt(R * R + c * c), Eigen::Vector3d(k, 0, tau)},
-                                    {0.1, Eigen::Vector3d::Zero()}},
-                                   1000.0);
+  const fs::path mesh = helix_organ_file(dir / "loops.obj", 0.07, 0.038);
   const import::ImportReport report = import::import_surface(options(mesh, {}, dir / "loops.toml"));
   REQUIRE_FALSE(report.touching.empty());
   auto stretch_with = [&](CageBinding binding) {
