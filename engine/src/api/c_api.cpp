@@ -193,12 +193,12 @@ void write_at(T* out, std::size_t stride, std::size_t i, T value) {
   std::memcpy(reinterpret_cast<unsigned char*>(out) + i * stride, &value, stride);
 }
 
-template <class F>
-haustra_status guarded(const char* function, F&& body) noexcept {
+// The exception in flight as a status, its message kept for haustra_last_error. Called only from a
+// C function's catch (...), so every entry point reads as its body in one try block with no wrapper
+// call between the host and the engine.
+haustra_status failed(const char* function) noexcept {
   try {
-    body();
-    g_last_error.clear();
-    return HAUSTRA_OK;
+    throw;
   } catch (const HandleError& e) {
     g_last_error = fmt::format("{}: {}", function, e.message);
     return HAUSTRA_INVALID_HANDLE;
@@ -215,6 +215,11 @@ haustra_status guarded(const char* function, F&& body) noexcept {
     g_last_error = fmt::format("{}: an unknown failure", function);
     return HAUSTRA_INTERNAL;
   }
+}
+
+haustra_status succeeded() noexcept {
+  g_last_error.clear();
+  return HAUSTRA_OK;
 }
 
 haustra_world* make_handle(std::unique_ptr<haustra::World> world, bool double_buffered, bool gpu = false) {
@@ -593,22 +598,22 @@ const char* haustra_version(void) { return HAUSTRA_VERSION; }
 int haustra_abi_version(void) { return HAUSTRA_ABI_VERSION; }
 
 haustra_status haustra_check_abi(int abi_version) {
-  return guarded("haustra_check_abi",
-                 [&] {
-                   if (abi_version < HAUSTRA_ABI_OLDEST || abi_version > HAUSTRA_ABI_VERSION)
-                     throw Error(
-                         ErrorCode::invalid_argument,
-                         fmt::format("the host was built against ABI {}, this library is ABI {} (haustra {}) "
-                                     "and serves hosts of ABI {} to {}{}",
-                                     abi_version, HAUSTRA_ABI_VERSION, HAUSTRA_VERSION, HAUSTRA_ABI_OLDEST,
-                                     HAUSTRA_ABI_VERSION,
-                                     abi_version > HAUSTRA_ABI_VERSION ? ": the host's header is newer than the library"
-                                     : abi_version == 14 ? ": ABI 15 took the stage \"prefactor\" and the counter "
-                                                           "\"prefactors\" out of haustra_profile (decision 0108)"
-                                                         : ": structs before ABI 14 carry no size"));
-                 }) == HAUSTRA_OK
-             ? HAUSTRA_OK
-             : HAUSTRA_ABI_MISMATCH;
+  try {
+    if (abi_version < HAUSTRA_ABI_OLDEST || abi_version > HAUSTRA_ABI_VERSION)
+      throw Error(
+          ErrorCode::invalid_argument,
+          fmt::format("the host was built against ABI {}, this library is ABI {} (haustra {}) "
+                      "and serves hosts of ABI {} to {}{}",
+                      abi_version, HAUSTRA_ABI_VERSION, HAUSTRA_VERSION, HAUSTRA_ABI_OLDEST, HAUSTRA_ABI_VERSION,
+                      abi_version > HAUSTRA_ABI_VERSION ? ": the host's header is newer than the library"
+                      : abi_version == 14               ? ": ABI 15 took the stage \"prefactor\" and the counter "
+                                                          "\"prefactors\" out of haustra_profile (decision 0108)"
+                                                        : ": structs before ABI 14 carry no size"));
+  } catch (...) {
+    failed("haustra_check_abi");
+    return HAUSTRA_ABI_MISMATCH;
+  }
+  return succeeded();
 }
 
 const char* haustra_last_error(void) { return g_last_error.c_str(); }
@@ -619,7 +624,7 @@ const char* haustra_stage_name(int stage) {
 }
 
 haustra_status haustra_world_create_from_scene(const char* scene_path, int threads, haustra_world** out) {
-  return guarded("haustra_world_create_from_scene", [&] {
+  try {
     required(out, "out");
     if (scene_path == nullptr) throw Error(ErrorCode::invalid_argument, "scene_path is NULL");
     if (threads < 0 || threads > 1024)
@@ -627,22 +632,28 @@ haustra_status haustra_world_create_from_scene(const char* scene_path, int threa
     haustra::SceneDesc scene = haustra::load_scene(scene_path);
     scene.world.threads = threads;
     *out = make_handle(haustra::create_world(scene), false);
-  });
+  } catch (...) {
+    return failed("haustra_world_create_from_scene");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_create_from_scene_def(const char* scene_path, const haustra_world_def* def,
                                                    haustra_world** out) {
-  return guarded("haustra_world_create_from_scene_def", [&] {
+  try {
     required(out, "out");
     if (scene_path == nullptr) throw Error(ErrorCode::invalid_argument, "scene_path is NULL");
     const haustra_world_def d = def != nullptr ? checked_def(*def) : world_defaults();
     const haustra::SceneDesc scene = scene_with_def(scene_path, d);
     *out = make_handle(haustra::create_world(scene), d.double_buffered != 0, d.mesh_on_host_gpu != 0);
-  });
+  } catch (...) {
+    return failed("haustra_world_create_from_scene_def");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_def_default(haustra_world_def* def) {
-  return guarded("haustra_world_def_default", [&] {
+  try {
     haustra_world_def& d = required(def, "def");
     const haustra::WorldDesc w;
     d = haustra_world_def{};
@@ -659,11 +670,14 @@ haustra_status haustra_world_def_default(haustra_world_def* def) {
     d.max_substeps = w.solver.max_substeps;
     d.max_retries = w.solver.max_retries;
     d.calm_frames = w.solver.calm_frames;
-  });
+  } catch (...) {
+    return failed("haustra_world_def_default");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_segment_def_default(haustra_segment_def* def) {
-  return guarded("haustra_segment_def_default", [&] {
+  try {
     haustra_segment_def& d = required(def, "def");
     const haustra::SegmentDesc s;
     d = haustra_segment_def{};
@@ -694,21 +708,27 @@ haustra_status haustra_segment_def_default(haustra_segment_def* def) {
     d.anchor_damping = a.damping;
     d.anchor_slack = a.slack;
     d.anchor_strength = a.strength;
-  });
+  } catch (...) {
+    return failed("haustra_segment_def_default");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_create(const haustra_world_def* def, const haustra_segment_def* segments,
                                     size_t segment_count, haustra_world** out) {
-  return guarded("haustra_world_create", [&] {
+  try {
     required(out, "out");
     const haustra_world_def d = checked_def(required(def, "def"));
     *out = make_handle(haustra::World::create(world_from_defs(d, segments, segment_count)), d.double_buffered != 0,
                        d.mesh_on_host_gpu != 0);
-  });
+  } catch (...) {
+    return failed("haustra_world_create");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_destroy(haustra_world* world) {
-  return guarded("haustra_world_destroy", [&] {
+  try {
     {
       std::lock_guard lock(g_registry_mutex);
       // Not while another thread is inside a call on it (Error{busy}); once out of the registry no
@@ -717,20 +737,26 @@ haustra_status haustra_world_destroy(haustra_world* world) {
       registry().erase(world);
     }
     delete world;
-  });
+  } catch (...) {
+    return failed("haustra_world_destroy");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_step(haustra_world* world) {
-  return guarded("haustra_world_step", [&] {
+  try {
     const Held held(world);
     haustra_world& h = held.handle();
     h.world->step();
     if (h.frames) h.frames->publish(*h.world);
-  });
+  } catch (...) {
+    return failed("haustra_world_step");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_counts(const haustra_world* world, haustra_counts* out) {
-  return guarded("haustra_world_counts", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     haustra_counts o{};
@@ -743,22 +769,28 @@ haustra_status haustra_world_counts(const haustra_world* world, haustra_counts* 
     for (int k = 0; k < 4; ++k) o.obstacles[k] = w.obstacle_count(static_cast<haustra::ObstacleKind>(k));
     o.anchors = w.anchor_count();
     write_out(out, o, "out");
-  });
+  } catch (...) {
+    return failed("haustra_world_counts");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_time(const haustra_world* world, double* seconds, uint64_t* frame) {
-  return guarded("haustra_world_time", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     if (seconds == nullptr && frame == nullptr)
       throw Error(ErrorCode::invalid_argument, "seconds and frame are both NULL");
     if (seconds != nullptr) *seconds = w.time();
     if (frame != nullptr) *frame = w.frame();
-  });
+  } catch (...) {
+    return failed("haustra_world_time");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_segment(const haustra_world* world, size_t segment, haustra_segment_info* out) {
-  return guarded("haustra_world_segment", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     const haustra::SegmentInfo& info = w.segment(segment);
@@ -769,11 +801,14 @@ haustra_status haustra_world_segment(const haustra_world* world, size_t segment,
                                    beads.offset, beads.count, mesh.enabled ? mesh.vertices.offset : 0,
                                    mesh.enabled ? mesh.vertices.count : 0, w.chain_of(segment), info.length},
               "out");
-  });
+  } catch (...) {
+    return failed("haustra_world_segment");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_add_segment(haustra_world* world, const haustra_segment_def* segment, size_t* index) {
-  return guarded("haustra_world_add_segment", [&] {
+  try {
     const Held held(world);
     haustra_world& h = held.handle();
     const haustra::SegmentDesc desc = segment_desc(required(segment, "segment"), h.world->segment_count());
@@ -787,11 +822,14 @@ haustra_status haustra_world_add_segment(haustra_world* world, const haustra_seg
     else
       change();
     if (index != nullptr) *index = added;
-  });
+  } catch (...) {
+    return failed("haustra_world_add_segment");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_remove_segment(haustra_world* world, size_t segment) {
-  return guarded("haustra_world_remove_segment", [&] {
+  try {
     const Held held(world);
     haustra_world& h = held.handle();
     auto change = [&]() -> const haustra::World& {
@@ -802,51 +840,66 @@ haustra_status haustra_world_remove_segment(haustra_world* world, size_t segment
       h.frames->resize(change);
     else
       change();
-  });
+  } catch (...) {
+    return failed("haustra_world_remove_segment");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_node_positions(const haustra_world* world, haustra_vec3_view* out) {
-  return guarded("haustra_world_node_positions", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     const auto p = w.node_positions();
     required(out, "out") = haustra_vec3_view{p.x.data(), p.y.data(), p.z.data(), w.node_count()};
-  });
+  } catch (...) {
+    return failed("haustra_world_node_positions");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_bead_radii(const haustra_world* world, const double** radii, size_t* count) {
-  return guarded("haustra_world_bead_radii", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     required(radii, "radii");
     required(count, "count");
     *radii = w.bead_radii().data();
     *count = w.bead_radii().size();
-  });
+  } catch (...) {
+    return failed("haustra_world_bead_radii");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_mesh_positions(const haustra_world* world, haustra_vec3f_view* out) {
-  return guarded("haustra_world_mesh_positions", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     const auto p = w.mesh_positions();
     required(out, "out") = haustra_vec3f_view{p.x.data(), p.y.data(), p.z.data(), w.mesh_buffer_size()};
-  });
+  } catch (...) {
+    return failed("haustra_world_mesh_positions");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_mesh_normals(const haustra_world* world, haustra_vec3f_view* out) {
-  return guarded("haustra_world_mesh_normals", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     const auto n = w.mesh_normals();
     required(out, "out") = haustra_vec3f_view{n.x.data(), n.y.data(), n.z.data(), w.mesh_buffer_size()};
-  });
+  } catch (...) {
+    return failed("haustra_world_mesh_normals");
+  }
+  return succeeded();
 }
 
 static_assert(HAUSTRA_GPU_RING_FLOATS == haustra::kGpuRingFloats);
 
 haustra_status haustra_world_gpu_skin(const haustra_world* world, haustra_gpu_skin* out) {
-  return guarded("haustra_world_gpu_skin", [&] {
+  try {
     const Held held(world);
     (void)known_size<haustra_gpu_skin>(required(out, "out").struct_size, "out");
     const haustra::GpuSkinBinding& g = held.world().gpu_skin_binding();
@@ -855,11 +908,14 @@ haustra_status haustra_world_gpu_skin(const haustra_world* world, haustra_gpu_sk
         haustra_gpu_skin{sizeof(haustra_gpu_skin), g.vertices, g.rings, g.slots(), g.max_slots, g.rest_position.data(),
                          g.rest_normal.data(), g.slot_range.data(), g.slot_ring.data(), g.slot_coefficient.data()},
         "out");
-  });
+  } catch (...) {
+    return failed("haustra_world_gpu_skin");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_gpu_rings(const haustra_world* world, float* out, size_t count) {
-  return guarded("haustra_world_gpu_rings", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     const std::size_t want = HAUSTRA_GPU_RING_FLOATS * w.ring_count();
@@ -869,33 +925,42 @@ haustra_status haustra_world_gpu_rings(const haustra_world* world, float* out, s
           fmt::format("count = {}: expected {} (HAUSTRA_GPU_RING_FLOATS x {} rings)", count, want, w.ring_count()));
     if (want > 0) required(out, "out");
     w.gpu_ring_frame(std::span<float>(out, count));
-  });
+  } catch (...) {
+    return failed("haustra_world_gpu_rings");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_mesh_triangles(const haustra_world* world, haustra_triangles_view* out) {
-  return guarded("haustra_world_mesh_triangles", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     const auto t = w.mesh_triangles();
     required(out, "out") = haustra_triangles_view{t.empty() ? nullptr : t.front().data(), t.size()};
-  });
+  } catch (...) {
+    return failed("haustra_world_mesh_triangles");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_node_load(haustra_world* world, size_t node, const double force[3],
                                            const double moment[3]) {
-  return guarded("haustra_world_set_node_load", [&] {
+  try {
     const Held held(world);
     haustra::World& w = held.world();
     const Eigen::Vector3d f = finite_vec3(force, "force");
     const Eigen::Vector3d m = finite_vec3(moment, "moment");
     w.set_external_load(node, f, m);  // checks the node
-  });
+  } catch (...) {
+    return failed("haustra_world_set_node_load");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_distributed_load(haustra_world* world, size_t segment, size_t count,
                                                   const double* force_per_length, const double* moment_per_length,
                                                   int add) {
-  return guarded("haustra_world_set_distributed_load", [&] {
+  try {
     const Held held(world);
     haustra::World& w = held.world();
     const std::span<const double> forces(&required(force_per_length, "force_per_length"), 3 * count);
@@ -903,26 +968,36 @@ haustra_status haustra_world_set_distributed_load(haustra_world* world, size_t s
                                                 ? std::span<const double>()
                                                 : std::span<const double>(moment_per_length, 3 * count);
     w.set_distributed_load(segment, forces, moments, flag(add, "add"));  // checks the segment, the count and values
-  });
+  } catch (...) {
+    return failed("haustra_world_set_distributed_load");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_instrument_pose(haustra_world* world, size_t instrument, const double tip[3],
                                                  const double axis[3]) {
-  return guarded("haustra_world_set_instrument_pose", [&] {
+  try {
     const Held held(world);
     haustra::World& w = held.world();
     w.set_instrument_pose(instrument, finite_vec3(tip, "tip"), finite_vec3(axis, "axis"));
-  });
+  } catch (...) {
+    return failed("haustra_world_set_instrument_pose");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_instrument_grasp(haustra_world* world, size_t instrument, int closed) {
-  return guarded("haustra_world_set_instrument_grasp",
-                 [&] { live(world).world().set_instrument_grasp(instrument, flag(closed, "closed")); });
+  try {
+    live(world).world().set_instrument_grasp(instrument, flag(closed, "closed"));
+  } catch (...) {
+    return failed("haustra_world_set_instrument_grasp");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_instrument(const haustra_world* world, size_t instrument,
                                         haustra_instrument_reading* out) {
-  return guarded("haustra_world_instrument", [&] {
+  try {
     const haustra::InstrumentReading r = live(world).world().instrument(instrument);
     haustra_instrument_reading o{};
     copy3(r.tip, o.tip);
@@ -937,41 +1012,57 @@ haustra_status haustra_world_instrument(const haustra_world* world, size_t instr
     copy3(r.commanded_tip, o.commanded_tip);
     o.cutting = r.cutting ? 1 : 0;
     write_out(out, o, "out");
-  });
+  } catch (...) {
+    return failed("haustra_world_instrument");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_instrument_cutting(haustra_world* world, size_t instrument, int cutting) {
-  return guarded("haustra_world_set_instrument_cutting",
-                 [&] { live(world).world().set_instrument_cutting(instrument, flag(cutting, "cutting")); });
+  try {
+    live(world).world().set_instrument_cutting(instrument, flag(cutting, "cutting"));
+  } catch (...) {
+    return failed("haustra_world_set_instrument_cutting");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_anchors(const haustra_world* world, const uint32_t** nodes, const uint8_t** intact,
                                      size_t* count) {
-  return guarded("haustra_world_anchors", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     required(nodes, "nodes") = w.anchor_nodes().data();
     required(intact, "intact") = w.anchors_intact().data();
     required(count, "count") = w.anchor_count();
-  });
+  } catch (...) {
+    return failed("haustra_world_anchors");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_anchor_tensions(const haustra_world* world, double* out, size_t count) {
-  return guarded("haustra_world_anchor_tensions", [&] {
+  try {
     if (out == nullptr && count > 0) throw Error(ErrorCode::invalid_argument, "out is NULL");
     live(world).world().anchor_tensions(std::span<double>(out, count));
-  });
+  } catch (...) {
+    return failed("haustra_world_anchor_tensions");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_cut_tissue(haustra_world* world, const double centre[3], double radius, size_t* cut) {
-  return guarded("haustra_world_cut_tissue", [&] {
+  try {
     const std::size_t n = live(world).world().cut_tissue(finite_vec3(centre, "centre"), radius);
     if (cut != nullptr) *cut = n;
-  });
+  } catch (...) {
+    return failed("haustra_world_cut_tissue");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_profile(const haustra_world* world, haustra_profile* out) {
-  return guarded("haustra_world_profile", [&] {
+  try {
     const Held held(world);
     const haustra::FrameProfile& p = held.world().last_profile();
     haustra_profile o{};
@@ -982,57 +1073,94 @@ haustra_status haustra_world_profile(const haustra_world* world, haustra_profile
     HAUSTRA_PROFILE_COUNTERS(HAUSTRA_COPY_FIELD)
 #undef HAUSTRA_COPY_FIELD
     write_out(out, o, "out");
-  });
+  } catch (...) {
+    return failed("haustra_world_profile");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_frame_budget(haustra_world* world, double seconds) {
-  return guarded("haustra_world_set_frame_budget", [&] { live(world).world().set_frame_budget(seconds); });
+  try {
+    live(world).world().set_frame_budget(seconds);
+  } catch (...) {
+    return failed("haustra_world_set_frame_budget");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_late_frames(const haustra_world* world, uint64_t* count) {
-  return guarded("haustra_world_late_frames", [&] { required(count, "count") = live(world).world().late_frames(); });
+  try {
+    required(count, "count") = live(world).world().late_frames();
+  } catch (...) {
+    return failed("haustra_world_late_frames");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_gravity(haustra_world* world, const double gravity[3]) {
-  return guarded("haustra_world_set_gravity",
-                 [&] { live(world).world().set_gravity(finite_vec3(gravity, "gravity")); });
+  try {
+    live(world).world().set_gravity(finite_vec3(gravity, "gravity"));
+  } catch (...) {
+    return failed("haustra_world_set_gravity");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_gravity(const haustra_world* world, double gravity[3]) {
-  return guarded("haustra_world_gravity", [&] {
+  try {
     double* out = &required(gravity, "gravity");
     const Eigen::Vector3d g = live(world).world().gravity();
     for (int i = 0; i < 3; ++i) out[i] = g[i];
-  });
+  } catch (...) {
+    return failed("haustra_world_gravity");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_dt(haustra_world* world, double dt) {
-  return guarded("haustra_world_set_dt", [&] { live(world).world().set_dt(dt); });
+  try {
+    live(world).world().set_dt(dt);
+  } catch (...) {
+    return failed("haustra_world_set_dt");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_dt(const haustra_world* world, double* dt) {
-  return guarded("haustra_world_dt", [&] { required(dt, "dt") = live(world).world().dt(); });
+  try {
+    required(dt, "dt") = live(world).world().dt();
+  } catch (...) {
+    return failed("haustra_world_dt");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_instrument_coupling(haustra_world* world, size_t instrument, double stiffness,
                                                      double damping, double force_limit) {
-  return guarded("haustra_world_set_instrument_coupling",
-                 [&] { live(world).world().set_instrument_coupling(instrument, stiffness, damping, force_limit); });
+  try {
+    live(world).world().set_instrument_coupling(instrument, stiffness, damping, force_limit);
+  } catch (...) {
+    return failed("haustra_world_set_instrument_coupling");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_material(const haustra_world* world, size_t segment, haustra_material* out) {
-  return guarded("haustra_world_material", [&] {
+  try {
     const Held held(world);
     const haustra::SegmentDesc& d = held.world().segment_desc(segment);
     write_out(out,
               haustra_material{sizeof(haustra_material), d.material.youngs_modulus, d.material.poisson_ratio,
                                d.material.density, d.relaxation_time},
               "out");
-  });
+  } catch (...) {
+    return failed("haustra_world_material");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_material(haustra_world* world, size_t segment, const haustra_material* material) {
-  return guarded("haustra_world_set_material", [&] {
+  try {
     const Held held(world);
     haustra_world& h = held.handle();
     const haustra::SegmentDesc& now = h.world->segment_desc(segment);
@@ -1053,19 +1181,25 @@ haustra_status haustra_world_set_material(haustra_world* world, size_t segment, 
       h.frames->resize(change);
     else
       change();
-  });
+  } catch (...) {
+    return failed("haustra_world_set_material");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_frame_limits(const haustra_world* world, haustra_frame_limits* out) {
-  return guarded("haustra_world_frame_limits", [&] {
+  try {
     const haustra::FrameLimits l = live(world).world().frame_limits();
     write_out(out, haustra_frame_limits{sizeof(haustra_frame_limits), l.max_substeps, l.max_retries, l.calm_frames},
               "out");
-  });
+  } catch (...) {
+    return failed("haustra_world_frame_limits");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_frame_limits(haustra_world* world, const haustra_frame_limits* limits) {
-  return guarded("haustra_world_set_frame_limits", [&] {
+  try {
     const Held held(world);
     const haustra::FrameLimits now = held.world().frame_limits();
     const haustra_frame_limits l =
@@ -1073,12 +1207,15 @@ haustra_status haustra_world_set_frame_limits(haustra_world* world, const haustr
                  haustra_frame_limits{sizeof(haustra_frame_limits), now.max_substeps, now.max_retries, now.calm_frames},
                  "limits");
     held.world().set_frame_limits({l.max_substeps, l.max_retries, l.calm_frames});
-  });
+  } catch (...) {
+    return failed("haustra_world_set_frame_limits");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_take_events(haustra_world* world, haustra_event* out, size_t capacity, size_t* count,
                                          uint64_t* dropped) {
-  return guarded("haustra_world_take_events", [&] {
+  try {
     const Held held(world);
     const std::size_t stride = stride_of(out, capacity, "out");
     required(count, "count");
@@ -1103,11 +1240,14 @@ haustra_status haustra_world_take_events(haustra_world* world, haustra_event* ou
     if (taken == 0) (void)held.world().take_events({}, &lost);
     *count = taken;
     if (dropped != nullptr) *dropped = lost;
-  });
+  } catch (...) {
+    return failed("haustra_world_take_events");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* out) {
-  return guarded("haustra_world_acquire_frame", [&] {
+  try {
     haustra_world& h = frame_reader(world);  // beside the stepping thread: no hold (see haustra.h)
     if (!h.frames)
       throw Error(ErrorCode::invalid_argument,
@@ -1124,30 +1264,39 @@ haustra_status haustra_world_acquire_frame(haustra_world* world, haustra_frame* 
                             h.frames->skins_on_gpu() ? s.gpu_rings.data() : nullptr,
                             h.frames->skins_on_gpu() ? s.rings.size() : 0},
               "out");
-  });
+  } catch (...) {
+    return failed("haustra_world_acquire_frame");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_release_frame(haustra_world* world) {
-  return guarded("haustra_world_release_frame", [&] {
+  try {
     haustra_world& h = frame_reader(world);  // beside the stepping thread: no hold (see haustra.h)
     if (!h.frames)
       throw Error(ErrorCode::invalid_argument,
                   "this world was not created with double_buffered = 1 (haustra_world_def)");
     h.frames->release();
-  });
+  } catch (...) {
+    return failed("haustra_world_release_frame");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_save_checkpoint(const haustra_world* world, const char* path) {
-  return guarded("haustra_world_save_checkpoint", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     if (path == nullptr) throw Error(ErrorCode::invalid_argument, "path is NULL");
     w.save_checkpoint_file(path);
-  });
+  } catch (...) {
+    return failed("haustra_world_save_checkpoint");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_restore_checkpoint(haustra_world* world, const char* path) {
-  return guarded("haustra_world_restore_checkpoint", [&] {
+  try {
     const Held held(world);
     haustra_world& h = held.handle();
     if (path == nullptr) throw Error(ErrorCode::invalid_argument, "path is NULL");
@@ -1163,7 +1312,10 @@ haustra_status haustra_world_restore_checkpoint(haustra_world* world, const char
       restore();
       if (h.frames) h.frames->publish(*h.world);
     }
-  });
+  } catch (...) {
+    return failed("haustra_world_restore_checkpoint");
+  }
+  return succeeded();
 }
 
 // Since ABI 14: estimates, parts added and removed at run time, attachments, frames, velocities,
@@ -1171,21 +1323,27 @@ haustra_status haustra_world_restore_checkpoint(haustra_world* world, const char
 
 haustra_status haustra_estimate_world(const haustra_world_def* def, const haustra_segment_def* segments,
                                       size_t segment_count, haustra_estimate* out) {
-  return guarded("haustra_estimate_world", [&] {
+  try {
     const haustra_world_def d = checked_def(required(def, "def"));
     write_out(out, estimate_of(world_from_defs(d, segments, segment_count)), "out");
-  });
+  } catch (...) {
+    return failed("haustra_estimate_world");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_estimate_scene(const char* scene_path, const haustra_world_def* def, haustra_estimate* out) {
-  return guarded("haustra_estimate_scene", [&] {
+  try {
     const haustra_world_def d = def != nullptr ? checked_def(*def) : world_defaults();
     write_out(out, estimate_of(scene_with_def(scene_path, d).world), "out");
-  });
+  } catch (...) {
+    return failed("haustra_estimate_scene");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_instrument_def_default(haustra_instrument_def* def) {
-  return guarded("haustra_instrument_def_default", [&] {
+  try {
     haustra_instrument_def& d = required(def, "def");
     const haustra::InstrumentDesc in;
     d = haustra_instrument_def{};
@@ -1203,28 +1361,37 @@ haustra_status haustra_instrument_def_default(haustra_instrument_def* def) {
     d.cut_radius = in.cut_radius;
     copy3(in.tip, d.tip);
     copy3(in.axis, d.axis);
-  });
+  } catch (...) {
+    return failed("haustra_instrument_def_default");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_add_instrument(haustra_world* world, const haustra_instrument_def* def, size_t* index) {
-  return guarded("haustra_world_add_instrument", [&] {
+  try {
     const Held held(world);
     const haustra::InstrumentDesc desc = instrument_desc(required(def, "def"), held.world().instrument_count());
     std::size_t added = 0;
     rebuilding(held.handle(), [&](haustra::World& w) { added = w.add_instrument(desc); });
     if (index != nullptr) *index = added;
-  });
+  } catch (...) {
+    return failed("haustra_world_add_instrument");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_remove_instrument(haustra_world* world, size_t instrument) {
-  return guarded("haustra_world_remove_instrument", [&] {
+  try {
     const Held held(world);
     rebuilding(held.handle(), [&](haustra::World& w) { w.remove_instrument(instrument); });
-  });
+  } catch (...) {
+    return failed("haustra_world_remove_instrument");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_obstacle_def_default(haustra_obstacle_def* def) {
-  return guarded("haustra_obstacle_def_default", [&] {
+  try {
     haustra_obstacle_def& d = required(def, "def");
     d = haustra_obstacle_def{};
     d.struct_size = sizeof(haustra_obstacle_def);
@@ -1232,63 +1399,85 @@ haustra_status haustra_obstacle_def_default(haustra_obstacle_def* def) {
     d.normal[2] = 1.0;
     d.b[0] = 1.0;
     d.radius = haustra::SphereObstacleDesc{}.radius;
-  });
+  } catch (...) {
+    return failed("haustra_obstacle_def_default");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_add_obstacle(haustra_world* world, const haustra_obstacle_def* def, size_t* index) {
-  return guarded("haustra_world_add_obstacle", [&] {
+  try {
     const Held held(world);
     const haustra::ObstacleDesc desc = obstacle_desc(required(def, "def"), held.world());
     std::size_t added = 0;
     rebuilding(held.handle(), [&](haustra::World& w) { added = w.add_obstacle(desc); });
     if (index != nullptr) *index = added;
-  });
+  } catch (...) {
+    return failed("haustra_world_add_obstacle");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_remove_obstacle(haustra_world* world, int kind, size_t index) {
-  return guarded("haustra_world_remove_obstacle", [&] {
+  try {
     const Held held(world);
     const auto k = static_cast<haustra::ObstacleKind>(checked_kind(kind, "kind"));
     rebuilding(held.handle(), [&](haustra::World& w) { w.remove_obstacle(k, index); });
-  });
+  } catch (...) {
+    return failed("haustra_world_remove_obstacle");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_attachment_def_default(haustra_attachment_def* def) {
-  return guarded("haustra_attachment_def_default", [&] {
+  try {
     haustra_attachment_def& d = required(def, "def");
     d = haustra_attachment_def{};
     d.struct_size = sizeof(haustra_attachment_def);
     d.node = -1;
     d.active = 1;
-  });
+  } catch (...) {
+    return failed("haustra_attachment_def_default");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_add_attachment(haustra_world* world, size_t segment, const haustra_attachment_def* def,
                                             size_t* index) {
-  return guarded("haustra_world_add_attachment", [&] {
+  try {
     const Held held(world);
     const haustra::AttachmentDesc desc = attachment_desc(required(def, "def"));
     std::size_t added = 0;
     rebuilding(held.handle(), [&](haustra::World& w) { added = w.add_attachment(segment, desc); });
     if (index != nullptr) *index = added;
-  });
+  } catch (...) {
+    return failed("haustra_world_add_attachment");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_remove_attachment(haustra_world* world, size_t segment, size_t attachment) {
-  return guarded("haustra_world_remove_attachment", [&] {
+  try {
     const Held held(world);
     rebuilding(held.handle(), [&](haustra::World& w) { w.remove_attachment(segment, attachment); });
-  });
+  } catch (...) {
+    return failed("haustra_world_remove_attachment");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_attachment_count(const haustra_world* world, size_t segment, size_t* count) {
-  return guarded("haustra_world_attachment_count",
-                 [&] { required(count, "count") = live(world).world().attachment_count(segment); });
+  try {
+    required(count, "count") = live(world).world().attachment_count(segment);
+  } catch (...) {
+    return failed("haustra_world_attachment_count");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_attachment(const haustra_world* world, size_t segment, size_t attachment,
                                         haustra_attachment_reading* out) {
-  return guarded("haustra_world_attachment", [&] {
+  try {
     const Held held(world);
     const haustra::AttachmentReading r = held.world().attachment(segment, attachment);
     haustra_attachment_reading o{};
@@ -1300,29 +1489,38 @@ haustra_status haustra_world_attachment(const haustra_world* world, size_t segme
     copy3(r.force, o.force);
     copy3(r.moment, o.moment);
     write_out(out, o, "out");
-  });
+  } catch (...) {
+    return failed("haustra_world_attachment");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_attachment_target(haustra_world* world, size_t segment, size_t attachment,
                                                    const double target[3]) {
-  return guarded("haustra_world_set_attachment_target", [&] {
+  try {
     const Held held(world);
     own_attachment(held.world(), segment, attachment);
     held.world().set_attachment_target(segment, attachment, finite_vec3(target, "target"));
-  });
+  } catch (...) {
+    return failed("haustra_world_set_attachment_target");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_set_attachment_active(haustra_world* world, size_t segment, size_t attachment,
                                                    int active) {
-  return guarded("haustra_world_set_attachment_active", [&] {
+  try {
     const Held held(world);
     own_attachment(held.world(), segment, attachment);
     held.world().set_attachment_active(segment, attachment, flag(active, "active"));
-  });
+  } catch (...) {
+    return failed("haustra_world_set_attachment_active");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_anchors_def_default(haustra_anchors_def* def) {
-  return guarded("haustra_anchors_def_default", [&] {
+  try {
     haustra_anchors_def& d = required(def, "def");
     const haustra::AnchorsDesc a;
     d = haustra_anchors_def{};
@@ -1334,53 +1532,72 @@ haustra_status haustra_anchors_def_default(haustra_anchors_def* def) {
     d.slack = a.slack;
     d.strength = a.strength;
     d.support = a.support;
-  });
+  } catch (...) {
+    return failed("haustra_anchors_def_default");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_add_anchors(haustra_world* world, size_t segment, const haustra_anchors_def* def,
                                          size_t* range) {
-  return guarded("haustra_world_add_anchors", [&] {
+  try {
     const Held held(world);
     const haustra::AnchorsDesc desc = anchors_desc(required(def, "def"));
     std::size_t added = 0;
     rebuilding(held.handle(), [&](haustra::World& w) { added = w.add_anchors(segment, desc); });
     if (range != nullptr) *range = added;
-  });
+  } catch (...) {
+    return failed("haustra_world_add_anchors");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_remove_anchors(haustra_world* world, size_t segment, size_t range) {
-  return guarded("haustra_world_remove_anchors", [&] {
+  try {
     const Held held(world);
     rebuilding(held.handle(), [&](haustra::World& w) { w.remove_anchors(segment, range); });
-  });
+  } catch (...) {
+    return failed("haustra_world_remove_anchors");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_anchor_ranges(const haustra_world* world, size_t segment, size_t* count) {
-  return guarded("haustra_world_anchor_ranges",
-                 [&] { required(count, "count") = live(world).world().anchor_range_count(segment); });
+  try {
+    required(count, "count") = live(world).world().anchor_range_count(segment);
+  } catch (...) {
+    return failed("haustra_world_anchor_ranges");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_node_rotations(const haustra_world* world, haustra_quat_view* out) {
-  return guarded("haustra_world_node_rotations", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     const auto r = w.node_rotations();
     required(out, "out") = haustra_quat_view{r.w.data(), r.x.data(), r.y.data(), r.z.data(), w.node_count()};
-  });
+  } catch (...) {
+    return failed("haustra_world_node_rotations");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_bead_nodes(const haustra_world* world, const uint32_t** nodes, size_t* count) {
-  return guarded("haustra_world_bead_nodes", [&] {
+  try {
     const Held held(world);
     const auto b = held.world().bead_nodes();
     required(nodes, "nodes") = b.data();
     required(count, "count") = b.size();
-  });
+  } catch (...) {
+    return failed("haustra_world_bead_nodes");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_node_velocities(const haustra_world* world, double* linear, double* angular,
                                              size_t count) {
-  return guarded("haustra_world_node_velocities", [&] {
+  try {
     const Held held(world);
     const haustra::World& w = held.world();
     if (linear == nullptr && angular == nullptr)
@@ -1393,12 +1610,15 @@ haustra_status haustra_world_node_velocities(const haustra_world* world, double*
     w.node_velocities(lin, ang);
     if (linear != nullptr) std::copy(lin.begin(), lin.end(), linear);
     if (angular != nullptr) std::copy(ang.begin(), ang.end(), angular);
-  });
+  } catch (...) {
+    return failed("haustra_world_node_velocities");
+  }
+  return succeeded();
 }
 
 haustra_status haustra_world_contacts(const haustra_world* world, haustra_contact* out, size_t capacity, size_t* count,
                                       size_t* total) {
-  return guarded("haustra_world_contacts", [&] {
+  try {
     const Held held(world);
     const std::size_t stride = stride_of(out, capacity, "out");
     required(count, "count");
@@ -1418,7 +1638,10 @@ haustra_status haustra_world_contacts(const haustra_world* world, haustra_contac
     }
     *count = n;
     if (total != nullptr) *total = list.size();
-  });
+  } catch (...) {
+    return failed("haustra_world_contacts");
+  }
+  return succeeded();
 }
 
 }  // extern "C"

@@ -40,17 +40,6 @@ std::unique_ptr<World> World::create(const WorldDesc& desc) {
 
 World::World(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 
-// One frame: the pipeline is step/frame.cpp. While it runs, a call on this world from the
-// stepping thread itself (a job system's callback) is refused too.
-void World::step() {
-  const Use use(*this);
-  stepping_ = true;
-  struct Stepped {
-    bool& stepping;
-    ~Stepped() { stepping = false; }
-  } stepped{stepping_};
-  impl_->step();
-}
 World::~World() = default;
 
 // ---- One thread at a time (decision 0100) ------------------------------------------------------------

@@ -1,4 +1,4 @@
-// The frame pipeline: where a frame goes, verb by verb (like MuJoCo's engine_forward.c). step() is
+// The frame pipeline: where a frame goes, verb by verb (like MuJoCo's engine_forward.c). World::step() is
 // one frame with the robust mode's ladder; run_frame() one attempt at it; the stages themselves
 // live in their own files (rod_stages, newton_stages, line_search, collision, instruments, mesh_stages).
 #include <chrono>
@@ -25,21 +25,11 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 
 }  // namespace
 
-// ---- Timing: a stage's time is its own (decision 0044) -----------------------------------------------
-
-// World-wide: fn spreads its own work.
-template <class F>
-void World::Impl::timed(Stage stage, F&& fn) {
-  const Clock::time_point t0 = Clock::now();
-  fn();
-  profile.seconds[static_cast<std::size_t>(stage)] += seconds_since(t0);
-  profile.calls[static_cast<std::size_t>(stage)] += 1;
-}
-
 // Per segment over the scheduler.
 template <class F>
 void World::Impl::per_segment(Stage stage, F&& fn) {
-  timed(stage, [&] { scheduler.for_each(model.segments.size(), fn); });
+  const StageClock clock(profile, stage);
+  scheduler.for_each(model.segments.size(), fn);
 }
 
 // Per segment still iterating in this substep.
@@ -52,31 +42,40 @@ void World::Impl::per_active_segment(Stage stage, F&& fn) {
 
 // ---- One frame ------------------------------------------------------------------------------------
 
-// The frame is attempted up the robust mode's ladder until an attempt passes the guard (decision
+// One frame, attempted up the robust mode's ladder until an attempt passes the guard (decision
 // 0007); when no rung holds, stop_unstable restores the last good frame and throws Error(unstable).
-void World::Impl::step() {
+// While it runs, a call on this world from the stepping thread itself (a job system's callback) is
+// refused too (decision 0100).
+void World::step() {
+  const Use use(*this);
+  stepping_ = true;
+  const struct Stepped {
+    bool& stepping;
+    ~Stepped() { stepping = false; }
+  } stepped{stepping_};
+  Impl& w = *impl_;
   const Clock::time_point t0 = Clock::now();
-  profile = FrameProfile{};
-  move_instruments();
-  state.frame_start.copy_from(state.now);
-  Rung rung{state.robust_substeps, state.robust_newton};
-  Failure first{model.segments.size(), {}, rung};
+  w.profile = FrameProfile{};
+  w.move_instruments();
+  w.state.frame_start.copy_from(w.state.now);
+  Impl::Rung rung{w.state.robust_substeps, w.state.robust_newton};
+  Impl::Failure first{w.model.segments.size(), {}, rung};
   for (;;) {
     // Fast mode reuses factorizations on its own rung only: a redone frame factors afresh.
-    const bool chord = model.solver.mode == SolverMode::fast && rung.substeps == base.substeps && rung.newton &&
-                       !first.happened(model);
-    const std::size_t failed = run_frame(rung.substeps, rung.newton, chord);
-    if (failed == model.segments.size()) break;
-    state.now.copy_from(state.frame_start);
-    if (!first.happened(model)) first = {failed, guard[failed], rung};
-    if (!can_escalate(rung) || profile.retries >= model.solver.max_retries) stop_unstable(failed, rung, t0);
-    rung = escalate(rung);
-    profile.retries += 1;
+    const bool chord = w.model.solver.mode == SolverMode::fast && rung.substeps == w.base.substeps && rung.newton &&
+                       !first.happened(w.model);
+    const std::size_t failed = w.run_frame(rung.substeps, rung.newton, chord);
+    if (failed == w.model.segments.size()) break;
+    w.state.now.copy_from(w.state.frame_start);
+    if (!first.happened(w.model)) first = {failed, w.guard[failed], rung};
+    if (!w.can_escalate(rung) || w.profile.retries >= w.model.solver.max_retries) w.stop_unstable(failed, rung, t0);
+    rung = w.escalate(rung);
+    w.profile.retries += 1;
   }
-  keep_rung(first, rung);
-  report();
-  follow_rod();
-  finish_frame(rung, t0);
+  w.keep_rung(first, rung);
+  w.report();
+  w.follow_rod();
+  w.finish_frame(rung, t0);
 }
 
 // The rung a frame held on is kept for the next ones; after a calm spell extra substeps are shed.
@@ -117,9 +116,13 @@ std::size_t World::Impl::run_frame(int n, bool newton, bool chord) {
         // coupled unknowns and the step, take the fraction of it that lowers the incremental
         // potential (decision 0039); the line search leaves the poses of the strains it took.
         backward_sweep();
-        timed(Stage::condense, [&] { detail::stage_condense(model, state, scheduler, p); });
-        timed(Stage::solve, [&] { detail::stage_newton_solve(model, state, scheduler, p); });
-        timed(Stage::line_search, [&] { detail::stage_line_search(model, state, scheduler, p); });
+        StageClock clock(profile, Stage::condense);
+        detail::stage_condense(model, state, scheduler, p);
+        clock.next(Stage::solve);
+        detail::stage_newton_solve(model, state, scheduler, p);
+        clock.next(Stage::line_search);
+        detail::stage_line_search(model, state, scheduler, p);
+        clock.stop();
         detail::end_unsolvable(model, state);
       } else {
         lagged_iteration(p);
@@ -164,27 +167,25 @@ void World::Impl::follow_rod() {
 void World::Impl::bring_mesh_up_to_date(bool rings_only) {
   const detail::MeshTarget target = detail::own_mesh(state);
   if (rings_stale) {
-    timed(Stage::cage, [&] {
-      scheduler.for_each(model.pieces.size(), [&](std::size_t piece) {
-        detail::stage_rings(model, state, state.mesh.ring_pose, piece);
-        detail::stage_ring_deltas(model, target, piece);
-      });
+    const StageClock clock(profile, Stage::cage);
+    scheduler.for_each(model.pieces.size(), [&](std::size_t piece) {
+      detail::stage_rings(model, state, state.mesh.ring_pose, piece);
+      detail::stage_ring_deltas(model, target, piece);
     });
     rings_stale = false;
   }
   if (rings_only || !mesh_stale) return;
   // Below ~50,000 vertices a chunk takes a few µs: dispatching it costs more than it saves.
   const bool parallel = model.mesh_vertex_total >= kParallelMeshVertices;
-  timed(Stage::skin, [&] {
+  StageClock clock(profile, Stage::skin);
+  scheduler.for_each(
+      model.skin_chunks.size(), [&](std::size_t c) { detail::stage_skin(model, target, c); }, parallel);
+  detail::stage_weld_seams(model, target);  // a chain's pieces meet where its mesh was cut
+  if (!model.normal_chunks.empty()) {
+    clock.next(Stage::normals);
     scheduler.for_each(
-        model.skin_chunks.size(), [&](std::size_t c) { detail::stage_skin(model, target, c); }, parallel);
-    detail::stage_weld_seams(model, target);  // a chain's pieces meet where its mesh was cut
-  });
-  if (!model.normal_chunks.empty())
-    timed(Stage::normals, [&] {
-      scheduler.for_each(
-          model.normal_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, target, c); }, parallel);
-    });
+        model.normal_chunks.size(), [&](std::size_t c) { detail::stage_normals(model, target, c); }, parallel);
+  }
   mesh_stale = false;
 }
 
@@ -204,12 +205,11 @@ void World::Impl::mesh_from_rings(const detail::MeshTarget& target) const {
 // an instrument that cuts takes the tissue within its reach first (decision 0095).
 void World::Impl::move_instruments() {
   if (model.instruments.empty()) return;
-  timed(Stage::instruments, [&] {
-    detail::stage_instruments(model, state, state.time + model.dt);
-    if (model.anchors.size() == 0) return;
-    for (std::size_t i = 0; i < model.instruments.size(); ++i)
-      if (state.instruments[i].cutting) cut_tissue(state.instruments[i].tip, model.instruments[i].cut_radius);
-  });
+  const StageClock clock(profile, Stage::instruments);
+  detail::stage_instruments(model, state, state.time + model.dt);
+  if (model.anchors.size() == 0) return;
+  for (std::size_t i = 0; i < model.instruments.size(); ++i)
+    if (state.instruments[i].cutting) cut_tissue(state.instruments[i].tip, model.instruments[i].cut_radius);
 }
 
 void World::Impl::snapshot(bool newton) {
@@ -219,20 +219,23 @@ void World::Impl::snapshot(bool newton) {
 
 // The instruments' proxies for the beads where they are now (decision 0096); how far they moved.
 double World::Impl::proxies(const SubstepParameters& p) {
-  double moved = 0.0;
-  if (any_proxy) timed(Stage::proxy, [&] { moved = detail::stage_instrument_proxies(model, state, p.dt, model.dt); });
-  return moved;
+  if (!any_proxy) return 0.0;
+  const StageClock clock(profile, Stage::proxy);
+  return detail::stage_instrument_proxies(model, state, p.dt, model.dt);
 }
 
 void World::Impl::collide() {
-  if (model.beads.size() > 0) timed(Stage::collide, [&] { detail::stage_collide(model, state, scheduler); });
+  if (model.beads.size() == 0) return;
+  const StageClock clock(profile, Stage::collide);
+  detail::stage_collide(model, state, scheduler);
 }
 
 // Contact penalties at the current positions: the frame's start for the lagged scheme, each
 // iterate for Newton (which also takes their stiffness).
 void World::Impl::contacts() {
-  if (!state.collision.candidates.empty())
-    timed(Stage::contacts, [&] { detail::stage_contacts(model, state, scheduler); });
+  if (state.collision.candidates.empty()) return;
+  const StageClock clock(profile, Stage::contacts);
+  detail::stage_contacts(model, state, scheduler);
 }
 
 void World::Impl::loads(const SubstepParameters& p) {
@@ -271,21 +274,20 @@ std::size_t World::Impl::guard_segments(const SubstepParameters& p) {
 // What the frame did to the instruments and the tissue: forces on the instruments, grasps that
 // slipped, anchors torn past their strength (decision 0095), the contact report.
 void World::Impl::report() {
-  if (model.beads.size() > 0 || !model.instruments.empty() || model.anchors.size() > 0)
-    timed(Stage::report, [&] {
-      slipped.clear();
-      // The proxies once more for where the frame left the beads: the force each reports is its
-      // capsule's spring and its grasp's, within what the capsule leaves it.
-      if (any_proxy) (void)detail::stage_instrument_proxies(model, state, model.dt / state.robust_substeps, model.dt);
-      detail::instrument_forces(model, state, model.dt, slipped);
-      for (const std::size_t i : slipped) record(slipped_event(i));
-      if (model.anchors.size() > 0) {
-        torn.clear();
-        detail::tear_anchors(model, state, torn);
-        record_anchors(Event::Kind::torn, torn);
-      }
-      if (model.beads.size() > 0) detail::stage_contact_report(model, state);
-    });
+  if (model.beads.size() == 0 && model.instruments.empty() && model.anchors.size() == 0) return;
+  const StageClock clock(profile, Stage::report);
+  slipped.clear();
+  // The proxies once more for where the frame left the beads: the force each reports is its
+  // capsule's spring and its grasp's, within what the capsule leaves it.
+  if (any_proxy) (void)detail::stage_instrument_proxies(model, state, model.dt / state.robust_substeps, model.dt);
+  detail::instrument_forces(model, state, model.dt, slipped);
+  for (const std::size_t i : slipped) record(slipped_event(i));
+  if (model.anchors.size() > 0) {
+    torn.clear();
+    detail::tear_anchors(model, state, torn);
+    record_anchors(Event::Kind::torn, torn);
+  }
+  if (model.beads.size() > 0) detail::stage_contact_report(model, state);
 }
 
 // The Newton workspaces' counts of this frame (every attempt at it) into the profile.

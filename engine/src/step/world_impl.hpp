@@ -50,11 +50,12 @@ struct World::Impl {
   double motion_dt = 0.0;
 
   Impl(WorldDesc d, detail::WorldModel m);
+  friend class World;  // World::step (frame.cpp) climbs the ladder with the frame's private verbs
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
 
-  // frame.cpp: one frame with the robust mode's ladder, one attempt at it, the meshes after it.
-  void step();
+  // frame.cpp: one attempt at a frame (World::step climbs the robust mode's ladder with it), the
+  // meshes after it.
   std::size_t run_frame(int n, bool newton, bool chord);
   void follow_rod();
   // The world's own mesh (or its rings alone) at the current frame when a reader asks (decision 0060).
@@ -142,10 +143,36 @@ struct World::Impl {
   [[noreturn]] void stop_unstable(std::size_t failed, const Rung& rung, Clock::time_point t0);
   [[nodiscard]] bool can_escalate(const Rung& r) const;
   [[nodiscard]] Rung escalate(const Rung& r) const;
-  // A stage timed into the profile: world-wide (fn spreads its own work), per segment over the
-  // scheduler, or per segment still iterating in this substep.
-  template <class F>
-  void timed(Stage stage, F&& fn);
+  // A stage's own time and calls, added to the profile when the clock stops or leaves scope
+  // (decision 0044). A scope, not a wrapper: the path from the C API to the sweep has no call of its own.
+  class StageClock {
+   public:
+    StageClock(FrameProfile& profile, Stage stage) : profile_(profile), stage_(stage), t0_(Clock::now()) {}
+    StageClock(const StageClock&) = delete;
+    StageClock& operator=(const StageClock&) = delete;
+    ~StageClock() { stop(); }
+    // This stage ends and `next` starts now.
+    void next(Stage next) {
+      stop();
+      stage_ = next;
+      running_ = true;
+      t0_ = Clock::now();
+    }
+    void stop() {
+      if (!running_) return;
+      const auto i = static_cast<std::size_t>(stage_);
+      profile_.seconds[i] += std::chrono::duration<double>(Clock::now() - t0_).count();
+      profile_.calls[i] += 1;
+      running_ = false;
+    }
+
+   private:
+    FrameProfile& profile_;
+    Stage stage_;
+    Clock::time_point t0_;
+    bool running_ = true;
+  };
+  // A stage per segment over the scheduler, or per segment still iterating in this substep.
   template <class F>
   void per_segment(Stage stage, F&& fn);
   template <class F>
