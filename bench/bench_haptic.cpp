@@ -127,8 +127,39 @@ void BM_Bowel(benchmark::State& state) {
   state.counters["nodes"] = static_cast<double>(w->node_count());
 }
 
+// Issue 40's settling pile (scenes/settling-pile.toml: the 6 m small intestine folded and let fall
+// onto a floor, no drag, no mesh, fast mode, 2 threads): frames 100–300 while it settles, each timed
+// by hand. Its first touch makes the robust mode redo a frame with 2 substeps; "frames on a climbed
+// rung" counts the timed frames that still run it (decision 0109).
+void BM_SettlingPile(benchmark::State& state) {
+  const SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/settling-pile.toml");
+  std::unique_ptr<World> w;
+  constexpr int kFirst = 100, kFrames = 200;
+  std::vector<double> seconds;
+  int climbed = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    w = create_world(scene);
+    for (int f = 0; f < kFirst; ++f) w->step();
+    state.ResumeTiming();
+    for (int f = 0; f < kFrames; ++f) {
+      const Clock::time_point t0 = Clock::now();
+      w->step();
+      seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+      climbed += w->last_profile().substeps > 1 ? 1 : 0;
+    }
+  }
+  state.counters["median ms"] = 1e3 * quantile(seconds, 0.5);
+  state.counters["p99 ms"] = 1e3 * quantile(seconds, 0.99);
+  state.counters["p99.9 ms"] = 1e3 * quantile(seconds, 0.999);
+  state.counters["max ms"] = 1e3 * quantile(seconds, 1.0);
+  state.counters["frames on a climbed rung"] = climbed;
+  state.counters["frames"] = static_cast<double>(seconds.size());
+}
+
 }  // namespace
 
+BENCHMARK(BM_SettlingPile)->Iterations(3)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SmallIntestineReader)
     ->Arg(0)
     ->Arg(1)

@@ -192,7 +192,7 @@ typedef struct haustra_world_def {
   /* What a frame may cost (haustra_frame_limits below; decision 0100). Since ABI 13. */
   int max_substeps; /* the robust mode's top rung; default 64 */
   int max_retries;  /* redone attempts a frame may take; default 16 */
-  int calm_frames;  /* calm frames before a climbed rung halves its substeps; default 120 */
+  int calm_frames;  /* the longest calm spell before a climbed rung halves its substeps; default 120 */
   /* 1: the host skins the organ meshes on its GPU (haustra_world_gpu_skin below; decision 0110): a
    * double_buffered world's acquire makes the frame's ring data (haustra_frame.gpu_rings) and skins
    * nothing, so the frame's mesh work is the cage alone; not with mesh_every_frame = 1. 0 (default):
@@ -587,8 +587,9 @@ HAUSTRA_API haustra_status haustra_world_set_material(haustra_world* world, size
 /* What a frame may cost (decision 0100): the robust mode redoes a frame that fails its guard with
  * Newton, then with twice the substeps each time, up to max_substeps and at most max_retries times;
  * a frame it cannot hold within them returns HAUSTRA_UNSTABLE (the world keeps its last good frame)
- * and its event names the limit. A rung it climbed to is kept for calm_frames calm frames, then its
- * substeps halve. So a frame costs at most (1 + max_retries) attempts of at most max_substeps
+ * and its event names the limit. A rung it climbed to is kept for a calm spell, then its substeps
+ * halve: 8 frames, doubled each time a rung is needed again within calm_frames calm frames, at most
+ * calm_frames (decision 0109). So a frame costs at most (1 + max_retries) attempts of at most max_substeps
  * substeps, and a recovery at most calm_frames x log2(max_substeps) slow frames. From the next step;
  * checked as the scene's solver fields; lowering max_substeps lowers the rung in force. */
 typedef struct haustra_frame_limits {

@@ -34,7 +34,8 @@ struct CarryMap;  // where a world's parts go when it is rebuilt (engine/src/ste
 // What one frame may cost (decision 0100): the robust mode's ladder (Newton, then twice the
 // substeps each time) stops at max_substeps and after max_retries redone attempts — a frame it
 // cannot hold within them stops as unstable, its event naming the cap; a rung it climbed to is
-// kept for calm_frames calm frames before its substeps halve again.
+// kept for a calm spell before its substeps halve again: 8 frames, doubling up to calm_frames while
+// rungs are needed again within calm_frames calm frames (decision 0109).
 struct FrameLimits {
   int max_substeps = 64;  // solver.max_substeps
   int max_retries = 16;   // solver.max_retries

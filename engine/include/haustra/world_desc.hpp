@@ -374,7 +374,8 @@ struct SolverDesc {
   InstabilityPolicy on_instability = InstabilityPolicy::recover;
   // What a frame may cost (decision 0100): the robust mode's ladder climbs no higher than
   // max_substeps and redoes a frame at most max_retries times (a frame it cannot hold within them
-  // stops as unstable); a rung it climbed to is kept for calm_frames calm frames, then halved.
+  // stops as unstable); a rung it climbed to is kept for a calm spell, then halved: 8 frames, twice
+  // that each time a rung is needed again within calm_frames calm frames, at most calm_frames (0109).
   int max_substeps = 64;
   int max_retries = 16;
   int calm_frames = 120;

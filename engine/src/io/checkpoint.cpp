@@ -19,7 +19,7 @@ constexpr std::array<char, 8> kMagic = {'H', 'A', 'U', 'S', 'T', 'R', 'C', 'K'};
 // 2: fast mode's chord state; 3: the instruments' coupling; 4: fast mode's prefactor; 5: anchors
 // of connective tissue (which still hold), instruments' proxies and cutting; 6: the run-time
 // parameters (decision 0099), the time step no longer in the fingerprint.
-constexpr std::uint32_t kFormatVersion = 6;
+constexpr std::uint32_t kFormatVersion = 7;
 
 std::uint64_t fnv1a(std::span<const std::byte> bytes, std::uint64_t h = 0xcbf29ce484222325ull) {
   for (std::byte b : bytes) {
@@ -292,7 +292,7 @@ void visit_state(Io& io, State& st) {
   io(st.collision.bead_motion);
   io(st.collision.report);
   io(st.instruments);
-  io(st.robust_substeps), io(st.robust_newton), io(st.robust_good_frames);
+  io(st.robust_substeps), io(st.robust_newton), io(st.robust_good_frames), io(st.robust_calm_spell);
   io(st.frame), io(st.time);
 }
 
@@ -311,6 +311,9 @@ void check_indices(const WorldModel& model, const WorldState& st, const Reader& 
   }
   if (st.robust_substeps < 1 || st.robust_substeps > std::max(max_substeps, model.solver.substeps))
     reader.fail(fmt::format("runs {} substeps, outside 1..{}", st.robust_substeps, max_substeps));
+  if (st.robust_good_frames < 0 || st.robust_calm_spell < 1)
+    reader.fail(fmt::format("has a calm spell of {} frames with {} calm frames served, expected at least 1 and 0",
+                            st.robust_calm_spell, st.robust_good_frames));
 }
 
 }  // namespace

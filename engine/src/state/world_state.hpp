@@ -353,11 +353,14 @@ struct WorldState {
   std::vector<InstrumentState> instruments;
   MeshState mesh;
 
-  // The robust mode's rung (how frames are attempted now) and the calm frames since it last
-  // climbed: a frame's outcome depends on them, so they are state, not settings.
+  // The robust mode's rung (how frames are attempted now), the calm frames since it last climbed
+  // or stepped down (at most calm_frames), and how many the rung in force needs before it halves
+  // (decision 0109: the first spell is short and doubles when a rung is needed again soon). A
+  // frame's outcome depends on them, so they are state, not settings.
   int robust_substeps = 1;
   bool robust_newton = false;
   int robust_good_frames = 0;
+  int robust_calm_spell = 0;
 
   std::uint64_t frame = 0;
   double time = 0.0;

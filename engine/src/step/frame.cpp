@@ -79,13 +79,22 @@ void World::step() {
 }
 
 // The rung a frame held on is kept for the next ones; after a calm spell extra substeps are shed.
+// The spell starts short (one failure, as a pile's first touch, costs a few slow frames, not
+// calm_frames of them) and doubles, up to calm_frames, while rungs are needed again within
+// calm_frames calm frames (decision 0109).
 void World::Impl::keep_rung(const Failure& first, const Rung& rung) {
+  const int longest = model.solver.calm_frames;
   if (first.happened(model)) {
     record(recovered_event(first, rung));
+    state.robust_calm_spell = state.robust_good_frames >= longest ? detail::first_calm_spell(longest)
+                                                                  : std::min(2 * state.robust_calm_spell, longest);
     state.robust_substeps = rung.substeps;
     state.robust_newton = rung.newton;
     state.robust_good_frames = 0;
-  } else if (state.robust_substeps > base.substeps && ++state.robust_good_frames >= model.solver.calm_frames) {
+    return;
+  }
+  state.robust_good_frames = std::min(state.robust_good_frames + 1, longest);
+  if (state.robust_substeps > base.substeps && state.robust_good_frames >= std::min(state.robust_calm_spell, longest)) {
     // Extra substeps are shed again after a calm spell. Newton, once engaged, stays: the scheme
     // that diverged here would diverge again from the same kind of state.
     state.robust_substeps = std::max(base.substeps, state.robust_substeps / 2);

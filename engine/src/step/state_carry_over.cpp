@@ -141,6 +141,7 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
   to.robust_substeps = from.robust_substeps;
   to.robust_newton = from.robust_newton;
   to.robust_good_frames = from.robust_good_frames;
+  to.robust_calm_spell = from.robust_calm_spell;
   to.frame = from.frame;
   to.time = from.time;
   for (std::size_t i = 0; i < from.instruments.size(); ++i) {

@@ -19,6 +19,8 @@ World::Impl::Impl(WorldDesc d, detail::WorldModel m)
   base = {model.solver.substeps, model.solver.mode != SolverMode::lagged};
   state.robust_substeps = base.substeps;
   state.robust_newton = base.newton;
+  state.robust_good_frames = model.solver.calm_frames;  // calm since ever: a first failure's spell is short
+  state.robust_calm_spell = detail::first_calm_spell(model.solver.calm_frames);
   for (const auto& s : model.segments) {
     any_free_base |= s.base_mode == BaseMode::free;
     any_constraints |= s.constraint_rows > 0;

@@ -3,6 +3,7 @@
 // (world.cpp), the frame pipeline (frame.cpp), checkpoints and rebuilding share.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <memory>
 #include <source_location>
@@ -20,6 +21,13 @@
 #include "step/rod_stages.hpp"
 
 namespace haustra {
+
+namespace detail {
+// The robust mode's first calm spell, in frames: a rung climbed after a long calm is kept this
+// long, then halved; each rung needed again soon doubles it up to solver.calm_frames (decision 0109).
+constexpr int kFirstCalmSpell = 8;
+inline int first_calm_spell(int calm_frames) { return std::min(kFirstCalmSpell, calm_frames); }
+}  // namespace detail
 
 // The API call a range check ran for, as a host wrote it ("World::segment"): the checks below take
 // their caller's source location by default, so every accessor's error names it.
