@@ -427,8 +427,8 @@ TEST_CASE(
     // scenes/settling-pile.toml: the 6 m small intestine let fall onto a floor without drag; its
     // first frame's line search finds no progress and the frame is redone with 2 substeps.
     haustra_world* w = nullptr;
-    REQUIRE(haustra_world_create_from_scene((std::string(HAUSTRA_SOURCE_DIR) + "/scenes/settling-pile.toml").c_str(),
-                                            1, &w) == HAUSTRA_OK);
+    REQUIRE(haustra_world_create_from_scene((std::string(HAUSTRA_SOURCE_DIR) + "/scenes/settling-pile.toml").c_str(), 1,
+                                            &w) == HAUSTRA_OK);
     const Costs c = step_and_count(w, 40);
     CHECK(c.unstable == 0);
     CHECK(c.most_substeps == 2);
