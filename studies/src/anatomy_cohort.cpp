@@ -103,8 +103,9 @@ void measure_stretch(Edges& e, const World& world, const Points& now, CohortRow&
   }
 }
 
-// The node in the middle of the world's longest organ (a rod: a segment, or a chain's pieces).
-std::size_t middle_of_longest_organ(const World& w) {
+// The node `along` (a fraction of its nodes from its base) the world's longest organ (a rod: a
+// segment, or a chain's pieces).
+std::size_t node_along_longest_organ(const World& w, double along) {
   std::size_t first = 0, count = 0;
   for (std::size_t s = 0; s < w.segment_count(); ++s) {
     if (w.chain_of(s) != s) continue;
@@ -114,16 +115,17 @@ std::size_t middle_of_longest_organ(const World& w) {
     const std::size_t end = w.segment(last).nodes.offset + w.segment(last).nodes.count;
     if (end - begin > count) first = begin, count = end - begin;
   }
-  return first + count / 2;
+  const auto k = static_cast<std::size_t>(std::lround(std::clamp(along, 0.0, 1.0) * static_cast<double>(count - 1)));
+  return first + k;
 }
 
 // The grasper of the protocol: the default instrument (a 30 cm capsule, a proxy) upright, waiting
 // above the organ's highest point while the organ is left alone, then coming down (through whatever
-// lies in the way) to 3 cm above the middle of the centreline and closing (reach 3 cm), moving
+// lies in the way) to 3 cm above the centreline `along` the organ (its middle by default) and closing (reach 3 cm), moving
 // `distance` sideways (square to the organ and to gravity) in `pull`, holding, opening and going
 // back up.
 InstrumentDesc grasper(const World& rest, const Eigen::Vector3d& gravity, const OrganProtocol& p) {
-  const std::size_t n = rest.node_count(), k = middle_of_longest_organ(rest);
+  const std::size_t n = rest.node_count(), k = node_along_longest_organ(rest, p.along);
   const auto x = rest.node_positions();
   const Eigen::Vector3d up = gravity.norm() > 0.0 ? Eigen::Vector3d(-gravity.normalized()) : Eigen::Vector3d::UnitZ();
   const Eigen::Vector3d tangent = x.get(std::min(k + 1, n - 1)) - x.get(k > 0 ? k - 1 : 0);

@@ -18,6 +18,7 @@ struct OrganProtocol {
   double hold = 1.0;       // held there
   double after = 3.0;      // released, left alone
   double distance = 0.05;  // m, sideways
+  double along = 0.5;      // where the grasper takes the longest organ: a fraction of its nodes from its base
   int threads = 2;
 };
 
