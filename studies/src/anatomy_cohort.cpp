@@ -121,9 +121,8 @@ std::size_t node_along_longest_organ(const World& w, double along) {
 
 // The grasper of the protocol: the default instrument (a 30 cm capsule, a proxy) upright, waiting
 // above the organ's highest point while the organ is left alone, then coming down (through whatever
-// lies in the way) to 3 cm above the centreline `along` the organ (its middle by default) and closing (reach 3 cm), moving
-// `distance` sideways (square to the organ and to gravity) in `pull`, holding, opening and going
-// back up.
+// lies in the way) to 3 cm above the centreline `along` the organ (its middle by default) and closing (reach 3 cm),
+// moving `distance` sideways (square to the organ and to gravity) in `pull`, holding, opening and going back up.
 InstrumentDesc grasper(const World& rest, const Eigen::Vector3d& gravity, const OrganProtocol& p) {
   const std::size_t n = rest.node_count(), k = node_along_longest_organ(rest, p.along);
   const auto x = rest.node_positions();
