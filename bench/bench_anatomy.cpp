@@ -134,8 +134,8 @@ double sigmoid_along(const SceneDesc& scene) {
 // sideways until 1.55 s, held to 1.75 s; on 2 threads; solver 2 fast mode, 0 Newton. The mesh is
 // made when read (decision 0060). reader 0: never read; reader 1: a render thread that skins on its
 // GPU (decision 0110) acquires the newest frame's rings every 1/60 s of wall time while the physics
-// steps and publishes beside it. Each iteration is one physics frame with its publish, timed by
-// hand; the counters are ms.
+// steps and publishes beside it. sleep 1: rods at rest and untouched sleep (decision 0119). Each iteration is one
+// physics frame with its publish, timed by hand; the counters are ms.
 void BM_Abdomen(benchmark::State& state) {
   std::string why;
   const SceneDesc* imported = abdomen(why);
@@ -154,6 +154,7 @@ void BM_Abdomen(benchmark::State& state) {
   scene.world.threads = 2;
   scene.world.mesh_update = MeshUpdate::on_read;
   scene.world.solver.mode = state.range(0) == 2 ? SolverMode::fast : SolverMode::newton;
+  scene.world.sleep.enabled = state.range(2) == 1;
   auto w = create_world(scene);
   FramePublisher frames(*w);
   frames.skin_on_gpu(true);
@@ -187,6 +188,7 @@ void BM_Abdomen(benchmark::State& state) {
   state.counters["p99.9 ms"] = 1e3 * quantile(seconds, 0.999);
   state.counters["max ms"] = 1e3 * quantile(seconds, 1.0);
   state.counters["nodes"] = static_cast<double>(w->node_count());
+  state.counters["nodes asleep at the end"] = w->last_profile().nodes_asleep;
   state.counters["beads"] = static_cast<double>(w->bead_count());
   state.counters["grasped at (fraction along the large intestine)"] = along;
   state.counters["grasping"] = w->instrument(w->instrument_count() - 1).grasping ? 1.0 : 0.0;  // at the end: holding
@@ -195,10 +197,12 @@ void BM_Abdomen(benchmark::State& state) {
 }  // namespace
 
 BENCHMARK(BM_Abdomen)
-    ->Args({2, 0})
-    ->Args({2, 1})
-    ->Args({0, 0})
-    ->ArgNames({"solver", "reader"})
+    ->Args({2, 0, 0})
+    ->Args({2, 0, 1})
+    ->Args({2, 1, 0})
+    ->Args({2, 1, 1})
+    ->Args({0, 0, 0})
+    ->ArgNames({"solver", "reader", "sleep"})
     ->Iterations(1750)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);

@@ -28,7 +28,8 @@
  *   it. Views (haustra_vec3_view and the like) never grow and carry no size.
  * - Versions: haustra_abi_version() is the library's ABI; haustra_check_abi(HAUSTRA_ABI_VERSION)
  *   accepts a host built against this ABI or an older one back to 15 (14 was the first whose
- *   structs all carry their size; 15 took a stage and a counter out of haustra_profile).
+ *   structs all carry their size; 15 took a stage and a counter out of haustra_profile; 16 added
+ *   nodes_asleep at the end of haustra_profile).
  * - Units: metres, seconds, newtons, radians; world frame.
  */
 #ifndef HAUSTRA_H
@@ -51,7 +52,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 15
+#define HAUSTRA_ABI_VERSION 16
 /* The oldest host ABI this library serves (haustra_check_abi). */
 #define HAUSTRA_ABI_OLDEST 15
 
@@ -147,13 +148,14 @@ typedef struct haustra_profile {
   int substeps;
   int retries;
   int newton;
-  int fallbacks;   /* Newton iterations the banded LU solved (the condensed sweep's pivots were unsafe) */
-  int backtracks;  /* line-search halvings of Newton steps */
-  int stiffenings; /* Newton steps solved again with the law stiffened (the plain step went uphill) */
-  int chords;      /* fast mode: Newton iterations that reused the last factorization */
-  int stalls;      /* Newton iterations whose line search took none of a step that was not small */
-  int iterations;  /* fixed-point iterations run, summed over substeps */
-  int late;        /* 1 when the frame took longer than the world's frame budget (decision 0061) */
+  int fallbacks;    /* Newton iterations the banded LU solved (the condensed sweep's pivots were unsafe) */
+  int backtracks;   /* line-search halvings of Newton steps */
+  int stiffenings;  /* Newton steps solved again with the law stiffened (the plain step went uphill) */
+  int chords;       /* fast mode: Newton iterations that reused the last factorization */
+  int stalls;       /* Newton iterations whose line search took none of a step that was not small */
+  int iterations;   /* fixed-point iterations run, summed over substeps */
+  int late;         /* 1 when the frame took longer than the world's frame budget (decision 0061) */
+  int nodes_asleep; /* nodes of the rods that slept through the frame (scene [sleep], decision 0119; ABI 16) */
   /* One field per counter of report_fields.h's HAUSTRA_PROFILE_COUNTERS (new ones at the end). */
 } haustra_profile;
 

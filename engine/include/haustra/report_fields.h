@@ -48,7 +48,8 @@
   X(int, stiffenings, 0, "Newton steps solved again with stiffened law rows (the plain step went uphill)") \
   X(int, chords, 0, "fast mode: Newton iterations that reused the last factorization")                   \
   X(int, stalls, 0, "Newton iterations whose line search took no part of a step that was not small (a guard failure)") \
-  X(int, late, 0, "1 when the frame took longer than world.frame_budget (decision 0061)")
+  X(int, late, 0, "1 when the frame took longer than world.frame_budget (decision 0061)")                 \
+  X(int, nodes_asleep, 0, "nodes of the rods that slept through the frame, held where they were (decision 0119)")
 
 /* ContactReport: the contacts at the end of the last frame. */
 #define HAUSTRA_CONTACT_FIELDS(X)                                                                   \

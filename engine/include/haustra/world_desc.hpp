@@ -408,6 +408,16 @@ struct JobSystemDesc {
 // accessors, a FramePublisher's reader in its own thread), or at the end of every step as before.
 enum class MeshUpdate : std::uint8_t { on_read, every_frame };
 
+// Rods at rest and untouched sleep (issue 40, decision 0119): a rod whose every node moved less than
+// `speed` × dt a frame for `time` seconds is no longer solved — it is held where it is, a fixed
+// body for the others — until a moving rod or an instrument comes within the contact margin of its
+// beads, an instrument grasps it, one of its anchors tears, or the host changes the world.
+struct SleepDesc {
+  bool enabled = false;
+  double speed = 1e-3;  // m/s: slower than this a node is at rest
+  double time = 0.1;    // s at rest before the rod sleeps
+};
+
 struct WorldDesc {
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};
   double dt = 1.0 / 60.0;
@@ -421,6 +431,7 @@ struct WorldDesc {
   // its profile (`late`). 0: no budget.
   double frame_budget = 0.0;
   JobSystemDesc jobs;  // when set, the step's parallel stages run on the host's jobs, not oneTBB
+  SleepDesc sleep;
   std::vector<SegmentDesc> segments;
   ContactDesc contact;
   EnvironmentDesc environment;

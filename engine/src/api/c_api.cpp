@@ -118,7 +118,8 @@ Eigen::Vector3d finite_vec3(const double* v, const char* name) {
 
 // The sizes a struct has had since it carried its size: its own, and for the two defs the sizes
 // before ABI 13 (frame limits), ABI 15 (mesh_on_host_gpu) and ABI 11 / 12 (the ring fields, the
-// anchors) added fields at their end; the frame's before ABI 15 (gpu_rings).
+// anchors) added fields at their end; the frame's before ABI 15 (gpu_rings); the profile's before
+// ABI 16 (nodes_asleep).
 template <class T>
 std::span<const std::size_t> sizes_of() {
   if constexpr (std::is_same_v<T, haustra_world_def>) {
@@ -128,6 +129,9 @@ std::span<const std::size_t> sizes_of() {
   } else if constexpr (std::is_same_v<T, haustra_segment_def>) {
     static constexpr std::size_t sizes[] = {offsetof(haustra_segment_def, max_rings_per_vertex),
                                             offsetof(haustra_segment_def, anchor_stiffness), sizeof(T)};
+    return sizes;
+  } else if constexpr (std::is_same_v<T, haustra_profile>) {
+    static constexpr std::size_t sizes[] = {offsetof(haustra_profile, nodes_asleep), sizeof(T)};
     return sizes;
   } else if constexpr (std::is_same_v<T, haustra_frame>) {
     static constexpr std::size_t sizes[] = {offsetof(haustra_frame, gpu_rings), sizeof(T)};

@@ -99,6 +99,7 @@ kernels::Pose World::base_pose(std::size_t segment) const {
 
 void World::pose_rod(std::size_t segment, const kernels::Pose& base, std::span<const double> strains) {
   const Use use(*this);
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   auto& m = impl_->model;
   const detail::SegmentPiece& piece = impl_->piece(segment);
   if (piece.first_node != 0)
@@ -126,6 +127,7 @@ void World::pose_rod(std::size_t segment, const kernels::Pose& base, std::span<c
 
 void World::set_external_load(std::size_t node, const Eigen::Vector3d& force, const Eigen::Vector3d& moment) {
   const Use use(*this);
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   impl_->check_node(node);
   if (!bounded(force) || !bounded(moment))
     throw Error(
@@ -139,6 +141,7 @@ void World::set_external_load(std::size_t node, const Eigen::Vector3d& force, co
 
 void World::set_attachment_target(std::size_t segment, std::size_t attachment, const Eigen::Vector3d& position) {
   const Use use(*this);
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   if (!bounded(position))
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("attachment target must be finite and within ±{:g} m", detail::kMaxVectorComponent));
@@ -148,6 +151,7 @@ void World::set_attachment_target(std::size_t segment, std::size_t attachment, c
 void World::set_attachment_target_rotation(std::size_t segment, std::size_t attachment,
                                            const Eigen::Quaterniond& rotation) {
   const Use use(*this);
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   if (!rotation.coeffs().allFinite() || !(rotation.norm() > 0.0))
     throw Error(ErrorCode::invalid_argument, "attachment rotation must be a finite, non-zero quaternion");
   impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].target_rotation = rotation.normalized();
@@ -155,6 +159,7 @@ void World::set_attachment_target_rotation(std::size_t segment, std::size_t atta
 
 void World::set_attachment_active(std::size_t segment, std::size_t attachment, bool active) {
   const Use use(*this);
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   impl_->state.now.attachment[impl_->attachment_index(segment, attachment)].active = active;
 }
 

@@ -26,6 +26,7 @@ void check_span(std::span<double> out, std::size_t nodes, const char* what) {
 
 void World::set_gravity(const Eigen::Vector3d& gravity) {
   const Use use(*this);
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   WorldDesc next = impl_->desc;
   next.gravity = gravity;
   detail::check_world_desc(next);
@@ -36,6 +37,7 @@ void World::set_gravity(const Eigen::Vector3d& gravity) {
 // filter, the instruments' clock); fast mode refactorizes when the dt it recorded differs.
 void World::set_dt(double dt) {
   const Use use(*this);
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   WorldDesc next = impl_->desc;
   next.dt = dt;
   detail::check_world_desc(next);

@@ -36,7 +36,8 @@ void split_section_strains(std::span<const double> section, std::span<const doub
 }  // namespace
 
 void World::set_strains(std::span<const double> strains) {
-  const Use use(*this);  // one thread at a time (decision 0100)
+  const Use use(*this);                  // one thread at a time (decision 0100)
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   auto& m = impl_->model;
   auto& st = impl_->state;
   if (strains.size() != 4 * m.node_total)
@@ -63,7 +64,8 @@ void World::set_strains(std::span<const double> strains) {
 
 void World::set_node_poses(kernels::Vec3View<const double> positions, kernels::RotationView<const double> rotations,
                            double shear_tolerance) {
-  const Use use(*this);  // one thread at a time (decision 0100)
+  const Use use(*this);                  // one thread at a time (decision 0100)
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   auto& m = impl_->model;
   auto& st = impl_->state;
   const std::size_t total = m.node_total;
@@ -124,7 +126,8 @@ void World::set_node_poses(kernels::Vec3View<const double> positions, kernels::R
 }
 
 void World::set_node_positions(kernels::Vec3View<const double> positions) {
-  const Use use(*this);  // one thread at a time (decision 0100)
+  const Use use(*this);                  // one thread at a time (decision 0100)
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   auto& m = impl_->model;
   const std::size_t total = m.node_total;
   if (positions.size() != total)
@@ -238,7 +241,8 @@ void World::set_node_positions(kernels::Vec3View<const double> positions) {
 }
 
 void World::set_base_pose(std::size_t segment, const kernels::Pose& base) {
-  const Use use(*this);  // one thread at a time (decision 0100)
+  const Use use(*this);                  // one thread at a time (decision 0100)
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   const std::size_t rod = impl_->piece(segment).rod;
   const detail::SegmentModel& seg = impl_->model.segments[rod];
   const std::vector<double> strains(
@@ -249,7 +253,8 @@ void World::set_base_pose(std::size_t segment, const kernels::Pose& base) {
 
 void World::set_external_loads(std::span<const std::uint32_t> nodes, std::span<const double> forces,
                                std::span<const double> moments, bool add) {
-  const Use use(*this);  // one thread at a time (decision 0100)
+  const Use use(*this);                  // one thread at a time (decision 0100)
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   auto& st = impl_->state;
   if (forces.size() != 3 * nodes.size() || (!moments.empty() && moments.size() != 3 * nodes.size()))
     refuse(
@@ -282,7 +287,8 @@ void World::set_external_loads(std::span<const std::uint32_t> nodes, std::span<c
 
 void World::set_distributed_load(std::size_t segment, std::span<const double> force_per_length,
                                  std::span<const double> moment_per_length, bool add) {
-  const Use use(*this);  // one thread at a time (decision 0100)
+  const Use use(*this);                  // one thread at a time (decision 0100)
+  const Impl::WakeOnChange wake(impl_);  // sleeping rods move again (decision 0119)
   const detail::SegmentPiece& piece = impl_->piece(segment);
   const std::size_t o = piece.info.nodes.offset, n = piece.info.nodes.count;
   if (force_per_length.size() != 3 * n || (!moment_per_length.empty() && moment_per_length.size() != 3 * n))

@@ -293,6 +293,7 @@ void visit_state(Io& io, State& st) {
   io(st.collision.report);
   io(st.instruments);
   io(st.robust_substeps), io(st.robust_newton), io(st.robust_good_frames), io(st.robust_calm_spell);
+  io(st.rod_calm), io(st.rod_asleep);
   io(st.frame), io(st.time);
 }
 

@@ -389,7 +389,8 @@ InstrumentDesc read_instrument(const Reader& r, const toml::table& t, const std:
 }
 
 SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesystem::path& file) {
-  r.check_keys(root, "", {"scene", "world", "solver", "filter", "segment", "contact", "environment", "instrument"});
+  r.check_keys(root, "",
+               {"scene", "world", "solver", "filter", "sleep", "segment", "contact", "environment", "instrument"});
   SceneDesc scene;
   scene.file = file;
   if (const toml::table* t = r.table(root, "scene", "scene")) {
@@ -410,6 +411,12 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
     w.mesh_update = r.choice<MeshUpdate>(*t, "mesh_update", "world.mesh_update", w.mesh_update,
                                          {{"on_read", MeshUpdate::on_read}, {"every_frame", MeshUpdate::every_frame}});
     w.frame_budget = r.number(*t, "frame_budget", "world.frame_budget", w.frame_budget);
+  }
+  if (const toml::table* t = r.table(root, "sleep", "sleep")) {
+    r.check_keys(*t, "sleep", {"enabled", "speed", "time"});
+    w.sleep.enabled = r.boolean(*t, "enabled", "sleep.enabled", w.sleep.enabled);
+    w.sleep.speed = r.number(*t, "speed", "sleep.speed", w.sleep.speed);
+    w.sleep.time = r.number(*t, "time", "sleep.time", w.sleep.time);
   }
   if (const toml::table* t = r.table(root, "solver", "solver")) {
     r.refuse_removed(*t, "solver",

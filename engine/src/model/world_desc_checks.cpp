@@ -156,6 +156,8 @@ void check_world_desc(const WorldDesc& desc) {
   check_int("world.threads", desc.threads, 0, 1024);
   check_range("world.frame_budget", desc.frame_budget, 0.0, 3600.0, "seconds a frame may take (0: no budget)");
   check_solver(desc.solver);
+  check_positive("sleep.speed", desc.sleep.speed, "m/s", 10.0);
+  check_range("sleep.time", desc.sleep.time, 0.0, 3600.0, "seconds at rest before a rod sleeps");
   check_range("filter.zeta_scale", desc.filter.zeta_scale, 0.0, 1e12, "a scale factor");
   std::set<std::string> names;
   for (std::size_t si = 0; si < desc.segments.size(); ++si)

@@ -346,6 +346,7 @@ WorldModel build_world_model_here(const WorldDesc& desc, const WorldModel* bindi
   m.dt = desc.dt;
   m.frame_budget = desc.frame_budget;
   m.mesh_update = desc.mesh_update;
+  m.sleep = desc.sleep;
   m.solver = desc.solver;
   m.filter = desc.filter;
 

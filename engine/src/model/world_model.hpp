@@ -195,6 +195,7 @@ struct WorldModel {
   double dt = 0.0;
   double frame_budget = 0.0;                     // s; 0: none (decision 0061); a run-time setting
   MeshUpdate mesh_update = MeshUpdate::on_read;  // decision 0060
+  SleepDesc sleep;                               // decision 0119; speed and time, a run-time setting
   SolverDesc solver;
   FilterDesc filter;
   std::vector<SegmentModel> segments;  // the rods

@@ -134,6 +134,8 @@ void init_world_state(const WorldModel& model, WorldState& state) {
   state.segment_solvable.assign(segs, 1);
   state.lagged_ratios.assign(segs, {});
   state.segment_solving.assign(segs, 0);
+  state.rod_calm.assign(segs, 0.0);
+  state.rod_asleep.assign(segs, 0);
   state.strain_before_update.assign(4 * n, 0.0);
   const bool newton_possible =
       model.solver.mode == SolverMode::newton || model.solver.on_instability == InstabilityPolicy::recover;

@@ -361,6 +361,10 @@ struct WorldState {
   bool robust_newton = false;
   int robust_good_frames = 0;
   int robust_calm_spell = 0;
+  // Per rod (decision 0119): seconds every node has been at rest, and whether it sleeps (held
+  // where it is, not solved). Both 0 with sleeping off.
+  std::vector<double> rod_calm;
+  std::vector<std::uint8_t> rod_asleep;
 
   std::uint64_t frame = 0;
   double time = 0.0;

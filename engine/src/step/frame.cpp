@@ -9,6 +9,7 @@
 #include "step/mesh_stages.hpp"
 #include "step/newton_stages.hpp"
 #include "step/rod_stages.hpp"
+#include "step/sleep.hpp"
 #include "step/world_impl.hpp"
 
 namespace haustra {
@@ -74,6 +75,7 @@ void World::step() {
   }
   w.keep_rung(first, rung);
   w.report();
+  detail::settle_rods(w.model, w.state, w.model.dt);  // who sleeps from the next frame on (decision 0119)
   w.follow_rod();
   w.finish_frame(rung, t0);
 }
@@ -115,6 +117,7 @@ std::size_t World::Impl::run_frame(int n, bool newton, bool chord) {
   for (int sub = 0; sub < n; ++sub) {
     snapshot(newton);
     collide();
+    detail::wake_touched(model, state, p.dt);  // a sleeping rod something moving came near (decision 0119)
     for (int it = 0; it < max_iterations; ++it) {
       p.iteration = it;
       const double proxy_moved = proxies(p);
@@ -265,16 +268,24 @@ bool World::Impl::all_converged(bool past_fixed_count) {
   return all;
 }
 
+// The stages after the iterations pass over sleeping rods: nothing of theirs changed.
 void World::Impl::filter() {
-  if (model.filter.enabled) per_segment(Stage::filter, [&](std::size_t s) { detail::stage_filter(model, state, s); });
+  if (!model.filter.enabled) return;
+  per_segment(Stage::filter, [&](std::size_t s) {
+    if (state.rod_asleep[s] == 0) detail::stage_filter(model, state, s);
+  });
 }
 
 void World::Impl::contraction(const SubstepParameters& p) {
-  per_segment(Stage::contraction, [&](std::size_t s) { detail::stage_lagged_contraction(model, state, s, p); });
+  per_segment(Stage::contraction, [&](std::size_t s) {
+    if (state.rod_asleep[s] == 0) detail::stage_lagged_contraction(model, state, s, p);
+  });
 }
 
 std::size_t World::Impl::guard_segments(const SubstepParameters& p) {
-  per_segment(Stage::guard, [&](std::size_t s) { guard[s] = detail::stage_guard(model, state, s, p); });
+  per_segment(Stage::guard, [&](std::size_t s) {
+    guard[s] = state.rod_asleep[s] == 0 ? detail::stage_guard(model, state, s, p) : detail::GuardResult{};
+  });
   for (std::size_t s = 0; s < model.segments.size(); ++s)
     if (!guard[s].ok) return s;
   return model.segments.size();
@@ -315,6 +326,7 @@ void World::Impl::finish_frame(const Rung& kept, Clock::time_point t0) {
   collect_newton_counts();
   profile.substeps = kept.substeps;
   profile.newton = kept.newton;
+  profile.nodes_asleep = detail::nodes_asleep(model, state);
   state.frame += 1;
   state.time += model.dt;
   motion_dt = model.dt;

@@ -2,6 +2,7 @@
 // into the event's fixed buffer: which frame, segment, node, quantity and stage, and what to change.
 #include <fmt/format.h>
 
+#include "step/sleep.hpp"
 #include "step/world_impl.hpp"
 
 namespace haustra {
@@ -132,6 +133,7 @@ Event World::Impl::anchors_event(Event::Kind kind, std::size_t first, std::size_
 
 // Anchors listed in anchor order (a range's are contiguous): one event per run of one range.
 void World::Impl::record_anchors(Event::Kind kind, std::span<const detail::TornAnchor> anchors) {
+  detail::wake_torn(model, state, anchors);  // a sleeping rod whose tissue gave way moves again
   std::size_t i = 0;
   while (i < anchors.size()) {
     const std::uint32_t range = model.anchors.range[anchors[i].anchor];

@@ -613,7 +613,7 @@ void stage_snapshot(const WorldModel& model, WorldState& state, std::size_t segm
     copy(state.now.rotation.z, state.rotation_substep_start.z);
   }
   state.base_substep_start[segment] = state.now.base[segment];
-  state.segment_converged[segment] = 0;
+  state.segment_converged[segment] = state.rod_asleep[segment];  // a sleeping rod is not solved (0119)
   if (newton) state.newton[segment].stalled = false;
   state.segment_solvable[segment] = 1;
 }

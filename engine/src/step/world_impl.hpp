@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <exception>
 #include <memory>
 #include <source_location>
 #include <string_view>
@@ -19,6 +20,7 @@
 #include "step/anchors.hpp"
 #include "step/mesh_stages.hpp"
 #include "step/rod_stages.hpp"
+#include "step/sleep.hpp"
 
 namespace haustra {
 
@@ -58,6 +60,22 @@ struct World::Impl {
   double motion_dt = 0.0;
 
   Impl(WorldDesc d, detail::WorldModel m);
+
+  // Wakes every sleeping rod when the host's change it guards succeeds (decision 0119); a refused
+  // change leaves the world as it was. Holds the World's pointer: a change may rebuild the Impl.
+  class WakeOnChange {
+   public:
+    explicit WakeOnChange(const std::shared_ptr<Impl>& impl) : impl_(impl), exceptions_(std::uncaught_exceptions()) {}
+    WakeOnChange(const WakeOnChange&) = delete;
+    WakeOnChange& operator=(const WakeOnChange&) = delete;
+    ~WakeOnChange() {
+      if (std::uncaught_exceptions() == exceptions_) detail::wake_all(impl_->state);
+    }
+
+   private:
+    const std::shared_ptr<Impl>& impl_;
+    int exceptions_;
+  };
   friend class World;  // World::step (frame.cpp) climbs the ladder with the frame's private verbs
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
