@@ -3,6 +3,7 @@
 #include "haustra/kernels/rod_condensed.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <cmath>
 
@@ -15,9 +16,13 @@ CondenseReport rod_condense_range(const RodLinearization& rod, StrainView<const 
   assert(
       std::is_sorted(loads.begin(), loads.end(), [](const UnitLoad& a, const UnitLoad& b) { return a.node > b.node; }));
   assert(!range.joint || sys.columns > kJointColumns);
-  const int w = condensed_width(sys.columns);
-  if (w == 16) return condensed::sweep<16>(rod, residual, loads, sys, range);
-  return condensed::sweep<0>(rod, residual, loads, sys, range);
+  std::array<CondenseReport, 1> report;
+  const condensed::Rods<double> rods{{&rod}, {residual}};
+  if (condensed_width(sys.columns) == 16)
+    condensed::sweep<double, 16>(rods, loads, {sys}, range, sys.scratch.data(), report);
+  else
+    condensed::sweep<double, 0>(rods, loads, {sys}, range, sys.scratch.data(), report);
+  return report[0];
 }
 
 CondenseReport rod_condense(const RodLinearization& rod, StrainView<const double> residual,
@@ -26,13 +31,13 @@ CondenseReport rod_condense(const RodLinearization& rod, StrainView<const double
 }
 
 void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double> residual, CondensedSystem sys) {
-  using condensed::V3;
+  using V3 = condensed::V3<double>;
   const std::size_t n = rod.poses.node_count(), last = n - 1;
   const auto S = static_cast<std::size_t>(condensed_width(sys.columns));
   // The interface's residual column (10 numbers), from the tip: no wrench, node N's residual.
   double p[10] = {};
   for (std::size_t c = 0; c < 4; ++c) p[6 + c] = residual.at(last, c);
-  condensed::SectionFrame g;
+  condensed::SectionFrame<double> g;
   double a[10][4];
   condensed::Elimination el;
   // The current loads' distal wrench, summed as the sweep sums it (for a free base's balance).
@@ -40,40 +45,15 @@ void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double>
   for (std::size_t k = last; k-- > 0;) {
     condensed::read_step(sys.record.data() + k * kCondensedRecordPerStep, g, a, el);
     force = force + condensed::load(rod.node_force, k + 1);
-    moment = moment + condensed::load(rod.node_moment, k + 1) +
-             condensed::cross(
-                 condensed::load(rod.poses.node_position, k + 1) - condensed::load(rod.poses.node_position, k), force);
-    // The fused pass of the sweep, on one lane (condensed_rows.hpp: fused_rhs_pass), its fused
-    // multiply-adds where the sweep's are (the sweep's residual lane rounds the same way).
-    const double h = g.h;
-    const V3 c = g.chord, b = -1.0 * g.mid;
-    p[0] = std::fma(c.y, p[5], std::fma(-c.z, p[4], p[0]));
-    p[1] = std::fma(c.z, p[3], std::fma(-c.x, p[5], p[1]));
-    p[2] = std::fma(c.x, p[4], std::fma(-c.y, p[3], p[2]));
-    const double x0 = std::fma(b.y, p[5], std::fma(-b.z, p[4], p[0]));
-    const double x1 = std::fma(b.z, p[3], std::fma(-b.x, p[5], p[1]));
-    const double x2 = std::fma(b.x, p[4], std::fma(-b.y, p[3], p[2]));
-    const V3 d0 = h * g.d[0], d1 = h * g.d[1], d2 = h * g.d[2];
-    const double sec[4] = {
-        std::fma(d0.z, x2, std::fma(d0.y, x1, d0.x * x0)), std::fma(d1.z, x2, std::fma(d1.y, x1, d1.x * x0)),
-        std::fma(d2.z, x2, std::fma(d2.y, x1, d2.x * x0)), std::fma(d2.z, p[5], std::fma(d2.y, p[4], d2.x * p[3]))};
-    double e[4];
-    for (int r = 0; r < 4; ++r) e[r] = std::fma(0.5, sec[r], p[6 + r]);
-    for (int step = 0; step < 4; ++step) {
-      const int pr = el.order[step];
-      e[pr] *= el.inv[step];
-      for (int r = 0; r < 4; ++r) e[r] = std::fma(-el.factor[step][r], e[pr], e[r]);
-    }
-    double u[4];
+    moment =
+        moment + condensed::load(rod.node_moment, k + 1) +
+        cross(condensed::load(rod.poses.node_position, k + 1) - condensed::load(rod.poses.node_position, k), force);
+    // The sweep's step on its residual lane alone (the same operations: the same bits).
+    double rho[4], u[4];
+    for (std::size_t c = 0; c < 4; ++c) rho[c] = residual.at(k, c);
+    condensed::replay_step(g, a, el, p, u, rho);
     double* gain = sys.gain.data() + k * 4 * S;
-    for (int r = 0; r < 4; ++r) {
-      u[r] = -e[el.order[r]];
-      gain[static_cast<std::size_t>(r) * S + kCondensedRhs] = u[r];
-    }
-    for (int r = 0; r < 10; ++r) {
-      const double in = r < 6 ? p[r] : 0.5 * sec[r - 6] + residual.at(k, static_cast<std::size_t>(r - 6));
-      p[r] = std::fma(a[r][3], u[3], std::fma(a[r][2], u[2], std::fma(a[r][1], u[1], std::fma(a[r][0], u[0], in))));
-    }
+    for (std::size_t r = 0; r < 4; ++r) gain[r * S + kCondensedRhs] = u[r];
   }
   // The base system, as eliminated: a free base balances the current loads' total wrench.
   const double* rb = sys.record.data() + last * kCondensedRecordPerStep;
@@ -93,7 +73,7 @@ void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double>
   for (int step = 0; step < unknowns; ++step) {
     const int pr = static_cast<int>(rb[1 + step]);
     e[pr] *= rb[11 + step];
-    for (int r = 0; r < unknowns; ++r) e[r] = std::fma(-rb[21 + 10 * step + r], e[pr], e[r]);
+    for (int r = 0; r < unknowns; ++r) e[r] = condensed::fmadd(-rb[21 + 10 * step + r], e[pr], e[r]);
   }
   double* y = sys.base.data();
   for (int i = 0; i < 10; ++i) y[i] = 0.0;
@@ -134,7 +114,7 @@ void rod_condensed_step_range(const RodLinearization& rod, CondensedSystem sys, 
       for (std::size_t i = 0; i < 10; ++i) v += row[i] * y[i];
       next[r] = v;
     }
-    const condensed::SectionFrame g = condensed::section_frame(rod, k);
+    const condensed::SectionFrame<double> g = condensed::section_frame(rod, k);
     condensed::advance_kinematics(g, y, next);
     store(k + 1);
   }
@@ -154,7 +134,7 @@ namespace {
 // δq_{k+1} = U_k y_k + u_k (the gains u, rows w apart; right-hand sides rhs in the chunks below
 // rhs_chunks, none beyond), then node k+1's δφ, δr (condensed::advance_kinematics). Inlined so
 // that where every chunk has a right-hand side the per-chunk test folds away (the gate counts it).
-[[gnu::always_inline]] inline void back_substitute_node(const condensed::SectionFrame& g, const double* u,
+[[gnu::always_inline]] inline void back_substitute_node(const condensed::SectionFrame<double>& g, const double* u,
                                                         std::size_t w, const condensed::v4* const (&rhs)[4],
                                                         std::size_t rhs_chunks, std::size_t nc,
                                                         condensed::v4* const (&yv)[10]) {
@@ -162,8 +142,8 @@ namespace {
   using condensed::fmadd;
   using condensed::v4;
   const double half = 0.5 * g.h;
-  const condensed::V3 d0 = half * g.d[0], d1 = half * g.d[1], d2 = half * g.d[2];
-  const condensed::V3 ch = g.chord, lv = g.lever;
+  const condensed::V3<double> d0 = half * g.d[0], d1 = half * g.d[1], d2 = half * g.d[2];
+  const condensed::V3<double> ch = g.chord, lv = g.lever;
   for (std::size_t c = 0; c < nc; ++c) {
     v4 yc[10];
     for (std::size_t i = 0; i < 10; ++i) yc[i] = yv[i][c];
@@ -313,7 +293,7 @@ bool rod_condensed_join(const RodLinearization& rod, std::size_t m, const Conden
   Matrix10 pi;
   for (int r = 0; r < 10; ++r)
     for (int i = 0; i < 10; ++i) pi(r, i) = join.tip[static_cast<std::size_t>(r) * tw + static_cast<std::size_t>(i)];
-  const condensed::Tangent t = condensed::tangent_of(rod, m);
+  const condensed::Tangent<double> t = condensed::tangent_of(rod, m);
   const double mass = (rod.section_length[m - 1] + rod.section_length[m]) / 3.0;
   for (int c = 0; c < 4; ++c)
     for (int j = 0; j < 4; ++j) pi(6 + c, kCondensedStrain + j) += mass * t.at(c, j);

@@ -76,8 +76,9 @@ struct Problem {
     if (!cs.nodal) return {};
     return {StrainView<const double>{tangent}, coupling};
   }
-  RodLinearization linearization() {
+  RodLinearization linearization(double law_scale = 1.0) {
     RodLinearization lin;
+    lin.law_scale = law_scale;
     lin.poses = rod.poses();
     lin.section_length = rod.h;
     lin.node_force = rod.force();
@@ -92,17 +93,39 @@ struct Problem {
 
   // The oracle: the assembled block system, banded LU, unit loads as generalized-force columns
   // of the strain rows (and their wrench in the free base's rows), as the engine did before.
-  Solved band() {
+  // dense: the plain reference instead — the same blocks written into one dense matrix, solved by
+  // Eigen's partially pivoted LU (nothing of the band's or the sweep's bookkeeping). law_scale:
+  // the law's rows scaled as RodLinearization::law_scale scales them.
+  Solved band(bool dense = false, double law_scale = 1.0) {
     const std::size_t n = cs.n;
     const int cols = columns();
     constexpr int B = kNewtonBlock;
     std::vector<NewtonBlock> lo(n), di(n), up(n), fill(n);
     std::vector<std::array<std::uint8_t, B>> swaps(n);
     std::vector<double> dfx(n), dfy(n), dfz(n), dmx(n), dmy(n), dmz(n);
+    std::array<double, 4> scaled = a;
+    for (double& x : scaled) x *= law_scale;
+    std::vector<double> scaled_tangent = tangent, scaled_coupling = coupling;
+    for (double& x : scaled_tangent) x *= law_scale;
+    for (double& x : scaled_coupling) x *= law_scale;
+    const NodalLawTangent law =
+        cs.nodal ? NodalLawTangent{StrainView<const double>{scaled_tangent}, scaled_coupling} : NodalLawTangent{};
     const Eigen::Matrix<double, 6, 1> wrench =
-        rod_newton_assemble(rod.poses(), rod.h, rod.force(), rod.moment(), a, stiffness(), cs.free_base,
-                            {dfx, dfy, dfz}, {dmx, dmy, dmz}, {lo, di, up, fill, swaps}, nodal());
-    block_tridiagonal_factor<B>({lo, di, up, fill, swaps});
+        rod_newton_assemble(rod.poses(), rod.h, rod.force(), rod.moment(), scaled, stiffness(), cs.free_base,
+                            {dfx, dfy, dfz}, {dmx, dmy, dmz}, {lo, di, up, fill, swaps}, law);
+    Eigen::MatrixXd matrix;
+    if (dense) {
+      const auto size = static_cast<Eigen::Index>(n * B);
+      matrix = Eigen::MatrixXd::Zero(size, size);
+      for (std::size_t i = 0; i < n; ++i) {
+        const auto row = static_cast<Eigen::Index>(i * B);
+        if (i > 0) matrix.block<B, B>(row, row - B) = lo[i];
+        matrix.block<B, B>(row, row) = di[i];
+        if (i + 1 < n) matrix.block<B, B>(row, row + B) = up[i];
+      }
+    } else {
+      block_tridiagonal_factor<B>({lo, di, up, fill, swaps});
+    }
     std::vector<double> rhs(n * B * static_cast<std::size_t>(cols), 0.0);
     auto entry = [&](std::size_t node, int row, int col) -> double& {
       return rhs[node * B * static_cast<std::size_t>(cols) + static_cast<std::size_t>(col * B + row)];
@@ -127,7 +150,20 @@ struct Problem {
         }
       }
     }
-    block_tridiagonal_solve<B>({lo, di, up, fill, swaps}, rhs, cols);
+    if (dense) {
+      const Eigen::PartialPivLU<Eigen::MatrixXd> lu(matrix);
+      const auto size = static_cast<Eigen::Index>(n * B);
+      for (int c = 0; c < cols; ++c) {
+        Eigen::VectorXd b(size);
+        for (std::size_t i = 0; i < n; ++i)
+          for (int r = 0; r < B; ++r) b[static_cast<Eigen::Index>(i * B) + r] = entry(i, r, c);
+        const Eigen::VectorXd z = lu.solve(b);
+        for (std::size_t i = 0; i < n; ++i)
+          for (int r = 0; r < B; ++r) entry(i, r, c) = z[static_cast<Eigen::Index>(i * B) + r];
+      }
+    } else {
+      block_tridiagonal_solve<B>({lo, di, up, fill, swaps}, rhs, cols);
+    }
     Solved out;
     for (int c = 0; c < cols; ++c) {
       std::vector<double> v(10 * n);
@@ -143,17 +179,20 @@ struct Problem {
   struct Condensed {
     Solved solved;
     CondenseReport report;
-    std::vector<double> responses;  // at `nodes`, 6 × columns each
+    std::vector<double> responses;   // at `nodes`, 6 × columns each
+    std::vector<double> gain, base;  // what the sweep wrote: the gains U_k and y_0 of every column
   };
-  Condensed condensed(const std::vector<std::uint32_t>& nodes = {}) {
+  Condensed condensed(const std::vector<std::uint32_t>& nodes = {}, double law_scale = 1.0) {
     const std::size_t n = cs.n;
     const int cols = columns();
     std::vector<double> gain(condensed_gain_size(n, cols)), scratch(condensed_scratch_size(cols)),
         base(10 * static_cast<std::size_t>(cols));
     const CondensedSystem sys{gain, scratch, base, cols, {}};
-    const RodLinearization lin = linearization();
+    const RodLinearization lin = linearization(law_scale);
     Condensed out;
     out.report = rod_condense(lin, StrainView<const double>{residual}, loads, sys);
+    out.gain = gain;
+    out.base = base;
     std::vector<double> dq(4 * n), px(n), py(n), pz(n), rx(n), ry(n), rz(n);
     for (int c = 0; c < cols; ++c) {
       std::vector<double> weights(static_cast<std::size_t>(cols), 0.0);
@@ -521,4 +560,131 @@ TEST_CASE("four rods condensed in SIMD lanes equal the one-rod sweep, rod by rod
   // The same bits: both sweeps round every product and sum alike (contraction off, their fused
   // multiply-adds in the same places), so a rod's result cannot depend on its lane-mates.
   CHECK(differing == 0);
+}
+
+namespace {
+
+// How far a sweep's own outputs are from the reference solution `ref` (every column at every node):
+// y_0 of every column (sys.base), and each gain's action δq_{k+1} = U_k (y_k, 1) on the reference's
+// y_k — each relative to its column's largest δφ, δr or δq.
+struct GainError {
+  double base = 0.0, gain = 0.0;
+};
+GainError sweep_against(const Solved& ref, std::span<const double> gain, std::span<const double> base, int cols) {
+  GainError err;
+  const std::size_t w = static_cast<std::size_t>(condensed_width(cols)), n = ref.columns[0].size() / 10;
+  for (std::size_t c = 0; c < ref.columns.size(); ++c) {
+    const std::vector<double>& y = ref.columns[c];
+    double scale = 0.0, q_scale = 0.0;
+    for (std::size_t i = 0; i < y.size(); ++i) {
+      scale = std::max(scale, std::abs(y[i]));
+      if (i % 10 >= 6) q_scale = std::max(q_scale, std::abs(y[i]));
+    }
+    for (std::size_t i = 0; i < 10; ++i) err.base = std::max(err.base, std::abs(base[10 * c + i] - y[i]) / scale);
+    for (std::size_t k = 0; k + 1 < n; ++k)
+      for (std::size_t r = 0; r < 4; ++r) {
+        const double* u = gain.data() + (4 * k + r) * w;
+        double v = u[static_cast<std::size_t>(kCondensedRhs) + c];
+        for (std::size_t i = 0; i < 10; ++i) v += u[i] * y[10 * k + i];
+        err.gain = std::max(err.gain, std::abs(v - y[10 * (k + 1) + 6 + r]) / q_scale);
+      }
+  }
+  return err;
+}
+
+}  // namespace
+
+TEST_CASE("the condensed sweep, one rod and four in lanes, against the plain reference: a dense LU of the system") {
+  // One rod: clamped and free, with and without load stiffness, linear and nonlinear laws, the
+  // residual alone (16-lane rows) and with unit loads (run-time width), the law's rows scaled.
+  double worst = 0.0, worst_base = 0.0, worst_gain = 0.0;
+  int cases = 0;
+  for (std::uint32_t seed : {11u, 12u})
+    for (bool free_base : {false, true})
+      for (bool nodal : {false, true})
+        for (std::size_t loads : {std::size_t{0}, std::size_t{7}})
+          for (double law_scale : {1.0, 4.0}) {
+            Case c;
+            c.n = 18 + 4 * seed % 7;
+            c.free_base = free_base;
+            c.stiffness = free_base || seed == 12u;
+            c.nodal = nodal;
+            c.unit_loads = loads;
+            c.seed = seed;
+            Problem p(c);
+            CAPTURE(seed);
+            CAPTURE(free_base);
+            CAPTURE(nodal);
+            CAPTURE(loads);
+            CAPTURE(law_scale);
+            const Solved ref = p.band(true, law_scale);
+            const Problem::Condensed got = p.condensed({}, law_scale);
+            REQUIRE(got.report.ok);
+            const double err = worst_relative(got.solved, ref);
+            const GainError own = sweep_against(ref, got.gain, got.base, p.columns());
+            CHECK(err < 4e-13);         // measured: 4.7e-14
+            CHECK(own.base < 2.5e-13);  // measured: 2.5e-14
+            CHECK(own.gain < 4e-13);    // measured: 4.2e-14
+            worst = std::max(worst, err);
+            worst_base = std::max(worst_base, own.base);
+            worst_gain = std::max(worst_gain, own.gain);
+            ++cases;
+          }
+  MESSAGE("one rod against the dense reference over " << cases << " cases: steps " << worst << ", y_0 " << worst_base
+                                                      << ", gains " << worst_gain);
+
+  // Four rods in lanes (the residual alone), each against its own dense reference.
+  double worst_lanes = 0.0, worst_lanes_own = 0.0;
+  for (bool stiffness : {true, false}) {
+    std::vector<Problem> problems;
+    for (std::uint32_t i = 0; i < 4; ++i) {
+      Case c;
+      c.n = 29;
+      c.seed = 40 + i;
+      c.stiffness = stiffness;
+      c.free_base = stiffness && i % 2 == 0;
+      c.nodal = i % 3 == 1;
+      problems.emplace_back(c);
+    }
+    std::array<std::vector<double>, 4> gain, scratch, base;
+    std::array<const RodLinearization*, kCondensedLanes> rods{};
+    std::array<StrainView<const double>, kCondensedLanes> residuals{};
+    std::array<CondensedSystem, kCondensedLanes> systems{};
+    std::array<RodLinearization, 4> lin;
+    for (std::size_t i = 0; i < 4; ++i) {
+      gain[i].assign(condensed_gain_size(29, 1), 0.0);
+      scratch[i].assign(condensed_scratch_size(1), 0.0);
+      base[i].assign(10, 0.0);
+      lin[i] = problems[i].linearization();
+      rods[i] = &lin[i];
+      residuals[i] = StrainView<const double>{problems[i].residual};
+      systems[i] = {gain[i], scratch[i], base[i], 1, {}};
+    }
+    std::array<CondenseReport, kCondensedLanes> reports{};
+    rod_condense_lanes(rods, residuals, systems, reports);
+    for (std::size_t i = 0; i < 4; ++i) {
+      CAPTURE(stiffness);
+      CAPTURE(i);
+      REQUIRE(reports[i].ok);
+      const Solved ref = problems[i].band(true);
+      std::vector<double> dq(4 * 29), px(29), py(29), pz(29), rx(29), ry(29), rz(29);
+      const std::vector<double> one = {1.0};
+      rod_condensed_step(lin[i], systems[i], one, StrainView<double>{dq}, {px, py, pz}, {rx, ry, rz});
+      Solved got;
+      got.columns.emplace_back(10 * 29);
+      for (std::size_t k = 0; k < 29; ++k) {
+        const double y[10] = {px[k], py[k],     pz[k],         rx[k],         ry[k],
+                              rz[k], dq[4 * k], dq[4 * k + 1], dq[4 * k + 2], dq[4 * k + 3]};
+        std::copy(y, y + 10, got.columns[0].begin() + static_cast<std::ptrdiff_t>(10 * k));
+      }
+      const double err = worst_relative(got, ref);
+      const GainError own = sweep_against(ref, gain[i], base[i], 1);
+      CHECK(err < 3e-13);                             // measured: 3.6e-14
+      CHECK(std::max(own.base, own.gain) < 2.5e-13);  // measured: 2.5e-14
+      worst_lanes = std::max(worst_lanes, err);
+      worst_lanes_own = std::max(worst_lanes_own, std::max(own.base, own.gain));
+    }
+  }
+  MESSAGE("four rods in lanes against the dense reference: steps " << worst_lanes << ", y_0 and gains "
+                                                                   << worst_lanes_own);
 }
