@@ -346,8 +346,10 @@ WorldModel build_world_model_here(const WorldDesc& desc, const WorldModel* bindi
   m.dt = desc.dt;
   m.frame_budget = desc.frame_budget;
   m.mesh_update = desc.mesh_update;
-  m.solver = desc.solver;
-  m.filter = desc.filter;
+  const SolverDesc& sd = desc.solver;
+  m.solver = {sd.mode,          sd.iterations,  sd.substeps,    sd.relaxation,  sd.tolerance, sd.max_iterations,
+              sd.on_instability, sd.max_substeps, sd.max_retries, sd.calm_frames, sd.max_displacement};
+  m.filter.enabled = desc.filter.enabled;
 
   build_environment(desc, m);
   std::vector<Eigen::Vector3d> initial_positions;
