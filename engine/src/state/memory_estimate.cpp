@@ -27,11 +27,12 @@ constexpr std::size_t kDouble = sizeof(double);
 constexpr std::size_t kModelPerNode = 16 * kDouble;
 constexpr std::size_t kStatePerNode = detail::kStateBytesPerNode;
 constexpr std::size_t kBuildPerNode = 17 * kDouble;
-// The Newton workspace besides its gains: the step, residual, law stress and tangent, load
-// stiffness (a 3×3 per node), the strains before a step (41 doubles).
-constexpr std::size_t kNewtonPerNode = 41 * kDouble;
-// The banded fallback's 16×16 blocks (lower, diagonal, upper, fill) and swaps, per node.
-constexpr std::size_t kBandPerNode = 4 * 256 * kDouble + 16 + 10 * kDouble;
+// The Newton workspace besides its gains, from its list: the step, residual, law stress and
+// tangent, load stiffness (a 3×3 per node), the strains before a step (41 doubles); the banded
+// fallback's 16×16 blocks (lower, diagonal, upper, fill), swaps and distal loads (its right-hand
+// sides, 16 doubles a column, below).
+constexpr std::size_t kNewtonPerNode = detail::kNewtonBytesPerNode;
+constexpr std::size_t kBandPerNode = detail::kBandBytesPerNode;
 // Per bead: its model, collision state and candidate lists (measured on drop and bowel).
 constexpr std::size_t kPerBead = 640;
 // Per procedural mesh vertex: its skinning binding (rest position, output index, 4 rings' 4

@@ -84,29 +84,12 @@ void NewtonWorkspace::allocate(std::size_t nodes, int columns, bool with_band, s
   responses.assign(2 * static_cast<std::size_t>(columns) * 6 * static_cast<std::size_t>(columns), 0.0);
   weights.assign(static_cast<std::size_t>(columns), 0.0);
   column_of.assign(static_cast<std::size_t>(columns), 0);
-  step_q.assign(4 * nodes, 0.0);
-  step_phi.resize(nodes);
-  step_r.resize(nodes);
   band_available = with_band;
-  if (with_band) {
-    lower.assign(nodes, kernels::NewtonBlock::Zero());
-    diag.assign(nodes, kernels::NewtonBlock::Zero());
-    upper.assign(nodes, kernels::NewtonBlock::Zero());
-    fill.assign(nodes, kernels::NewtonBlock::Zero());
-    swaps.assign(nodes, {});
-    rhs.assign(nodes * kernels::kNewtonBlock * static_cast<std::size_t>(columns), 0.0);
-    distal_force.resize(nodes);
-    distal_moment.resize(nodes);
-    unit.assign(4 * nodes, 0.0);
-  }
-  residual.assign(4 * nodes, 0.0);
-  target.assign(4 * nodes, 0.0);
-  law_stress.assign(4 * nodes, 0.0);
-  law_tangent.assign(4 * nodes, 0.0);
-  bend_coupling.assign(nodes, 0.0);
-  force_stiffness.assign(nodes, Eigen::Matrix3d::Zero());
-  drag_moment_rate.assign(nodes, 0.0);
-  strain_before.assign(4 * nodes, 0.0);
+#define HAUSTRA_SIZE_BUFFER(type, name, width, initial, allocated, meaning) \
+  if (Allocated::allocated == Allocated::always || with_band) size_buffer(name, (width) * nodes, initial);
+  HAUSTRA_NEWTON_NODE_BUFFERS(HAUSTRA_SIZE_BUFFER)
+#undef HAUSTRA_SIZE_BUFFER
+  if (with_band) rhs.assign(nodes * kernels::kNewtonBlock * static_cast<std::size_t>(columns), 0.0);
 }
 
 void PersistentState::copy_from(const PersistentState& o) {

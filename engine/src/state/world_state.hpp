@@ -200,6 +200,36 @@ struct LineSearch {
   std::array<std::uint8_t, 2> deepens{};            // per part: a contact deepened too far
 };
 
+// The Newton workspace's buffers per node of its rod, listed once as the state's (decision 0116):
+// X(type, name, width, initial, allocated, meaning), `allocated` always, or with_band only for a
+// rod that keeps the banded fallback. NewtonWorkspace declares and sizes them from the list, the
+// memory estimate counts their bytes per node from it.
+using SwapRow = std::array<std::uint8_t, kernels::kNewtonBlock>;
+enum class Allocated : std::uint8_t { always, with_band };
+// clang-format off
+#define HAUSTRA_NEWTON_NODE_BUFFERS(X)                                                                     \
+  X(std::vector<double>, step_q, 4, 0.0, always, "the step: δq")                                            \
+  X(Vec3Buffer, step_phi, 1, Zeros{}, always, "… δφ")                                                       \
+  X(Vec3Buffer, step_r, 1, Zeros{}, always, "… δr")                                                         \
+  X(std::vector<kernels::NewtonBlock>, lower, 1, kernels::NewtonBlock::Zero(), with_band, "the banded LU's 16×16 blocks") \
+  X(std::vector<kernels::NewtonBlock>, diag, 1, kernels::NewtonBlock::Zero(), with_band, "")               \
+  X(std::vector<kernels::NewtonBlock>, upper, 1, kernels::NewtonBlock::Zero(), with_band, "")              \
+  X(std::vector<kernels::NewtonBlock>, fill, 1, kernels::NewtonBlock::Zero(), with_band, "the factorization's second upper block") \
+  X(std::vector<SwapRow>, swaps, 1, SwapRow{}, with_band, "its row swaps")                                  \
+  X(Vec3Buffer, distal_force, 1, Zeros{}, with_band, "")                                                    \
+  X(Vec3Buffer, distal_moment, 1, Zeros{}, with_band, "")                                                   \
+  X(std::vector<double>, unit, 4, 0.0, with_band, "")                                                       \
+  X(std::vector<double>, residual, 4, 0.0, always, "the linearization")                                    \
+  X(std::vector<double>, target, 4, 0.0, always, "")                                                        \
+  X(std::vector<double>, law_stress, 4, 0.0, always, "a nonlinear (EXP2) law's generalized stress")        \
+  X(std::vector<double>, law_tangent, 4, 0.0, always, "… and tangent")                                     \
+  X(std::vector<double>, bend_coupling, 1, 0.0, always, "… and its κ1–κ2 coupling")                         \
+  X(std::vector<Eigen::Matrix3d>, force_stiffness, 1, Eigen::Matrix3d::Zero(), always, "−∂f/∂r of drag and contacts") \
+  X(std::vector<double>, drag_moment_rate, 1, 0.0, always, "s/Δt")                                          \
+  X(std::vector<double>, strain_before, 4, 0.0, always, "the line search: the strains before the step")
+// clang-format on
+#define HAUSTRA_DECLARE_NEWTON_BUFFER(type, name, width, initial, allocated, meaning) type name;
+
 // Scratch of one segment's Newton solve: the condensed sweep's gains and right-hand sides, the
 // step it gives, and — for rods up to kBandFallbackNodes — the banded LU it falls back to.
 struct NewtonWorkspace {
@@ -222,29 +252,15 @@ struct NewtonWorkspace {
   std::vector<double> responses;              // 6 × columns per response node (δφ, δr)
   std::vector<double> weights;                // per column: 1, then the coupled unknowns
   std::vector<std::uint32_t> column_of;       // an unknown's column (1 + its index) → the kernel's
-  std::vector<double> step_q;                 // the step: δq (4 per node), δφ, δr per node
-  Vec3Buffer step_phi, step_r;
-  // The banded LU of the assembled 16×16 block system: the fallback when the sweep's pivots are
-  // unsafe, allocated only for rods up to kBandFallbackNodes (its blocks take ~8 KB a node).
+  HAUSTRA_NEWTON_NODE_BUFFERS(HAUSTRA_DECLARE_NEWTON_BUFFER)
+  // The banded LU (the fallback when the sweep's pivots are unsafe) is allocated only for rods up to
+  // kBandFallbackNodes: its blocks take ~8 KB a node.
   bool band_available = false;
-  bool band = false;  // this iteration is solved by the banded LU
-  std::vector<kernels::NewtonBlock> lower, diag, upper;
-  std::vector<kernels::NewtonBlock> fill;                              // the factorization's second upper block
-  std::vector<std::array<std::uint8_t, kernels::kNewtonBlock>> swaps;  // its row swaps
-  std::vector<double> rhs;
-  Vec3Buffer distal_force, distal_moment;
-  std::vector<double> unit;
-  // The linearization.
-  std::vector<double> residual, target;
-  // A nonlinear (EXP2) law's generalized stress and tangent per node, and the κ1–κ2 coupling.
-  std::vector<double> law_stress, law_tangent, bend_coupling;
-  std::vector<Eigen::Matrix3d> force_stiffness;               // per node: −∂f/∂r of drag and contacts
-  std::vector<double> drag_moment_rate;                       // s/Δt per node
+  bool band = false;          // this iteration is solved by the banded LU
+  std::vector<double> rhs;    // its right-hand sides: a block row per node per column
   kernels::Vector6d base_wrench = kernels::Vector6d::Zero();  // free base: unbalanced total wrench
   std::vector<Eigen::Vector3d> bead_start;                    // the segment's bead positions before a step
-  // The line search: strains and base before the step.
-  std::vector<double> strain_before;
-  kernels::Pose base_before;
+  kernels::Pose base_before;  // the line search: the base before the step
   double potential = 0.0;  // the incremental potential at the step the line search took
   bool potential_cached = false;
   int max_columns = 1;
@@ -414,6 +430,16 @@ inline constexpr std::size_t kFrameBytesPerNode = 0 HAUSTRA_FRAME_STATE(HAUSTRA_
 #undef HAUSTRA_NODE_BYTES
 // The state per node: the frame and its snapshot (PersistentState twice) and the frame's buffers.
 inline constexpr std::size_t kStateBytesPerNode = 2 * kPersistentBytesPerNode + kFrameBytesPerNode;
+// The Newton workspace per node of its rod: always, and the banded fallback's besides.
+#define HAUSTRA_NEWTON_BYTES(type, name, width, initial, allocated, meaning) \
+  +(Allocated::allocated == HAUSTRA_NEWTON_ALLOCATED ? std::size_t{width} * kEntryBytes<type> : 0)
+#define HAUSTRA_NEWTON_ALLOCATED Allocated::always
+inline constexpr std::size_t kNewtonBytesPerNode = 0 HAUSTRA_NEWTON_NODE_BUFFERS(HAUSTRA_NEWTON_BYTES);
+#undef HAUSTRA_NEWTON_ALLOCATED
+#define HAUSTRA_NEWTON_ALLOCATED Allocated::with_band
+inline constexpr std::size_t kBandBytesPerNode = 0 HAUSTRA_NEWTON_NODE_BUFFERS(HAUSTRA_NEWTON_BYTES);
+#undef HAUSTRA_NEWTON_ALLOCATED
+#undef HAUSTRA_NEWTON_BYTES
 
 // Views of one segment's slice.
 struct SegmentViews {
