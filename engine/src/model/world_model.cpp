@@ -347,8 +347,17 @@ WorldModel build_world_model_here(const WorldDesc& desc, const WorldModel* bindi
   m.frame_budget = desc.frame_budget;
   m.mesh_update = desc.mesh_update;
   const SolverDesc& sd = desc.solver;
-  m.solver = {sd.mode,          sd.iterations,  sd.substeps,    sd.relaxation,  sd.tolerance, sd.max_iterations,
-              sd.on_instability, sd.max_substeps, sd.max_retries, sd.calm_frames, sd.max_displacement};
+  m.solver = {.mode = sd.mode,
+              .iterations = sd.iterations,
+              .substeps = sd.substeps,
+              .relaxation = sd.relaxation,
+              .tolerance = sd.tolerance,
+              .max_iterations = sd.max_iterations,
+              .on_instability = sd.on_instability,
+              .max_substeps = sd.max_substeps,
+              .max_retries = sd.max_retries,
+              .calm_frames = sd.calm_frames,
+              .max_displacement = sd.max_displacement};
   m.filter.enabled = desc.filter.enabled;
 
   build_environment(desc, m);

@@ -62,7 +62,9 @@ struct FilterModel {
   bool enabled = true;
 };
 
-// The broad phase `auto` takes brute force below this many beads, the grid from it.
+// The broad phase `auto` takes brute force below this many beads, the grid from it. bench_collision,
+// one thread: brute force costs ~110 ns a bead at 220 beads and ~790 at 1000, the grid ~260 at any
+// count; the grid's queries also spread over threads.
 inline constexpr std::size_t kBruteForceBelow = 256;
 
 // The contact response and its candidates, resolved: the margin from the beads when the scene left

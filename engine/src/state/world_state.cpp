@@ -27,7 +27,7 @@ void copy_buffer(RotationBuffer& dst, const RotationBuffer& src) {
 
 void size_persistent(const WorldModel& model, PersistentState& p) {
 #define HAUSTRA_SIZE_BUFFER(type, name, per, width, initial, role, meaning) \
-  size_buffer(p.name, (width) * count_of(model, Per::per), initial);
+  size_buffer(p.name, count_of(model, Per::per) * (width), initial);
   HAUSTRA_PERSISTENT_STATE(HAUSTRA_SIZE_BUFFER)
 #undef HAUSTRA_SIZE_BUFFER
 }
@@ -86,7 +86,7 @@ void NewtonWorkspace::allocate(std::size_t nodes, int columns, bool with_band, s
   column_of.assign(static_cast<std::size_t>(columns), 0);
   band_available = with_band;
 #define HAUSTRA_SIZE_BUFFER(type, name, width, initial, allocated, meaning) \
-  if (Allocated::allocated == Allocated::always || with_band) size_buffer(name, (width) * nodes, initial);
+  if (Allocated::allocated == Allocated::always || with_band) size_buffer(name, nodes*(width), initial);
   HAUSTRA_NEWTON_NODE_BUFFERS(HAUSTRA_SIZE_BUFFER)
 #undef HAUSTRA_SIZE_BUFFER
   if (with_band) rhs.assign(nodes * kernels::kNewtonBlock * static_cast<std::size_t>(columns), 0.0);
@@ -104,7 +104,7 @@ void init_world_state(const WorldModel& model, WorldState& state) {
   size_persistent(model, state.now);
   size_persistent(model, state.frame_start);
 #define HAUSTRA_SIZE_BUFFER(type, name, per, width, initial, role, meaning) \
-  size_buffer(state.name, (width) * count_of(model, Per::per), initial);
+  size_buffer(state.name, count_of(model, Per::per) * (width), initial);
   HAUSTRA_FRAME_STATE(HAUSTRA_SIZE_BUFFER)
 #undef HAUSTRA_SIZE_BUFFER
   const bool newton_possible =

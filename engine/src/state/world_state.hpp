@@ -256,11 +256,11 @@ struct NewtonWorkspace {
   // The banded LU (the fallback when the sweep's pivots are unsafe) is allocated only for rods up to
   // kBandFallbackNodes: its blocks take ~8 KB a node.
   bool band_available = false;
-  bool band = false;          // this iteration is solved by the banded LU
-  std::vector<double> rhs;    // its right-hand sides: a block row per node per column
+  bool band = false;                                          // this iteration is solved by the banded LU
+  std::vector<double> rhs;                                    // its right-hand sides: a block row per node per column
   kernels::Vector6d base_wrench = kernels::Vector6d::Zero();  // free base: unbalanced total wrench
   std::vector<Eigen::Vector3d> bead_start;                    // the segment's bead positions before a step
-  kernels::Pose base_before;  // the line search: the base before the step
+  kernels::Pose base_before;                                  // the line search: the base before the step
   double potential = 0.0;  // the incremental potential at the step the line search took
   bool potential_cached = false;
   int max_columns = 1;

@@ -125,11 +125,13 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
     if (rod_map[r] == kRodRemoved) continue;
     const SegmentModel& a = from_model.segments[r];
     const SegmentModel& b = to_model.segments[rod_map[r]];
-#define HAUSTRA_CARRY_KEPT(owner, type, name, per, width, role)                  \
-  if constexpr (Role::role == Role::kept)                                       \
+#define HAUSTRA_CARRY_KEPT(owner, type, name, per, width, role) \
+  if constexpr (Role::role == Role::kept)                       \
     carry_buffer<Per::per, width>(from.owner name, to.owner name, a, r, b, rod_map[r]);
-#define HAUSTRA_CARRY_NOW(type, name, per, width, initial, role, meaning) HAUSTRA_CARRY_KEPT(now., type, name, per, width, role)
-#define HAUSTRA_CARRY_FRAME(type, name, per, width, initial, role, meaning) HAUSTRA_CARRY_KEPT(, type, name, per, width, role)
+#define HAUSTRA_CARRY_NOW(type, name, per, width, initial, role, meaning) \
+  HAUSTRA_CARRY_KEPT(now., type, name, per, width, role)
+#define HAUSTRA_CARRY_FRAME(type, name, per, width, initial, role, meaning) \
+  HAUSTRA_CARRY_KEPT(, type, name, per, width, role)
     HAUSTRA_PERSISTENT_STATE(HAUSTRA_CARRY_NOW)
     HAUSTRA_FRAME_STATE(HAUSTRA_CARRY_FRAME)
 #undef HAUSTRA_CARRY_FRAME
