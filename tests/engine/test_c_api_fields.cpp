@@ -6,6 +6,7 @@
 #include <unistd.h>
 #include "c_sized.hpp"
 
+#include <cstddef>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -16,6 +17,18 @@
 #include "haustra/world.hpp"
 
 using namespace haustra;
+
+// The C profile holds one int per counter of HAUSTRA_PROFILE_COUNTERS and the `newton` flag after
+// its seconds, and nothing else: a counter added to the list but not to haustra.h (or the other way
+// round) fails here, at compile time. (Its fields keep ABI 15's order, not the list's: the list's
+// order is also Python's and the run report's columns.)
+#define HAUSTRA_COUNT_COUNTER(type, name, initial, meaning) +1
+constexpr std::size_t kProfileInts = 1 + (0 HAUSTRA_PROFILE_COUNTERS(HAUSTRA_COUNT_COUNTER));
+#undef HAUSTRA_COUNT_COUNTER
+static_assert(offsetof(haustra_profile, substeps) == sizeof(size_t) + sizeof(double) * (HAUSTRA_STAGE_COUNT + 1));
+static_assert(sizeof(haustra_profile) ==
+              (offsetof(haustra_profile, substeps) + sizeof(int) * kProfileInts + alignof(haustra_profile) - 1) /
+                  alignof(haustra_profile) * alignof(haustra_profile));
 
 TEST_CASE("every profile counter reaches the C API: the same scene stepped through both, field by field") {
   // The drop in fast mode (iterations, chords, the frames it falls back to Newton on), written to

@@ -58,11 +58,11 @@ void World::set_instrument_coupling(std::size_t instrument, double stiffness, do
                      fmt::format("a grasp switches between rigid (0) and coupled (> 0) only through a rebuild "
                                  "(reconfigure); it is {} now",
                                  was_rigid ? "rigid" : "coupled"));
-  for (InstrumentDesc* d : {&impl_->desc.instruments[instrument], &impl_->model.instruments[instrument]}) {
-    d->coupling_stiffness = stiffness;
-    d->coupling_damping = damping;
-    d->force_limit = force_limit;
-  }
+  InstrumentDesc& d = impl_->desc.instruments[instrument];
+  detail::InstrumentModel& m = impl_->model.instruments[instrument];
+  d.coupling_stiffness = m.coupling_stiffness = stiffness;
+  d.coupling_damping = m.coupling_damping = damping;
+  d.force_limit = m.force_limit = force_limit;
 }
 
 // The robust mode reads its limits per frame (frame.cpp); a rung above the new top comes down to it.
@@ -73,16 +73,16 @@ void World::set_frame_limits(const FrameLimits& limits) {
   next.solver.max_retries = limits.max_retries;
   next.solver.calm_frames = limits.calm_frames;
   detail::check_world_desc(next);
-  for (SolverDesc* s : {&impl_->desc.solver, &impl_->model.solver}) {
-    s->max_substeps = limits.max_substeps;
-    s->max_retries = limits.max_retries;
-    s->calm_frames = limits.calm_frames;
-  }
+  SolverDesc& d = impl_->desc.solver;
+  detail::SolverModel& m = impl_->model.solver;
+  d.max_substeps = m.max_substeps = limits.max_substeps;
+  d.max_retries = m.max_retries = limits.max_retries;
+  d.calm_frames = m.calm_frames = limits.calm_frames;
   impl_->state.robust_substeps = std::min(impl_->state.robust_substeps, limits.max_substeps);
 }
 
 FrameLimits World::frame_limits() const {
-  const SolverDesc& s = impl_->model.solver;
+  const detail::SolverModel& s = impl_->model.solver;
   return {s.max_substeps, s.max_retries, s.calm_frames};
 }
 

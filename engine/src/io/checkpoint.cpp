@@ -83,6 +83,14 @@ template <class Io, StateOf<kernels::Pose> P>
 void visit_members(Io& io, P& p) {
   io(p.rotation), io(p.position);
 }
+template <class Io, StateOf<Vec3Buffer> B>
+void visit_members(Io& io, B& b) {
+  io(b.x), io(b.y), io(b.z);  // three arrays, each with its length
+}
+template <class Io, StateOf<RotationBuffer> B>
+void visit_members(Io& io, B& b) {
+  io(b.w), io(b.x), io(b.y), io(b.z);
+}
 template <class Io, StateOf<AttachmentState> A>
 void visit_members(Io& io, A& a) {
   io(a.active), io(a.node), io(a.hold_frame), io(a.target), io(a.target_rotation), io(a.force), io(a.moment);
@@ -273,27 +281,19 @@ class Reader {
 // one substep or derived from these (meshes, the frame-start snapshot) and rebuilt on restore.
 template <class Io, class State>
 void visit_state(Io& io, State& st) {
-  auto vec3 = [&](auto& b) { io(b.x), io(b.y), io(b.z); };
-  auto rot = [&](auto& b) { io(b.w), io(b.x), io(b.y), io(b.z); };
-  auto& now = st.now;
-  io(now.strain);
-  vec3(now.position);
-  rot(now.rotation);
-  vec3(now.mid_position);
-  rot(now.mid_rotation);
-  io(now.base);
-  io(now.attachment);
-  io(now.anchor_intact);
-  vec3(st.external_force);
-  vec3(st.external_moment);
-  io(st.base_twist);
-  io(st.base_resistance);
-  io(st.strain_before_update);
+  // The kept buffers of state/world_state.hpp's lists, in their order.
+#define HAUSTRA_VISIT_KEPT(type, name, per, width, initial, role, meaning) \
+  if constexpr (Role::role == Role::kept) io(st.now.name);
+  HAUSTRA_PERSISTENT_STATE(HAUSTRA_VISIT_KEPT)
+#undef HAUSTRA_VISIT_KEPT
+#define HAUSTRA_VISIT_KEPT(type, name, per, width, initial, role, meaning) \
+  if constexpr (Role::role == Role::kept) io(st.name);
+  HAUSTRA_FRAME_STATE(HAUSTRA_VISIT_KEPT)
+#undef HAUSTRA_VISIT_KEPT
   io(st.collision.bead_motion);
   io(st.collision.report);
   io(st.instruments);
   io(st.robust_substeps), io(st.robust_newton), io(st.robust_good_frames), io(st.robust_calm_spell);
-  io(st.rod_calm), io(st.rod_asleep);
   io(st.frame), io(st.time);
 }
 

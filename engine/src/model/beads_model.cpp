@@ -177,27 +177,30 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
   if (!std::isfinite(c.margin) || c.margin > 0.5)
     fail("contact.margin",
          fmt::format("expected a margin in m of at most 0.5 (negative: automatic), got {}", c.margin));
-  m.contact = c;
-  m.environment = desc.environment;
-  for (std::size_t i = 0; i < m.environment.planes.size(); ++i) {
-    PlaneDesc& p = m.environment.planes[i];
+  // The margin and the broad phase are resolved once the beads exist (build_rest_exclusions).
+  m.contact = {c.coefficient, c.exponent, c.margin, c.broad_phase, c.self, c.rest_exclusions};
+  const EnvironmentDesc& env = desc.environment;
+  for (std::size_t i = 0; i < env.planes.size(); ++i) {
+    const PlaneDesc& p = env.planes[i];
     check_finite(fmt::format("environment.plane[{}].point", i), p.point);
     check_unit(fmt::format("environment.plane[{}].normal", i), p.normal);
-    p.normal.normalize();
+    m.environment.planes.push_back({p.point, p.normal.normalized()});
   }
-  for (std::size_t i = 0; i < m.environment.spheres.size(); ++i) {
-    const SphereObstacleDesc& s = m.environment.spheres[i];
+  for (std::size_t i = 0; i < env.spheres.size(); ++i) {
+    const SphereObstacleDesc& s = env.spheres[i];
     check_finite(fmt::format("environment.sphere[{}].center", i), s.center);
     check_obstacle_radius(fmt::format("environment.sphere[{}].radius", i), s.radius);
+    m.environment.spheres.push_back({s.center, s.radius});
   }
-  for (std::size_t i = 0; i < m.environment.capsules.size(); ++i) {
-    const CapsuleObstacleDesc& s = m.environment.capsules[i];
+  for (std::size_t i = 0; i < env.capsules.size(); ++i) {
+    const CapsuleObstacleDesc& s = env.capsules[i];
     check_finite(fmt::format("environment.capsule[{}].a", i), s.a);
     check_finite(fmt::format("environment.capsule[{}].b", i), s.b);
     check_obstacle_radius(fmt::format("environment.capsule[{}].radius", i), s.radius);
+    m.environment.capsules.push_back({s.a, s.b, s.radius});
   }
-  for (std::size_t i = 0; i < m.environment.meshes.size(); ++i) {
-    const MeshObstacleDesc& mesh = m.environment.meshes[i];
+  for (std::size_t i = 0; i < env.meshes.size(); ++i) {
+    const MeshObstacleDesc& mesh = env.meshes[i];
     const std::string where = fmt::format("environment.mesh[{}]", i);
     if (mesh.triangles.empty()) fail(where, "the mesh has no triangles");
     for (const auto& t : mesh.triangles)
@@ -210,10 +213,32 @@ void build_environment(const WorldDesc& desc, WorldModel& m) {
                                 "finite and within ±{:g} m",
                                 v.x(), v.y(), v.z(), kMaxVectorComponent));
     if (mesh.container) check_container(mesh, where);
+    m.environment.mesh_container.push_back(mesh.container ? 1 : 0);
   }
-  m.meshes = std::make_shared<const StaticMeshes>(m.environment.meshes);
-  m.instruments = desc.instruments;
-  for (std::size_t i = 0; i < m.instruments.size(); ++i) check_instrument(m.instruments[i], i);
+  m.meshes = std::make_shared<const StaticMeshes>(env.meshes);
+  for (std::size_t i = 0; i < desc.instruments.size(); ++i) {
+    InstrumentDesc d = desc.instruments[i];
+    check_instrument(d, i);  // normalizes its axes
+    m.instruments.push_back(instrument_model(d));
+  }
+}
+
+InstrumentModel instrument_model(const InstrumentDesc& d) {
+  return {.name = d.name,
+          .radius = d.radius,
+          .length = d.length,
+          .grasp_reach = d.grasp_reach,
+          .hold_frame = d.hold_frame,
+          .force_filter = d.force_filter,
+          .coupling_stiffness = d.coupling_stiffness,
+          .coupling_damping = d.coupling_damping,
+          .force_limit = d.force_limit,
+          .proxy = d.proxy,
+          .holding_force = d.holding_force,
+          .cut_radius = d.cut_radius,
+          .tip = d.tip,
+          .axis = d.axis,
+          .keyframes = d.keyframes};
 }
 
 // Beads whose node the mesh does not surround (a centreline running past an open end, rays
@@ -365,7 +390,10 @@ void build_rest_exclusions(const std::vector<Eigen::Vector3d>& initial_positions
   std::vector<std::uint32_t> fill(beads.exclusion_start.begin(), beads.exclusion_start.end() - 1);
   for (std::size_t p = 0; p < count; ++p)  // pairs come in ascending (a, b): lists come sorted
     if (kept(pairs[p])) beads.exclusion[fill[pairs[p].a]++] = pairs[p].b;
-  m.contact_margin = m.contact.margin >= 0.0 ? m.contact.margin : (nb > 0 ? 0.5 * smallest : 0.0);
+  // The description's margin (negative: automatic) and broad phase, resolved (ContactModel).
+  if (m.contact.margin < 0.0) m.contact.margin = nb > 0 ? 0.5 * smallest : 0.0;
+  if (m.contact.broad_phase == BroadPhase::automatic)
+    m.contact.broad_phase = nb < kBruteForceBelow ? BroadPhase::brute : BroadPhase::grid;
 }
 
 }  // namespace

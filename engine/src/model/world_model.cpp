@@ -346,9 +346,20 @@ WorldModel build_world_model_here(const WorldDesc& desc, const WorldModel* bindi
   m.dt = desc.dt;
   m.frame_budget = desc.frame_budget;
   m.mesh_update = desc.mesh_update;
-  m.sleep = desc.sleep;
-  m.solver = desc.solver;
-  m.filter = desc.filter;
+  m.sleep = {desc.sleep.enabled, desc.sleep.speed, desc.sleep.time};
+  const SolverDesc& sd = desc.solver;
+  m.solver = {.mode = sd.mode,
+              .iterations = sd.iterations,
+              .substeps = sd.substeps,
+              .relaxation = sd.relaxation,
+              .tolerance = sd.tolerance,
+              .max_iterations = sd.max_iterations,
+              .on_instability = sd.on_instability,
+              .max_substeps = sd.max_substeps,
+              .max_retries = sd.max_retries,
+              .calm_frames = sd.calm_frames,
+              .max_displacement = sd.max_displacement};
+  m.filter.enabled = desc.filter.enabled;
 
   build_environment(desc, m);
   std::vector<Eigen::Vector3d> initial_positions;

@@ -41,6 +41,77 @@ inline constexpr double kMaxAxialStrain = 4.0;
 inline constexpr double kMaxSectionAngle = std::numbers::pi;
 inline constexpr double kMaxAttachmentError = 0.01;
 
+// What the step reads of the solver: the description's fields, checked (decision 0116). The robust
+// mode's three limits are run-time settings (World::set_frame_limits, checkpoints' parameters).
+struct SolverModel {
+  SolverMode mode = SolverMode::newton;
+  int iterations = 1;  // per substep
+  int substeps = 1;    // per frame
+  double relaxation = 1.0;
+  double tolerance = 0.0;
+  int max_iterations = 8;  // Newton: the most a segment iterates while its line search or a grasp needs it
+  InstabilityPolicy on_instability = InstabilityPolicy::recover;
+  int max_substeps = 64;
+  int max_retries = 16;
+  int calm_frames = 120;
+  double max_displacement = 4.0;  // the guard: segment lengths a node may move in a frame
+};
+
+// Whether the paper's regulator runs; its ζ is each segment's (SegmentInfo::zeta).
+struct FilterModel {
+  bool enabled = true;
+};
+
+// The broad phase `auto` takes brute force below this many beads, the grid from it. bench_collision,
+// one thread: brute force costs ~110 ns a bead at 220 beads and ~790 at 1000, the grid ~260 at any
+// count; the grid's queries also spread over threads.
+inline constexpr std::size_t kBruteForceBelow = 256;
+
+// The contact response and its candidates, resolved: the margin from the beads when the scene left
+// it automatic, the broad phase chosen by the bead count.
+struct ContactModel {
+  double coefficient = 50.0;
+  double exponent = 2.0;
+  double margin = 0.0;                         // m, resolved
+  BroadPhase broad_phase = BroadPhase::brute;  // brute or grid, never automatic
+  bool self = true;
+  RestExclusions rest_exclusions = RestExclusions::segment;
+};
+
+// The static obstacles as the collision stages read them (planes' normals of unit length); the
+// triangle meshes live in WorldModel::meshes (Embree), and here only whether each is a container.
+struct EnvironmentModel {
+  struct Plane {
+    Eigen::Vector3d point, normal;
+  };
+  struct Sphere {
+    Eigen::Vector3d center;
+    double radius = 0.0;
+  };
+  struct Capsule {
+    Eigen::Vector3d a, b;
+    double radius = 0.0;
+  };
+  std::vector<Plane> planes;
+  std::vector<Sphere> spheres;
+  std::vector<Capsule> capsules;
+  std::vector<std::uint8_t> mesh_container;  // per mesh obstacle: keeps beads inside it
+};
+
+// An instrument as the step reads it: checked, its axes of unit length, its keyframes in increasing
+// time. The coupling's three numbers are run-time settings (World::set_instrument_coupling).
+struct InstrumentModel {
+  std::string name;  // for events' text
+  double radius = 0.0, length = 0.0, grasp_reach = 0.0;
+  bool hold_frame = false;
+  double force_filter = 0.0;
+  double coupling_stiffness = 0.0, coupling_damping = 0.0, force_limit = 0.0;
+  bool proxy = false;  // as described; a proxy needs a coupling too (is_proxy)
+  double holding_force = 0.0, cut_radius = 0.0;
+  Eigen::Vector3d tip, axis;  // the pose before the host sets one, without keyframes
+  std::vector<InstrumentKeyframe> keyframes;
+};
+
 // An attachment slot: scene attachments hold a fixed node; grasp slots (one per instrument and
 // segment) take whichever node an instrument closes on, at run time. The node and whether the
 // frame is held live in the state; the model fixes the slot's capacity in constraint rows.
@@ -190,14 +261,21 @@ struct NormalChunk {
   std::size_t first_block = 0;  // its whole blocks of 8 in WorldModel's normal blocks
 };
 
+// Rods at rest sleep (decision 0119): what the frame reads of the scene's [sleep].
+struct SleepModel {
+  bool enabled = false;
+  double speed = 0.0;  // m/s
+  double time = 0.0;   // s
+};
+
 struct WorldModel {
   Eigen::Vector3d gravity;
   double dt = 0.0;
   double frame_budget = 0.0;                     // s; 0: none (decision 0061); a run-time setting
   MeshUpdate mesh_update = MeshUpdate::on_read;  // decision 0060
-  SleepDesc sleep;                               // decision 0119; speed and time, a run-time setting
-  SolverDesc solver;
-  FilterDesc filter;
+  SleepModel sleep;                              // decision 0119; speed and time, run-time settings
+  SolverModel solver;
+  FilterModel filter;
   std::vector<SegmentModel> segments;  // the rods
   std::vector<SegmentPiece> pieces;    // the API's segments, in rod order
   std::vector<SolvePart> solve_parts;  // the rods' Newton solves as parallel work, in rod order
@@ -219,11 +297,10 @@ struct WorldModel {
   BeadModel beads;
   AnchorModel anchors;
   std::vector<AnchorRange> anchor_ranges;
-  ContactDesc contact;
-  double contact_margin = 0.0;  // resolved
-  EnvironmentDesc environment;  // normals unit length
+  ContactModel contact;
+  EnvironmentModel environment;
   std::shared_ptr<const StaticMeshes> meshes;
-  std::vector<InstrumentDesc> instruments;  // keyframes sorted, axes unit length
+  std::vector<InstrumentModel> instruments;
 
   // Organ meshes (one entry per piece, disabled where a piece has none).
   std::vector<SegmentMesh> meshes_of;
@@ -258,6 +335,8 @@ WorldModel build_world_model(const WorldDesc& desc, const WorldModel* binding_fr
 void build_beads(const WorldDesc& desc, const std::vector<Eigen::Vector3d>& initial_positions,
                  const std::vector<RodPoseBuffer>& rest_poses, const std::vector<TriangleMesh>& meshes, WorldModel& m);
 void build_environment(const WorldDesc& desc, WorldModel& m);
+// An instrument's model from its description, checked (check_instrument).
+InstrumentModel instrument_model(const InstrumentDesc& d);
 
 // Organ meshes: loaded or generated around each segment's rest pose before the beads (a bead may
 // take its radius from the mesh), then caged and bound once the beads exist.

@@ -8,30 +8,42 @@
 namespace haustra::detail {
 namespace {
 
-void copy_vec3(Vec3Buffer& dst, const Vec3Buffer& src) {
+// Copies in place (no allocation: sizes already match).
+template <class T>
+void copy_buffer(std::vector<T>& dst, const std::vector<T>& src) {
+  std::copy(src.begin(), src.end(), dst.begin());
+}
+void copy_buffer(Vec3Buffer& dst, const Vec3Buffer& src) {
   std::copy(src.x.begin(), src.x.end(), dst.x.begin());
   std::copy(src.y.begin(), src.y.end(), dst.y.begin());
   std::copy(src.z.begin(), src.z.end(), dst.z.begin());
 }
-
-void copy_rot(RotationBuffer& dst, const RotationBuffer& src) {
+void copy_buffer(RotationBuffer& dst, const RotationBuffer& src) {
   std::copy(src.w.begin(), src.w.end(), dst.w.begin());
   std::copy(src.x.begin(), src.x.end(), dst.x.begin());
   std::copy(src.y.begin(), src.y.end(), dst.y.begin());
   std::copy(src.z.begin(), src.z.end(), dst.z.begin());
 }
 
-void resize_persistent(PersistentState& p, std::size_t nodes, std::size_t segments, std::size_t attachments) {
-  p.strain.assign(4 * nodes, 0.0);
-  p.position.resize(nodes);
-  p.rotation.resize(nodes);
-  p.mid_position.resize(nodes);
-  p.mid_rotation.resize(nodes);
-  p.base.assign(segments, kernels::Pose{});
-  p.attachment.assign(attachments, AttachmentState{});
+void size_persistent(const WorldModel& model, PersistentState& p) {
+#define HAUSTRA_SIZE_BUFFER(type, name, per, width, initial, role, meaning) \
+  size_buffer(p.name, count_of(model, Per::per) * (width), initial);
+  HAUSTRA_PERSISTENT_STATE(HAUSTRA_SIZE_BUFFER)
+#undef HAUSTRA_SIZE_BUFFER
 }
 
 }  // namespace
+
+std::size_t count_of(const WorldModel& model, Per per) {
+  switch (per) {
+    case Per::node: return model.node_total;
+    case Per::segment: return model.segments.size();
+    case Per::attachment: return model.attachment_total;
+    case Per::anchor: return model.anchors.size();
+    case Per::constraint_double: return model.constraint_scratch_total;
+  }
+  return 0;
+}
 
 void NewtonSplit::allocate(std::size_t nodes, std::size_t m, int columns) {
   joint = m;
@@ -72,71 +84,29 @@ void NewtonWorkspace::allocate(std::size_t nodes, int columns, bool with_band, s
   responses.assign(2 * static_cast<std::size_t>(columns) * 6 * static_cast<std::size_t>(columns), 0.0);
   weights.assign(static_cast<std::size_t>(columns), 0.0);
   column_of.assign(static_cast<std::size_t>(columns), 0);
-  step_q.assign(4 * nodes, 0.0);
-  step_phi.resize(nodes);
-  step_r.resize(nodes);
   band_available = with_band;
-  if (with_band) {
-    lower.assign(nodes, kernels::NewtonBlock::Zero());
-    diag.assign(nodes, kernels::NewtonBlock::Zero());
-    upper.assign(nodes, kernels::NewtonBlock::Zero());
-    fill.assign(nodes, kernels::NewtonBlock::Zero());
-    swaps.assign(nodes, {});
-    rhs.assign(nodes * kernels::kNewtonBlock * static_cast<std::size_t>(columns), 0.0);
-    distal_force.resize(nodes);
-    distal_moment.resize(nodes);
-    unit.assign(4 * nodes, 0.0);
-  }
-  residual.assign(4 * nodes, 0.0);
-  target.assign(4 * nodes, 0.0);
-  law_stress.assign(4 * nodes, 0.0);
-  law_tangent.assign(4 * nodes, 0.0);
-  bend_coupling.assign(nodes, 0.0);
-  force_stiffness.assign(nodes, Eigen::Matrix3d::Zero());
-  drag_moment_rate.assign(nodes, 0.0);
-  strain_before.assign(4 * nodes, 0.0);
+#define HAUSTRA_SIZE_BUFFER(type, name, width, initial, allocated, meaning) \
+  if (Allocated::allocated == Allocated::always || with_band) size_buffer(name, nodes*(width), initial);
+  HAUSTRA_NEWTON_NODE_BUFFERS(HAUSTRA_SIZE_BUFFER)
+#undef HAUSTRA_SIZE_BUFFER
+  if (with_band) rhs.assign(nodes * kernels::kNewtonBlock * static_cast<std::size_t>(columns), 0.0);
 }
 
 void PersistentState::copy_from(const PersistentState& o) {
-  std::copy(o.strain.begin(), o.strain.end(), strain.begin());
-  copy_vec3(position, o.position);
-  copy_rot(rotation, o.rotation);
-  copy_vec3(mid_position, o.mid_position);
-  copy_rot(mid_rotation, o.mid_rotation);
-  std::copy(o.base.begin(), o.base.end(), base.begin());
-  std::copy(o.attachment.begin(), o.attachment.end(), attachment.begin());
-  std::copy(o.anchor_intact.begin(), o.anchor_intact.end(), anchor_intact.begin());
+#define HAUSTRA_COPY_BUFFER(type, name, per, width, initial, role, meaning) copy_buffer(name, o.name);
+  HAUSTRA_PERSISTENT_STATE(HAUSTRA_COPY_BUFFER)
+#undef HAUSTRA_COPY_BUFFER
 }
 
 void init_world_state(const WorldModel& model, WorldState& state) {
   const std::size_t n = model.node_total;
   const std::size_t segs = model.segments.size();
-  resize_persistent(state.now, n, segs, model.attachment_total);
-  resize_persistent(state.frame_start, n, segs, model.attachment_total);
-  state.now.anchor_intact.assign(model.anchors.size(), 1);
-  state.frame_start.anchor_intact.assign(model.anchors.size(), 1);
-  state.strain_substep_start.assign(4 * n, 0.0);
-  state.position_substep_start.resize(n);
-  state.rotation_substep_start.resize(n);
-  state.generalized_force.assign(4 * n, 0.0);
-  state.force.resize(n);
-  state.moment.resize(n);
-  state.external_force.resize(n);
-  state.external_moment.resize(n);
-  state.filter_exempt.assign(n, 0);
-  state.base_substep_start.assign(segs, kernels::Pose{});
-  state.base_twist.assign(segs, kernels::Vector6d::Zero());
-  state.base_resistance.assign(segs, kernels::Matrix6d::Identity());
-  state.constraint_scratch.assign(model.constraint_scratch_total, 0.0);
-  state.segment_converged.assign(segs, 0);
-  state.segment_change.assign(segs, Eigen::Vector4d::Zero());
-  state.segment_step_cut.assign(segs, 0);
-  state.segment_solvable.assign(segs, 1);
-  state.lagged_ratios.assign(segs, {});
-  state.segment_solving.assign(segs, 0);
-  state.rod_calm.assign(segs, 0.0);
-  state.rod_asleep.assign(segs, 0);
-  state.strain_before_update.assign(4 * n, 0.0);
+  size_persistent(model, state.now);
+  size_persistent(model, state.frame_start);
+#define HAUSTRA_SIZE_BUFFER(type, name, per, width, initial, role, meaning) \
+  size_buffer(state.name, count_of(model, Per::per) * (width), initial);
+  HAUSTRA_FRAME_STATE(HAUSTRA_SIZE_BUFFER)
+#undef HAUSTRA_SIZE_BUFFER
   const bool newton_possible =
       model.solver.mode == SolverMode::newton || model.solver.on_instability == InstabilityPolicy::recover;
   state.newton.resize(newton_possible ? segs : 0);

@@ -128,16 +128,35 @@ struct AttachmentState {
   Eigen::Vector3d moment = Eigen::Vector3d::Zero();
 };
 
+// The world state's buffers, each listed once (decision 0116) with how many entries the model asks
+// for, X(type, name, per, width, initial, role, meaning): `width` entries per `per` (a node, a rod, an
+// attachment slot, an anchor, a double of the constraint scratch), starting at `initial`; role
+// `kept` if a later frame reads it before writing it — checkpoints save it (in the list's order)
+// and a rebuilt world carries it over rod by rod — or `scratch`. From the lists: the state's
+// declarations and sizes (init_world_state), checkpoint.cpp's state, state_carry_over.cpp's
+// copies, and the memory estimate's bytes per node.
+enum class Per : std::uint8_t { node, segment, attachment, anchor, constraint_double };
+enum class Role : std::uint8_t { kept, scratch };
+struct Zeros {};       // a Vec3Buffer's initial value
+struct Identities {};  // a RotationBuffer's
+
 // What a frame carries over to the next one; copied at frame start so a failed frame can be undone.
+// clang-format off
+#define HAUSTRA_PERSISTENT_STATE(X)                                                                         \
+  X(std::vector<double>, strain, node, 4, 0.0, kept, "the strains (κ1, κ2, τ, ε)")                          \
+  X(Vec3Buffer, position, node, 1, Zeros{}, kept, "filtered node positions")                                 \
+  X(RotationBuffer, rotation, node, 1, Identities{}, kept, "node frames")                                     \
+  X(Vec3Buffer, mid_position, node, 1, Zeros{}, kept, "section midpoints (per node index, last unused)")     \
+  X(RotationBuffer, mid_rotation, node, 1, Identities{}, kept, "section frames")                             \
+  X(std::vector<kernels::Pose>, base, segment, 1, kernels::Pose{}, kept, "each rod's base")                  \
+  X(std::vector<AttachmentState>, attachment, attachment, 1, AttachmentState{}, kept, "attachment slots")    \
+  X(std::vector<std::uint8_t>, anchor_intact, anchor, 1, 1, kept, "1 while the anchor holds, 0 once torn or cut")
+// clang-format on
+
+#define HAUSTRA_DECLARE_BUFFER(type, name, per, width, initial, role, meaning) type name;
+
 struct PersistentState {
-  std::vector<double> strain;  // 4 per node
-  Vec3Buffer position;         // filtered node positions
-  RotationBuffer rotation;     // node frames
-  Vec3Buffer mid_position;     // section midpoints (per node index, last unused)
-  RotationBuffer mid_rotation;
-  std::vector<kernels::Pose> base;
-  std::vector<AttachmentState> attachment;
-  std::vector<std::uint8_t> anchor_intact;  // per anchor: 1 while it holds, 0 once torn or cut
+  HAUSTRA_PERSISTENT_STATE(HAUSTRA_DECLARE_BUFFER)
 
   void copy_from(const PersistentState& o);  // no allocation: sizes already match
 };
@@ -181,6 +200,36 @@ struct LineSearch {
   std::array<std::uint8_t, 2> deepens{};            // per part: a contact deepened too far
 };
 
+// The Newton workspace's buffers per node of its rod, listed once as the state's (decision 0116):
+// X(type, name, width, initial, allocated, meaning), `allocated` always, or with_band only for a
+// rod that keeps the banded fallback. NewtonWorkspace declares and sizes them from the list, the
+// memory estimate counts their bytes per node from it.
+using SwapRow = std::array<std::uint8_t, kernels::kNewtonBlock>;
+enum class Allocated : std::uint8_t { always, with_band };
+// clang-format off
+#define HAUSTRA_NEWTON_NODE_BUFFERS(X)                                                                     \
+  X(std::vector<double>, step_q, 4, 0.0, always, "the step: δq")                                            \
+  X(Vec3Buffer, step_phi, 1, Zeros{}, always, "… δφ")                                                       \
+  X(Vec3Buffer, step_r, 1, Zeros{}, always, "… δr")                                                         \
+  X(std::vector<kernels::NewtonBlock>, lower, 1, kernels::NewtonBlock::Zero(), with_band, "the banded LU's 16×16 blocks") \
+  X(std::vector<kernels::NewtonBlock>, diag, 1, kernels::NewtonBlock::Zero(), with_band, "")               \
+  X(std::vector<kernels::NewtonBlock>, upper, 1, kernels::NewtonBlock::Zero(), with_band, "")              \
+  X(std::vector<kernels::NewtonBlock>, fill, 1, kernels::NewtonBlock::Zero(), with_band, "the factorization's second upper block") \
+  X(std::vector<SwapRow>, swaps, 1, SwapRow{}, with_band, "its row swaps")                                  \
+  X(Vec3Buffer, distal_force, 1, Zeros{}, with_band, "")                                                    \
+  X(Vec3Buffer, distal_moment, 1, Zeros{}, with_band, "")                                                   \
+  X(std::vector<double>, unit, 4, 0.0, with_band, "")                                                       \
+  X(std::vector<double>, residual, 4, 0.0, always, "the linearization")                                    \
+  X(std::vector<double>, target, 4, 0.0, always, "")                                                        \
+  X(std::vector<double>, law_stress, 4, 0.0, always, "a nonlinear (EXP2) law's generalized stress")        \
+  X(std::vector<double>, law_tangent, 4, 0.0, always, "… and tangent")                                     \
+  X(std::vector<double>, bend_coupling, 1, 0.0, always, "… and its κ1–κ2 coupling")                         \
+  X(std::vector<Eigen::Matrix3d>, force_stiffness, 1, Eigen::Matrix3d::Zero(), always, "−∂f/∂r of drag and contacts") \
+  X(std::vector<double>, drag_moment_rate, 1, 0.0, always, "s/Δt")                                          \
+  X(std::vector<double>, strain_before, 4, 0.0, always, "the line search: the strains before the step")
+// clang-format on
+#define HAUSTRA_DECLARE_NEWTON_BUFFER(type, name, width, initial, allocated, meaning) type name;
+
 // Scratch of one segment's Newton solve: the condensed sweep's gains and right-hand sides, the
 // step it gives, and — for rods up to kBandFallbackNodes — the banded LU it falls back to.
 struct NewtonWorkspace {
@@ -203,29 +252,15 @@ struct NewtonWorkspace {
   std::vector<double> responses;              // 6 × columns per response node (δφ, δr)
   std::vector<double> weights;                // per column: 1, then the coupled unknowns
   std::vector<std::uint32_t> column_of;       // an unknown's column (1 + its index) → the kernel's
-  std::vector<double> step_q;                 // the step: δq (4 per node), δφ, δr per node
-  Vec3Buffer step_phi, step_r;
-  // The banded LU of the assembled 16×16 block system: the fallback when the sweep's pivots are
-  // unsafe, allocated only for rods up to kBandFallbackNodes (its blocks take ~8 KB a node).
+  HAUSTRA_NEWTON_NODE_BUFFERS(HAUSTRA_DECLARE_NEWTON_BUFFER)
+  // The banded LU (the fallback when the sweep's pivots are unsafe) is allocated only for rods up to
+  // kBandFallbackNodes: its blocks take ~8 KB a node.
   bool band_available = false;
-  bool band = false;  // this iteration is solved by the banded LU
-  std::vector<kernels::NewtonBlock> lower, diag, upper;
-  std::vector<kernels::NewtonBlock> fill;                              // the factorization's second upper block
-  std::vector<std::array<std::uint8_t, kernels::kNewtonBlock>> swaps;  // its row swaps
-  std::vector<double> rhs;
-  Vec3Buffer distal_force, distal_moment;
-  std::vector<double> unit;
-  // The linearization.
-  std::vector<double> residual, target;
-  // A nonlinear (EXP2) law's generalized stress and tangent per node, and the κ1–κ2 coupling.
-  std::vector<double> law_stress, law_tangent, bend_coupling;
-  std::vector<Eigen::Matrix3d> force_stiffness;               // per node: −∂f/∂r of drag and contacts
-  std::vector<double> drag_moment_rate;                       // s/Δt per node
+  bool band = false;                                          // this iteration is solved by the banded LU
+  std::vector<double> rhs;                                    // its right-hand sides: a block row per node per column
   kernels::Vector6d base_wrench = kernels::Vector6d::Zero();  // free base: unbalanced total wrench
   std::vector<Eigen::Vector3d> bead_start;                    // the segment's bead positions before a step
-  // The line search: strains and base before the step.
-  std::vector<double> strain_before;
-  kernels::Pose base_before;
+  kernels::Pose base_before;                                  // the line search: the base before the step
   double potential = 0.0;  // the incremental potential at the step the line search took
   bool potential_cached = false;
   int max_columns = 1;
@@ -324,31 +359,40 @@ struct CondenseTask {
   std::uint8_t count = 1;               // 1, or 4 (kernels::kCondensedLanes)
 };
 
+// The frame's buffers besides the persistent state's, listed as HAUSTRA_PERSISTENT_STATE.
+// clang-format off
+#define HAUSTRA_FRAME_STATE(X)                                                                              \
+  X(std::vector<double>, strain_substep_start, node, 4, 0.0, scratch, "q^{t−1} of the strain law")          \
+  X(Vec3Buffer, position_substep_start, node, 1, Zeros{}, scratch, "for the medium's drag, v = (r − r_start)/Δt") \
+  X(RotationBuffer, rotation_substep_start, node, 1, Identities{}, scratch, "for the spin drag")             \
+  X(std::vector<double>, generalized_force, node, 4, 0.0, scratch, "R, then M⁻¹R")                          \
+  X(Vec3Buffer, force, node, 1, Zeros{}, scratch, "assembled node loads")                                    \
+  X(Vec3Buffer, moment, node, 1, Zeros{}, scratch, "… and moments")                                          \
+  X(Vec3Buffer, external_force, node, 1, Zeros{}, kept, "the scene's and the host's loads")                  \
+  X(Vec3Buffer, external_moment, node, 1, Zeros{}, kept, "… and moments")                                    \
+  X(std::vector<std::uint8_t>, filter_exempt, node, 1, 0, scratch, "held nodes the filter leaves alone")     \
+  X(std::vector<kernels::Pose>, base_substep_start, segment, 1, kernels::Pose{}, scratch, "the base at the substep's start") \
+  X(std::vector<kernels::Vector6d>, base_twist, segment, 1, kernels::Vector6d::Zero(), kept, "free base: (ω, v) about node 0") \
+  X(std::vector<kernels::Matrix6d>, base_resistance, segment, 1, kernels::Matrix6d::Identity(), kept, "free base: its resistance") \
+  X(std::vector<double>, constraint_scratch, constraint_double, 1, 0.0, scratch, "G, Y, H blocks per constrained segment") \
+  X(std::vector<int>, segment_converged, segment, 1, 0, scratch, "within a substep")                         \
+  X(std::vector<Eigen::Vector4d>, segment_change, segment, 1, Eigen::Vector4d::Zero(), scratch, "last strain change") \
+  X(std::vector<std::uint8_t>, segment_step_cut, segment, 1, 0, scratch, "Newton's last step was scaled down") \
+  X(std::vector<std::uint8_t>, segment_solving, segment, 1, 0, scratch, "Newton: this iteration's rods (active and solvable)") \
+  X(std::vector<LaggedRatios>, lagged_ratios, segment, 1, LaggedRatios{}, scratch, "lagged: the contraction stage's measure, for the guard") \
+  X(std::vector<std::uint8_t>, segment_solvable, segment, 1, 1, scratch, "Newton: 0 when this substep met an unsafe pivot it could not fall back from") \
+  X(std::vector<double>, strain_before_update, node, 4, 0.0, kept, "lagged: the strains before the last update") \
+  X(std::vector<double>, rod_calm, segment, 1, 0.0, kept, "s every node has been at rest (decision 0119)")     \
+  X(std::vector<std::uint8_t>, rod_asleep, segment, 1, 0, kept, "sleeps: held where it is, not solved")
+// clang-format on
+
 struct WorldState {
   PersistentState now;
   PersistentState frame_start;  // snapshot: last good frame, and the filter's r^{t−1}
 
-  std::vector<double> strain_substep_start;  // q^{t−1} of the strain law
-  Vec3Buffer position_substep_start;         // for the medium's drag, v = (r − r_start)/Δt
-  RotationBuffer rotation_substep_start;
-  std::vector<double> generalized_force;  // R, then M⁻¹R
-  Vec3Buffer force, moment;               // assembled node loads
-  Vec3Buffer external_force, external_moment;
-  std::vector<std::uint8_t> filter_exempt;
-  std::vector<kernels::Pose> base_substep_start;
-  std::vector<kernels::Vector6d> base_twist;  // free base: (ω, v) about node 0
-  std::vector<kernels::Matrix6d> base_resistance;
-  std::vector<double> constraint_scratch;       // G, Y, H blocks per constrained segment
-  std::vector<int> segment_converged;           // per segment, within a substep
-  std::vector<Eigen::Vector4d> segment_change;  // last strain change per segment
-  std::vector<std::uint8_t> segment_step_cut;   // Newton's last step was scaled down
-  std::vector<std::uint8_t> segment_solving;    // Newton: this iteration's rods (active and solvable)
-  std::vector<LaggedRatios> lagged_ratios;      // lagged: the contraction stage's measure, for the guard
-  std::vector<std::uint8_t>
-      segment_solvable;                 // Newton: 0 when this substep met an unsafe pivot it could not fall back from
-  std::vector<NewtonWorkspace> newton;  // per segment; empty when Newton can never run
+  HAUSTRA_FRAME_STATE(HAUSTRA_DECLARE_BUFFER)
+  std::vector<NewtonWorkspace> newton;       // per segment; empty when Newton can never run
   std::vector<CondenseTask> condense_tasks;  // this iteration's (capacity: the solve parts)
-  std::vector<double> strain_before_update;  // lagged: the strains before the last update
   CollisionState collision;
   std::vector<InstrumentState> instruments;
   MeshState mesh;
@@ -361,16 +405,46 @@ struct WorldState {
   bool robust_newton = false;
   int robust_good_frames = 0;
   int robust_calm_spell = 0;
-  // Per rod (decision 0119): seconds every node has been at rest, and whether it sleeps (held
-  // where it is, not solved). Both 0 with sleeping off.
-  std::vector<double> rod_calm;
-  std::vector<std::uint8_t> rod_asleep;
 
   std::uint64_t frame = 0;
   double time = 0.0;
 };
 
 void init_world_state(const WorldModel& model, WorldState& state);
+
+// How many entries of a buffer the model asks for per `per`, and a buffer sized so (the lists' rule).
+std::size_t count_of(const WorldModel& model, Per per);
+template <class T, class I>
+void size_buffer(std::vector<T>& v, std::size_t n, const I& initial) {
+  v.assign(n, T(initial));
+}
+inline void size_buffer(Vec3Buffer& b, std::size_t n, Zeros /*initial*/) { b.resize(n); }
+inline void size_buffer(RotationBuffer& b, std::size_t n, Identities /*initial*/) { b.resize(n); }
+
+// Bytes a buffer takes per entry, and the state's per node, from the lists (the memory estimate).
+template <class T>
+inline constexpr std::size_t kEntryBytes = sizeof(typename T::value_type);
+template <>
+inline constexpr std::size_t kEntryBytes<Vec3Buffer> = 3 * sizeof(double);
+template <>
+inline constexpr std::size_t kEntryBytes<RotationBuffer> = 4 * sizeof(double);
+#define HAUSTRA_NODE_BYTES(type, name, per, width, initial, role, meaning) \
+  +(Per::per == Per::node ? std::size_t{width} * kEntryBytes<type> : 0)
+inline constexpr std::size_t kPersistentBytesPerNode = 0 HAUSTRA_PERSISTENT_STATE(HAUSTRA_NODE_BYTES);
+inline constexpr std::size_t kFrameBytesPerNode = 0 HAUSTRA_FRAME_STATE(HAUSTRA_NODE_BYTES);
+#undef HAUSTRA_NODE_BYTES
+// The state per node: the frame and its snapshot (PersistentState twice) and the frame's buffers.
+inline constexpr std::size_t kStateBytesPerNode = 2 * kPersistentBytesPerNode + kFrameBytesPerNode;
+// The Newton workspace per node of its rod: always, and the banded fallback's besides.
+#define HAUSTRA_NEWTON_BYTES(type, name, width, initial, allocated, meaning) \
+  +(Allocated::allocated == HAUSTRA_NEWTON_ALLOCATED ? std::size_t{width} * kEntryBytes<type> : 0)
+#define HAUSTRA_NEWTON_ALLOCATED Allocated::always
+inline constexpr std::size_t kNewtonBytesPerNode = 0 HAUSTRA_NEWTON_NODE_BUFFERS(HAUSTRA_NEWTON_BYTES);
+#undef HAUSTRA_NEWTON_ALLOCATED
+#define HAUSTRA_NEWTON_ALLOCATED Allocated::with_band
+inline constexpr std::size_t kBandBytesPerNode = 0 HAUSTRA_NEWTON_NODE_BUFFERS(HAUSTRA_NEWTON_BYTES);
+#undef HAUSTRA_NEWTON_ALLOCATED
+#undef HAUSTRA_NEWTON_BYTES
 
 // Views of one segment's slice.
 struct SegmentViews {

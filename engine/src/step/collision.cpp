@@ -13,9 +13,6 @@ namespace {
 
 constexpr std::size_t kChunk = 64;    // beads per task: fixed, so the split does not depend on threads
 constexpr double kSpeculation = 1.5;  // a bead's reach: the margin plus this times its last motion
-// bench_collision, one thread: brute force costs ~110 ns a bead at 220 beads and ~790 at 1000,
-// the grid ~260 at any count; the grid's queries also spread over threads.
-constexpr std::size_t kBruteBelow = 256;
 
 std::size_t chunks_of(std::size_t n) { return (n + kChunk - 1) / kChunk; }
 
@@ -31,7 +28,7 @@ double stiffness_of(const WorldModel& model, const ContactCandidate& c) {
   return model.contact.coefficient * 2.0 * e * f / (e + f);
 }
 
-Eigen::Vector3d instrument_end(const InstrumentState& s, const InstrumentDesc& d) { return s.tip + d.length * s.axis; }
+Eigen::Vector3d instrument_end(const InstrumentState& s, const InstrumentModel& d) { return s.tip + d.length * s.axis; }
 
 // Depth and separating direction of a candidate for a bead at c (and, for two beads, the other at o).
 kernels::SphereContact measure(const WorldModel& model, const WorldState& state, const ContactCandidate& k,
@@ -43,16 +40,16 @@ kernels::SphereContact measure(const WorldModel& model, const WorldState& state,
     case ContactKind::plane:
     case ContactKind::mesh: return kernels::sphere_plane(c, r, k.point, k.normal);
     case ContactKind::sphere: {
-      const SphereObstacleDesc& s = model.environment.spheres[k.other];
+      const EnvironmentModel::Sphere& s = model.environment.spheres[k.other];
       return kernels::sphere_sphere(c, r, s.center, s.radius);
     }
     case ContactKind::capsule: {
-      const CapsuleObstacleDesc& s = model.environment.capsules[k.other];
+      const EnvironmentModel::Capsule& s = model.environment.capsules[k.other];
       return kernels::sphere_capsule(c, r, s.a, s.b, s.radius);
     }
     case ContactKind::instrument: {
       const InstrumentState& s = state.instruments[k.other];
-      const InstrumentDesc& d = model.instruments[k.other];
+      const InstrumentModel& d = model.instruments[k.other];
       return kernels::sphere_capsule(c, r, s.tip, instrument_end(s, d), d.radius);
     }
   }
@@ -64,8 +61,8 @@ void environment_candidates(const WorldModel& model, const WorldState& state, st
                             std::vector<ContactCandidate>& out) {
   const Eigen::Vector3d c = state.collision.bead_center.view().get(b);
   const double r = model.beads.radius[b];
-  const double margin = model.contact_margin + kSpeculation * state.collision.bead_motion[b];
-  const EnvironmentDesc& env = model.environment;
+  const double margin = model.contact.margin + kSpeculation * state.collision.bead_motion[b];
+  const EnvironmentModel& env = model.environment;
   auto add = [&](ContactKind kind, std::size_t other, const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
     ContactCandidate k;
     k.bead = b;
@@ -144,8 +141,7 @@ std::size_t bead_pairs(const WorldModel& model, const kernels::SphereSet& set, d
                        Scheduler& scheduler) {
   const std::size_t nb = model.beads.size();
   const std::size_t chunks = chunks_of(nb);
-  BroadPhase method = model.contact.broad_phase;
-  if (method == BroadPhase::automatic) method = nb < kBruteBelow ? BroadPhase::brute : BroadPhase::grid;
+  const BroadPhase method = model.contact.broad_phase;  // resolved by the model
   std::size_t pair_count = 0;
   if (method == BroadPhase::grid) {
     cs.grid.build(set, margin);
@@ -204,7 +200,7 @@ void stage_collide(const WorldModel& model, WorldState& state, Scheduler& schedu
   const std::size_t nb = beads.size();
   for (std::size_t b = 0; b < nb; ++b) {
     cs.bead_center.view().set(b, node_position(state, beads.node[b]));
-    cs.reach_radius[b] = beads.radius[b] + 0.5 * model.contact_margin + kSpeculation * cs.bead_motion[b];
+    cs.reach_radius[b] = beads.radius[b] + 0.5 * model.contact.margin + kSpeculation * cs.bead_motion[b];
   }
   // Pairs within reach: each bead's radius grown by its share of the margin and its speculation.
   const kernels::SphereSet set{cs.bead_center.x, cs.bead_center.y, cs.bead_center.z, cs.reach_radius};
@@ -350,7 +346,7 @@ double segment_contact_potential(const WorldModel& model, const WorldState& stat
 }
 
 bool held_by_container(const WorldModel& model, const ContactCandidate& c) {
-  return c.kind == ContactKind::mesh && model.environment.meshes[c.other].container;
+  return c.kind == ContactKind::mesh && model.environment.mesh_container[c.other] != 0;
 }
 
 double depth_at_frame_start(const WorldModel& model, const WorldState& state, const ContactCandidate& c) {

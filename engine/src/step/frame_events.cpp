@@ -83,7 +83,7 @@ Event World::Impl::recovered_event(const Failure& first, const Rung& rung) const
 
 Event World::Impl::slipped_event(std::size_t instrument) const {
   const detail::InstrumentState& s = state.instruments[instrument];
-  const InstrumentDesc& d = model.instruments[instrument];
+  const detail::InstrumentModel& d = model.instruments[instrument];
   Event e;
   e.kind = Event::Kind::slipped;
   e.frame = state.frame;

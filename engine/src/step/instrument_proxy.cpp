@@ -51,7 +51,7 @@ struct ProxyProblem {
     e.gradient = -c.force;
     e.hessian = c.stiffness;
     e.coupling_force = c.force;
-    const InstrumentDesc& d = model.instruments[instrument];
+    const InstrumentModel& d = model.instruments[instrument];
     const InstrumentState& s = state.instruments[instrument];
     const Eigen::Vector3d end = p + d.length * s.axis;
     // The beads it meets, with the paper's penalty (its energy c E d^(e+1) / (e+1)).
@@ -68,16 +68,16 @@ struct ProxyProblem {
       e.hessian += exponent * ce * std::pow(sc.depth, exponent - 1.0) * sc.normal * sc.normal.transpose();
     }
     // The tip against the environment (the shaft passes the body wall through its port).
-    const EnvironmentDesc& env = model.environment;
-    for (const PlaneDesc& pl : env.planes) {
+    const EnvironmentModel& env = model.environment;
+    for (const EnvironmentModel::Plane& pl : env.planes) {
       const kernels::SphereContact sc = kernels::sphere_plane(p, d.radius, pl.point, pl.normal);
       add_wall(e, sc.depth, sc.normal);
     }
-    for (const SphereObstacleDesc& sp : env.spheres) {
+    for (const EnvironmentModel::Sphere& sp : env.spheres) {
       const kernels::SphereContact sc = kernels::sphere_sphere(p, d.radius, sp.center, sp.radius);
       add_wall(e, sc.depth, sc.normal);
     }
-    for (const CapsuleObstacleDesc& cp : env.capsules) {
+    for (const EnvironmentModel::Capsule& cp : env.capsules) {
       const kernels::SphereContact sc = kernels::sphere_capsule(p, d.radius, cp.a, cp.b, cp.radius);
       add_wall(e, sc.depth, sc.normal);
     }
@@ -120,7 +120,7 @@ Eigen::Vector3d minimize(const ProxyProblem& problem, Eigen::Vector3d p) {
 
 }  // namespace
 
-double grasp_limit(const InstrumentDesc& d, const InstrumentState& s) {
+double grasp_limit(const InstrumentModel& d, const InstrumentState& s) {
   return is_proxy(d) ? std::max(0.0, d.force_limit - s.proxy_force.norm()) : d.force_limit;
 }
 
@@ -131,7 +131,7 @@ void snapshot_instrument_proxies(WorldState& state) {
 double stage_instrument_proxies(const WorldModel& model, WorldState& state, double dt, double frame_dt) {
   double moved = 0.0;
   for (std::size_t i = 0; i < model.instruments.size(); ++i) {
-    const InstrumentDesc& d = model.instruments[i];
+    const InstrumentModel& d = model.instruments[i];
     if (!is_proxy(d)) continue;
     InstrumentState& s = state.instruments[i];
     // Spring to the commanded tip, damper to the command's motion over the substep, as one capped

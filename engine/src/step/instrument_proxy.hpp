@@ -20,7 +20,7 @@ namespace haustra::detail {
 double stage_instrument_proxies(const WorldModel& model, WorldState& state, double dt, double frame_dt);
 
 // What the instrument's grasp may pull with: its force limit, less what its proxy's capsule pushes with.
-double grasp_limit(const InstrumentDesc& d, const InstrumentState& s);
+double grasp_limit(const InstrumentModel& d, const InstrumentState& s);
 
 // At a substep's start: where the proxies' dampers measure from.
 void snapshot_instrument_proxies(WorldState& state);

@@ -32,7 +32,7 @@ bool node_attached(const WorldModel& model, const WorldState& state, std::size_t
 
 void grasp(const WorldModel& model, WorldState& state, std::size_t i) {
   InstrumentState& s = state.instruments[i];
-  const InstrumentDesc& d = model.instruments[i];
+  const InstrumentModel& d = model.instruments[i];
   // The nearest bead surface within reach of the commanded tip (a proxy's lags it by a frame, or
   // rests on the tissue it was pushed into); ties go to the lower bead index.
   double best = d.grasp_reach;
@@ -108,7 +108,7 @@ void set_instrument_pose(InstrumentState& s, const Eigen::Vector3d& tip, const E
 void init_instruments(const WorldModel& model, WorldState& state) {
   state.instruments.assign(model.instruments.size(), InstrumentState{});
   for (std::size_t i = 0; i < model.instruments.size(); ++i) {
-    const InstrumentDesc& d = model.instruments[i];
+    const InstrumentModel& d = model.instruments[i];
     InstrumentState& s = state.instruments[i];
     s.scripted = !d.keyframes.empty();
     if (s.scripted)
@@ -122,7 +122,7 @@ void init_instruments(const WorldModel& model, WorldState& state) {
 
 void stage_instruments(const WorldModel& model, WorldState& state, double time) {
   for (std::size_t i = 0; i < model.instruments.size(); ++i) {
-    const InstrumentDesc& d = model.instruments[i];
+    const InstrumentModel& d = model.instruments[i];
     InstrumentState& s = state.instruments[i];
     s.command_start = s.command_tip;
     if (s.scripted) {
@@ -158,7 +158,7 @@ void stage_instruments(const WorldModel& model, WorldState& state, double time) 
   }
 }
 
-kernels::CouplingResponse grasp_coupling(const InstrumentDesc& d, const InstrumentState& s, const Eigen::Vector3d& x,
+kernels::CouplingResponse grasp_coupling(const InstrumentModel& d, const InstrumentState& s, const Eigen::Vector3d& x,
                                          const Eigen::Vector3d& x_start, double dt, double frame_dt) {
   const double spring = d.coupling_stiffness, damper = d.coupling_damping / dt;
   // The damper pulls the node's displacement over the substep towards the grasp point's.
@@ -183,7 +183,7 @@ void instrument_forces(const WorldModel& model, WorldState& state, double dt, st
     if (is_proxy(model.instruments[i])) force = -s.proxy_force;
     if (s.grasping && s.coupled) {
       // Over the whole frame: the node's motion since the frame's start against the grasp point's.
-      const InstrumentDesc& d = model.instruments[i];
+      const InstrumentModel& d = model.instruments[i];
       const Eigen::Vector3d x = node_position(state, s.grasp_node);
       const kernels::CouplingResponse c =
           grasp_coupling(d, s, x, state.frame_start.position.view().get(s.grasp_node), dt, dt);

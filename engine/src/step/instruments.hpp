@@ -15,7 +15,7 @@
 namespace haustra::detail {
 
 // Whether an instrument's capsule is a proxy coupled to its commanded pose (decision 0096).
-inline bool is_proxy(const InstrumentDesc& d) { return d.proxy && d.coupling_stiffness > 0.0; }
+inline bool is_proxy(const InstrumentModel& d) { return d.proxy && d.coupling_stiffness > 0.0; }
 
 void init_instruments(const WorldModel& model, WorldState& state);
 void set_instrument_pose(InstrumentState& s, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis);
@@ -28,7 +28,7 @@ void instrument_forces(const WorldModel& model, WorldState& state, double dt, st
 // The coupling of instrument s on its grasped node at x (x_start: at the substep's start, dt the
 // substep's, frame_dt the frame's): spring to the grasp point and damper to its velocity, as one
 // capped spring of stiffness k + b/dt towards their weighted target.
-kernels::CouplingResponse grasp_coupling(const InstrumentDesc& d, const InstrumentState& s, const Eigen::Vector3d& x,
+kernels::CouplingResponse grasp_coupling(const InstrumentModel& d, const InstrumentState& s, const Eigen::Vector3d& x,
                                          const Eigen::Vector3d& x_start, double dt, double frame_dt);
 
 // Calls f(instrument, global node) for each coupled grasp on `segment`.

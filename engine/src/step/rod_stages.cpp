@@ -456,7 +456,7 @@ GuardResult guard_strains(const WorldModel& model, const WorldState& state, std:
 GuardResult guard_positions(const WorldModel& model, const WorldState& state, std::size_t segment,
                             const SubstepParameters& /*p*/) {
   const SegmentModel& seg = model.segments[segment];
-  const SolverDesc& lim = model.solver;
+  const SolverModel& lim = model.solver;
   const std::size_t off = seg.node_offset;
   const std::size_t n = seg.node_count;
   const auto pos = state.now.position.view().subview(off, n);

@@ -1,11 +1,8 @@
-// Adding and removing segments between frames: the world rebuilt from its new description, every
-// other segment's state carried over (decision 0031).
+// A rebuilt world's state: every kept rod's carried over from the old one (decision 0031). The
+// World's calls that rebuild it from a new description are in api/world_rebuild.cpp.
 #include "step/state_carry_over.hpp"
 
 #include <algorithm>
-
-#include "step/newton_stages.hpp"
-#include "step/world_impl.hpp"
 
 namespace haustra::detail {
 namespace {
@@ -16,17 +13,28 @@ void copy_range(const From& from, std::size_t from_offset, To&& to, std::size_t 
               to.begin() + static_cast<std::ptrdiff_t>(to_offset));
 }
 
-void copy_vec3(const Vec3Buffer& from, std::size_t fo, Vec3Buffer& to, std::size_t tofs, std::size_t n) {
+void copy_range(const Vec3Buffer& from, std::size_t fo, Vec3Buffer& to, std::size_t tofs, std::size_t n) {
   copy_range(from.x, fo, to.x, tofs, n);
   copy_range(from.y, fo, to.y, tofs, n);
   copy_range(from.z, fo, to.z, tofs, n);
 }
 
-void copy_rotation(const RotationBuffer& from, std::size_t fo, RotationBuffer& to, std::size_t tofs, std::size_t n) {
+void copy_range(const RotationBuffer& from, std::size_t fo, RotationBuffer& to, std::size_t tofs, std::size_t n) {
   copy_range(from.w, fo, to.w, tofs, n);
   copy_range(from.x, fo, to.x, tofs, n);
   copy_range(from.y, fo, to.y, tofs, n);
   copy_range(from.z, fo, to.z, tofs, n);
+}
+
+// One kept buffer of a rod (state/world_state.hpp's lists): its nodes' entries, or its own entry.
+// Attachment slots and anchors move by their own maps (carry_over_state).
+template <Per per, std::size_t width, class Buffer>
+void carry_buffer(const Buffer& from, Buffer& to, const SegmentModel& a, std::size_t r, const SegmentModel& b,
+                  std::size_t new_r) {
+  if constexpr (per == Per::node)
+    copy_range(from, width * a.node_offset, to, width * b.node_offset, width * a.node_count);
+  else if constexpr (per == Per::segment)
+    copy_range(from, width * r, to, width * new_r, width);
 }
 
 // Fast mode's chord state of a rod that stays as it was (decision 0037): the same factorization
@@ -117,18 +125,18 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
     if (rod_map[r] == kRodRemoved) continue;
     const SegmentModel& a = from_model.segments[r];
     const SegmentModel& b = to_model.segments[rod_map[r]];
-    const std::size_t n = a.node_count, fo = a.node_offset, tofs = b.node_offset;
-    copy_range(from.now.strain, 4 * fo, to.now.strain, 4 * tofs, 4 * n);
-    copy_range(from.strain_before_update, 4 * fo, to.strain_before_update, 4 * tofs, 4 * n);
-    copy_vec3(from.now.position, fo, to.now.position, tofs, n);
-    copy_rotation(from.now.rotation, fo, to.now.rotation, tofs, n);
-    copy_vec3(from.now.mid_position, fo, to.now.mid_position, tofs, n);
-    copy_rotation(from.now.mid_rotation, fo, to.now.mid_rotation, tofs, n);
-    copy_vec3(from.external_force, fo, to.external_force, tofs, n);
-    copy_vec3(from.external_moment, fo, to.external_moment, tofs, n);
-    to.now.base[rod_map[r]] = from.now.base[r];
-    to.base_twist[rod_map[r]] = from.base_twist[r];
-    to.base_resistance[rod_map[r]] = from.base_resistance[r];
+#define HAUSTRA_CARRY_KEPT(owner, type, name, per, width, role) \
+  if constexpr (Role::role == Role::kept)                       \
+    carry_buffer<Per::per, width>(from.owner name, to.owner name, a, r, b, rod_map[r]);
+#define HAUSTRA_CARRY_NOW(type, name, per, width, initial, role, meaning) \
+  HAUSTRA_CARRY_KEPT(now., type, name, per, width, role)
+#define HAUSTRA_CARRY_FRAME(type, name, per, width, initial, role, meaning) \
+  HAUSTRA_CARRY_KEPT(, type, name, per, width, role)
+    HAUSTRA_PERSISTENT_STATE(HAUSTRA_CARRY_NOW)
+    HAUSTRA_FRAME_STATE(HAUSTRA_CARRY_FRAME)
+#undef HAUSTRA_CARRY_FRAME
+#undef HAUSTRA_CARRY_NOW
+#undef HAUSTRA_CARRY_KEPT
     for (std::size_t k = 0; k < a.attachments.size(); ++k)
       if (const std::size_t j = slot_in(a, k, b, map, r); j != kRodRemoved)
         to.now.attachment[b.attachment_offset + j] = from.now.attachment[a.attachment_offset + k];
@@ -173,114 +181,3 @@ void carry_over_state(const WorldModel& from_model, const WorldState& from, cons
 }
 
 }  // namespace haustra::detail
-
-namespace haustra {
-
-// The new model is built first: a description it refuses leaves the world as it was.
-std::unique_ptr<World::Impl> World::rebuilt(const WorldDesc& next, std::span<const std::size_t> rod_map,
-                                            bool carry_solver, bool keep_mesh_binding) const {
-  detail::CarryMap map;
-  map.rods.assign(rod_map.begin(), rod_map.end());
-  return rebuilt(next, map, carry_solver, keep_mesh_binding);
-}
-
-// The new model is built first: a description it refuses leaves the world as it was.
-std::unique_ptr<World::Impl> World::rebuilt(const WorldDesc& next, const detail::CarryMap& map, bool carry_solver,
-                                            bool keep_mesh_binding) const {
-  auto fresh =
-      std::make_unique<Impl>(next, detail::build_world_model(next, keep_mesh_binding ? &impl_->model : nullptr));
-  detail::carry_over_state(impl_->model, impl_->state, fresh->model, fresh->state, map, carry_solver);
-  fresh->events = impl_->events;
-  fresh->events_dropped = impl_->events_dropped;
-  fresh->late_frames = impl_->late_frames;
-  fresh->follow_rod();
-  fresh->profile = FrameProfile{};
-  return fresh;
-}
-
-void World::rebuild(WorldDesc next, std::span<const std::size_t> rod_map, bool carry_solver, bool keep_mesh_binding) {
-  impl_ = rebuilt(next, rod_map, carry_solver, keep_mesh_binding);
-}
-
-// What a host adds or removes (world_edits.cpp) leaves every rod's shape and beads as they were:
-// the organ meshes' cages and bindings are kept, as set_material keeps them.
-void World::rebuild(WorldDesc next, const detail::CarryMap& map, bool carry_solver) {
-  impl_ = rebuilt(next, map, carry_solver, true);
-}
-
-std::size_t World::add_segment(const SegmentDesc& segment) {
-  const Use use(*this);
-  WorldDesc next = impl_->desc;
-  next.segments.push_back(segment);
-  std::vector<std::size_t> rod_map(impl_->model.segments.size());
-  for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
-  const std::size_t first = impl_->model.pieces.size();
-  rebuild(std::move(next), rod_map, true);
-  return first;
-}
-
-void World::remove_segment(std::size_t segment) {
-  const Use use(*this);
-  const detail::SegmentPiece& piece = impl_->piece(segment);
-  const detail::SegmentModel& rod = impl_->model.segments[piece.rod];
-  if (piece.first_node != 0)
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("segment '{}' is a piece of the chain '{}': a chain is removed whole, through its first "
-                            "segment '{}'",
-                            piece.info.name, rod.info.name, impl_->model.pieces[rod.first_piece].info.name));
-  WorldDesc next = impl_->desc;
-  next.segments.erase(next.segments.begin() + static_cast<std::ptrdiff_t>(piece.rod));
-  std::vector<std::size_t> rod_map(impl_->model.segments.size());
-  for (std::size_t r = 0; r < rod_map.size(); ++r)
-    rod_map[r] = r < piece.rod ? r : r == piece.rod ? detail::kRodRemoved : r - 1;
-  rebuild(std::move(next), rod_map, true);
-}
-
-void World::reconfigure(WorldDesc next) {
-  const Use use(*this);
-  const WorldDesc& now = impl_->desc;
-  if (next.segments.size() != now.segments.size())
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("reconfigure keeps the segments: {} given, the world has {} (add_segment / remove_segment "
-                            "change them)",
-                            next.segments.size(), now.segments.size()));
-  for (std::size_t s = 0; s < now.segments.size(); ++s)
-    if (next.segments[s].nodes != now.segments[s].nodes ||
-        next.segments[s].chain_pieces != now.segments[s].chain_pieces)
-      throw Error(ErrorCode::invalid_argument,
-                  fmt::format("reconfigure keeps every segment's nodes: segments[{}] ('{}') has {} nodes in {} pieces, "
-                              "the world {} in {}",
-                              s, next.segments[s].name, next.segments[s].nodes, next.segments[s].chain_pieces,
-                              now.segments[s].nodes, now.segments[s].chain_pieces));
-  if (next.instruments.size() != now.instruments.size())
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("reconfigure keeps the instruments: {} given, the world has {}", next.instruments.size(),
-                            now.instruments.size()));
-  std::vector<std::size_t> rod_map(impl_->model.segments.size());
-  for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
-  rebuild(std::move(next), rod_map, false);
-}
-
-const WorldDesc& World::desc() const { return impl_->desc; }
-
-const SegmentDesc& World::segment_desc(std::size_t segment) const {
-  return impl_->desc.segments.at(impl_->piece(segment).rod);
-}
-
-void World::set_material(std::size_t segment, const MaterialDesc& material, double relaxation_time) {
-  const Use use(*this);
-  const detail::SegmentPiece& piece = impl_->piece(segment);
-  if (piece.first_node != 0)
-    throw Error(ErrorCode::invalid_argument,
-                fmt::format("segment '{}' is a later piece of the chain '{}': set the chain's material through its "
-                            "first piece",
-                            piece.info.name, impl_->model.segments[piece.rod].info.name));
-  WorldDesc next = impl_->desc;
-  next.segments[piece.rod].material = material;
-  next.segments[piece.rod].relaxation_time = relaxation_time;
-  std::vector<std::size_t> rod_map(impl_->model.segments.size());
-  for (std::size_t r = 0; r < rod_map.size(); ++r) rod_map[r] = r;
-  rebuild(std::move(next), rod_map, false, true);  // fast mode's factorizations were of the old material
-}
-
-}  // namespace haustra

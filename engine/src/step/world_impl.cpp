@@ -25,7 +25,7 @@ World::Impl::Impl(WorldDesc d, detail::WorldModel m)
     any_free_base |= s.base_mode == BaseMode::free;
     any_constraints |= s.constraint_rows > 0;
   }
-  for (const InstrumentDesc& instrument : model.instruments) any_proxy |= detail::is_proxy(instrument);
+  for (const detail::InstrumentModel& instrument : model.instruments) any_proxy |= detail::is_proxy(instrument);
   follow_rod();  // the meshes at rest, before the first step
 }
 

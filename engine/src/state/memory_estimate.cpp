@@ -13,6 +13,7 @@
 #include "haustra/world.hpp"
 #include "model/world_desc_checks.hpp"
 #include "model/world_model.hpp"
+#include "state/world_state.hpp"
 
 namespace haustra {
 namespace {
@@ -20,17 +21,18 @@ namespace {
 constexpr std::size_t kDouble = sizeof(double);
 
 // Per node, whatever the solver: the model (section length, rest strain, mass, drag, the mass
-// matrix's factor, initial loads: 16 doubles), the state (the frame and its snapshot: strain,
-// position, rotation, midpoint pose, 18 doubles each; substep starts, loads, generalized forces:
-// 31), and what building it takes on the way (the rest pose and initial positions: 17).
+// matrix's factor, initial loads: 16 doubles), the state (its lists' per-node buffers: the frame
+// and its snapshot, 18 doubles each; substep starts, loads, generalized forces, 31 doubles and a
+// byte), and what building it takes on the way (the rest pose and initial positions: 17).
 constexpr std::size_t kModelPerNode = 16 * kDouble;
-constexpr std::size_t kStatePerNode = (2 * 18 + 31) * kDouble + 1;
+constexpr std::size_t kStatePerNode = detail::kStateBytesPerNode;
 constexpr std::size_t kBuildPerNode = 17 * kDouble;
-// The Newton workspace besides its gains: the step, residual, law stress and tangent, load
-// stiffness (a 3×3 per node), the strains before a step (41 doubles).
-constexpr std::size_t kNewtonPerNode = 41 * kDouble;
-// The banded fallback's 16×16 blocks (lower, diagonal, upper, fill) and swaps, per node.
-constexpr std::size_t kBandPerNode = 4 * 256 * kDouble + 16 + 10 * kDouble;
+// The Newton workspace besides its gains, from its list: the step, residual, law stress and
+// tangent, load stiffness (a 3×3 per node), the strains before a step (41 doubles); the banded
+// fallback's 16×16 blocks (lower, diagonal, upper, fill), swaps and distal loads (its right-hand
+// sides, 16 doubles a column, below).
+constexpr std::size_t kNewtonPerNode = detail::kNewtonBytesPerNode;
+constexpr std::size_t kBandPerNode = detail::kBandBytesPerNode;
 // Per bead: its model, collision state and candidate lists (measured on drop and bowel).
 constexpr std::size_t kPerBead = 640;
 // Per procedural mesh vertex: its skinning binding (rest position, output index, 4 rings' 4
