@@ -201,9 +201,12 @@ std::vector<BadInput> catalogue(const Scratch& s) {
       scene("[[segment]]\n[[segment.load]]\nnode = 2\nforce = [1, 2]\n", {"segment[0].load[0].force", "expected [x, y, z]"}),
       scene("[[segment]]\n[[segment.load]]\nforce = [1, 2, 3]\n", {"segment[0].load[0].node", "needs node"}),
       scene("[[segment]]\nnode = 5\n", {"segment[0].node", "unknown key", "nodes"}),
-      scene("[scenery]\n", {"scenery", "unknown key", "scene, world, solver, filter, segment"}),
+      scene("[scenery]\n", {"scenery", "unknown key", "scene, world, solver, filter, sleep, segment"}),
       scene("segment = 3\n", {"segment", "expected [[segment]] tables"}),
       scene("[scene]\nframes = -1\n", {"scene.frames", "non-negative"}),
+      scene("[sleep]\nspeed = -0.001\n", {"sleep.speed", "m/s"}, ErrorCode::invalid_argument),
+      scene("[sleep]\ntime = -1\n", {"sleep.time", "seconds at rest"}, ErrorCode::invalid_argument),
+      scene("[sleep]\nafter = 2\n", {"sleep.after", "unknown key", "enabled, speed, time"}),
       // Contacts, beads, the environment and instruments.
       scene(m + "\n[contact]\ncoefficient = -5\n", {"test.toml:11", "contact.coefficient", "positive"}, ErrorCode::invalid_argument),
       scene(m + "\n[contact]\nexponent = 7\n", {"test.toml:11", "contact.exponent", "[1, 4]"}, ErrorCode::invalid_argument),
@@ -467,7 +470,7 @@ TEST_CASE("bad-input catalogue: every case fails with its error code and a messa
   const std::vector<BadInput> cases = catalogue(scratch);
   // Exactly the catalogue's cases: one lost in an edit (a list that silently shrinks) fails here;
   // a new case raises the count.
-  CHECK(cases.size() == 158);
+  CHECK(cases.size() == 161);
   for (const BadInput& c : cases) {
     INFO(c.label);
     std::string message;
