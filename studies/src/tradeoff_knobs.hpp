@@ -40,5 +40,7 @@ TradeoffKnob knob_precision();
 TradeoffKnob knob_integrator();
 // The instruments' (tradeoff_instrument_knobs.cpp).
 TradeoffKnob knob_coupling();
+// Sleeping rods (tradeoff_sleep_knob.cpp).
+TradeoffKnob knob_sleep();
 
 }  // namespace haustra::validation::tradeoff
