@@ -340,6 +340,14 @@ TEST_CASE("the along-rod skin: rest and rigid motions exact, a pure bend near ri
   test::measured("along-rod skin in a 180° pure bend: largest distance from rigid cross-sections", worst, 1e-4, "m");
 }
 
+TEST_CASE("a scene chooses the skin by name: \"along-rod\" read, an unknown name refused naming the field") {
+  CHECK(test::scene_desc("demo", {"segment.mesh.skinning=along-rod"}).world.segments[0].mesh.skinning ==
+        SkinningMethod::along_rod);
+  CHECK(test::scene_desc("demo").world.segments[0].mesh.skinning == SkinningMethod::mean_value);
+  CHECK_THROWS_WITH_AS(test::scene_desc("demo", {"segment.mesh.skinning=along-the-rod"}),
+                       doctest::Contains("segment[0].mesh.skinning"), FieldError);
+}
+
 TEST_CASE("the CT colon: cage built around its own mesh, embedded, bound with diagnostics") {
   SceneDesc scene = test::scene_desc("anatomy-grasp");
   const detail::WorldModel m = detail::build_world_model(scene.world);
