@@ -312,7 +312,8 @@ TEST_CASE("the along-rod skin: rest and rigid motions exact, a pure bend near ri
   const std::span<const double> h = std::span<const double>(m.section_length).subspan(0, seg.node_count - 1);
   double length = 0.0;
   for (const double x : h) length += x;
-  std::vector<double> bent(m.rest_strain.begin(), m.rest_strain.begin() + 4 * static_cast<std::ptrdiff_t>(seg.node_count));
+  std::vector<double> bent(m.rest_strain.begin(),
+                           m.rest_strain.begin() + 4 * static_cast<std::ptrdiff_t>(seg.node_count));
   for (std::size_t k = 0; k < seg.node_count; ++k) bent[4 * k] += std::numbers::pi / length;
   std::vector<kernels::RingPose> posed;
   const std::vector<float> bend_delta = posed_deltas(m, seg.initial_base, bent, posed);
@@ -327,7 +328,8 @@ TEST_CASE("the along-rod skin: rest and rigid motions exact, a pure bend near ri
   for (std::size_t v = 0; v < input.vertices.size(); ++v) {
     const double s = mesh.cage.mesh_place[v];
     const kernels::Pose p0 = rest.pose_at(s), p1 = curve.pose_at(s);
-    const Eigen::Vector3d exact = p1.position + p1.rotation * (p0.rotation.conjugate() * (input.vertices[v] - p0.position));
+    const Eigen::Vector3d exact =
+        p1.position + p1.rotation * (p0.rotation.conjugate() * (input.vertices[v] - p0.position));
     worst = std::max(worst, (skinned.at(v) - exact).norm());
     worst_cage = std::max(worst_cage, (cage_skinned.at(v) - exact).norm());
     moved_most = std::max(moved_most, (exact - input.vertices[v]).norm());

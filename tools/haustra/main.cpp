@@ -509,7 +509,7 @@ struct Commands {
   fs::path anatomy_folder, anatomy_out = fs::temp_directory_path() / "haustra-anatomy";
   int anatomy_threads = 2;
   std::string anatomy_skinning;  // empty: the imported scenes' own
-  std::string anatomy_abdomen;  // a prefix: those surfaces and the body as one more row
+  std::string anatomy_abdomen;   // a prefix: those surfaces and the body as one more row
   fs::path anatomy_body;
 };
 

@@ -617,8 +617,8 @@ SkinBinding bind_along_rod(const CageModel& cage, const TriangleMesh& mesh, Skin
     std::array<std::uint32_t, 2> gr{};
     std::size_t kept = 0;
     for (std::size_t i = 0; i < 2; ++i) {
-      const auto g = static_cast<std::uint32_t>(
-          first + static_cast<std::size_t>(std::clamp<std::ptrdiff_t>(at[i], 0, static_cast<std::ptrdiff_t>(rings) - 1)));
+      const auto g = static_cast<std::uint32_t>(first + static_cast<std::size_t>(std::clamp<std::ptrdiff_t>(
+                                                            at[i], 0, static_cast<std::ptrdiff_t>(rings) - 1)));
       if (w[i] == 0.0) continue;
       if (kept > 0 && gr[kept - 1] == g) {
         wr[kept - 1] += w[i];

@@ -177,8 +177,7 @@ def import_report(row):
     """A surface study's import columns from the surface's row of `haustra anatomy`'s table."""
     rest, after = _split(row.get("at rest: median / farthest mm", "")), _split(row.get("after release: median / "
                                                                                       "farthest mm", ""))
-    skin = _split(row.get("skin over the run: worst edge × (edges past 2×)", ""))
-    frame = _split(row.get("frame ms (p99)", ""))
+    skin, frame = _split(row.get("skin: worst edge × (edges past 2×)", "")), _split(row.get("frame ms (p99)", ""))
     return {"import_organ": row.get("organ", ""), "import_length_mm": row.get("length mm", ""),
             "import_nodes": row.get("nodes", ""), "import_beads": row.get("beads", ""),
             "import_s": row.get("import s", ""), "protocol_rest_median_mm": rest[0], "protocol_rest_max_mm": rest[1],

@@ -49,7 +49,7 @@ struct CohortRow {
   double stretch_rest_worst = 0.0;
   std::size_t stretch_rest_edges = 0;
   double skin_slots = 0.0;  // what skinning reads per mesh vertex: its binding's slots (decision 0117)
-  int frames_late = 0;                         // frames (with the mesh) over the frame's dt
+  int frames_late = 0;      // frames (with the mesh) over the frame's dt
   double frame_median = 0.0, frame_p99 = 0.0;  // s per frame, the mesh included
 };
 
