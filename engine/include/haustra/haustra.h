@@ -51,7 +51,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 15
+#define HAUSTRA_ABI_VERSION 16
 /* The oldest host ABI this library serves (haustra_check_abi). */
 #define HAUSTRA_ABI_OLDEST 15
 
@@ -254,6 +254,10 @@ typedef struct haustra_segment_def {
   double anchor_slack;    /* m of free play; default 0 */
   double anchor_strength; /* N per metre of organ: an anchor pulled past it tears; default 1000; 0: never */
   double anchor_support;  /* N/m per metre of organ, against sinking along gravity only; default 0 */
+  /* The skin (the scene's mesh.skinning, decision 0117): 0 (default) the cage's mean value
+   * coordinates; 1 along the rod (each mesh vertex on the rod's own frames either side of its place).
+   * Since ABI 16. */
+  int skinning;
 } haustra_segment_def;
 
 /* One segment as the world holds it (haustra_world_segment). */
