@@ -222,5 +222,5 @@ TEST_CASE("C API: mesh_on_host_gpu is checked, and a world_def without it (a sho
   REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
   CHECK(haustra_abi_version() == HAUSTRA_ABI_VERSION);
   CHECK(haustra_check_abi(14) == HAUSTRA_ABI_MISMATCH);  // ABI 15 also changed haustra_profile (decision 0108)
-  CHECK(haustra_check_abi(15) == HAUSTRA_OK);  // ABI 16 added haustra_segment_def.skinning at its end
+  CHECK(haustra_check_abi(15) == HAUSTRA_OK);            // ABI 16 added haustra_segment_def.skinning at its end
 }
