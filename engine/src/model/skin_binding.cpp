@@ -1,4 +1,5 @@
-// Binding an organ mesh to its cage: mean value coordinates, localized to the rings of largest weight.
+// Binding an organ mesh to its cage: mean value coordinates localized to the rings of largest weight, or the rod's
+// frames.
 #include "model/skin_binding.hpp"
 
 #include <algorithm>
@@ -578,6 +579,30 @@ double ring_parameter(std::span<const double> arc, double s) {
   return static_cast<double>(g) + (span > 0.0 ? (s - arc[g]) / span : 0.0);
 }
 
+// The stations either side of place s (one past an end) and their weights, linear in s: how many.
+std::size_t station_weights(std::span<const double> arc, std::size_t first, double s,
+                            std::array<std::uint32_t, 2>& ring, std::array<double, 2>& weight) {
+  const double t = ring_parameter(arc, s);
+  const double base = std::floor(t);
+  const double u = t - base;
+  const std::array<double, 2> w = {1 - u, u};
+  const auto last = static_cast<std::ptrdiff_t>(arc.size()) - 1;
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < 2; ++i) {
+    const std::ptrdiff_t at =
+        std::clamp(static_cast<std::ptrdiff_t>(base) + static_cast<std::ptrdiff_t>(i), std::ptrdiff_t{0}, last);
+    const auto g = static_cast<std::uint32_t>(first + static_cast<std::size_t>(at));
+    if (w[i] == 0.0) continue;
+    if (kept > 0 && ring[kept - 1] == g) {  // past an end: both on the end station
+      weight[kept - 1] += w[i];
+    } else {
+      ring[kept] = g;
+      weight[kept++] = w[i];
+    }
+  }
+  return kept;
+}
+
 }  // namespace
 
 void add_station_rings(CageModel& cage, kernels::RodPoses<const double> rest, std::span<const double> section_length) {
@@ -607,26 +632,9 @@ SkinBinding bind_along_rod(const CageModel& cage, const TriangleMesh& mesh, Skin
   Slots slots;
   slots.resize(mesh.vertices.size());
   parallel_each(mesh.vertices.size(), [&](std::size_t v) {
-    const double t = ring_parameter(arc, cage.mesh_place[v]);
-    const double base = std::floor(t);
-    const double u = t - base;
-    const std::array<double, 2> w = {1 - u, u};
-    const std::array<std::ptrdiff_t, 2> at = {static_cast<std::ptrdiff_t>(base), static_cast<std::ptrdiff_t>(base) + 1};
-    // Stations past an end are the end station: their weights merge onto it (ascending, unique).
-    std::array<double, 2> wr{};
     std::array<std::uint32_t, 2> gr{};
-    std::size_t kept = 0;
-    for (std::size_t i = 0; i < 2; ++i) {
-      const auto g = static_cast<std::uint32_t>(first + static_cast<std::size_t>(std::clamp<std::ptrdiff_t>(
-                                                            at[i], 0, static_cast<std::ptrdiff_t>(rings) - 1)));
-      if (w[i] == 0.0) continue;
-      if (kept > 0 && gr[kept - 1] == g) {
-        wr[kept - 1] += w[i];
-      } else {
-        gr[kept] = g;
-        wr[kept++] = w[i];
-      }
-    }
+    std::array<double, 2> wr{};
+    const std::size_t kept = station_weights(arc, first, cage.mesh_place[v], gr, wr);
     const Eigen::Vector3d& x = mesh.vertices[v];
     for (std::size_t i = 0; i < kept; ++i) {
       const kernels::RingPose& r = cage.ring_rest[gr[i]];
