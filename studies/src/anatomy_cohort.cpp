@@ -59,7 +59,7 @@ double percentile(std::vector<double> v, double p) {
 struct Edges {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;
   std::vector<double> rest;
-  std::vector<std::uint8_t> torn;   // passed twice its rest length, over the rod's own stretch, at some measure
+  std::vector<std::uint8_t> torn;   // passed twice its rest length, over the rod's own stretch: 1 ever, 2 at rest
   std::vector<std::uint32_t> node;  // per vertex
 };
 
@@ -88,7 +88,7 @@ Edges edges_of(const World& w, const Points& rest) {
 
 // Each edge's length over its rest length, over the stretch of the rod where it is (the larger
 // axial strain of its vertices' nodes): the skin tearing, not the tissue stretching (issue 35).
-void measure_stretch(Edges& e, const World& world, const Points& now, CohortRow& row) {
+void measure_stretch(Edges& e, const World& world, const Points& now, bool resting, CohortRow& row) {
   const auto strain = world.strains().data;
   auto stretch = [&](std::uint32_t v) { return 1.0 + std::max(0.0, strain[4 * e.node[v] + 3]); };
   for (std::size_t i = 0; i < e.ends.size(); ++i) {
@@ -96,9 +96,14 @@ void measure_stretch(Edges& e, const World& world, const Points& now, CohortRow&
     const auto [a, b] = e.ends[i];
     const double ratio = (now[a] - now[b]).norm() / e.rest[i] / std::max(stretch(a), stretch(b));
     row.stretch_worst = std::max(row.stretch_worst, ratio);
-    if (ratio > 2.0 && e.torn[i] == 0) {
-      e.torn[i] = 1;
+    if (resting) row.stretch_rest_worst = std::max(row.stretch_rest_worst, ratio);
+    if (ratio > 2.0 && (e.torn[i] & 1) == 0) {
+      e.torn[i] |= 1;
       row.stretch_edges += 1;
+    }
+    if (resting && ratio > 2.0 && (e.torn[i] & 2) == 0) {
+      e.torn[i] |= 2;
+      row.stretch_rest_edges += 1;
     }
   }
 }
@@ -185,7 +190,7 @@ void run_phases(World& world, const OrganProtocol& p, CohortRow& row) {
       row.rest_median = std::max(row.rest_median, median);
       row.rest_max = std::max(row.rest_max, largest);
     }
-    measure_stretch(edges, world, now, row);
+    measure_stretch(edges, world, now, f <= rest_frames, row);
   }
   std::tie(row.after_median, row.after_max) = drift(mesh_points(world), rest);
   row.frame_median = percentile(seconds, 0.5);
@@ -224,12 +229,16 @@ CohortRow run_protocol(const SceneDesc& scene, const std::string& name, const Or
   try {
     SceneDesc s = with_protocol_grasper(scene, protocol);
     s.world.threads = protocol.threads;
+    if (protocol.skinning)
+      for (SegmentDesc& seg : s.world.segments) seg.mesh.skinning = *protocol.skinning;
     row.force_limit = s.world.instruments.back().force_limit;
     const auto world = create_world(s);
     for (std::size_t seg = 0; seg < world->segment_count(); ++seg) {
       row.mesh_vertices += world->mesh(seg).vertices.count;
+      row.skin_slots += world->mesh(seg).skin.slots_per_vertex * static_cast<double>(world->mesh(seg).vertices.count);
       row.outside += world->mesh(seg).cage.mesh_vertices_outside;
     }
+    if (row.mesh_vertices > 0) row.skin_slots /= static_cast<double>(row.mesh_vertices);
     try {
       run_phases(*world, protocol, row);
     } catch (const Error& e) {
@@ -386,32 +395,37 @@ std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::files
       folder.string(), fmt::localtime(now), host, p.threads, p.rest, 100 * kAbove, 100 * kReach, 100 * p.distance,
       p.pull, p.hold, p.after, ok, rows.size());
   t += "| surface | organ | length mm | nodes | beads | import s | at rest: median / farthest mm | force N | "
-       "pulled mm | after release: median / farthest mm | torn | skin: worst edge × (edges past 2×) | frame ms "
+       "pulled mm | after release: median / farthest mm | torn | skin at rest: worst edge × (edges past 2×) | "
+       "skin: worst edge × (edges past 2×) | skin slots per vertex | frame ms "
        "(p99) | late | outcome |\n";
-  t += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  t += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : rows) {
     if (!r.imported) {
-      t += fmt::format("| {} | | | | | | | | | | | | | | import failed: {} |\n", r.name, r.error);
+      t += fmt::format("| {} | | | | | | | | | | | | | | | | import failed: {} |\n", r.name, r.error);
       continue;
     }
     const ImportReport& i = r.report;
     t += fmt::format(
         "| {} | {} | {:.0f} | {} | {} | {:.1f} | {:.2f} / {:.2f} | {:.2f} | {:.1f} | {:.2f} / {:.2f} | {} | {:.2f} "
-        "({}) | "
+        "({}) | {:.2f} ({}) | {:.1f} | "
         "{:.2f} ({:.2f}) | {} | {} |\n",
         r.name, i.layout, 1e3 * i.length, i.nodes, i.beads, i.seconds, 1e3 * r.rest_median, 1e3 * r.rest_max,
-        r.largest_force, 1e3 * r.pulled, 1e3 * r.after_median, 1e3 * r.after_max, r.torn, r.stretch_worst,
-        r.stretch_edges, 1e3 * r.frame_median, 1e3 * r.frame_p99, r.frames_late, outcome(r));
+        r.largest_force, 1e3 * r.pulled, 1e3 * r.after_median, 1e3 * r.after_max, r.torn, r.stretch_rest_worst,
+        r.stretch_rest_edges, r.stretch_worst, r.stretch_edges, r.skin_slots, 1e3 * r.frame_median, 1e3 * r.frame_p99,
+        r.frames_late, outcome(r));
   }
   t += "\nColumns: **organ** pieces, shells and left-out parts the import found; **length** of the computed "
        "centreline; **import s** the import's wall time; **at rest** how far the mesh's vertices went from where "
        "the segmentation put them while left alone (the median vertex and the farthest, the largest of measures "
        "every quarter second); **force** the largest force reported for the grasper (grasp and capsule "
        "together); **pulled** how far the grasped node went by the end of the hold; **after release** the "
-       "vertices' distance from rest at the end; **torn** anchors of connective tissue torn; **skin** the "
-       "largest ratio of a mesh edge's length to its rest length, over the rod's own stretch where it is, over "
-       "the run, and how many edges passed twice that (the skin tearing, not the tissue stretching: issue "
-       "35); **frame ms** the median (and 99th percentile) wall time of a frame with its mesh on this "
+       "vertices' distance from rest at the end; **torn** anchors of connective tissue torn; **skin at rest** "
+       "and **skin** the largest ratio of a mesh edge's length to its rest length, over the rod's own stretch "
+       "where it is, while left alone and over the whole run (the grasp pull included), and how many edges "
+       "passed twice that (the "
+       "skin tearing, not the tissue stretching: issue 35); **skin slots per vertex** what skinning reads per "
+       "mesh vertex (ring slots of its binding, padding included: the cost per vertex, decision 0117); **frame ms** "
+       "the median (and 99th percentile) wall time of a frame with its mesh on this "
        "machine; **late** frames over 1/60 s.\n";
   return t;
 }

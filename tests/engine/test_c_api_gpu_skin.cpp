@@ -32,7 +32,7 @@ void shader_sum(const haustra_gpu_skin& g, const std::vector<float>& rings, size
 }
 
 // A chain of four pieces with procedural meshes, held at its base and sagging (as test_c_api.cpp's).
-haustra_world* sagging_chain(int double_buffered, int on_gpu) {
+haustra_world* sagging_chain(int double_buffered, int on_gpu, int skinning = 0) {
   haustra_world_def def;
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
   CHECK(def.mesh_on_host_gpu == 0);
@@ -49,6 +49,7 @@ haustra_world* sagging_chain(int double_buffered, int on_gpu) {
   chain.beads = 6;
   chain.mesh = 1;
   chain.mesh_vertices = 1000;
+  chain.skinning = skinning;
   haustra_world* w = nullptr;
   REQUIRE(haustra_world_create(&def, &chain, 1, &w) == HAUSTRA_OK);
   for (int f = 0; f < 30; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
@@ -93,6 +94,45 @@ TEST_CASE("C API: the GPU binding and a frame's rings give the library's mesh to
   for (size_t s = 0; s < g.slots; ++s) bad += g.slot_rings[s] >= g.rings ? 1 : 0;
   CHECK(bad == 0);
   REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+}
+
+// Decision 0117 through the C API (ABI 16): the skin along the rod, each vertex on the rod's own
+// frames either side of its place, is the same rigid-group sum for the host's shader.
+TEST_CASE("C API: skinning = 1 (along the rod): two slots a vertex, and the shader's sum is the library's mesh") {
+  haustra_world* w = sagging_chain(0, 0, 1);
+  haustra_gpu_skin g = sized<haustra_gpu_skin>();
+  REQUIRE(haustra_world_gpu_skin(w, &g) == HAUSTRA_OK);
+  CHECK(g.max_slots == 2);
+  CHECK(g.slots <= 2 * g.vertices);
+  std::vector<float> rings(HAUSTRA_GPU_RING_FLOATS * g.rings);
+  REQUIRE(haustra_world_gpu_rings(w, rings.data(), rings.size()) == HAUSTRA_OK);
+  haustra_vec3f_view p;
+  REQUIRE(haustra_world_mesh_positions(w, &p) == HAUSTRA_OK);
+  double worst = 0.0, moved = 0.0;
+  for (size_t v = 0; v < g.vertices; ++v) {
+    double x[3];
+    shader_sum(g, rings, v, x);
+    worst = std::max(worst, std::hypot(x[0] - p.x[v], x[1] - p.y[v], x[2] - p.z[v]));
+    moved = std::max(moved, double(std::hypot(p.x[v] - g.rest_positions[3 * v], p.y[v] - g.rest_positions[3 * v + 1],
+                                              p.z[v] - g.rest_positions[3 * v + 2])));
+  }
+  MESSAGE("along the rod: moved up to " << moved << " m; the sum is " << worst << " m from the library's mesh");
+  CHECK(moved > 0.02);
+  CHECK(worst <= 1e-6);
+  REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+
+  haustra_world_def def;
+  REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+  haustra_segment_def seg;
+  REQUIRE(haustra_segment_def_default(&seg) == HAUSTRA_OK);
+  CHECK(seg.skinning == 0);
+  seg.mesh = 1;
+  seg.beads = 4;
+  seg.skinning = 2;
+  haustra_world* none = nullptr;
+  CHECK(haustra_world_create(&def, &seg, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(gpu_says("skinning = 2: expected 0 (the cage) or 1 (along the rod)"));
+  CHECK(none == nullptr);
 }
 
 TEST_CASE("C API: a double-buffered world whose host skins on its GPU hands the render thread rings") {
@@ -182,5 +222,5 @@ TEST_CASE("C API: mesh_on_host_gpu is checked, and a world_def without it (a sho
   REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
   CHECK(haustra_abi_version() == HAUSTRA_ABI_VERSION);
   CHECK(haustra_check_abi(14) == HAUSTRA_ABI_MISMATCH);  // ABI 15 also changed haustra_profile (decision 0108)
-  CHECK(haustra_check_abi(15) == HAUSTRA_OK);
+  CHECK(haustra_check_abi(15) == HAUSTRA_OK);            // ABI 16 added haustra_segment_def.skinning at its end
 }

@@ -303,10 +303,11 @@ TEST_CASE("two loops of one organ touching, pulled 10 cm apart: the skin goes wi
   const fs::path mesh = helix_organ_file(dir / "loops.obj", 0.07, 0.038);
   const import::ImportReport report = import::import_surface(options(mesh, {}, dir / "loops.toml"));
   REQUIRE_FALSE(report.touching.empty());
-  auto stretch_with = [&](CageBinding binding) {
+  auto stretch_with = [&](CageBinding binding, SkinningMethod skin = SkinningMethod::mean_value) {
     SceneDesc scene = load_scene(report.scene);
     scene.world.threads = 1;
     scene.world.segments[0].mesh.cage.binding = binding;
+    scene.world.segments[0].mesh.skinning = skin;
     auto world = create_world(scene);
     // The helix's axis: the direction in which its nodes spread least. The nodes between the
     // touching places drawn along it in proportion to their place between them, those past them
@@ -327,12 +328,16 @@ TEST_CASE("two loops of one organ touching, pulled 10 cm apart: the skin goes wi
   };
   const auto [own, rod] = stretch_with(CageBinding::harmonic);
   const auto [closest, rod_closest] = stretch_with(CageBinding::closest);
+  // Decision 0117: the skin on the rings around each vertex's own place, no cage weights at all.
+  const auto [along, rod_along] = stretch_with(CageBinding::harmonic, SkinningMethod::along_rod);
   MESSAGE("touching at " << report.touching.front().first * 1e3 << " and " << report.touching.front().second * 1e3
-                         << " mm; rod stretched " << rod << "x; skin: own place " << own << "x, closest point "
-                         << closest << "x");
+                         << " mm; rod stretched " << rod << "x; skin: own place " << own << "x, along the rod " << along
+                         << "x, closest point " << closest << "x");
   CHECK(rod < 1.1);
   CHECK(rod_closest == rod);
+  CHECK(rod_along == rod);
   CHECK(own < 1.5);
+  CHECK(along < 1.5);
   CHECK(closest > 1.5);  // the counter-case: the old binding tears
 }
 

@@ -508,7 +508,8 @@ struct Commands {
   std::vector<fs::path> import_meshes;
   fs::path anatomy_folder, anatomy_out = fs::temp_directory_path() / "haustra-anatomy";
   int anatomy_threads = 2;
-  std::string anatomy_abdomen;  // a prefix: those surfaces and the body as one more row
+  std::string anatomy_skinning;  // empty: the imported scenes' own
+  std::string anatomy_abdomen;   // a prefix: those surfaces and the body as one more row
   fs::path anatomy_body;
 };
 
@@ -643,6 +644,10 @@ void declare_import(CLI::App& app, Commands& c) {
       ->add_option("--threads", c.anatomy_threads,
                    "threads each organ's worlds run on, 0: all (default 2, docs/anatomy.md's; the same bits on any)")
       ->check(CLI::Range(0, 1024));
+  c.anatomy_cmd
+      ->add_option("--skinning", c.anatomy_skinning,
+                   "bind every organ's mesh with this skin instead of the imported scene's (decision 0117)")
+      ->check(CLI::IsMember({"mvc", "along-rod", "linear-blend"}));
 }
 
 int dispatch(Commands& c) {
@@ -667,6 +672,10 @@ int dispatch(Commands& c) {
   if (*c.anatomy_cmd) {
     import::OrganProtocol protocol;
     protocol.threads = c.anatomy_threads;
+    if (!c.anatomy_skinning.empty())
+      protocol.skinning = c.anatomy_skinning == "mvc"         ? SkinningMethod::mean_value
+                          : c.anatomy_skinning == "along-rod" ? SkinningMethod::along_rod
+                                                              : SkinningMethod::linear_blend;
     if (!c.anatomy_abdomen.empty() && c.anatomy_body.empty())
       throw Error(ErrorCode::invalid_argument, "--abdomen needs --body: the body boundary around its surfaces");
     auto rows = import::run_cohort(c.anatomy_folder, c.anatomy_out, protocol);

@@ -338,6 +338,11 @@ void print_mesh_info(std::FILE* out, const World& world, std::size_t segment) {
         k.mean_rings_budget > 0.0 ? fmt::format("; bounded by a mean of {:.3g}", k.mean_rings_budget) : std::string(),
         k.slots_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass, k.negative_vertices,
         k.max_dropped_mass, k.mean_dropped_mass, 1e3 * k.max_rest_correction, k.rest_error, k.seconds);
+  else if (k.method == SkinningMethod::along_rod)
+    fmt::print(out,
+               "    along the rod: each vertex on the rod's frames either side of its own place ({} a vertex, decision "
+               "0117), {:.2f} slots per vertex; rest error {:.2g} m\n",
+               k.rings_per_vertex, k.slots_per_vertex, k.rest_error);
   else
     fmt::print(out, "    linear-blend skinning on the bead frames (2 per vertex); rest error {:.2g} m\n", k.rest_error);
 }

@@ -29,7 +29,7 @@
  * - Versions: haustra_abi_version() is the library's ABI; haustra_check_abi(HAUSTRA_ABI_VERSION)
  *   accepts a host built against this ABI or an older one back to 15 (14 was the first whose
  *   structs all carry their size; 15 took a stage and a counter out of haustra_profile; 16 added
- *   nodes_asleep at the end of haustra_profile).
+ *   nodes_asleep at the end of haustra_profile and skinning at the end of haustra_segment_def).
  * - Units: metres, seconds, newtons, radians; world frame.
  */
 #ifndef HAUSTRA_H
@@ -256,6 +256,10 @@ typedef struct haustra_segment_def {
   double anchor_slack;    /* m of free play; default 0 */
   double anchor_strength; /* N per metre of organ: an anchor pulled past it tears; default 1000; 0: never */
   double anchor_support;  /* N/m per metre of organ, against sinking along gravity only; default 0 */
+  /* The skin (the scene's mesh.skinning, decision 0117): 0 (default) the cage's mean value
+   * coordinates; 1 along the rod (each mesh vertex on the rod's own frames either side of its place).
+   * Since ABI 16. */
+  int skinning;
 } haustra_segment_def;
 
 /* One segment as the world holds it (haustra_world_segment). */

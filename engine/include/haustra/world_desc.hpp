@@ -172,6 +172,7 @@ enum class MeshSource : std::uint8_t { procedural, file };
 enum class SkinningMethod : std::uint8_t {
   mean_value,    // the paper's cage and mean value coordinates
   linear_blend,  // linear-blend skinning on the bead frames (for comparison: the collapsing joint)
+  along_rod,     // each vertex on the rod's own frames either side of its place along the rod (decision 0117)
 };
 
 // The cage around the organ mesh (the paper's §6): a bead template ring on every bead, a middle

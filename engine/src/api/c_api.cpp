@@ -117,9 +117,9 @@ Eigen::Vector3d finite_vec3(const double* v, const char* name) {
 }
 
 // The sizes a struct has had since it carried its size: its own, and for the two defs the sizes
-// before ABI 13 (frame limits), ABI 15 (mesh_on_host_gpu) and ABI 11 / 12 (the ring fields, the
-// anchors) added fields at their end; the frame's before ABI 15 (gpu_rings); the profile's before
-// ABI 16 (nodes_asleep).
+// before ABI 13 (frame limits), ABI 15 (mesh_on_host_gpu), ABI 11 / 12 / 16 (the ring fields, the
+// anchors, the skin) added fields at their end; the frame's before ABI 15 (gpu_rings); the profile's
+// before ABI 16 (nodes_asleep).
 template <class T>
 std::span<const std::size_t> sizes_of() {
   if constexpr (std::is_same_v<T, haustra_world_def>) {
@@ -128,7 +128,8 @@ std::span<const std::size_t> sizes_of() {
     return sizes;
   } else if constexpr (std::is_same_v<T, haustra_segment_def>) {
     static constexpr std::size_t sizes[] = {offsetof(haustra_segment_def, max_rings_per_vertex),
-                                            offsetof(haustra_segment_def, anchor_stiffness), sizeof(T)};
+                                            offsetof(haustra_segment_def, anchor_stiffness),
+                                            offsetof(haustra_segment_def, skinning), sizeof(T)};
     return sizes;
   } else if constexpr (std::is_same_v<T, haustra_profile>) {
     static constexpr std::size_t sizes[] = {offsetof(haustra_profile, nodes_asleep), sizeof(T)};
@@ -373,6 +374,13 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& host, std::size_t i
   s.mesh.mean_rings_per_vertex = d.mean_rings_per_vertex;
   s.mesh.weight_left_out = d.weight_left_out;
   s.mesh.skin_cost_limit = d.skin_cost_limit;
+  switch (d.skinning) {
+    case 0: s.mesh.skinning = haustra::SkinningMethod::mean_value; break;
+    case 1: s.mesh.skinning = haustra::SkinningMethod::along_rod; break;
+    default:
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("{}.skinning = {}: expected 0 (the cage) or 1 (along the rod)", where, d.skinning));
+  }
   s.chain_pieces = d.chain_pieces;
   switch (d.tissue) {
     case 0: s.material.response = haustra::TissueResponse::hooke; break;

@@ -54,9 +54,10 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
   }
   d.scale = r.number(t, "scale", path + ".scale", d.scale);
   d.translate = r.vec3(t, "translate", path + ".translate", d.translate);
-  d.skinning =
-      r.choice<SkinningMethod>(t, "skinning", path + ".skinning", d.skinning,
-                               {{"mvc", SkinningMethod::mean_value}, {"linear-blend", SkinningMethod::linear_blend}});
+  d.skinning = r.choice<SkinningMethod>(t, "skinning", path + ".skinning", d.skinning,
+                                        {{"mvc", SkinningMethod::mean_value},
+                                         {"linear-blend", SkinningMethod::linear_blend},
+                                         {"along-rod", SkinningMethod::along_rod}});
   d.rings_per_vertex = r.integer(t, "rings_per_vertex", path + ".rings_per_vertex", d.rings_per_vertex);
   d.weight_left_out = r.number(t, "weight_left_out", path + ".weight_left_out", d.weight_left_out);
   d.max_rings_per_vertex = r.integer(t, "max_rings_per_vertex", path + ".max_rings_per_vertex", d.max_rings_per_vertex);

@@ -122,7 +122,7 @@ std::vector<double> neighbour_medians(const TriangleMesh& mesh, std::vector<doub
 // loops of the organ touch, a vertex may lie nearer another loop's centreline: a vertex whose s
 // jumps by more than `local` from the median of its neighbours takes their median instead.
 std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleMesh& mesh, double local, bool harmonic,
-                                          CageReport& report) {
+                                          CageReport& report, std::vector<double>& place) {
   const double length = curve.length();
   const std::vector<Eigen::Vector3d> point = centreline_samples(curve);
   const std::size_t n = mesh.vertices.size();
@@ -144,6 +144,7 @@ std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleM
     const Eigen::Vector3d o = pose.rotation.conjugate() * (mesh.vertices[v] - pose.position);
     out[v] = Eigen::Vector3d(o.x(), o.y(), s[v] + o.z());
   });
+  place = std::move(s);
   return out;
 }
 
@@ -539,7 +540,7 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
   for (std::size_t k = 0; k < in.section_length.size(); ++k) arc[k + 1] = arc[k] + in.section_length[k];
 
   CageModel cage;
-  cage.mesh_binding = binding_pose(curve, mesh, 4.0 * largest_radius, in.harmonic_binding, report);
+  cage.mesh_binding = binding_pose(curve, mesh, 4.0 * largest_radius, in.harmonic_binding, report, cage.mesh_place);
   check_mesh_near_rod(in, cage.mesh_binding, curve.length(), largest_radius);
   EmbreeScene wall;
   wall.add_triangles(cage.mesh_binding, mesh.triangles);
@@ -563,6 +564,7 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
       report.dropped_rings = dropped.size();
       report_cage(in, cage, curve, template_radius, problems, mesh_edges, report);
       report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      cage.first_station_ring = cage.ring_station.size();  // none yet: the along-rod skin adds them
       return cage;
     }
     std::size_t drop = rings;

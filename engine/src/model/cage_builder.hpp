@@ -39,6 +39,10 @@ struct CageModel {
   std::vector<Eigen::Vector3d> rest_vertices;           // per cage vertex, curved rest pose
   std::vector<std::array<std::uint32_t, 3>> triangles;  // outward
   std::vector<Eigen::Vector3d> mesh_binding;            // the mesh's vertices in the binding pose
+  std::vector<double> mesh_place;                       // each mesh vertex's place s along the rod (m)
+  // Rings from here on are the rod's stations (every node and section midpoint), with no cage
+  // vertices: the frames the along-rod skin blends (decision 0117). The cage's own rings: all before.
+  std::size_t first_station_ring = 0;
 };
 
 struct CageBuildInput {

@@ -324,10 +324,17 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
       if (d.source == MeshSource::procedural) throw;
       throw FieldError(e.code(), e.field(), fmt::format("{} (mesh {})", e.detail(), d.file));
     }
-    out.binding = d.skinning == SkinningMethod::mean_value
-                      ? bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, d.weight_left_out, out.info.skin,
-                                        nullptr, d.max_rings_per_vertex, d.mean_rings_per_vertex, d.skin_cost_limit)
-                      : bind_linear_blend(out.cage, meshes[pi], out.info.skin);
+    switch (d.skinning) {
+      case SkinningMethod::mean_value:
+        out.binding = bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, d.weight_left_out, out.info.skin,
+                                      nullptr, d.max_rings_per_vertex, d.mean_rings_per_vertex, d.skin_cost_limit);
+        break;
+      case SkinningMethod::linear_blend: out.binding = bind_linear_blend(out.cage, meshes[pi], out.info.skin); break;
+      case SkinningMethod::along_rod:  // the rod's own frames at every station, then the vertices on them
+        add_station_rings(out.cage, in.rest, in.section_length);
+        out.binding = bind_along_rod(out.cage, meshes[pi], out.info.skin);
+        break;
+    }
 
     append_mesh_buffers(pi, meshes[pi], d.normals, out, m);
     m.any_mesh = true;

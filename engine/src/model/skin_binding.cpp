@@ -1,7 +1,9 @@
-// Binding an organ mesh to its cage: mean value coordinates, localized to the rings of largest weight.
+// Binding an organ mesh to its cage: mean value coordinates localized to the rings of largest weight, or the rod's
+// frames.
 #include "model/skin_binding.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <iterator>
@@ -9,6 +11,7 @@
 #include <numeric>
 #include <span>
 
+#include "haustra/kernels/cage_rings.hpp"
 #include "haustra/kernels/mean_value_coordinates.hpp"
 #include "sched/scheduler.hpp"
 
@@ -557,6 +560,98 @@ SkinBinding bind_linear_blend(const CageModel& cage, const TriangleMesh& mesh, S
   report.method = SkinningMethod::linear_blend;
   report.rings_per_vertex = 2;
   report.mean_rings_per_vertex = 2.0;
+  report.slots_per_vertex = slots_per_vertex(b);
+  report.rest_error = rest_error(b, mesh);
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return b;
+}
+
+namespace {
+
+// A place s in ring index: g + f between rings g and g + 1 (ring order is arc order), clamped to
+// the first and last ring.
+double ring_parameter(std::span<const double> arc, double s) {
+  const std::size_t n = arc.size();
+  if (n < 2 || s <= arc.front()) return 0.0;
+  if (s >= arc.back()) return static_cast<double>(n - 1);
+  const auto g = static_cast<std::size_t>(std::upper_bound(arc.begin(), arc.end(), s) - arc.begin()) - 1;
+  const double span = arc[g + 1] - arc[g];
+  return static_cast<double>(g) + (span > 0.0 ? (s - arc[g]) / span : 0.0);
+}
+
+// The stations either side of place s (one past an end) and their weights, linear in s: how many.
+std::size_t station_weights(std::span<const double> arc, std::size_t first, double s,
+                            std::array<std::uint32_t, 2>& ring, std::array<double, 2>& weight) {
+  const double t = ring_parameter(arc, s);
+  const double base = std::floor(t);
+  const double u = t - base;
+  const std::array<double, 2> w = {1 - u, u};
+  const auto last = static_cast<std::ptrdiff_t>(arc.size()) - 1;
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < 2; ++i) {
+    const std::ptrdiff_t at =
+        std::clamp(static_cast<std::ptrdiff_t>(base) + static_cast<std::ptrdiff_t>(i), std::ptrdiff_t{0}, last);
+    const auto g = static_cast<std::uint32_t>(first + static_cast<std::size_t>(at));
+    if (w[i] == 0.0) continue;
+    if (kept > 0 && ring[kept - 1] == g) {  // past an end: both on the end station
+      weight[kept - 1] += w[i];
+    } else {
+      ring[kept] = g;
+      weight[kept++] = w[i];
+    }
+  }
+  return kept;
+}
+
+}  // namespace
+
+void add_station_rings(CageModel& cage, kernels::RodPoses<const double> rest, std::span<const double> section_length) {
+  const std::size_t sections = section_length.size();
+  const std::size_t first = cage.ring_station.size();
+  double arc = 0.0;
+  for (std::uint32_t st = 0; st <= 2 * sections; ++st) {
+    const std::size_t k = st / 2;
+    const double at = (st & 1U) != 0 ? arc + 0.5 * section_length[k] : arc;
+    if ((st & 1U) != 0) arc += section_length[k];
+    cage.ring_station.push_back(st);
+    cage.ring_binding.push_back({Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.0, 0.0, at)});
+    cage.ring_bead.push_back(-1);
+  }
+  cage.ring_rest.resize(cage.ring_station.size());
+  kernels::ring_poses(rest, std::span<const std::uint32_t>(cage.ring_station).subspan(first),
+                      std::span<kernels::RingPose>(cage.ring_rest).subspan(first));
+  cage.first_station_ring = first;
+}
+
+SkinBinding bind_along_rod(const CageModel& cage, const TriangleMesh& mesh, SkinReport& report) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::size_t first = cage.first_station_ring;
+  const std::size_t rings = cage.ring_station.size() - first;
+  std::vector<double> arc(rings);
+  for (std::size_t g = 0; g < rings; ++g) arc[g] = cage.ring_binding[first + g].centre.z();
+  Slots slots;
+  slots.resize(mesh.vertices.size());
+  parallel_each(mesh.vertices.size(), [&](std::size_t v) {
+    std::array<std::uint32_t, 2> gr{};
+    std::array<double, 2> wr{};
+    const std::size_t kept = station_weights(arc, first, cage.mesh_place[v], gr, wr);
+    const Eigen::Vector3d& x = mesh.vertices[v];
+    for (std::size_t i = 0; i < kept; ++i) {
+      const kernels::RingPose& r = cage.ring_rest[gr[i]];
+      slots.set(v, i, gr[i], wr[i], wr[i] * (r.rotation.transpose() * (x - r.centre)));
+    }
+  });
+  SkinBinding b = pack(mesh, slots, 2);
+  report = SkinReport{};
+  report.method = SkinningMethod::along_rod;
+  std::size_t most = 0, total = 0;
+  for (const auto& r : slots.ring) {
+    most = std::max(most, r.size());
+    total += r.size();
+  }
+  report.rings_per_vertex = most;
+  report.mean_rings_per_vertex =
+      static_cast<double>(total) / static_cast<double>(std::max<std::size_t>(1, slots.ring.size()));
   report.slots_per_vertex = slots_per_vertex(b);
   report.rest_error = rest_error(b, mesh);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

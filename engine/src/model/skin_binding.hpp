@@ -5,6 +5,7 @@
 // (docs/decisions/0018-skinning-localization.md).
 // Linear-blend skinning on the bead rings is bound into the same form, for comparison.
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "haustra/kernels/skinning.hpp"
@@ -48,5 +49,17 @@ SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int
 // Linear-blend skinning on the bead rings: each vertex on the two beads whose centre segment is
 // nearest, weights by its position along that segment.
 SkinBinding bind_linear_blend(const CageModel& cage, const TriangleMesh& mesh, SkinReport& report);
+
+// The rod's own frames for the along-rod skin (decision 0117): a ring with no cage vertices on
+// every station of the piece (its nodes and section midpoints, in arc order), after the cage's rings.
+void add_station_rings(CageModel& cage, kernels::RodPoses<const double> rest, std::span<const double> section_length);
+
+// A vertex on its own stretch of wall (decision 0117): on the two station rings (add_station_rings)
+// either side of its place s along the rod (cage.mesh_place, the harmonic binding's for a surface),
+// never on a ring of another loop that lies close in space; weights linear in s, each station
+// carrying the vertex's rest offset from it rigidly. The stations are half a section apart, so the
+// blend is close to the rod's own frame at s (rigid cross-sections). The weights sum to 1: the rest
+// pose is exact and a rigid motion of the rod moves the mesh rigidly.
+SkinBinding bind_along_rod(const CageModel& cage, const TriangleMesh& mesh, SkinReport& report);
 
 }  // namespace haustra::detail

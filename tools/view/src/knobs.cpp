@@ -39,6 +39,8 @@ std::string knob_value(const WorldDesc& d, std::string_view name) {
     return !d.segments.empty() && d.segments[0].material.response == TissueResponse::exp2 ? "exp2" : "hooke";
   if (name == "beads_per_node") return fmt::format("{:.3g}", beads_per_node(d));
   if (name == "rings") return d.segments.empty() ? "0" : std::to_string(d.segments[0].mesh.rings_per_vertex);
+  if (name == "skin")
+    return !d.segments.empty() && d.segments[0].mesh.skinning == SkinningMethod::along_rod ? "along-rod" : "mvc";
   if (name == "gravity") return fmt::format("{} {} {}", d.gravity.x(), d.gravity.y(), d.gravity.z());
   if (name == "contact") return fmt::format("{:.4g}", d.contact.coefficient);
   if (name == "rate") return std::abs(d.dt - 1e-3) < 1e-12 ? "1khz" : fmt::format("{:.4g} s", d.dt);
@@ -82,6 +84,10 @@ KnobChange set_knob(const WorldDesc& now, std::string_view name, std::string_vie
     const double n = number(name, value);
     if (n < 0 || n > 64 || n != std::floor(n)) refuse(name, value, "a whole number from 0 (all rings) to 64");
     for (SegmentDesc& s : d.segments) s.mesh.rings_per_vertex = static_cast<int>(n);
+  } else if (name == "skin") {  // decision 0117: the cage, or the rod's own frames at each vertex's place
+    if (value != "mvc" && value != "along-rod") refuse(name, value, "mvc or along-rod");
+    for (SegmentDesc& s : d.segments)
+      s.mesh.skinning = value == "along-rod" ? SkinningMethod::along_rod : SkinningMethod::mean_value;
   } else if (name == "gravity") {
     std::istringstream in{std::string(value)};
     double x = 0, y = 0, z = 0;

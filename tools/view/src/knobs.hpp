@@ -18,7 +18,7 @@ struct KnobChange {
 };
 
 // Sets knob `name` to `value` (the script's and the panel's words: mode lagged|newton|fast,
-// iterations N, filter on|off, law hooke|exp2, beads_per_node X, rings N, gravity "x y z",
+// iterations N, filter on|off, law hooke|exp2, beads_per_node X, rings N, skin mvc|along-rod, gravity "x y z",
 // contact X, rate scene|1khz). scene_dt is the scene's own dt (for rate scene). Throws haustra::Error
 // naming the knob and what it accepts.
 KnobChange set_knob(const WorldDesc& now, std::string_view name, std::string_view value, double scene_dt);

@@ -126,6 +126,8 @@ void knobs(ViewerState& v) {
   if (!ImGui::IsAnyItemActive()) rings = d.segments.empty() ? 0 : d.segments[0].mesh.rings_per_vertex;
   ImGui::SliderInt("MVC rings (0: all)", &rings, 0, 8);
   if (ImGui::IsItemDeactivatedAfterEdit()) turn_knob(v, "rings", std::to_string(rings));
+  int skin = !d.segments.empty() && d.segments[0].mesh.skinning == SkinningMethod::along_rod ? 1 : 0;
+  if (ImGui::Combo("skin", &skin, "cage (MVC)\0along the rod\0")) turn_knob(v, "skin", skin == 1 ? "along-rod" : "mvc");
   static float gravity[3] = {0, 0, 0};
   if (!ImGui::IsAnyItemActive())
     for (int i = 0; i < 3; ++i) gravity[i] = static_cast<float>(d.gravity[i]);

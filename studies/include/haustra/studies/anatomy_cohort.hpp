@@ -3,6 +3,7 @@
 // 0097): left alone, then grasped, pulled 5 cm sideways, held, released and left alone again; per
 // surface what the import found and what the organ did (docs/anatomy.md, `make anatomy`).
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,8 @@ struct OrganProtocol {
   double distance = 0.05;  // m, sideways
   double along = 0.5;      // where the grasper takes the longest organ: a fraction of its nodes from its base
   int threads = 2;
+  // The skin each organ's mesh is bound with (decision 0117); unset: the imported scene's own.
+  std::optional<SkinningMethod> skinning;
 };
 
 struct CohortRow {
@@ -40,10 +43,14 @@ struct CohortRow {
   double pulled = 0.0;                         // m the grasped node moved sideways by the end of the hold
   double after_median = 0.0, after_max = 0.0;  // m from where the segmentation put them, at the end
   // The skin: the largest ratio of a mesh edge's length to its rest length, over the rod's own
-  // stretch where it is, over the run, and how many edges passed twice that at some measure.
+  // stretch where it is, over the run, and how many edges passed twice that at some measure; and
+  // the same while left alone (the rest phase).
   double stretch_worst = 0.0;
   std::size_t stretch_edges = 0;
-  int frames_late = 0;                         // frames (with the mesh) over the frame's dt
+  double stretch_rest_worst = 0.0;
+  std::size_t stretch_rest_edges = 0;
+  double skin_slots = 0.0;  // what skinning reads per mesh vertex: its binding's slots (decision 0117)
+  int frames_late = 0;      // frames (with the mesh) over the frame's dt
   double frame_median = 0.0, frame_p99 = 0.0;  // s per frame, the mesh included
 };
 
