@@ -74,7 +74,7 @@ std::size_t entries(const detail::RotationBuffer& b) {
 }  // namespace
 
 TEST_CASE(
-    "the state's lists (decision 0116): each buffer as long as the model asks and from its initial value; bytes per "
+    "the state's lists (decision 0116): each buffer as long as the model asks and from its initial value and bytes per "
     "node as 0038 counted") {
   // A free base, beads, an instrument's grasp slots and an anchor on every node: every rule of the lists.
   SceneDesc scene = load_scene(HAUSTRA_SOURCE_DIR "/scenes/grasp-pull.toml");
