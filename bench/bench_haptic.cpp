@@ -102,31 +102,40 @@ void BM_SmallIntestineReader(benchmark::State& state) {
       gpu ? haustra::kGpuRingFloats * w->ring_count() * sizeof(float) : 6 * w->mesh_buffer_size() * sizeof(float));
 }
 
+// Each iteration: a fresh world of `scene` stepped `first` frames untimed, then `frames` frames each
+// timed by hand; after_frame(world) sees each timed frame. The seconds of every timed frame.
+template <class F>
+std::vector<double> time_frames(benchmark::State& state, const SceneDesc& scene, int first, int frames,
+                                F&& after_frame) {
+  std::vector<double> seconds;
+  for (auto _ : state) {
+    state.PauseTiming();
+    const std::unique_ptr<World> w = create_world(scene);
+    for (int f = 0; f < first; ++f) w->step();
+    state.ResumeTiming();
+    for (int f = 0; f < frames; ++f) {
+      const Clock::time_point t0 = Clock::now();
+      w->step();
+      seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+      after_frame(*w);
+    }
+  }
+  return seconds;
+}
+
 // Issue 29's `bowel` (641 nodes, one chained rod split over two cores, decision 0040), Newton with
 // the scene's 2 iterations, on `threads` threads: frames 60–300 (the grasp and the draw), each
 // timed by hand, its mesh made when read and never read. The 1 → 2 thread ratio of the medians is
 // the issue's target.
 void BM_Bowel(benchmark::State& state) {
   const std::vector<std::string> sets{"world.threads=" + std::to_string(state.range(0)), "world.mesh_update=on_read"};
-  SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/bowel.toml", sets);
-  std::unique_ptr<World> w = create_world(scene);
-  constexpr int kFirst = 60, kFrames = 240;
-  std::vector<double> seconds;
-  seconds.reserve(kFrames);
-  for (auto _ : state) {
-    state.PauseTiming();
-    w = create_world(scene);
-    for (int f = 0; f < kFirst; ++f) w->step();
-    state.ResumeTiming();
-    for (int f = 0; f < kFrames; ++f) {
-      const Clock::time_point t0 = Clock::now();
-      w->step();
-      seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
-    }
-  }
+  const SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/bowel.toml", sets);
+  std::size_t nodes = 0;
+  const std::vector<double> seconds =
+      time_frames(state, scene, 60, 240, [&](const World& w) { nodes = w.node_count(); });
   state.counters["median ms"] = 1e3 * quantile(seconds, 0.5);
   state.counters["p99 ms"] = 1e3 * quantile(seconds, 0.99);
-  state.counters["nodes"] = static_cast<double>(w->node_count());
+  state.counters["nodes"] = static_cast<double>(nodes);
 }
 
 // Issue 40's settling pile (scenes/settling-pile.toml: the 6 m small intestine folded and let fall
@@ -135,22 +144,9 @@ void BM_Bowel(benchmark::State& state) {
 // rung" counts the timed frames that still run it (decision 0109).
 void BM_SettlingPile(benchmark::State& state) {
   const SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/settling-pile.toml");
-  std::unique_ptr<World> w;
-  constexpr int kFirst = 100, kFrames = 200;
-  std::vector<double> seconds;
   int climbed = 0;
-  for (auto _ : state) {
-    state.PauseTiming();
-    w = create_world(scene);
-    for (int f = 0; f < kFirst; ++f) w->step();
-    state.ResumeTiming();
-    for (int f = 0; f < kFrames; ++f) {
-      const Clock::time_point t0 = Clock::now();
-      w->step();
-      seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
-      climbed += w->last_profile().substeps > 1 ? 1 : 0;
-    }
-  }
+  const std::vector<double> seconds =
+      time_frames(state, scene, 100, 200, [&](const World& w) { climbed += w.last_profile().substeps > 1 ? 1 : 0; });
   state.counters["median ms"] = 1e3 * quantile(seconds, 0.5);
   state.counters["p99 ms"] = 1e3 * quantile(seconds, 0.99);
   state.counters["p99.9 ms"] = 1e3 * quantile(seconds, 0.999);
