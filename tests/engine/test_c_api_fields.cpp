@@ -18,17 +18,27 @@
 
 using namespace haustra;
 
-// The C profile holds one int per counter of HAUSTRA_PROFILE_COUNTERS and the `newton` flag after
-// its seconds, and nothing else: a counter added to the list but not to haustra.h (or the other way
-// round) fails here, at compile time. (Its fields keep ABI 15's order, not the list's: the list's
-// order is also Python's and the run report's columns.)
+// The C profile's fields come from HAUSTRA_PROFILE_COUNTERS (haustra.h declares them from its two
+// parts around `newton`); its layout is the ABI's, so a counter moved within the list, or added
+// anywhere but at the end, fails here at compile time: each field at its ABI 15/16 offset.
 #define HAUSTRA_COUNT_COUNTER(type, name, initial, meaning) +1
 constexpr std::size_t kProfileInts = 1 + (0 HAUSTRA_PROFILE_COUNTERS(HAUSTRA_COUNT_COUNTER));
 #undef HAUSTRA_COUNT_COUNTER
-static_assert(offsetof(haustra_profile, substeps) == sizeof(size_t) + sizeof(double) * (HAUSTRA_STAGE_COUNT + 1));
+constexpr std::size_t kFirstInt = sizeof(size_t) + sizeof(double) * (HAUSTRA_STAGE_COUNT + 1);
+static_assert(offsetof(haustra_profile, substeps) == kFirstInt);
+static_assert(offsetof(haustra_profile, retries) == kFirstInt + 1 * sizeof(int));
+static_assert(offsetof(haustra_profile, newton) == kFirstInt + 2 * sizeof(int));
+static_assert(offsetof(haustra_profile, fallbacks) == kFirstInt + 3 * sizeof(int));
+static_assert(offsetof(haustra_profile, backtracks) == kFirstInt + 4 * sizeof(int));
+static_assert(offsetof(haustra_profile, stiffenings) == kFirstInt + 5 * sizeof(int));
+static_assert(offsetof(haustra_profile, chords) == kFirstInt + 6 * sizeof(int));
+static_assert(offsetof(haustra_profile, stalls) == kFirstInt + 7 * sizeof(int));
+static_assert(offsetof(haustra_profile, iterations) == kFirstInt + 8 * sizeof(int));
+static_assert(offsetof(haustra_profile, late) == kFirstInt + 9 * sizeof(int));
+static_assert(offsetof(haustra_profile, nodes_asleep) == kFirstInt + 10 * sizeof(int));  // ABI 16
 static_assert(sizeof(haustra_profile) ==
-              (offsetof(haustra_profile, substeps) + sizeof(int) * kProfileInts + alignof(haustra_profile) - 1) /
-                  alignof(haustra_profile) * alignof(haustra_profile));
+              (kFirstInt + sizeof(int) * kProfileInts + alignof(haustra_profile) - 1) / alignof(haustra_profile) *
+                  alignof(haustra_profile));
 
 TEST_CASE("every profile counter reaches the C API: the same scene stepped through both, field by field") {
   // The drop in fast mode (iterations, chords, the frames it falls back to Newton on), written to

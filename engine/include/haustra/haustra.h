@@ -145,18 +145,12 @@ typedef struct haustra_profile {
   size_t struct_size;
   double stage_seconds[HAUSTRA_STAGE_COUNT]; /* in the order of haustra_stage_name(0..) */
   double frame_seconds;
-  int substeps;
-  int retries;
-  int newton;
-  int fallbacks;    /* Newton iterations the banded LU solved (the condensed sweep's pivots were unsafe) */
-  int backtracks;   /* line-search halvings of Newton steps */
-  int stiffenings;  /* Newton steps solved again with the law stiffened (the plain step went uphill) */
-  int chords;       /* fast mode: Newton iterations that reused the last factorization */
-  int stalls;       /* Newton iterations whose line search took none of a step that was not small */
-  int iterations;   /* fixed-point iterations run, summed over substeps */
-  int late;         /* 1 when the frame took longer than the world's frame budget (decision 0061) */
-  int nodes_asleep; /* nodes of the rods that slept through the frame (scene [sleep], decision 0119; ABI 16) */
-  /* One field per counter of report_fields.h's HAUSTRA_PROFILE_COUNTERS (new ones at the end). */
+  /* The counters of report_fields.h's HAUSTRA_PROFILE_COUNTERS, what each means written there, in
+   * the ABI's order: substeps, retries, newton, fallbacks, backtracks, stiffenings, chords, stalls,
+   * iterations, late and (ABI 16) nodes_asleep. */
+  HAUSTRA_PROFILE_COUNTERS_BEFORE_NEWTON(HAUSTRA_C_FIELD)
+  int newton; /* 1 when the frame that was kept ran Newton iterations */
+  HAUSTRA_PROFILE_COUNTERS_AFTER_NEWTON(HAUSTRA_C_FIELD)
 } haustra_profile;
 
 /* A host's own job system (instead of oneTBB): a step hands it ranges of independent work with

@@ -38,18 +38,24 @@
 
 /* How many entries a list has: (0 LIST(HAUSTRA_COUNT_STAGE)) is a constant expression in C. */
 #define HAUSTRA_COUNT_STAGE(name, meaning) +1
-/* FrameProfile's counters (beside its per-stage times and calls, its frame time and `newton`). */
-#define HAUSTRA_PROFILE_COUNTERS(X)                                                                 \
+/* FrameProfile's counters (beside its per-stage times and calls, its frame time and `newton`), in
+ * two parts: the C API's haustra_profile declares its fields from them around its `newton` flag, in
+ * the order its ABI has had since 15 (a new counter goes at the end of the second part). */
+#define HAUSTRA_PROFILE_COUNTERS_BEFORE_NEWTON(X)                                                   \
   X(int, substeps, 1, "substeps the frame was split into")                                          \
-  X(int, iterations, 0, "fixed-point iterations run, summed over substeps")                         \
-  X(int, retries, 0, "frames redone by the robust mode")                                            \
+  X(int, retries, 0, "frames redone by the robust mode")
+#define HAUSTRA_PROFILE_COUNTERS_AFTER_NEWTON(X)                                                    \
   X(int, fallbacks, 0, "Newton iterations solved by the banded LU (the condensed sweep's pivots unsafe)") \
   X(int, backtracks, 0, "line-search halvings")                                                     \
   X(int, stiffenings, 0, "Newton steps solved again with stiffened law rows (the plain step went uphill)") \
   X(int, chords, 0, "fast mode: Newton iterations that reused the last factorization")                   \
   X(int, stalls, 0, "Newton iterations whose line search took no part of a step that was not small (a guard failure)") \
+  X(int, iterations, 0, "fixed-point iterations run, summed over substeps")                         \
   X(int, late, 0, "1 when the frame took longer than world.frame_budget (decision 0061)")                 \
   X(int, nodes_asleep, 0, "nodes of the rods that slept through the frame, held where they were (decision 0119)")
+#define HAUSTRA_PROFILE_COUNTERS(X) HAUSTRA_PROFILE_COUNTERS_BEFORE_NEWTON(X) HAUSTRA_PROFILE_COUNTERS_AFTER_NEWTON(X)
+/* A C struct's field from a list's entry (its meaning is the list's). */
+#define HAUSTRA_C_FIELD(type, name, initial, meaning) type name;
 
 /* ContactReport: the contacts at the end of the last frame. */
 #define HAUSTRA_CONTACT_FIELDS(X)                                                                   \
