@@ -36,9 +36,8 @@ static_assert(offsetof(haustra_profile, stalls) == kFirstInt + 7 * sizeof(int));
 static_assert(offsetof(haustra_profile, iterations) == kFirstInt + 8 * sizeof(int));
 static_assert(offsetof(haustra_profile, late) == kFirstInt + 9 * sizeof(int));
 static_assert(offsetof(haustra_profile, nodes_asleep) == kFirstInt + 10 * sizeof(int));  // ABI 16
-static_assert(sizeof(haustra_profile) ==
-              (kFirstInt + sizeof(int) * kProfileInts + alignof(haustra_profile) - 1) / alignof(haustra_profile) *
-                  alignof(haustra_profile));
+static_assert(sizeof(haustra_profile) == (kFirstInt + sizeof(int) * kProfileInts + alignof(haustra_profile) - 1) /
+                                             alignof(haustra_profile) * alignof(haustra_profile));
 
 TEST_CASE("every profile counter reaches the C API: the same scene stepped through both, field by field") {
   // The drop in fast mode (iterations, chords, the frames it falls back to Newton on), written to
