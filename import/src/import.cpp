@@ -187,11 +187,14 @@ std::string ImportReport::text() const {
   for (const std::string& why : retries) t += fmt::format("retried: {}\n", why.substr(0, why.find(" (mesh ")));
   if (cage_rings > 0)
     t += fmt::format(
-        "built in {:.2f} s: cage of {} rings ({} dropped), binding from a harmonic function on {} piece{}, {} mesh "
+        "built in {:.2f} s: cage of {} rings ({} dropped), binding from a harmonic function on {} piece{}{}, {} mesh "
         "vertices outside the cage at the curved rest pose, weight left out by localization up to {:.3f}, rest "
         "correction up to {:.2f} mm\n",
-        build_seconds, cage_rings, dropped_rings, binding_pieces, binding_pieces == 1 ? "" : "s", rest_pose_outside,
-        max_dropped_mass, 1e3 * max_rest_correction);
+        build_seconds, cage_rings, dropped_rings, binding_pieces, binding_pieces == 1 ? "" : "s",
+        fused_copies > 0
+            ? fmt::format(", the surface cut apart where it fuses loops ({} vertices copied)", fused_copies)
+            : "",
+        rest_pose_outside, max_dropped_mass, 1e3 * max_rest_correction);
   t += fmt::format("import took {:.1f} s\n", seconds);
   return t;
 }
@@ -460,13 +463,14 @@ Polyline organ_rod(const ImportOptions& o, const OrganLayout& layout, ImportRepo
 }
 
 void read_build(const World& world, std::size_t first, std::size_t count, ImportReport& r) {
-  r.cage_rings = r.dropped_rings = r.rest_pose_outside = r.binding_pieces = 0;
+  r.cage_rings = r.dropped_rings = r.rest_pose_outside = r.binding_pieces = r.fused_copies = 0;
   for (std::size_t s = first; s < first + count; ++s) {  // a chain: each piece's mesh and cage
     const MeshInfo& m = world.mesh(s);
     r.cage_rings += m.cage.rings;
     r.dropped_rings += m.cage.dropped_rings;
     r.rest_pose_outside += m.cage.rest_pose_outside;
     r.binding_pieces += m.cage.binding_pieces;
+    r.fused_copies += m.cage.fused_copies;
     r.max_dropped_mass = std::max(r.max_dropped_mass, m.skin.max_dropped_mass);
     r.max_rest_correction = std::max(r.max_rest_correction, m.skin.max_rest_correction);
   }

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <numbers>
 #include <sstream>
+#include <tuple>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -339,6 +340,49 @@ TEST_CASE("two loops of one organ touching, pulled 10 cm apart: the skin goes wi
   CHECK(own < 1.5);
   CHECK(along < 1.5);
   CHECK(closest > 1.5);  // the counter-case: the old binding tears
+}
+
+// Issue 35: a hairpin whose legs the surface fuses where the loop starts (a sleeve of 3 rings joins
+// their walls, as the atlas's ileum joins loops), then the loop opened so its legs part 10 cm there.
+// The places along the rod jump across the sleeve (from one leg's to the other's): the engine cuts
+// the surface there into two walls, so each leg's skin goes with its leg and no edge stretches past
+// 1.5x. Bound to the closest point of the centreline (no cut: the counter-case), the sleeve is
+// carried by both legs at once and tears.
+TEST_CASE("a hairpin whose legs are fused, opened 10 cm: the surface is cut into two walls, the skin whole") {
+  const fs::path dir = scratch("fused-apart");
+  const double r = 0.01, d = 0.024;
+  std::vector<Eigen::Vector3d> truth;
+  save_mesh(dir / "fused.obj", test::fused_hairpin(r, d, 70, truth));
+  const import::ImportReport report = import::import_surface(options(dir / "fused.obj", {}, dir / "fused.toml"));
+  double fusion = 0.0;  // the fusion's place on the first leg (x = 0), and on the second, the tube's length less it
+  for (std::size_t k = 1; k < truth.size() && truth[k].x() < 0.0; ++k) fusion += (truth[k] - truth[k - 1]).norm();
+  auto stretch_with = [&](CageBinding binding) {
+    SceneDesc scene = load_scene(report.scene);
+    scene.world.threads = 1;
+    scene.world.segments[0].mesh.cage.binding = binding;
+    scene.world.segments[0].mesh.skinning = SkinningMethod::along_rod;
+    auto world = create_world(scene);
+    const auto nodes = world->node_positions();
+    const std::size_t n = nodes.size();
+    const double h = report.length / static_cast<double>(n - 1), a1 = fusion, a2 = report.length - fusion;
+    std::vector<Eigen::Vector3d> pulled(n);
+    for (std::size_t i = 0; i < n; ++i) {  // smoothly: the rod's frames follow its line
+      const double t = std::clamp((static_cast<double>(i) * h - a1) / (a2 - a1), 0.0, 1.0);
+      pulled[i] = nodes.get(i) + 0.1 * t * t * (3.0 - 2.0 * t) * Eigen::Vector3d::UnitY();
+    }
+    const auto [skin, rod] = skin_and_rod_stretch(*world, pulled);
+    return std::tuple{skin, rod, world->mesh_positions().size()};
+  };
+  const auto [cut, rod, vertices_cut] = stretch_with(CageBinding::harmonic);
+  const auto [closest, rod_closest, vertices_closest] = stretch_with(CageBinding::closest);
+  MESSAGE("fused at " << fusion * 1e3 << " mm of " << report.length * 1e3 << " mm; rod stretched " << rod
+                      << "x; skin: cut " << cut << "x (" << vertices_cut << " vertices), closest point " << closest
+                      << "x (" << vertices_closest << ")");
+  CHECK(rod < 1.1);
+  CHECK(rod_closest == rod);
+  CHECK(vertices_cut > vertices_closest);  // the cut's copies
+  CHECK(cut < 1.5);
+  CHECK(closest > 3.0);  // the counter-case: the sleeve tears
 }
 
 TEST_CASE("haustra import: a CT segment with edges of three triangles is repaired and runs") {

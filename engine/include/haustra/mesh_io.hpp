@@ -44,7 +44,9 @@ bool is_closed(const TriangleMesh& mesh);
 
 // The triangles for which keep[t] is nonzero, with the vertices they use, numbered in the order
 // the kept triangles first use them.
-TriangleMesh submesh(const TriangleMesh& mesh, std::span<const std::uint8_t> keep);
+// `kept`, when given: each of the submesh's vertices' index in `mesh`.
+TriangleMesh submesh(const TriangleMesh& mesh, std::span<const std::uint8_t> keep,
+                     std::vector<std::uint32_t>* kept = nullptr);
 
 // Writes a mesh in the format of the file's extension (.obj, .ply binary, .stl, .glb), through
 // assimp's exporters. normals: one per vertex, or empty. Throws Error{io} naming the file.

@@ -55,6 +55,10 @@ struct CageReport {
   // from their neighbours.
   std::string binding = "closest";
   std::size_t binding_pieces = 0, binding_closest_pieces = 0, binding_followed = 0;
+  // Vertices copied where the surface fused two loops of the organ into one wall and was cut back
+  // into two (issue 35; a mesh from a file, on a chain's first piece): the copies follow the mesh's
+  // own vertices, each with its loop.
+  std::size_t fused_copies = 0;
   // Embree's final verification in the binding pose, where the weights are computed: all zero for
   // a cage that embeds the mesh.
   std::size_t mesh_vertices_outside = 0, crossing_edges = 0, self_intersections = 0;

@@ -182,8 +182,9 @@ TriangleMesh load_mesh(const std::filesystem::path& file) {
   return mesh;
 }
 
-TriangleMesh submesh(const TriangleMesh& mesh, std::span<const std::uint8_t> keep) {
+TriangleMesh submesh(const TriangleMesh& mesh, std::span<const std::uint8_t> keep, std::vector<std::uint32_t>* kept) {
   TriangleMesh out;
+  if (kept != nullptr) kept->clear();
   std::vector<std::uint32_t> index(mesh.vertices.size(), std::numeric_limits<std::uint32_t>::max());
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     if (keep[t] == 0) continue;
@@ -193,6 +194,7 @@ TriangleMesh submesh(const TriangleMesh& mesh, std::span<const std::uint8_t> kee
       if (slot == std::numeric_limits<std::uint32_t>::max()) {
         slot = static_cast<std::uint32_t>(out.vertices.size());
         out.vertices.push_back(mesh.vertices[mesh.triangles[t][c]]);
+        if (kept != nullptr) kept->push_back(mesh.triangles[t][c]);
       }
       tri[c] = slot;
     }

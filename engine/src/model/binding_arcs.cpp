@@ -36,6 +36,14 @@ double closest_arc(std::span<const Eigen::Vector3d> samples, double length, cons
   return closest_arc_between(samples, length, x, 0, samples.size());
 }
 
+double closest_arc_within(std::span<const Eigen::Vector3d> samples, double length, const Eigen::Vector3d& x, double lo,
+                          double hi) {
+  const double per_sample = length / static_cast<double>(samples.size() - 1);
+  const double first = std::clamp(lo, 0.0, length) / per_sample, last = std::clamp(hi, 0.0, length) / per_sample;
+  return closest_arc_between(samples, length, x, static_cast<std::size_t>(first),
+                             static_cast<std::size_t>(std::ceil(last)) + 1);
+}
+
 namespace {
 
 // One connected piece's arcs from its harmonic u; throws Error where it has no two ends.

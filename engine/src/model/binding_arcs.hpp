@@ -28,5 +28,8 @@ BindingArcs harmonic_binding_arcs(const TriangleMesh& mesh, std::span<const Eige
 
 // The arc length of the point of a sampled centreline (as above) closest to x.
 double closest_arc(std::span<const Eigen::Vector3d> samples, double length, const Eigen::Vector3d& x);
+// The same among the points whose arc length lies in [lo, hi].
+double closest_arc_within(std::span<const Eigen::Vector3d> samples, double length, const Eigen::Vector3d& x, double lo,
+                          double hi);
 
 }  // namespace haustra::detail

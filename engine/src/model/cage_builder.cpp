@@ -122,13 +122,16 @@ std::vector<double> neighbour_medians(const TriangleMesh& mesh, std::vector<doub
 // loops of the organ touch, a vertex may lie nearer another loop's centreline: a vertex whose s
 // jumps by more than `local` from the median of its neighbours takes their median instead.
 std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleMesh& mesh, double local, bool harmonic,
-                                          CageReport& report, std::vector<double>& place) {
+                                          std::span<const double> given, CageReport& report,
+                                          std::vector<double>& place) {
   const double length = curve.length();
   const std::vector<Eigen::Vector3d> point = centreline_samples(curve);
   const std::size_t n = mesh.vertices.size();
   std::vector<double> s(n, 0.0);
   report.binding = harmonic ? "harmonic" : "closest";
-  if (harmonic) {
+  if (!given.empty()) {  // the whole organ's, on this piece's stretch of it (a vertex past a cut on its end)
+    for (std::size_t v = 0; v < n; ++v) s[v] = std::clamp(given[v], 0.0, length);
+  } else if (harmonic) {
     BindingArcs arcs = harmonic_binding_arcs(mesh, point, length);
     report.binding_pieces = arcs.pieces;
     report.binding_closest_pieces = arcs.closest_pieces;
@@ -540,7 +543,8 @@ CageModel build_cage(const CageBuildInput& in, CageReport& report) {
   for (std::size_t k = 0; k < in.section_length.size(); ++k) arc[k + 1] = arc[k] + in.section_length[k];
 
   CageModel cage;
-  cage.mesh_binding = binding_pose(curve, mesh, 4.0 * largest_radius, in.harmonic_binding, report, cage.mesh_place);
+  cage.mesh_binding =
+      binding_pose(curve, mesh, 4.0 * largest_radius, in.harmonic_binding, in.places, report, cage.mesh_place);
   check_mesh_near_rod(in, cage.mesh_binding, curve.length(), largest_radius);
   EmbreeScene wall;
   wall.add_triangles(cage.mesh_binding, mesh.triangles);

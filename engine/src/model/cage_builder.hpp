@@ -55,6 +55,9 @@ struct CageBuildInput {
   CageDesc desc;
   double clearance = 0.0;         // m, resolved
   bool harmonic_binding = false;  // resolved from desc.binding (decision 0049)
+  // Each mesh vertex's place along this piece's rod (m), when the whole organ's surface was placed
+  // once (and cut where loops were fused): the binding takes these instead of placing the piece afresh.
+  std::span<const double> places;
   // Rings from the mesh's cross-sections around them, and rings past the ends where the mesh runs
   // on (decision 0049); otherwise the paper's templates, as for the procedural organs.
   bool cross_section_rings = false;

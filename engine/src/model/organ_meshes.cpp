@@ -16,6 +16,7 @@
 #include "haustra/rod_curve.hpp"
 #include "model/binding_arcs.hpp"
 #include "model/field_checks.hpp"
+#include "model/fused_contacts.hpp"
 #include "model/world_model.hpp"
 
 namespace haustra::detail {
@@ -26,6 +27,9 @@ namespace {
 }
 
 constexpr std::size_t kChunkBlocks = 64;  // 512 vertices per skinning task
+// A jump in place along the rod across a wall that cuts it into two (organ radii): more than the
+// inner side of a bend turns through (π radii at a hairpin), far less than loops apart (issue 35).
+constexpr double kFusedJumpRadii = 4.0;
 
 // Decision 0049: a mesh from a file binds by the harmonic place unless the scene says otherwise; a
 // procedural one, made around the rod, by its closest points.
@@ -34,13 +38,15 @@ bool harmonic_binding(const OrganMeshDesc& d) {
          (d.cage.binding == CageBinding::automatic && d.source == MeshSource::file);
 }
 
-// The vertices a chain's cut copied into two pieces (or more): one point, bit for bit, at rest.
+// The vertices a chain's cut copied into two pieces (or more): one point, bit for bit, at rest, and
+// one wall (the copies a cut of fused loops made stay apart).
 class SeamFinder {
  public:
-  void add(std::size_t rod, std::size_t vertex_offset, const std::vector<Eigen::Vector3d>& vertices) {
+  void add(std::size_t rod, std::size_t vertex_offset, const std::vector<Eigen::Vector3d>& vertices,
+           std::span<const std::uint32_t> wall) {
     for (std::size_t v = 0; v < vertices.size(); ++v) {
       const Key key{rod, std::bit_cast<std::uint64_t>(vertices[v].x()), std::bit_cast<std::uint64_t>(vertices[v].y()),
-                    std::bit_cast<std::uint64_t>(vertices[v].z())};
+                    std::bit_cast<std::uint64_t>(vertices[v].z()), wall.empty() ? 0U : wall[v]};
       const auto world = static_cast<std::uint32_t>(vertex_offset + v);
       const auto [at, first] = point_.try_emplace(key, world);
       if (!first) copies_.emplace_back(at->second, world);
@@ -62,7 +68,7 @@ class SeamFinder {
   }
 
  private:
-  using Key = std::tuple<std::size_t, std::uint64_t, std::uint64_t, std::uint64_t>;
+  using Key = std::tuple<std::size_t, std::uint64_t, std::uint64_t, std::uint64_t, std::uint32_t>;
   std::map<Key, std::uint32_t> point_;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> copies_;  // (first, copy)
 };
@@ -110,27 +116,41 @@ std::optional<double> mesh_cross_section_radius(const EmbreeScene& wall, const k
   return hits[hits.size() / 2];
 }
 
-// A chain's mesh from a file, cut into its pieces: each triangle goes to the piece whose stretch of
-// the rod holds its vertices' mean place along the rod (harmonic or closest, as the binding's kind,
-// over the whole mesh; each piece's cage then places its own part afresh, which near a cut may
-// differ by a little: the end rings past a piece's rim take that up), each piece with its own copy
-// of the vertices it uses (welded back together after skinning).
-void split_into_pieces(const TriangleMesh& mesh, const WorldModel& m, const SegmentModel& seg,
-                       const kernels::RodPoses<const double>& rest, bool harmonic, const std::string& where,
-                       std::vector<TriangleMesh>& meshes) {
+// The whole rod's rest centreline, sampled, and a mesh's places along it (harmonic or closest, as
+// the binding's kind): what the cut of fused loops and a chain's pieces go by.
+struct WholePlaces {
+  std::vector<Eigen::Vector3d> samples;
+  double length = 0.0;
+  std::vector<double> place;  // per vertex, m
+  BindingArcs harmonic;       // what the harmonic places found (their arcs moved to `place`)
+};
+
+WholePlaces whole_places(const TriangleMesh& mesh, const WorldModel& m, const SegmentModel& seg,
+                         const kernels::RodPoses<const double>& rest, bool harmonic) {
   const std::size_t off = seg.node_offset, n = seg.node_count;
   const RodCurve curve(std::span<const double>(m.section_length).subspan(off, n - 1),
                        std::span<const double>(m.rest_strain).subspan(4 * off, 4 * n),
                        {rest.node_rotation.get(0), rest.node_position.get(0)});
-  const double length = curve.length();
-  const std::vector<Eigen::Vector3d> points = centreline_samples(curve);
-  std::vector<double> arc;
+  WholePlaces w{.samples = centreline_samples(curve), .length = curve.length(), .place = {}, .harmonic = {}};
   if (harmonic) {
-    arc = harmonic_binding_arcs(mesh, points, length).arc;
+    w.harmonic = harmonic_binding_arcs(mesh, w.samples, w.length);
+    w.place = std::move(w.harmonic.arc);
   } else {
-    arc.resize(mesh.vertices.size());
-    for (std::size_t v = 0; v < arc.size(); ++v) arc[v] = closest_arc(points, length, mesh.vertices[v]);
+    w.place.resize(mesh.vertices.size());
+    for (std::size_t v = 0; v < w.place.size(); ++v) w.place[v] = closest_arc(w.samples, w.length, mesh.vertices[v]);
   }
+  return w;
+}
+
+// A chain's mesh from a file, cut into its pieces: each triangle goes to the piece whose stretch of
+// the rod holds its vertices' mean place along the rod (the whole mesh's places; each piece's cage
+// then places its own part afresh, which near a cut may differ by a little: the end rings past a
+// piece's rim take that up), each piece with its own copy of the vertices it uses (welded back
+// together after skinning), and each copy's wall (which copy of a fused cut it is: one weld each).
+void split_into_pieces(const TriangleMesh& mesh, const std::vector<std::uint32_t>& wall, const WorldModel& m,
+                       const SegmentModel& seg, const std::vector<double>& arc, const std::string& where,
+                       std::vector<TriangleMesh>& meshes, std::vector<PiecePlaces>& placed) {
+  const std::size_t off = seg.node_offset;
   // Each piece's first node's place along the rod.
   std::vector<double> starts;
   for (std::size_t p = seg.first_piece; p < seg.first_piece + seg.piece_count; ++p) {
@@ -145,9 +165,15 @@ void split_into_pieces(const TriangleMesh& mesh, const WorldModel& m, const Segm
     piece_of[t] = static_cast<std::size_t>(std::upper_bound(starts.begin() + 1, starts.end(), at) - starts.begin() - 1);
   }
   std::vector<std::uint8_t> keep(mesh.triangles.size());
+  std::vector<std::uint32_t> kept;
   for (std::size_t p = 0; p < seg.piece_count; ++p) {
     for (std::size_t t = 0; t < keep.size(); ++t) keep[t] = piece_of[t] == p ? 1 : 0;
-    meshes[seg.first_piece + p] = submesh(mesh, keep);
+    meshes[seg.first_piece + p] = submesh(mesh, keep, &kept);
+    PiecePlaces& out = placed[seg.first_piece + p];
+    for (std::uint32_t v : kept) {
+      out.place.push_back(arc[v] - starts[p]);
+      out.wall.push_back(wall[v]);
+    }
     if (meshes[seg.first_piece + p].triangles.empty())
       fail(ErrorCode::invalid_geometry, where + ".file",
            fmt::format("no part of the mesh lies along piece {} of the chain (from {:.3f} m along the rod): fewer "
@@ -157,8 +183,9 @@ void split_into_pieces(const TriangleMesh& mesh, const WorldModel& m, const Segm
 }
 
 std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
-                                            const WorldModel& m) {
+                                            const WorldModel& m, std::vector<PiecePlaces>& placed) {
   std::vector<TriangleMesh> meshes(m.pieces.size());
+  placed.assign(m.pieces.size(), {});
   for (std::size_t pi = 0; pi < m.pieces.size(); ++pi) {
     const SegmentPiece& piece = m.pieces[pi];
     const std::size_t si = piece.rod;
@@ -198,11 +225,31 @@ std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::ve
                            "±{:g} m",
                            d.file, v.x(), v.y(), v.z(), kMaxVectorComponent));
       }
+      const bool harmonic = harmonic_binding(d);
+      if (seg.piece_count == 1 && !harmonic) continue;
+      WholePlaces whole = whole_places(mesh, m, seg, rest_poses[si].view(), harmonic);
+      std::vector<std::uint32_t> wall(mesh.vertices.size(), 0);
+      // Loops the segmentation fused into one wall (the places jump by more than a stretch of the
+      // organ a tight bend could turn through): cut apart, so neither drags the other's skin.
+      FusedCut cut;
+      if (harmonic)
+        cut = cut_fused_contacts(mesh, whole.place, wall, kFusedJumpRadii * desc.segments[si].cross_section.radius,
+                                 whole.samples, whole.length);
       if (seg.piece_count > 1) {
-        const TriangleMesh whole = std::move(mesh);
+        const TriangleMesh whole_mesh = std::move(mesh);
         mesh = TriangleMesh{};
-        split_into_pieces(whole, m, seg, rest_poses[si].view(), harmonic_binding(d), where, meshes);
+        split_into_pieces(whole_mesh, wall, m, seg, whole.place, where, meshes, placed);
+        if (!harmonic)  // closest points: each piece places its own afresh (with its neighbours' medians)
+          for (std::size_t p = 0; p < seg.piece_count; ++p) placed[seg.first_piece + p].place.clear();
+      } else {
+        placed[pi].place = std::move(whole.place);
+        placed[pi].wall = std::move(wall);
       }
+      // The whole surface's report goes with the organ's first piece.
+      placed[pi].surface_pieces = whole.harmonic.pieces;
+      placed[pi].closest_pieces = whole.harmonic.closest_pieces;
+      placed[pi].followed = whole.harmonic.followed;
+      placed[pi].fused_copies = cut.copies;
     }
   }
   return meshes;
@@ -283,7 +330,7 @@ void append_mesh_buffers(std::size_t pi, const TriangleMesh& mesh, bool normals,
 }  // namespace
 
 void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
-                       std::vector<TriangleMesh>& meshes, WorldModel& m) {
+                       std::vector<TriangleMesh>& meshes, const std::vector<PiecePlaces>& placed, WorldModel& m) {
   m.meshes_of.assign(m.pieces.size(), SegmentMesh{});
   SeamFinder seams;
   for (std::size_t pi = 0; pi < m.pieces.size(); ++pi) {
@@ -311,6 +358,7 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
                       .desc = d.cage,
                       .clearance = d.cage.clearance > 0.0 ? d.cage.clearance : 0.05 * sd.cross_section.radius,
                       .harmonic_binding = harmonic_binding(d),
+                      .places = placed[pi].place,
                       .cross_section_rings = d.source == MeshSource::file,
                       .where = where};
     for (std::size_t b = first_bead; b < end_bead; ++b) {
@@ -319,6 +367,12 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
     }
     try {
       out.cage = build_cage(in, out.info.cage);
+      if (!in.places.empty()) {  // placed with the whole surface: its report, on the organ's first piece
+        out.info.cage.binding_pieces = placed[pi].surface_pieces;
+        out.info.cage.binding_closest_pieces = placed[pi].closest_pieces;
+        out.info.cage.binding_followed = placed[pi].followed;
+        out.info.cage.fused_copies = placed[pi].fused_copies;
+      }
     } catch (const FieldError& e) {
       // Name the mesh too: the field points at the scene, the detail at what is wrong with the file.
       if (d.source == MeshSource::procedural) throw;
@@ -338,7 +392,8 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
 
     append_mesh_buffers(pi, meshes[pi], d.normals, out, m);
     m.any_mesh = true;
-    if (seg.piece_count > 1 && d.source == MeshSource::file) seams.add(si, out.vertex_offset, meshes[pi].vertices);
+    if (seg.piece_count > 1 && d.source == MeshSource::file)
+      seams.add(si, out.vertex_offset, meshes[pi].vertices, placed[pi].wall);
     meshes[pi] = TriangleMesh{};  // the binding keeps what stepping needs
   }
   seams.groups(m.seam_group_start, m.seam_group_members);

@@ -365,14 +365,15 @@ WorldModel build_world_model_here(const WorldDesc& desc, const WorldModel* bindi
   std::vector<Eigen::Vector3d> initial_positions;
   std::vector<RodPoseBuffer> rest_poses;
   for (std::size_t si = 0; si < desc.segments.size(); ++si) build_rod(desc, si, m, initial_positions, rest_poses);
-  std::vector<TriangleMesh> meshes = load_organ_meshes(desc, rest_poses, m);
+  std::vector<PiecePlaces> placed;
+  std::vector<TriangleMesh> meshes = load_organ_meshes(desc, rest_poses, m, placed);
   build_beads(desc, initial_positions, rest_poses, meshes, m);
   for (SegmentModel& seg : m.segments)
     seg.has_load_stiffness = seg.has_drag || seg.bead_count > 0 || seg.anchor_count > 0;
   if (binding_from != nullptr)
     take_mesh_binding(*binding_from, m);
   else
-    bind_organ_meshes(desc, rest_poses, meshes, m);
+    bind_organ_meshes(desc, rest_poses, meshes, placed, m);
   return m;
 }
 

@@ -340,10 +340,19 @@ InstrumentModel instrument_model(const InstrumentDesc& d);
 
 // Organ meshes: loaded or generated around each segment's rest pose before the beads (a bead may
 // take its radius from the mesh), then caged and bound once the beads exist.
+// A piece's mesh vertices placed along its rod once for the whole organ's surface (a mesh from a
+// file; empty otherwise): each one's place (m from the piece's first node) and its wall (0, or
+// which copy it is of a vertex where fused loops were cut apart: copies of one wall are welded).
+struct PiecePlaces {
+  std::vector<double> place;
+  std::vector<std::uint32_t> wall;
+  // The whole surface's placing (on the organ's first piece; 0 on the others): CageReport's.
+  std::size_t surface_pieces = 0, closest_pieces = 0, followed = 0, fused_copies = 0;
+};
 std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
-                                            const WorldModel& m);
+                                            const WorldModel& m, std::vector<PiecePlaces>& placed);
 void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& rest_poses,
-                       std::vector<TriangleMesh>& meshes, WorldModel& m);
+                       std::vector<TriangleMesh>& meshes, const std::vector<PiecePlaces>& placed, WorldModel& m);
 // The median distance from a station to the mesh wall over a ring of rays in its (d1, d2) plane;
 // wall: an Embree scene of the mesh. Throws when no ray meets the wall within `reach`.
 // The median distance from a rod station to the mesh over 16 rays in its normal plane; none when

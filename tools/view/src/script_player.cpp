@@ -48,6 +48,8 @@ bool ScriptPlayer::tick(ViewerState& v) {
   ticks_ += v.video.recording() ? static_cast<std::uint64_t>(v.video_frames_per_shot) : 1;  // what was stepped
   while (next_ < lines_.size()) {
     const ScriptLine& l = lines_[next_];
+    // A knob rebuilds the open scene: it waits for the scene, which opens on the simulation's thread.
+    if (l.command == "knob" && v.model == nullptr) return true;
     if (!started_) {
       started_ = true;
       start_tick_ = ticks_;

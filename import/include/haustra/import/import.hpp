@@ -60,6 +60,7 @@ struct ImportReport {
   std::filesystem::path scene, centreline_file, surface_file;
   // From building the written scene once.
   std::size_t cage_rings = 0, dropped_rings = 0, rest_pose_outside = 0, binding_pieces = 0;
+  std::size_t fused_copies = 0;  // vertices copied where the surface fused loops and was cut apart (issue 35)
   double max_dropped_mass = 0.0, max_rest_correction = 0.0, build_seconds = 0.0, seconds = 0.0;
   std::vector<std::string> retries;        // builds that failed before the one written, and why
   [[nodiscard]] std::string text() const;  // what was done, for the terminal
