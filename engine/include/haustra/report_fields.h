@@ -31,7 +31,7 @@
   X(filter, "inertia filter")                                                                       \
   X(contraction, "lagged: the next step from the new strains, to see that the iteration contracts") \
   X(guard, "finite values and bounds")                                                              \
-  X(report, "penetrations and instrument forces at the frame's end")                                \
+  X(report, "penetrations, instrument forces and sleeping rods at the frame's end")                  \
   X(cage, "cage rings follow the rod")                                                              \
   X(skin, "the organ meshes follow the rings (rigid-group MVC); a chain's cuts welded")             \
   X(normals, "per-vertex normals of the skinned meshes")

@@ -75,7 +75,6 @@ void World::step() {
   }
   w.keep_rung(first, rung);
   w.report();
-  detail::settle_rods(w.model, w.state, w.model.dt);  // who sleeps from the next frame on (decision 0119)
   w.follow_rod();
   w.finish_frame(rung, t0);
 }
@@ -292,9 +291,10 @@ std::size_t World::Impl::guard_segments(const SubstepParameters& p) {
 }
 
 // What the frame did to the instruments and the tissue: forces on the instruments, grasps that
-// slipped, anchors torn past their strength (decision 0095), the contact report.
+// slipped, anchors torn past their strength (decision 0095), the contact report; and which rods
+// sleep from the next frame on (decision 0119).
 void World::Impl::report() {
-  if (model.beads.size() == 0 && model.instruments.empty() && model.anchors.size() == 0) return;
+  if (model.beads.size() == 0 && model.instruments.empty() && model.anchors.size() == 0 && !model.sleep.enabled) return;
   const StageClock clock(profile, Stage::report);
   slipped.clear();
   // The proxies once more for where the frame left the beads: the force each reports is its
@@ -308,6 +308,7 @@ void World::Impl::report() {
     record_anchors(Event::Kind::torn, torn);
   }
   if (model.beads.size() > 0) detail::stage_contact_report(model, state);
+  detail::settle_rods(model, state, model.dt);
 }
 
 // The Newton workspaces' counts of this frame (every attempt at it) into the profile.
