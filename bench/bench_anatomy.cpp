@@ -3,11 +3,13 @@
 // frame rate against the 60 frames a second a screen needs (issue 24); and the whole abdomen of one
 // body at the haptic rate, frame by frame (issue 40).
 #include <benchmark/benchmark.h>
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
@@ -21,6 +23,7 @@
 
 #include "haustra/frame_publisher.hpp"
 #include "haustra/import/import.hpp"
+#include "haustra/profile.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/studies/anatomy_cohort.hpp"
 #include "haustra/world.hpp"
@@ -172,6 +175,7 @@ void BM_Abdomen(benchmark::State& state) {
     });
   std::vector<double> seconds;
   seconds.reserve(static_cast<std::size_t>(state.max_iterations));
+  std::array<double, kStageCount> stage_seconds{};  // the stage table: each stage's own time, summed
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     w->step();
@@ -179,7 +183,12 @@ void BM_Abdomen(benchmark::State& state) {
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     state.SetIterationTime(s);
     seconds.push_back(s);
+    for (std::size_t k = 0; k < kStageCount; ++k) stage_seconds[k] += w->last_profile().seconds[k];
   }
+  for (std::size_t k = 0; k < kStageCount; ++k)
+    if (stage_seconds[k] > 0.0)
+      state.counters[fmt::format("stage {} us", stage_name(static_cast<Stage>(k)))] =
+          1e6 * stage_seconds[k] / static_cast<double>(seconds.size());
   stop.store(true);
   if (render.joinable()) render.join();
   state.counters["render reads"] = reads.load();
