@@ -1,7 +1,7 @@
 // Cages and skinning: the procedural organ, the cage builder (checked without Embree by winding
 // numbers), the rigid-group skinning kernel against its scalar reference and against the plain
 // sparse product over cage vertices, exact rest poses, rigid motions, the real CT colon, and the
-// localization study's orderings.
+// skin choice's orderings (decision 0120).
 #include <doctest/doctest.h>
 
 #include <cstring>
@@ -400,6 +400,9 @@ TEST_CASE("the skin choice: along-rod cheapest and nearest rigid cross-sections,
   CHECK(std::abs(cage.twist_volume_change) < std::abs(lbs.twist_volume_change));
   CHECK(std::abs(s.transport_bend_volume_change) < 1e-3);  // the reference keeps its volume
   for (const auto& row : s.rows) CHECK_MESSAGE(row.worst_edge_stretch < 2.0, row.method);
+  // The outer wall of the U-turn stretches 1.70× under rigid cross-sections themselves: along the
+  // rod stretches no edge further (measured 1.698× against 1.698×).
+  CHECK(along.worst_edge_stretch < 1.01 * s.transport_worst_edge);
 }
 
 // One of the 60 pieces of scenes/small-intestine.toml at 2 mm sections (51 nodes, 26 beads over
