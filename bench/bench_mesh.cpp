@@ -197,10 +197,10 @@ void BM_StreamTriad(benchmark::State& state) {
       12.0 * static_cast<double>(n) * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 
-// A dense cage (decision 0083): one piece of the small intestine at 2 mm sections (51 nodes, 26
-// beads over 10 cm, radius 12.5 mm, 50,000 vertices), bound with fixed K = 4 (arg 0) and with the
-// default localization bounded to 7 rings (`max_rings_per_vertex = 7`, arg 1), skinned on one
-// thread; the ratio of the two rows of one run is what it costs per vertex against 4 rings.
+// A dense cage: one piece of the small intestine at 2 mm sections (51 nodes, 26 beads over 10 cm,
+// radius 12.5 mm, 50,000 vertices), bound with fixed K = 4 (arg 0) and with the scene's
+// `skinning = "cage"` (decision 0048's rule, arg 1), skinned on one thread; the ratio of the two
+// rows of one run is what the cage costs per vertex against 4 rings.
 void BM_SkinDenseCage(benchmark::State& state) {
   struct Bound {
     detail::SkinBinding fixed, chosen;
@@ -219,7 +219,7 @@ void BM_SkinDenseCage(benchmark::State& state) {
     s.mesh.enabled = true;
     s.mesh.procedural.vertices = 50'000;
     s.mesh.cage.ring_vertices = 12;
-    s.mesh.max_rings_per_vertex = 7;
+    s.mesh.skinning = SkinningMethod::cage;
     d.segments.push_back(s);
     const detail::WorldModel m = detail::build_world_model(d);
     const detail::SegmentMesh& mesh = m.meshes_of[0];

@@ -52,7 +52,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (workload == "skin-10k") {
-    WorldDesc d = validation::study_organ(SkinningMethod::mean_value, 4);
+    WorldDesc d = validation::study_organ(SkinningMethod::cage);
     d.threads = 1;
     d.mesh_update = MeshUpdate::every_frame;  // pose_rod skins at once (decision 0060)
     std::unique_ptr<World> w = World::create(d);
@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
   if (workload == "reader-cpu-10k" || workload == "reader-gpu-10k") {
     // A render thread's acquire of a posed frame (decision 0110): the mesh skinned with its normals
     // on the CPU, or only the rings' data for a host that skins on its GPU.
-    WorldDesc d = validation::study_organ(SkinningMethod::mean_value, 4);
+    WorldDesc d = validation::study_organ(SkinningMethod::cage);
     d.threads = 1;
     std::unique_ptr<World> w = World::create(d);
     FramePublisher frames(*w);

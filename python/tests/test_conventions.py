@@ -133,9 +133,8 @@ def test_a_dict_takes_paths_and_names_a_value_it_cannot_take():
     assert error.value.field == "environment.mesh[0].file"
 
 
-def bounded_organ(key=None, value=None):
-    """A cantilever with beads 2 cm apart (rings dense enough that vertices want more than 4) and a procedural
-    organ; segment.mesh[key] = value when given (a bound on the rings its vertices keep)."""
+def skinned_organ(key=None, value=None):
+    """A cantilever with beads 2 cm apart and a procedural organ; segment.mesh[key] = value when given."""
     desc = rod(nodes=41)
     segment = desc["segment"][0]
     segment["rest"]["length"] = 0.4
@@ -146,36 +145,31 @@ def bounded_organ(key=None, value=None):
     return desc
 
 
-@pytest.mark.parametrize("key,value", [("max_rings_per_vertex", 4), ("mean_rings_per_vertex", 4), ("skin_cost_limit", 1)])
-def test_a_dicts_ring_bound_gives_the_scene_files_world(tmp_path, key, value):
-    # decision 0083's bound, decision 0090's budget and decision 0092's cost limit, in a dict as in a scene file: the
-    # same bits, nodes and mesh.
-    scene = tmp_path / "bounded.toml"
+@pytest.mark.parametrize("skin", ["cage", "cage-full"])
+def test_a_dicts_skin_gives_the_scene_files_world(tmp_path, skin):
+    # decision 0120's one choice, in a dict as in a scene file: the same bits, nodes and mesh.
+    scene = tmp_path / "skinned.toml"
     with open(scene, "w") as f:
         f.write('[world]\ndt = 0.01\nthreads = 1\n[[segment]]\nname = "rod"\nnodes = 41\nyoungs_modulus = 1e6\n'
                 '[segment.rest]\nlength = 0.4\n[segment.beads]\ncount = 20\n[segment.mesh]\nsource = "procedural"\n'
-                f'{key} = {value}\n[segment.mesh.procedural]\nvertices = 1500\n')
-    worlds = [haustra.World(bounded_organ(key, value)), haustra.World.from_scene(scene), haustra.World(bounded_organ())]
+                f'skinning = "{skin}"\n[segment.mesh.procedural]\nvertices = 1500\n')
+    worlds = [haustra.World(skinned_organ("skinning", skin)), haustra.World.from_scene(scene),
+              haustra.World(skinned_organ())]
     for w in worlds:
         w.step(20)
-    bounded, from_file, unbounded = worlds
-    assert np.array_equal(bounded.node_positions, from_file.node_positions)
-    assert np.array_equal(bounded.mesh_positions, from_file.mesh_positions)
-    assert np.array_equal(bounded.mesh_normals, from_file.mesh_normals)
-    assert not np.array_equal(bounded.mesh_positions, unbounded.mesh_positions)  # the bound is not ignored
+    chosen, from_file, default = worlds
+    assert np.array_equal(chosen.node_positions, from_file.node_positions)
+    assert np.array_equal(chosen.mesh_positions, from_file.mesh_positions)
+    assert np.array_equal(chosen.mesh_normals, from_file.mesh_normals)
+    assert not np.array_equal(chosen.mesh_positions, default.mesh_positions)  # along the rod: another skin
 
 
-@pytest.mark.parametrize("key,bad,expected", [
-    ("max_rings_per_vertex", 3, "expected 0 (no bound) or a count from rings_per_vertex (4) up to 4096, got 3"),
-    ("max_rings_per_vertex", -1, "expected 0 (no bound) or a count from rings_per_vertex (4) up to 4096, got -1"),
-    ("max_rings_per_vertex", 5000, "expected 0 (no bound) or a count from rings_per_vertex (4) up to 4096, got 5000"),
-    ("mean_rings_per_vertex", -1.5, "expected 0 (no budget) or a mean number of rings up to 4096, got -1.5"),
-    ("mean_rings_per_vertex", 5000, "expected 0 (no budget) or a mean number of rings up to 4096, got 5000"),
-    ("skin_cost_limit", 0.5, "expected 0 (no limit) or a factor from 1 to 4096 on the cost of rings_per_vertex rings, "
-                             "got 0.5"),
-])
-def test_a_bad_ring_bound_is_refused_naming_the_field(key, bad, expected):
-    with pytest.raises(haustra.InvalidArgumentError) as error:
-        haustra.World(bounded_organ(key, bad))
-    assert str(error.value) == f"World(desc): segment[0].mesh.{key}: {expected}"
+@pytest.mark.parametrize("key,value", [("rings_per_vertex", 4), ("weight_left_out", 0.02),
+                                       ("max_rings_per_vertex", 7), ("mean_rings_per_vertex", 7),
+                                       ("skin_cost_limit", 2)])
+def test_a_removed_localization_key_is_refused_naming_the_key_to_use(key, value):
+    with pytest.raises(haustra.ParseError) as error:
+        haustra.World(skinned_organ(key, value))
+    assert f"segment[0].mesh.{key}: this key was removed (decision 0120): " \
+           'choose mesh.skinning = "along-rod" | "cage" | "cage-full"' in str(error.value)
     assert error.value.field == f"segment[0].mesh.{key}"

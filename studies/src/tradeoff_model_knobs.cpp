@@ -1,5 +1,5 @@
 // The speed/accuracy study's knobs of the model: nodes, beads, iterations, the inertia filter, EXP2,
-// the skinning's rings.
+// the skin (mesh.skinning).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -400,13 +400,14 @@ TradeoffKnob knob_exp2() {
   return k;
 }
 
-// --- mean value coordinates: rings kept ---------------------------------------------------------
+// --- the skin (decision 0120) ------------------------------------------------------------------
 
 TradeoffKnob knob_rings() {
-  TradeoffKnob k{"MVC rings kept per vertex, and linear-blend skinning",
+  TradeoffKnob k{"the skin: mesh.skinning",
                  "a straight procedural rectum (30 cm, 11 beads, 10,000 vertices) posed into a 90° bend, a 90° "
                  "twist and others (docs/skinning.md)",
-                 "full mean value coordinates (every ring) in the same poses",
+                 "rigid cross-sections: each vertex carried by the rod's own frame at its rest arc length (issue 35: "
+                 "not full MVC, which a skin can match and still tear)",
                  "max vertex error (mm)",
                  "frame (µs), with the mesh",
                  {},
@@ -416,9 +417,7 @@ TradeoffKnob knob_rings() {
   // worlds step in turn, so that the machine's load falls on all alike.
   std::vector<std::unique_ptr<World>> worlds;
   for (const SkinningStudyRow& row : s.rows) {
-    WorldDesc d =
-        study_organ(row.method.rfind("MVC", 0) == 0 ? SkinningMethod::mean_value : SkinningMethod::linear_blend,
-                    row.rings_per_vertex);
+    WorldDesc d = study_organ(row.skinning);
     d.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
     worlds.push_back(World::create(d));
   }
@@ -432,15 +431,14 @@ TradeoffKnob knob_rings() {
     const SkinningStudyRow& row = s.rows[i];
     TradeoffRow r;
     r.setting = row.method;
-    r.error = 1e3 * row.max_error;
+    r.error = 1e3 * row.transport_max;
     r.cost_us = median(frame_times[i]);
     r.details = fmt::format(
-        "skin stage {:.1f} µs; p99 {:.2f} mm; volume change: bend {:+.1f} %, twist {:+.1f} %; "
-        "{:.0f} B per vertex",
-        row.skin_us, 1e3 * row.p99_error, 100 * row.bend_volume_change, 100 * row.twist_volume_change,
-        row.bytes_per_vertex);
-    r.is_default = row.method.find("K = 4") != std::string::npos;
-    r.is_reference = row.rings_per_vertex == 0 && row.method.rfind("MVC", 0) == 0;
+        "skin stage {:.1f} µs; p99 {:.2f} mm; {:.2f} mm from full MVC; volume change: bend {:+.1f} %, twist {:+.1f} "
+        "%; {:.2f} slots ({:.0f} B) a vertex",
+        row.skin_us, 1e3 * row.transport_p99, 1e3 * row.max_error, 100 * row.bend_volume_change,
+        100 * row.twist_volume_change, row.slots_per_vertex, row.bytes_per_vertex);
+    r.is_default = row.skinning == SkinningMethod::along_rod;
     k.rows.push_back(r);
   }
   return k;

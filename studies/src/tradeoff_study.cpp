@@ -88,7 +88,7 @@ const std::vector<std::pair<std::string, KnobFunction>>& knob_functions() {
   static const std::vector<std::pair<std::string, KnobFunction>> knobs = {
       {"nodes per segment", knob_nodes},         {"beads per node", knob_beads},
       {"iterations per frame", knob_iterations}, {"inertia filter", knob_filter},
-      {"Hooke against EXP2", knob_exp2},         {"MVC rings and linear blend", knob_rings},
+      {"Hooke against EXP2", knob_exp2},         {"the skin", knob_rings},
       {"float against double", knob_precision},  {"exponential against midpoint", knob_integrator},
       {"grasp coupling", knob_coupling},         {"sleeping rods", knob_sleep}};
   return knobs;

@@ -194,6 +194,13 @@ std::vector<BadInput> catalogue(const Scratch& s) {
       scene("[[segment]]\n[segment.rest]\nlength = 0\n", {"test.toml:3", "segment[0].rest.length", "positive"}, ErrorCode::invalid_argument),
       scene("[[segment]]\n[segment.rest]\ncurvature = [1, 2, 3]\n", {"segment[0].rest.curvature", "expected [a, b]"}),
       scene("[[segment]]\n[segment.law]\nbending = \"plastic\"\n", {"segment[0].law.bending", "\"kelvin-voigt\""}),
+      scene("[[segment]]\n[segment.mesh]\nrings_per_vertex = 4\n", {"test.toml:3", "segment[0].mesh.rings_per_vertex", "removed (decision 0120)", "mesh.skinning = \"along-rod\" | \"cage\" | \"cage-full\""}),
+      scene("[[segment]]\n[segment.mesh]\nweight_left_out = 0.02\n", {"test.toml:3", "segment[0].mesh.weight_left_out", "removed (decision 0120)", "mesh.skinning = \"along-rod\" | \"cage\" | \"cage-full\""}),
+      scene("[[segment]]\n[segment.mesh]\nmax_rings_per_vertex = 7\n", {"test.toml:3", "segment[0].mesh.max_rings_per_vertex", "removed (decision 0120)", "mesh.skinning = \"along-rod\" | \"cage\" | \"cage-full\""}),
+      scene("[[segment]]\n[segment.mesh]\nmean_rings_per_vertex = 7\n", {"test.toml:3", "segment[0].mesh.mean_rings_per_vertex", "removed (decision 0120)", "mesh.skinning = \"along-rod\" | \"cage\" | \"cage-full\""}),
+      scene("[[segment]]\n[segment.mesh]\nskin_cost_limit = 2\n", {"test.toml:3", "segment[0].mesh.skin_cost_limit", "removed (decision 0120)", "mesh.skinning = \"along-rod\" | \"cage\" | \"cage-full\""}),
+      scene("[[segment]]\n[segment.mesh]\nskinning = \"mvc\"\n", {"test.toml:3", "segment[0].mesh.skinning", "renamed", "skinning = \"cage\""}),
+      scene("[[segment]]\n[segment.mesh]\nskinning = \"rigid\"\n", {"test.toml:3", "segment[0].mesh.skinning", "\"along-rod\", \"cage\", \"cage-full\", \"linear-blend\"", "\"rigid\""}),
       scene("[[segment]]\n[[segment.attachment]]\nhold_frame = true\n", {"segment[0].attachment[0].node", "needs node"}),
       scene("[[segment]]\nnodes = 5\n[[segment.attachment]]\nnode = 9\n", {"test.toml:4", "segment[0].attachment[0].node", "[-5, 4]"}, ErrorCode::invalid_argument),
       scene("[[segment]]\n[[segment.attachment]]\nnode = 0\n", {"segment[0].attachment[0].node", "clamped segment"}, ErrorCode::invalid_argument),
@@ -470,7 +477,7 @@ TEST_CASE("bad-input catalogue: every case fails with its error code and a messa
   const std::vector<BadInput> cases = catalogue(scratch);
   // Exactly the catalogue's cases: one lost in an edit (a list that silently shrinks) fails here;
   // a new case raises the count.
-  CHECK(cases.size() == 161);
+  CHECK(cases.size() == 168);
   for (const BadInput& c : cases) {
     INFO(c.label);
     std::string message;

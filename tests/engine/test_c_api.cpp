@@ -954,42 +954,19 @@ TEST_CASE("C API: an EXP2 segment pulled at its tip stretches to A sigma(eps) = 
   CHECK(says("tissue = 2"));
 }
 
-TEST_CASE("C API: the localization fields give the world of a scene with them, and are checked") {
-  // A cantilever with beads 2 cm apart (rings dense enough that vertices want more than 4) and a
-  // procedural organ, bending under gravity, from definitions and from a scene file. Each field at
-  // a value that keeps every vertex at exactly 4 rings (= rings_per_vertex), the rest folded
-  // (skin_cost_limit: the slots of 4 rings, which blocks of like vertices may share with a few more).
-  struct Field {
-    const char* key;
-    void (*set)(haustra_segment_def&, double);
-    const char* value;                                    // in the scene file; set() takes its number
-    std::vector<std::pair<double, const char*>> refused;  // value, what the message says it got
-  };
-  const Field fields[] = {
-      {"max_rings_per_vertex",
-       [](haustra_segment_def& s, double v) { s.max_rings_per_vertex = static_cast<int>(v); },
-       "4",
-       {{3, "got 3"}, {-1, "got -1"}, {5000, "got 5000"}}},
-      {"mean_rings_per_vertex",
-       [](haustra_segment_def& s, double v) { s.mean_rings_per_vertex = v; },
-       "4",
-       {{-1, "got -1"}, {5000, "got 5000"}, {std::numeric_limits<double>::quiet_NaN(), "got nan"}}},
-      {"weight_left_out",
-       [](haustra_segment_def& s, double v) { s.weight_left_out = v; },
-       "0",
-       {{-0.5, "got -0.5"}, {1, "got 1"}, {std::numeric_limits<double>::quiet_NaN(), "got nan"}}},
-      {"skin_cost_limit",
-       [](haustra_segment_def& s, double v) { s.skin_cost_limit = v; },
-       "1",
-       {{0.5, "got 0.5"}, {-1, "got -1"}, {5000, "got 5000"}, {std::numeric_limits<double>::quiet_NaN(), "got nan"}}},
-  };
+TEST_CASE(
+    "C API: skinning 1, 0, 2 give the scene's along-rod, cage, cage-full; the retired fields are refused if set") {
+  // Decision 0120: one choice of skin. A cantilever with beads 2 cm apart and a procedural organ,
+  // bending under gravity, from definitions and from a scene file with the same skin.
   haustra_world_def def;
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
   def.threads = 1;
   const haustra_segment_def plain = organ_def("organ", 41, 0.4, 20, 1500);
-  CHECK(plain.max_rings_per_vertex == 0);  // no bound, as the scene's default
+  CHECK(plain.skinning == 1);          // along the rod, the default
+  CHECK(plain.rings_per_vertex == 4);  // the retired fields at the values they are ignored at
+  CHECK(plain.weight_left_out == 0.02);
+  CHECK(plain.max_rings_per_vertex == 0);
   CHECK(plain.mean_rings_per_vertex == 0.0);
-  CHECK(plain.weight_left_out == 0.02);  // decision 0048's
   CHECK(plain.skin_cost_limit == 0.0);
   auto stepped = [](haustra_world* w) {
     for (int f = 0; f < 20; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);
@@ -997,35 +974,62 @@ TEST_CASE("C API: the localization fields give the world of a scene with them, a
     REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
     return bits;
   };
+  const auto scene_text = [](const std::string& mesh_line) {
+    return "[world]\nthreads = 1\n[[segment]]\nname = \"organ\"\nnodes = 41\n[segment.rest]\nlength = 0.4\n"
+           "[segment.beads]\ncount = 20\n[segment.mesh]\nsource = \"procedural\"\n" +
+           mesh_line + "\n[segment.mesh.procedural]\nvertices = 1500\n";
+  };
   haustra_world* w = nullptr;
-  REQUIRE(haustra_world_create(&def, &plain, 1, &w) == HAUSTRA_OK);
-  const std::vector<unsigned char> unbounded = stepped(w);
-  for (const Field& field : fields) {
-    CAPTURE(field.key);
+  std::vector<std::vector<unsigned char>> skins;
+  for (const auto& [value, name] :
+       std::vector<std::pair<int, std::string>>{{1, "along-rod"}, {0, "cage"}, {2, "cage-full"}}) {
+    CAPTURE(name);
     haustra_segment_def seg = plain;
-    field.set(seg, std::stod(field.value));
-    const SceneFile scene(
-        std::string("[world]\nthreads = 1\n[[segment]]\nname = \"organ\"\nnodes = 41\n[segment.rest]\nlength = 0.4\n"
-                    "[segment.beads]\ncount = 20\n[segment.mesh]\nsource = \"procedural\"\n") +
-        field.key + " = " + field.value + "\n[segment.mesh.procedural]\nvertices = 1500\n");
+    seg.skinning = value;
     REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
-    const std::vector<unsigned char> from_def = stepped(w);
+    skins.push_back(stepped(w));
+    const SceneFile scene(scene_text("skinning = \"" + name + "\""));
     REQUIRE(haustra_world_create_from_scene(scene.path.c_str(), 1, &w) == HAUSTRA_OK);
-    CHECK(stepped(w) == from_def);
-    // The bound changes the mesh (the rod's nodes alone would be the same): the field is not ignored.
-    CHECK(unbounded != from_def);
-
-    // Out of range or not a number: refused naming the field, nothing created.
-    haustra_world* none = nullptr;
-    for (const auto& [bad, got] : field.refused) {
-      haustra_segment_def refused = seg;
-      field.set(refused, bad);
-      CHECK(haustra_world_create(&def, &refused, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
-      CHECK(says((std::string("segment[0].mesh.") + field.key).c_str()));
-      CHECK(says(got));
-    }
-    CHECK(none == nullptr);
+    CHECK(stepped(w) == skins.back());
   }
+  CHECK(skins[0] != skins[1]);  // each skin is its own mesh
+  CHECK(skins[1] != skins[2]);
+  REQUIRE(haustra_world_create(&def, &plain, 1, &w) == HAUSTRA_OK);
+  CHECK(stepped(w) == skins[0]);
+
+  // A retired field set to anything but its old default: refused naming it and `skinning`.
+  struct Retired {
+    const char* key;
+    void (*set)(haustra_segment_def&);
+  };
+  const Retired retired[] = {
+      {"rings_per_vertex", [](haustra_segment_def& s) { s.rings_per_vertex = 0; }},
+      {"max_rings_per_vertex", [](haustra_segment_def& s) { s.max_rings_per_vertex = 7; }},
+      {"mean_rings_per_vertex", [](haustra_segment_def& s) { s.mean_rings_per_vertex = 7.0; }},
+      {"weight_left_out", [](haustra_segment_def& s) { s.weight_left_out = 0.0; }},
+      {"skin_cost_limit", [](haustra_segment_def& s) { s.skin_cost_limit = 2.0; }},
+  };
+  haustra_world* none = nullptr;
+  for (const Retired& r : retired) {
+    CAPTURE(r.key);
+    haustra_segment_def seg = plain;
+    r.set(seg);
+    CHECK(haustra_world_create(&def, &seg, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
+    CHECK(says((std::string("segments[0].") + r.key).c_str()));
+    CHECK(says("use skinning"));
+    seg.mesh = 0;  // no mesh: nothing to skin, the field is not read
+    REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
+    REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
+    const SceneFile scene(scene_text(std::string(r.key) + " = 4"));
+    CHECK(haustra_world_create_from_scene(scene.path.c_str(), 1, &none) != HAUSTRA_OK);
+    CHECK(says((std::string("segment[0].mesh.") + r.key).c_str()));
+    CHECK(says("decision 0120"));
+  }
+  haustra_segment_def bad = plain;
+  bad.skinning = 3;
+  CHECK(haustra_world_create(&def, &bad, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("skinning = 3"));
+  CHECK(none == nullptr);
 }
 
 TEST_CASE("C API: connective tissue from a segment's definition, its anchors and tensions, cut in a sphere") {

@@ -66,7 +66,7 @@ TEST_CASE("C API: the GPU binding and a frame's rings give the library's mesh to
   REQUIRE(haustra_world_gpu_skin(w, &g) == HAUSTRA_OK);
   CHECK(g.vertices == counts.mesh_vertices);
   CHECK(g.rings > 0);
-  CHECK(g.slots >= 4 * g.vertices);  // at least rings_per_vertex = 4 each
+  CHECK(g.slots >= 4 * g.vertices);  // the cage (skinning 0): at least 4 rings each
   CHECK(g.max_slots >= 4);
   std::vector<float> rings(HAUSTRA_GPU_RING_FLOATS * g.rings);
   CHECK(haustra_world_gpu_rings(w, rings.data(), rings.size() - 1) == HAUSTRA_INVALID_ARGUMENT);
@@ -125,13 +125,13 @@ TEST_CASE("C API: skinning = 1 (along the rod): two slots a vertex, and the shad
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
   haustra_segment_def seg;
   REQUIRE(haustra_segment_def_default(&seg) == HAUSTRA_OK);
-  CHECK(seg.skinning == 0);
+  CHECK(seg.skinning == 1);  // along the rod, the default since ABI 17 (decision 0120)
   seg.mesh = 1;
   seg.beads = 4;
-  seg.skinning = 2;
+  seg.skinning = 3;
   haustra_world* none = nullptr;
   CHECK(haustra_world_create(&def, &seg, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
-  CHECK(gpu_says("skinning = 2: expected 0 (the cage) or 1 (along the rod)"));
+  CHECK(gpu_says("skinning = 3: expected 1 (along the rod), 0 (the cage) or 2 (the cage, every ring)"));
   CHECK(none == nullptr);
 }
 
@@ -223,4 +223,5 @@ TEST_CASE("C API: mesh_on_host_gpu is checked, and a world_def without it (a sho
   CHECK(haustra_abi_version() == HAUSTRA_ABI_VERSION);
   CHECK(haustra_check_abi(14) == HAUSTRA_ABI_MISMATCH);  // ABI 15 also changed haustra_profile (decision 0108)
   CHECK(haustra_check_abi(15) == HAUSTRA_OK);            // ABI 16 added haustra_segment_def.skinning at its end
+  CHECK(haustra_check_abi(16) == HAUSTRA_OK);            // ABI 17 kept the layout (decision 0120)
 }

@@ -61,8 +61,9 @@ Imported import_and_run(const import::ImportOptions& o) {
   Imported out{import::import_surface(o)};
   SceneDesc scene = load_scene(out.report.scene);
   scene.world.threads = 1;
+  scene.world.segments[0].mesh.skinning = SkinningMethod::cage;  // the localization measured
   SceneDesc full = scene;
-  full.world.segments[0].mesh.rings_per_vertex = 0;
+  full.world.segments[0].mesh.skinning = SkinningMethod::cage_full;
   auto world = create_world(scene);
   auto reference = create_world(full);
   const auto p0 = world->mesh_positions();
@@ -304,7 +305,7 @@ TEST_CASE("two loops of one organ touching, pulled 10 cm apart: the skin goes wi
   const fs::path mesh = helix_organ_file(dir / "loops.obj", 0.07, 0.038);
   const import::ImportReport report = import::import_surface(options(mesh, {}, dir / "loops.toml"));
   REQUIRE_FALSE(report.touching.empty());
-  auto stretch_with = [&](CageBinding binding, SkinningMethod skin = SkinningMethod::mean_value) {
+  auto stretch_with = [&](CageBinding binding, SkinningMethod skin = SkinningMethod::cage) {
     SceneDesc scene = load_scene(report.scene);
     scene.world.threads = 1;
     scene.world.segments[0].mesh.cage.binding = binding;

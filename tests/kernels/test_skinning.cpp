@@ -1,7 +1,7 @@
 // Cages and skinning: the procedural organ, the cage builder (checked without Embree by winding
 // numbers), the rigid-group skinning kernel against its scalar reference and against the plain
 // sparse product over cage vertices, exact rest poses, rigid motions, the real CT colon, and the
-// localization study's orderings.
+// skin choice's orderings (decision 0120).
 #include <doctest/doctest.h>
 
 #include <cstring>
@@ -33,7 +33,7 @@ using namespace haustra;
 
 namespace {
 
-WorldDesc straight_organ(int rings_per_vertex, int vertices = 10'000) {
+WorldDesc straight_organ(SkinningMethod skin, int vertices = 10'000) {
   WorldDesc w;
   w.threads = 1;
   SegmentDesc s;
@@ -46,7 +46,7 @@ WorldDesc straight_organ(int rings_per_vertex, int vertices = 10'000) {
   s.beads.radius = 0.02;
   s.mesh.enabled = true;
   s.mesh.procedural.vertices = vertices;
-  s.mesh.rings_per_vertex = rings_per_vertex;
+  s.mesh.skinning = skin;
   w.segments.push_back(s);
   return w;
 }
@@ -180,7 +180,7 @@ TEST_CASE("procedural organ: closed, outward, the vertex count asked for, the vo
 }
 
 TEST_CASE("cage around a procedural organ: embedded (checked by winding numbers), rest pose exact") {
-  const WorldDesc d = straight_organ(4);
+  const WorldDesc d = straight_organ(SkinningMethod::cage);
   const detail::WorldModel m = detail::build_world_model(d);
   const detail::SegmentMesh& mesh = m.meshes_of[0];
   const CageReport& c = mesh.info.cage;
@@ -209,7 +209,7 @@ TEST_CASE("cage around a procedural organ: embedded (checked by winding numbers)
 }
 
 TEST_CASE("rigid-group skinning equals the plain sparse product over cage vertices, for random rod poses") {
-  const WorldDesc d = straight_organ(0, 3000);  // every ring: the binding is exactly the MVC
+  const WorldDesc d = straight_organ(SkinningMethod::cage_full, 3000);  // the binding is exactly the MVC
   const detail::WorldModel m = detail::build_world_model(d);
   const detail::SegmentMesh& mesh = m.meshes_of[0];
   const TriangleMesh input = regenerate(m, d);
@@ -240,7 +240,7 @@ TEST_CASE("rigid-group skinning equals the plain sparse product over cage vertic
 }
 
 TEST_CASE("a rigid motion of the rod moves the skinned mesh rigidly (curved CT colon, localized weights)") {
-  SceneDesc scene = test::scene_desc("anatomy-grasp");
+  SceneDesc scene = test::scene_desc("anatomy-grasp", {"segment.mesh.skinning=cage"});
   const detail::WorldModel m = detail::build_world_model(scene.world);
   const detail::SegmentMesh& mesh = m.meshes_of[0];
   // The mesh at rest, skinned with the rings at rest (one model build: the CT colon's cage and
@@ -274,10 +274,9 @@ TEST_CASE("a rigid motion of the rod moves the skinned mesh rigidly (curved CT c
 // rod are exact to float rounding; a pure bend (constant curvature, the organ bent 180° over its
 // length) is measured against rigid cross-sections carried by the rod's frame at each vertex's
 // place, x = p(s) + R(s) o, which the blend of two frames a few degrees apart follows closely —
-// and far closer than the cage's mean value coordinates (the default).
+// and far closer than the cage's mean value coordinates. It is the default since decision 0120.
 TEST_CASE("the along-rod skin: rest and rigid motions exact, a pure bend near rigid cross-sections") {
-  WorldDesc d = straight_organ(4, 3000);
-  d.segments[0].mesh.skinning = SkinningMethod::along_rod;
+  const WorldDesc d = straight_organ(SkinningMethod::along_rod, 3000);
   const detail::WorldModel m = detail::build_world_model(d);
   const detail::SegmentMesh& mesh = m.meshes_of[0];
   CHECK(mesh.info.skin.method == SkinningMethod::along_rod);
@@ -305,8 +304,8 @@ TEST_CASE("the along-rod skin: rest and rigid motions exact, a pure bend near ri
                  "m");
 
   // A pure bend: constant curvature π / length about the first director, no twist, no stretch;
-  // beside it the same organ with the cage's mean value coordinates (the default).
-  const detail::WorldModel cage_model = detail::build_world_model(straight_organ(4, 3000));
+  // beside it the same organ with the cage's mean value coordinates.
+  const detail::WorldModel cage_model = detail::build_world_model(straight_organ(SkinningMethod::cage, 3000));
   const detail::SegmentMesh& by_cage = cage_model.meshes_of[0];
   const detail::SegmentModel& seg = m.segments[0];
   const std::span<const double> h = std::span<const double>(m.section_length).subspan(0, seg.node_count - 1);
@@ -335,23 +334,28 @@ TEST_CASE("the along-rod skin: rest and rigid motions exact, a pure bend near ri
     moved_most = std::max(moved_most, (exact - input.vertices[v]).norm());
   }
   MESSAGE("pure bend of 180°: vertices moved up to " << moved_most << " m; from rigid cross-sections: along-rod skin "
-                                                     << worst << " m, the cage (default) " << worst_cage << " m");
+                                                     << worst << " m, the cage " << worst_cage << " m");
   CHECK(moved_most > 0.1);
   CHECK(mesh.binding.vertices == by_cage.binding.vertices);
   CHECK(worst < worst_cage);
   test::measured("along-rod skin in a 180° pure bend: largest distance from rigid cross-sections", worst, 1e-4, "m");
 }
 
-TEST_CASE("a scene chooses the skin by name: \"along-rod\" read, an unknown name refused naming the field") {
-  CHECK(test::scene_desc("demo", {"segment.mesh.skinning=along-rod"}).world.segments[0].mesh.skinning ==
-        SkinningMethod::along_rod);
-  CHECK(test::scene_desc("demo").world.segments[0].mesh.skinning == SkinningMethod::mean_value);
+TEST_CASE("a scene chooses the skin by name: along-rod (the default), cage, cage-full; an unknown name refused") {
+  const auto skin = [](std::vector<std::string> sets) {
+    return test::scene_desc("demo", sets).world.segments[0].mesh.skinning;
+  };
+  CHECK(skin({"segment.mesh.skinning=cage"}) == SkinningMethod::cage);
+  CHECK(skin({"segment.mesh.skinning=cage-full"}) == SkinningMethod::cage_full);
+  CHECK(skin({"segment.mesh.skinning=linear-blend"}) == SkinningMethod::linear_blend);
+  CHECK(skin({"segment.mesh.skinning=along-rod"}) == SkinningMethod::along_rod);
+  CHECK(OrganMeshDesc{}.skinning == SkinningMethod::along_rod);  // decision 0120
   CHECK_THROWS_WITH_AS(test::scene_desc("demo", {"segment.mesh.skinning=along-the-rod"}),
                        doctest::Contains("segment[0].mesh.skinning"), FieldError);
 }
 
 TEST_CASE("the CT colon: cage built around its own mesh, embedded, bound with diagnostics") {
-  SceneDesc scene = test::scene_desc("anatomy-grasp");
+  SceneDesc scene = test::scene_desc("anatomy-grasp", {"segment.mesh.skinning=cage"});
   const detail::WorldModel m = detail::build_world_model(scene.world);
   const MeshInfo& info = m.meshes_of[0].info;
   CHECK(info.vertices.count == 9958);
@@ -370,26 +374,35 @@ TEST_CASE("the CT colon: cage built around its own mesh, embedded, bound with di
 }
 
 #if !defined(__SANITIZE_THREAD__)
-TEST_CASE("localization study: error falls with K, and MVC follows rigid cross-sections closer than linear blend") {
+TEST_CASE("the skin choice: along-rod cheapest and nearest rigid cross-sections, the cage near full MVC") {
   const validation::SkinningStudy s = validation::run_skinning_study();
-  REQUIRE(s.rows.size() == 8);
+  REQUIRE(s.rows.size() == 4);  // cage-full (the reference), along-rod, cage, linear-blend
   // The skinning column times the reading that skins (the mesh is made when read, decision 0060);
   // timing the pose alone once gave 0 µs in every row.
   for (const auto& row : s.rows) CHECK_MESSAGE(row.skin_us > 0.0, row.method);
-  for (std::size_t i = 2; i < 6; ++i) CHECK(s.rows[i].max_error < s.rows[i - 1].max_error);
-  const auto& k4 = s.rows[3];
-  const auto& adaptive = s.rows[6];  // at least 4 rings, more until 2 % of the weight or less is left out
-  MESSAGE("K = 4: " << k4.max_error << " m from full MVC, " << k4.slots << " rings; per vertex: " << adaptive.max_error
-                    << " m, " << adaptive.slots << " rings on average");
-  CHECK(adaptive.max_error <
-        1e-3);  // the bound it is chosen for (measured 0.31 mm folded, 0.97 renormalized; K = 4: 0.63 mm)
-  CHECK(adaptive.max_error < k4.max_error);
-  CHECK(adaptive.slots > 4.0);
-  const auto& lbs = s.rows[7];
-  CHECK(lbs.transport_max > 2.0 * k4.transport_max);
-  CHECK(lbs.twist_volume_change < -0.01);  // the candy wrapper
-  CHECK(std::abs(k4.twist_volume_change) < std::abs(lbs.twist_volume_change));
+  const auto &full = s.rows[0], &along = s.rows[1], &cage = s.rows[2], &lbs = s.rows[3];
+  CHECK(full.skinning == SkinningMethod::cage_full);
+  CHECK(along.skinning == SkinningMethod::along_rod);
+  CHECK(cage.skinning == SkinningMethod::cage);
+  for (const auto& row : s.rows)
+    MESSAGE(row.method << ": " << row.slots_per_vertex << " slots, " << 1e3 * row.transport_max
+                       << " mm from rigid cross-sections, " << 1e3 * row.max_error << " mm from full MVC, worst edge "
+                       << row.worst_edge_stretch);
+  CHECK(full.max_error == 0.0);
+  CHECK(cage.max_error < 1e-3);  // decision 0048's bound (measured 0.31 mm)
+  CHECK(along.slots_per_vertex < 0.5 * cage.slots_per_vertex);
+  CHECK(cage.slots_per_vertex < 0.5 * full.slots_per_vertex);
+  CHECK(along.transport_max < 5e-4);  // measured 0.046 mm, against the cage's 3.2 mm
+  CHECK(along.transport_max < 0.1 * cage.transport_max);
+  CHECK(along.transport_max < 0.1 * full.transport_max);
+  CHECK(lbs.transport_max > 1.5 * cage.transport_max);  // measured 1.97×
+  CHECK(lbs.twist_volume_change < -0.01);               // the candy wrapper
+  CHECK(std::abs(cage.twist_volume_change) < std::abs(lbs.twist_volume_change));
   CHECK(std::abs(s.transport_bend_volume_change) < 1e-3);  // the reference keeps its volume
+  for (const auto& row : s.rows) CHECK_MESSAGE(row.worst_edge_stretch < 2.0, row.method);
+  // The outer wall of the U-turn stretches 1.70× under rigid cross-sections themselves: along the
+  // rod stretches no edge further (measured 1.698× against 1.698×).
+  CHECK(along.worst_edge_stretch < 1.01 * s.transport_worst_edge);
 }
 
 // One of the 60 pieces of scenes/small-intestine.toml at 2 mm sections (51 nodes, 26 beads over
@@ -399,7 +412,7 @@ TEST_CASE("localization study: error falls with K, and MVC follows rigid cross-s
 
 namespace {
 WorldDesc dense_piece(int vertices = 5000) {
-  WorldDesc d = straight_organ(4, vertices);
+  WorldDesc d = straight_organ(SkinningMethod::cage, vertices);
   d.segments[0].nodes = 51;
   d.segments[0].rest.length = 0.1;
   d.segments[0].beads.count = 26;
@@ -410,11 +423,8 @@ WorldDesc dense_piece(int vertices = 5000) {
 }
 }  // namespace
 
-TEST_CASE(
-    "a dense cage (a piece of the 3,001-node small intestine) with max_rings_per_vertex = 7: under 2 × the slots of 4 "
-    "rings, near full MVC") {
-  WorldDesc d = dense_piece();
-  d.segments[0].mesh.max_rings_per_vertex = 7;  // the bound for dense cages (decision 0083)
+TEST_CASE("a dense cage (a piece of the 3,001-node small intestine) with skinning = \"cage\": near full MVC") {
+  const WorldDesc d = dense_piece();
   const detail::WorldModel m = detail::build_world_model(d);
   const detail::SegmentMesh& mesh = m.meshes_of[0];
   const TriangleMesh input = regenerate(m, d);
@@ -422,11 +432,13 @@ TEST_CASE(
   const detail::SkinBinding fixed = detail::bind_mean_value(mesh.cage, input, 4, 0.0, k4);
   const detail::SkinBinding all = detail::bind_mean_value(mesh.cage, input, 0, 0.0, full);
   const SkinReport& chosen = mesh.info.skin;
-  MESSAGE(mesh.cage.ring_station.size() << " rings; slots per vertex: default " << chosen.slots_per_vertex << " (rings "
-                                        << chosen.mean_rings_per_vertex << ", up to " << chosen.rings_per_vertex
-                                        << "), K = 4 " << k4.slots_per_vertex << ", all " << full.slots_per_vertex);
-  CHECK(chosen.rings_per_vertex <= 7);
-  CHECK(chosen.slots_per_vertex <= 2.0 * k4.slots_per_vertex);   // the cost bound, counted
+  MESSAGE(mesh.cage.ring_station.size() << " rings; slots per vertex: the cage " << chosen.slots_per_vertex
+                                        << " (rings " << chosen.mean_rings_per_vertex << ", up to "
+                                        << chosen.rings_per_vertex << "), K = 4 " << k4.slots_per_vertex << ", all "
+                                        << full.slots_per_vertex);
+  CHECK(chosen.method == SkinningMethod::cage);
+  CHECK(full.method == SkinningMethod::cage_full);
+  CHECK(chosen.slots_per_vertex > k4.slots_per_vertex);          // the rule keeps more than 4 where it must
   CHECK(full.slots_per_vertex > 3.0 * chosen.slots_per_vertex);  // dense: full MVC would cost far more
   std::mt19937 rng(29);
   double worst = 0.0, worst_k4 = 0.0, moved = 0.0;
@@ -444,168 +456,11 @@ TEST_CASE(
       moved = std::max(moved, (c.at(v) - input.vertices[v]).norm());
     }
   }
-  MESSAGE("vs full MVC: default " << worst << " m, K = 4 " << worst_k4 << " m; moved up to " << moved << " m");
+  MESSAGE("vs full MVC: the cage " << worst << " m, K = 4 " << worst_k4 << " m; moved up to " << moved << " m");
   CHECK(moved > 0.02);
-  test::measured("dense cage: the default localization's largest distance from full MVC, random bends", worst, 1e-3,
+  CHECK(worst < worst_k4);
+  test::measured("dense cage: the cage's localization's largest distance from full MVC, random bends", worst, 1e-3,
                  "m");
-}
-
-// The dense piece, straight, with 1,500 vertices (the binding is most of these tests' time): its
-// description, model and the mesh it was bound from.
-struct DensePiece {
-  WorldDesc desc = dense_piece(1500);
-  detail::WorldModel model = detail::build_world_model(desc);
-  TriangleMesh input = regenerate(model, desc);
-};
-
-// The largest distance of each binding's skinning from `reference`'s over four random bends of the
-// piece (the same bends for all of them).
-std::vector<double> largest_from(const detail::WorldModel& m, const TriangleMesh& input,
-                                 const detail::SkinBinding& reference,
-                                 const std::vector<const detail::SkinBinding*>& bindings, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::vector<double> worst(bindings.size(), 0.0);
-  for (int trial = 0; trial < 4; ++trial) {
-    std::vector<kernels::RingPose> now;
-    const std::vector<double> q = random_strains(m.segments[0].node_count, 10.0 + 5.0 * trial, rng);
-    const std::vector<float> delta = posed_deltas(m, m.segments[0].initial_base, q, now);
-    Skinned c(input.vertices.size());
-    kernels::skin_rigid_groups(reference.view(), delta, 0, reference.blocks(), c.out());
-    for (std::size_t i = 0; i < bindings.size(); ++i) {
-      Skinned a(input.vertices.size());
-      kernels::skin_rigid_groups(bindings[i]->view(), delta, 0, bindings[i]->blocks(), a.out());
-      for (std::size_t v = 0; v < input.vertices.size(); ++v) worst[i] = std::max(worst[i], (a.at(v) - c.at(v)).norm());
-    }
-  }
-  return worst;
-}
-
-// The piece's world built with `set` applied to its mesh fields, on 1 and on 2 threads (the world's
-// own, decision 0091): its binding is `expected`, bit for bit; reported: the budget it reports.
-template <class Set>
-void check_built_on_one_and_two_threads(WorldDesc d, Set set, const detail::SkinBinding& expected, double reported) {
-  set(d.segments[0].mesh);
-  for (const int threads : {1, 2}) {
-    d.threads = threads;
-    const detail::WorldModel built = detail::build_world_model(d);
-    const detail::SegmentMesh& b = built.meshes_of[0];
-    CHECK(b.info.skin.mean_rings_budget == doctest::Approx(reported));
-    CHECK(b.binding.coefficient == expected.coefficient);
-    CHECK(b.binding.ring == expected.ring);
-    CHECK(b.binding.slot_start == expected.slot_start);
-  }
-}
-
-TEST_CASE(
-    "mean_rings_per_vertex: a budget the vertices keep within changes nothing, one they exceed bounds the mean near "
-    "full MVC") {
-  // The dense piece, straight, with fewer vertices (the binding is most of this test's time): by
-  // decision 0048's rule its vertices keep about 11 rings on average.
-  const DensePiece piece;
-  const auto& [d, m, input] = piece;
-  const detail::SegmentMesh& mesh = m.meshes_of[0];
-  SkinReport rule, roomy, tight, full;
-  const detail::SkinBinding by_rule = detail::bind_mean_value(mesh.cage, input, 4, 0.02, rule);
-  const detail::SkinBinding within =
-      detail::bind_mean_value(mesh.cage, input, 4, 0.02, roomy, nullptr, 0, rule.mean_rings_per_vertex + 0.5);
-  const detail::SkinBinding bounded = detail::bind_mean_value(mesh.cage, input, 4, 0.02, tight, nullptr, 0, 4.5);
-  const detail::SkinBinding all = detail::bind_mean_value(mesh.cage, input, 0, 0.0, full);
-  MESSAGE("rings per vertex: the rule " << rule.mean_rings_per_vertex << " (" << rule.slots_per_vertex
-                                        << " slots), budget 4.5: " << tight.mean_rings_per_vertex << " ("
-                                        << tight.slots_per_vertex << " slots)");
-  // Within the budget: the same binding, bit for bit.
-  CHECK(roomy.mean_rings_budget == 0.0);
-  CHECK(within.coefficient == by_rule.coefficient);
-  CHECK(within.ring == by_rule.ring);
-  CHECK(within.slot_start == by_rule.slot_start);
-  // Beyond it: the mean bounded, and what it costs counted.
-  CHECK(rule.mean_rings_per_vertex > 5.0);
-  CHECK(tight.mean_rings_budget == 4.5);
-  CHECK(tight.mean_rings_per_vertex <= 4.5);
-  CHECK(tight.mean_rings_per_vertex > 4.4);  // the budget is used, not undershot
-  CHECK(tight.slots_per_vertex < rule.slots_per_vertex);
-  CHECK(tight.rings_per_vertex > 5);  // some vertices keep more than the mean, others fold
-  const std::vector<double> worst = largest_from(m, input, all, {&bounded, &by_rule}, 31);
-  MESSAGE("vs full MVC in random bends: budget 4.5 " << worst[0] << " m, the rule " << worst[1] << " m");
-  test::measured("dense cage, a mean budget of 4.5 rings: the largest distance from full MVC, random bends", worst[0],
-                 1e-3, "m");
-  // Through the scene's field: the same binding, bit for bit, as the one bound here.
-  check_built_on_one_and_two_threads(
-      d, [](OrganMeshDesc& mesh_desc) { mesh_desc.mean_rings_per_vertex = 4.5; }, bounded, 4.5);
-}
-
-TEST_CASE(
-    "skin_cost_limit: a limit the binding keeps within changes nothing, one it exceeds holds the slots within it, the "
-    "rings chosen by worth") {
-  // The dense piece again (about 11 rings a vertex by decision 0048's rule). The oracle of the cost
-  // is a binding of fixed K = 4 (the slots skinning reads), made on its own.
-  const DensePiece piece;
-  const auto& [d, m, input] = piece;
-  const detail::SegmentMesh& mesh = m.meshes_of[0];
-  SkinReport rule, k4, roomy, tight, full;
-  const detail::SkinBinding by_rule = detail::bind_mean_value(mesh.cage, input, 4, 0.02, rule);
-  (void)detail::bind_mean_value(mesh.cage, input, 4, 0.0, k4);
-  const double rule_cost = rule.slots_per_vertex / k4.slots_per_vertex;
-  const detail::SkinBinding within =
-      detail::bind_mean_value(mesh.cage, input, 4, 0.02, roomy, nullptr, 0, 0.0, rule_cost + 0.1);
-  const detail::SkinBinding limited = detail::bind_mean_value(mesh.cage, input, 4, 0.02, tight, nullptr, 0, 0.0, 1.5);
-  const detail::SkinBinding all = detail::bind_mean_value(mesh.cage, input, 0, 0.0, full);
-  const double cost = tight.slots_per_vertex / k4.slots_per_vertex;
-  MESSAGE("cost against K = 4: the rule " << rule_cost << " (" << rule.mean_rings_per_vertex << " rings), limit 1.5: "
-                                          << cost << " (" << tight.mean_rings_per_vertex << " rings)");
-  // Within the limit: the same binding, bit for bit.
-  CHECK(rule_cost > 2.0);
-  CHECK(roomy.mean_rings_budget == 0.0);
-  CHECK(within.coefficient == by_rule.coefficient);
-  CHECK(within.ring == by_rule.ring);
-  CHECK(within.slot_start == by_rule.slot_start);
-  // Beyond it: at most 1.5 times K = 4's slots, and not far under (the budget is bisected to 1 % of
-  // a ring a vertex); the mean it came to is reported.
-  CHECK(cost <= 1.5);
-  CHECK(cost > 1.45);
-  CHECK(tight.mean_rings_budget == doctest::Approx(tight.mean_rings_per_vertex).epsilon(0.02));
-  CHECK(tight.rings_per_vertex > 5);  // chosen by worth: some vertices keep more than the mean
-  test::measured("dense cage, a skin cost limit of 1.5: the largest distance from full MVC, random bends",
-                 largest_from(m, input, all, {&limited}, 37)[0], 1e-3, "m");
-  // With a bound per vertex, with a mean budget, and at 1 (the cost of fixed K itself): within the
-  // limit each time, and the smaller of the two budgets holds.
-  SkinReport with_bound, with_mean, at_one;
-  (void)detail::bind_mean_value(mesh.cage, input, 4, 0.02, with_bound, nullptr, 9, 0.0, 1.5);
-  (void)detail::bind_mean_value(mesh.cage, input, 4, 0.02, with_mean, nullptr, 0, 5.0, 3.0);
-  (void)detail::bind_mean_value(mesh.cage, input, 4, 0.02, at_one, nullptr, 0, 0.0, 1.0);
-  CHECK(with_bound.slots_per_vertex / k4.slots_per_vertex <= 1.5);
-  CHECK(with_bound.rings_per_vertex <= 9);
-  CHECK(with_mean.slots_per_vertex / k4.slots_per_vertex <= 3.0);
-  CHECK(with_mean.mean_rings_per_vertex <= 5.0);
-  CHECK(with_mean.mean_rings_budget == 5.0);
-  CHECK(at_one.slots_per_vertex <= k4.slots_per_vertex);
-  // Through the scene's field, on 1 and 2 threads: the same binding, bit for bit.
-  check_built_on_one_and_two_threads(
-      d, [](OrganMeshDesc& mesh_desc) { mesh_desc.skin_cost_limit = 1.5; }, limited, tight.mean_rings_budget);
-}
-
-TEST_CASE("skin_cost_limit below 1, negative or not finite is refused naming the field") {
-  for (const double bad : {0.5, -1.0, std::numeric_limits<double>::quiet_NaN(), 5000.0}) {
-    WorldDesc d = straight_organ(4, 1000);
-    d.segments[0].mesh.skin_cost_limit = bad;
-    CHECK_THROWS_WITH_AS(World::create(d), doctest::Contains("segment[0].mesh.skin_cost_limit"), FieldError);
-  }
-}
-
-TEST_CASE("mean_rings_per_vertex negative or not finite is refused naming the field") {
-  for (const double bad : {-1.0, std::numeric_limits<double>::quiet_NaN(), 5000.0}) {
-    WorldDesc d = straight_organ(4, 1000);
-    d.segments[0].mesh.mean_rings_per_vertex = bad;
-    CHECK_THROWS_WITH_AS(World::create(d), doctest::Contains("segment[0].mesh.mean_rings_per_vertex"), FieldError);
-  }
-}
-
-TEST_CASE("max_rings_per_vertex below rings_per_vertex, or negative, is refused naming the field") {
-  for (const int bad : {3, -1}) {
-    WorldDesc d = straight_organ(4, 1000);
-    d.segments[0].mesh.max_rings_per_vertex = bad;
-    CHECK_THROWS_WITH_AS(World::create(d), doctest::Contains("segment[0].mesh.max_rings_per_vertex"), FieldError);
-  }
 }
 
 TEST_CASE("skinned meshes and their normals are bit-identical with 1 and 2 threads") {
@@ -744,7 +599,7 @@ TEST_CASE("one-pass vertex normals equal the two-pass reference, non-manifold an
 }
 
 TEST_CASE("mesh accessors name a bad segment index") {
-  auto w = World::create(straight_organ(4, 1000));
+  auto w = World::create(straight_organ(SkinningMethod::along_rod, 1000));
   CHECK_THROWS_WITH_AS((void)w->cage_vertices(3), doctest::Contains("segment index 3 out of range"), Error);
   CHECK_THROWS_WITH_AS((void)w->ring_poses(1), doctest::Contains("segment index 1"), Error);
   CHECK(w->cage_vertices(0).size() == w->mesh(0).cage.vertices);

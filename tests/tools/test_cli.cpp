@@ -301,12 +301,12 @@ TEST_CASE("haustra run grasps and pulls the CT colon and writes its deformed mes
   const Result r = run("run " + kCliScenes + "anatomy-grasp.toml --frames 40 --mesh-every 20 --out " + dir.string());
   INFO(r.out << r.err);
   REQUIRE(r.code == 0);
-  // The builder's report: cage size, rings, inflation, embedding, MVC diagnostics.
+  // The builder's report: cage size, rings, inflation, embedding, the skin (along the rod, the default).
   // 55 bead rings, 54 between them, one past the anal end where the surface runs on beyond the rod.
   CHECK(r.out.find("cage: 110 rings (55 bead, 54 middle, 1 past an end, 0 taken out)") != std::string::npos);
   CHECK(r.out.find("0 mesh vertices outside, 0 mesh edges crossing, 0 cage self-intersections") != std::string::npos);
-  CHECK(r.out.find("mean value coordinates: ") != std::string::npos);
-  CHECK(r.out.find(" rings per vertex (up to ") != std::string::npos);
+  CHECK(r.out.find("along the rod: each vertex on the rod's frames either side of its own place") != std::string::npos);
+  CHECK(r.out.find(" slots per vertex; rest error ") != std::string::npos);
   CHECK(r.out.find("grasping segment 0") != std::string::npos);
   for (const char* f : {"frame_00000.ply", "frame_00020.ply", "frame_00040.ply"}) CHECK(fs::exists(dir / "mesh" / f));
   // The centreline and the beads of the same frames as CSV: a header, then 3 frames × 167 nodes

@@ -180,7 +180,7 @@ Errors check_frame(const World& w, const std::string& what, double moved_at_leas
 
 TEST_CASE("the skinning shader gives the CPU's mesh to 1e-6 m on a lifted, bent and twisted organ") {
   const Context gl;
-  auto w = test::scene_world("demo", 1, {"segment.mesh.procedural.vertices=4000", "segment.mesh.rings_per_vertex=4"});
+  auto w = test::scene_world("demo", 1, {"segment.mesh.procedural.vertices=4000", "segment.mesh.skinning=cage"});
   // The scene's grasper closes on the middle and lifts it (1.7 s).
   for (int f = 0; f < 100; ++f) w->step();
   const Errors lifted = check_frame(*w, "lifted");

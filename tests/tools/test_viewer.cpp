@@ -203,7 +203,7 @@ TEST_CASE("haustra view SURFACE: a surface where a scene is expected is imported
 TEST_CASE("haustra view: knobs at run time rebuild the model with the state kept, each logged, bad values refused") {
   const fs::path dir = scratch("knobs");
   const fs::path script = write(dir / "knobs.txt",
-                                "wait 30\nknob mode lagged\nknob iterations 3\nknob rings 0\nknob skin along-rod\n"
+                                "wait 30\nknob mode lagged\nknob iterations 3\nknob skin cage-full\nknob skin cage\n"
                                 "knob beads_per_node 0.5\nknob mode bogus\nwait 10\n"
                                 "save\nwait 10\nrestore\nwait 3\nquit\n");
   const Result r = run(kXvfb + kViewer + " " + kSource + "/scenes/demo.toml --script " + script.string() +
@@ -216,9 +216,9 @@ TEST_CASE("haustra view: knobs at run time rebuild the model with the state kept
   for (const auto& line : rec["log"]) log += line.get<std::string>() + "\n";
   INFO(log);
   CHECK(log.find("mode newton -> lagged: model rebuilt") != std::string::npos);
-  CHECK(log.find("iterations 2 -> 3: model rebuilt") != std::string::npos);  // after lagged: both hold
-  CHECK(log.find("rings 4 -> 0: model rebuilt") != std::string::npos);
-  CHECK(log.find("skin mvc -> along-rod: model rebuilt") != std::string::npos);  // decision 0117
+  CHECK(log.find("iterations 2 -> 3: model rebuilt") != std::string::npos);            // after lagged: both hold
+  CHECK(log.find("skin along-rod -> cage-full: model rebuilt") != std::string::npos);  // decision 0120
+  CHECK(log.find("skin cage-full -> cage: model rebuilt") != std::string::npos);
   CHECK(log.find("beads_per_node 0.347 -> 0.5") != std::string::npos);
   CHECK(log.find("knob mode: 'bogus' is not lagged, newton or fast") != std::string::npos);
   CHECK(log.find("back to frame 0") == std::string::npos);  // every rebuild kept the state

@@ -352,9 +352,9 @@ int render_frames(const RenderCommand& c) {
 // cage, (d) the final cage, and one sharp bend skinned (e) by linear blending and (f) by the cage.
 int figure_cage(const std::string& out, int width, int height) {
   const std::vector<validation::StudyPose> poses = validation::study_poses();
-  auto world = [](SkinningMethod m) { return World::create(validation::study_organ(m, 4)); };
-  const std::unique_ptr<World> mvc = world(SkinningMethod::mean_value), lbs = world(SkinningMethod::linear_blend);
-  const WorldDesc desc = validation::study_organ(SkinningMethod::mean_value, 4);
+  auto world = [](SkinningMethod m) { return World::create(validation::study_organ(m)); };
+  const std::unique_ptr<World> mvc = world(SkinningMethod::cage), lbs = world(SkinningMethod::linear_blend);
+  const WorldDesc desc = validation::study_organ(SkinningMethod::cage);
   render::RenderOptions o;
   o.width = width;
   o.height = height;
@@ -553,7 +553,7 @@ void declare_studies(CLI::App& app, Commands& c) {
   c.stability_cmd->add_option("--csv", c.stability_csv, "also write every cell to this CSV file (for the heat map)");
 
   c.skinning_cmd = app.add_subcommand(
-      "skinning", "localization study: rings kept per mesh vertex against cost and error, and linear-blend skinning");
+      "skinning", "the skin choice (mesh.skinning): each skin against cost and error, and linear-blend skinning");
   c.skinning_cmd->add_flag("--markdown", c.skinning_markdown, "print the table of docs/skinning.md");
   c.skinning_cmd->add_flag(
       "--anatomy", c.skinning_anatomy,
@@ -647,7 +647,7 @@ void declare_import(CLI::App& app, Commands& c) {
   c.anatomy_cmd
       ->add_option("--skinning", c.anatomy_skinning,
                    "bind every organ's mesh with this skin instead of the imported scene's (decision 0117)")
-      ->check(CLI::IsMember({"mvc", "along-rod", "linear-blend"}));
+      ->check(CLI::IsMember({"along-rod", "cage", "cage-full", "linear-blend"}));
 }
 
 int dispatch(Commands& c) {
@@ -673,7 +673,8 @@ int dispatch(Commands& c) {
     import::OrganProtocol protocol;
     protocol.threads = c.anatomy_threads;
     if (!c.anatomy_skinning.empty())
-      protocol.skinning = c.anatomy_skinning == "mvc"         ? SkinningMethod::mean_value
+      protocol.skinning = c.anatomy_skinning == "cage"        ? SkinningMethod::cage
+                          : c.anatomy_skinning == "cage-full" ? SkinningMethod::cage_full
                           : c.anatomy_skinning == "along-rod" ? SkinningMethod::along_rod
                                                               : SkinningMethod::linear_blend;
     if (!c.anatomy_abdomen.empty() && c.anatomy_body.empty())

@@ -326,18 +326,16 @@ void print_mesh_info(std::FILE* out, const World& world, std::size_t segment) {
              c.mesh_vertices_outside, c.crossing_edges, c.self_intersections, c.rest_pose_outside,
              std::isfinite(c.tightest_bend) && c.tightest_bend < 1e3 ? fmt::format("{:.1f} mm", 1e3 * c.tightest_bend)
                                                                      : "none (straight)");
-  if (k.method == SkinningMethod::mean_value)
+  if (k.method == SkinningMethod::cage || k.method == SkinningMethod::cage_full)
     fmt::print(
         out,
-        "    mean value coordinates: {:.2f} rings per vertex (up to {}{}), {:.2f} slots per vertex; min weight {:.3g}; "
-        "negative mass max {:.3g}, "
-        "mean {:.3g} "
-        "({} vertices); weight left out max {:.3g}, mean {:.3g}; rest correction max {:.2f} mm; rest error {:.2g} m; "
-        "{:.2f} s\n",
-        k.mean_rings_per_vertex, k.rings_per_vertex,
-        k.mean_rings_budget > 0.0 ? fmt::format("; bounded by a mean of {:.3g}", k.mean_rings_budget) : std::string(),
-        k.slots_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass, k.negative_vertices,
-        k.max_dropped_mass, k.mean_dropped_mass, 1e3 * k.max_rest_correction, k.rest_error, k.seconds);
+        "    mean value coordinates ({}): {:.2f} rings per vertex (up to {}), {:.2f} slots per vertex; min weight "
+        "{:.3g}; negative mass max {:.3g}, mean {:.3g} ({} vertices); weight left out max {:.3g}, mean {:.3g}; rest "
+        "correction max {:.2f} mm; rest error {:.2g} m; {:.2f} s\n",
+        k.method == SkinningMethod::cage ? "cage" : "cage-full, every ring", k.mean_rings_per_vertex,
+        k.rings_per_vertex, k.slots_per_vertex, k.min_weight, k.max_negative_mass, k.mean_negative_mass,
+        k.negative_vertices, k.max_dropped_mass, k.mean_dropped_mass, 1e3 * k.max_rest_correction, k.rest_error,
+        k.seconds);
   else if (k.method == SkinningMethod::along_rod)
     fmt::print(out,
                "    along the rod: each vertex on the rod's frames either side of its own place ({} a vertex, decision "

@@ -29,7 +29,9 @@
  * - Versions: haustra_abi_version() is the library's ABI; haustra_check_abi(HAUSTRA_ABI_VERSION)
  *   accepts a host built against this ABI or an older one back to 15 (14 was the first whose
  *   structs all carry their size; 15 took a stage and a counter out of haustra_profile; 16 added
- *   nodes_asleep at the end of haustra_profile and skinning at the end of haustra_segment_def).
+ *   nodes_asleep at the end of haustra_profile and skinning at the end of haustra_segment_def; 17
+ *   made the skin along the rod the default and retired the five localization fields of
+ *   haustra_segment_def, same layout: decision 0120).
  * - Units: metres, seconds, newtons, radians; world frame.
  */
 #ifndef HAUSTRA_H
@@ -52,7 +54,7 @@ extern "C" {
 
 /* The ABI this header describes. A host checks it against the library's with
  * haustra_check_abi(HAUSTRA_ABI_VERSION) before any other call. */
-#define HAUSTRA_ABI_VERSION 16
+#define HAUSTRA_ABI_VERSION 17
 /* The oldest host ABI this library serves (haustra_check_abi). */
 #define HAUSTRA_ABI_OLDEST 15
 
@@ -218,7 +220,8 @@ typedef struct haustra_segment_def {
   int mesh_vertices;       /* procedural: about this many; default 10,000 */
   const char* mesh_file;   /* .obj .stl .off .gltf .glb, at the rod's rest pose */
   double mesh_scale;       /* file units to metres; default 1 */
-  int rings_per_vertex;    /* mean value coordinates kept per vertex; default 4; 0: all */
+  int rings_per_vertex;    /* retired in ABI 17 (decision 0120): ignored at its old default 4 (or
+                              without a mesh), refused otherwise; choose `skinning` instead */
   int chain_pieces;        /* 1 (default); K > 1: the rod runs as K chained segments "<name>-1".."<name>-K"
                               of `nodes` nodes, `beads` beads and a procedural mesh each, sharing their
                               joint nodes (position and frame) and solved as one rod; centreline or
@@ -229,17 +232,12 @@ typedef struct haustra_segment_def {
   double exp2_alpha;       /* default 8 */
   double exp2_beta;        /* Pa; default 6700 */
   double exp2_gamma;       /* Pa; default 20000 */
-  /* The most rings a mesh vertex keeps (the scene's mesh.max_rings_per_vertex, decision 0083):
-   * 0 (default): no bound; else rings_per_vertex to 4096. Since ABI 11. */
+  /* Four more localization fields of the cage (ABI 11 to 16), retired in ABI 17 (decision 0120):
+   * each is ignored at its old default (0, 0, 0.02, 0; or without a mesh) and refused otherwise,
+   * naming the field; choose `skinning` instead. Kept so the struct's layout stays. */
   int max_rings_per_vertex;
-  /* A budget on the rings a mesh vertex keeps on average (the scene's mesh.mean_rings_per_vertex,
-   * decision 0090): 0 (default): none; else up to 4096. Since ABI 11. */
   double mean_rings_per_vertex;
-  /* More rings per mesh vertex while the weight it leaves out exceeds this fraction (the scene's
-   * mesh.weight_left_out, decision 0048): default 0.02; 0: exactly rings_per_vertex. Since ABI 11. */
   double weight_left_out;
-  /* At most this many times the skinning cost of rings_per_vertex rings a mesh vertex (the scene's
-   * mesh.skin_cost_limit, decision 0092): 0 (default): no limit; else 1 to 4096. Since ABI 11. */
   double skin_cost_limit;
   /* Connective tissue along the whole segment, holding each node where it rests (the scene's
    * [[segment.anchors]] from 0 to 1, target "rest"; decision 0095). Since ABI 12. No tissue unless
@@ -250,9 +248,10 @@ typedef struct haustra_segment_def {
   double anchor_slack;    /* m of free play; default 0 */
   double anchor_strength; /* N per metre of organ: an anchor pulled past it tears; default 1000; 0: never */
   double anchor_support;  /* N/m per metre of organ, against sinking along gravity only; default 0 */
-  /* The skin (the scene's mesh.skinning, decision 0117): 0 (default) the cage's mean value
-   * coordinates; 1 along the rod (each mesh vertex on the rod's own frames either side of its place).
-   * Since ABI 16. */
+  /* The skin (the scene's mesh.skinning, decisions 0117 and 0120): 1 (default since ABI 17) along
+   * the rod, each mesh vertex on the rod's own frames either side of its place; 0 the cage's mean
+   * value coordinates, localized by decision 0048's rule ("cage"); 2 the cage with every ring
+   * ("cage-full", full MVC; since ABI 17). A struct zeroed by the host has 0: the cage. Since ABI 16. */
   int skinning;
 } haustra_segment_def;
 

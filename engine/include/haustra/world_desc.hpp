@@ -169,10 +169,13 @@ struct ProceduralOrganDesc {
 };
 
 enum class MeshSource : std::uint8_t { procedural, file };
+// The skin a user chooses (decision 0120): cost against accuracy, measured in docs/skinning.md
+// ("Choosing a skin").
 enum class SkinningMethod : std::uint8_t {
-  mean_value,    // the paper's cage and mean value coordinates
+  cage,          // the paper's cage, mean value coordinates localized by decision 0048's rule
   linear_blend,  // linear-blend skinning on the bead frames (for comparison: the collapsing joint)
   along_rod,     // each vertex on the rod's own frames either side of its place along the rod (decision 0117)
+  cage_full,     // the cage with every ring (full mean value coordinates: the exact reference)
 };
 
 // The cage around the organ mesh (the paper's §6): a bead template ring on every bead, a middle
@@ -202,25 +205,8 @@ struct OrganMeshDesc {
   double scale = 1.0;                                   // file units to metres (0.001 for millimetres)
   Eigen::Vector3d translate = Eigen::Vector3d::Zero();  // m, after scaling
   CageDesc cage;
-  SkinningMethod skinning = SkinningMethod::mean_value;
-  int rings_per_vertex = 4;  // localization: the rings of largest weight kept per vertex, at least; 0: all
-  // ... and more, per vertex, while the weight mass left out exceeds this fraction of its total
-  // (decision 0048: under 1 mm from full MVC on real anatomy); 0: exactly rings_per_vertex.
-  double weight_left_out = 0.02;
-  // The most rings a vertex keeps (decision 0083): 0, no bound; else what its weight would want
-  // beyond them is folded onto the kept rings nearest along the rod. 7 bounds a dense cage's cost
-  // to about twice that of 4 rings, at some accuracy where loops touch (docs/skinning.md).
-  int max_rings_per_vertex = 0;
-  // A budget on the rings kept per vertex on average (decision 0090): 0, none; else where the
-  // vertices would keep more, the rings past rings_per_vertex are kept by weight × distance along
-  // the rod across the whole mesh, the others folded. Below rings_per_vertex: rings_per_vertex.
-  // 7 holds every anatomy surface under 2× the cost of 4 rings, at up to about 2 mm (2.05) where loops touch.
-  double mean_rings_per_vertex = 0.0;
-  // A limit on skinning's cost (decision 0092): 0, none; else at most this many times the cost of
-  // rings_per_vertex rings a vertex (the slots skinning reads), the rings past rings_per_vertex
-  // kept by worth as mean_rings_per_vertex keeps them, as many as the limit allows.
-  double skin_cost_limit = 0.0;
-  bool normals = true;  // per-vertex normals every frame
+  SkinningMethod skinning = SkinningMethod::along_rod;  // the default since decision 0120
+  bool normals = true;                                  // per-vertex normals every frame
 };
 
 struct SegmentDesc {

@@ -71,15 +71,12 @@ struct CageReport {
 // The binding of the mesh to the cage: mean value coordinates (or linear-blend weights) per mesh
 // vertex, grouped by ring, localized to the rings of largest weight.
 struct SkinReport {
-  SkinningMethod method = SkinningMethod::mean_value;
+  SkinningMethod method = SkinningMethod::along_rod;
   std::size_t rings_per_vertex = 0;    // rings kept, the vertex that keeps most (all rings when not localized)
   double mean_rings_per_vertex = 0.0;  // over the vertices
   double slots_per_vertex = 0.0;       // what skinning costs: rings × lanes of every block (padding too), per vertex
-  // The mean that bounded the rings kept: mean_rings_per_vertex (decision 0090), or the mean
-  // skin_cost_limit allowed where that was less (decision 0092); 0: none did.
-  double mean_rings_budget = 0.0;
-  double min_weight = 0.0;         // most negative MVC weight of any vertex
-  double max_negative_mass = 0.0;  // Σ|w| of negative weights, worst vertex
+  double min_weight = 0.0;             // most negative MVC weight of any vertex
+  double max_negative_mass = 0.0;      // Σ|w| of negative weights, worst vertex
   double mean_negative_mass = 0.0;
   std::size_t negative_vertices = 0;       // vertices with any negative weight
   std::size_t on_face = 0, on_vertex = 0;  // vertices found on the cage (exact branches)

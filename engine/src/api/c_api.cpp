@@ -312,6 +312,26 @@ void apply_runtime(const haustra_world_def& d, haustra::WorldDesc& w) {
   }
 }
 
+// The localization fields retired in ABI 17 (decision 0120), at the values they are ignored at.
+constexpr int kRetiredRingsPerVertex = 4;
+constexpr double kRetiredWeightLeftOut = 0.02;
+
+// A host that still sets a retired field to anything but its old default is refused, naming it:
+// the skin is one choice now, `skinning` (a silent default would change its mesh unseen).
+void refuse_retired_fields(const haustra_segment_def& d, const std::string& where) {
+  const auto refuse = [&](const char* field, double value) {
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("{}.{} = {}: retired in ABI 17 (decision 0120); use skinning: 1 along the rod, "
+                            "0 the cage, 2 the cage with every ring",
+                            where, field, value));
+  };
+  if (d.rings_per_vertex != kRetiredRingsPerVertex) refuse("rings_per_vertex", d.rings_per_vertex);
+  if (d.max_rings_per_vertex != 0) refuse("max_rings_per_vertex", d.max_rings_per_vertex);
+  if (d.mean_rings_per_vertex != 0.0) refuse("mean_rings_per_vertex", d.mean_rings_per_vertex);
+  if (d.weight_left_out != kRetiredWeightLeftOut) refuse("weight_left_out", d.weight_left_out);
+  if (d.skin_cost_limit != 0.0) refuse("skin_cost_limit", d.skin_cost_limit);
+}
+
 haustra::SegmentDesc segment_desc(const haustra_segment_def& host, std::size_t i) {
   const std::string where = fmt::format("segments[{}]", i);
   haustra_segment_def defaults{};
@@ -369,17 +389,15 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& host, std::size_t i
       throw Error(ErrorCode::invalid_argument,
                   fmt::format("{}.mesh = {}: expected 0 (none), 1 (procedural) or 2 (mesh_file)", where, d.mesh));
   }
-  s.mesh.rings_per_vertex = d.rings_per_vertex;
-  s.mesh.max_rings_per_vertex = d.max_rings_per_vertex;
-  s.mesh.mean_rings_per_vertex = d.mean_rings_per_vertex;
-  s.mesh.weight_left_out = d.weight_left_out;
-  s.mesh.skin_cost_limit = d.skin_cost_limit;
+  if (d.mesh != 0) refuse_retired_fields(d, where);
   switch (d.skinning) {
-    case 0: s.mesh.skinning = haustra::SkinningMethod::mean_value; break;
+    case 0: s.mesh.skinning = haustra::SkinningMethod::cage; break;
     case 1: s.mesh.skinning = haustra::SkinningMethod::along_rod; break;
+    case 2: s.mesh.skinning = haustra::SkinningMethod::cage_full; break;
     default:
       throw Error(ErrorCode::invalid_argument,
-                  fmt::format("{}.skinning = {}: expected 0 (the cage) or 1 (along the rod)", where, d.skinning));
+                  fmt::format("{}.skinning = {}: expected 1 (along the rod), 0 (the cage) or 2 (the cage, every ring)",
+                              where, d.skinning));
   }
   s.chain_pieces = d.chain_pieces;
   switch (d.tissue) {
@@ -707,11 +725,9 @@ haustra_status haustra_segment_def_default(haustra_segment_def* def) {
     d.density = s.material.density;
     d.mesh_vertices = s.mesh.procedural.vertices;
     d.mesh_scale = 1.0;
-    d.rings_per_vertex = s.mesh.rings_per_vertex;
-    d.max_rings_per_vertex = s.mesh.max_rings_per_vertex;
-    d.mean_rings_per_vertex = s.mesh.mean_rings_per_vertex;
-    d.weight_left_out = s.mesh.weight_left_out;
-    d.skin_cost_limit = s.mesh.skin_cost_limit;
+    d.rings_per_vertex = kRetiredRingsPerVertex;  // the retired fields at the values they are ignored at
+    d.weight_left_out = kRetiredWeightLeftOut;
+    d.skinning = 1;  // along the rod (decision 0120)
     d.chain_pieces = s.chain_pieces;
     d.exp2_alpha = s.material.exp2_alpha;
     d.exp2_beta = s.material.exp2_beta;

@@ -35,9 +35,11 @@ StrainLaw read_law(const Reader& r, const toml::table& t, std::string_view key, 
 
 OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::string& path,
                               const std::filesystem::path& scene_dir) {
-  r.check_keys(t, path,
-               {"source", "file", "scale", "translate", "procedural", "cage", "skinning", "rings_per_vertex",
-                "weight_left_out", "max_rings_per_vertex", "mean_rings_per_vertex", "skin_cost_limit", "normals"});
+  r.refuse_removed(
+      t, path,
+      {"rings_per_vertex", "weight_left_out", "max_rings_per_vertex", "mean_rings_per_vertex", "skin_cost_limit"},
+      "removed (decision 0120): choose mesh.skinning = \"along-rod\" | \"cage\" | \"cage-full\"");
+  r.check_keys(t, path, {"source", "file", "scale", "translate", "procedural", "cage", "skinning", "normals"});
   OrganMeshDesc d;
   d.enabled = true;
   const toml::node* file_node = t.get("file");
@@ -54,16 +56,13 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
   }
   d.scale = r.number(t, "scale", path + ".scale", d.scale);
   d.translate = r.vec3(t, "translate", path + ".translate", d.translate);
+  if (const toml::node* n = t.get("skinning"); n != nullptr && n->value<std::string>() == "mvc")
+    r.fail(n, path + ".skinning", "\"mvc\" was renamed (decision 0120): skinning = \"cage\"");
   d.skinning = r.choice<SkinningMethod>(t, "skinning", path + ".skinning", d.skinning,
-                                        {{"mvc", SkinningMethod::mean_value},
-                                         {"linear-blend", SkinningMethod::linear_blend},
-                                         {"along-rod", SkinningMethod::along_rod}});
-  d.rings_per_vertex = r.integer(t, "rings_per_vertex", path + ".rings_per_vertex", d.rings_per_vertex);
-  d.weight_left_out = r.number(t, "weight_left_out", path + ".weight_left_out", d.weight_left_out);
-  d.max_rings_per_vertex = r.integer(t, "max_rings_per_vertex", path + ".max_rings_per_vertex", d.max_rings_per_vertex);
-  d.mean_rings_per_vertex =
-      r.number(t, "mean_rings_per_vertex", path + ".mean_rings_per_vertex", d.mean_rings_per_vertex);
-  d.skin_cost_limit = r.number(t, "skin_cost_limit", path + ".skin_cost_limit", d.skin_cost_limit);
+                                        {{"along-rod", SkinningMethod::along_rod},
+                                         {"cage", SkinningMethod::cage},
+                                         {"cage-full", SkinningMethod::cage_full},
+                                         {"linear-blend", SkinningMethod::linear_blend}});
   d.normals = r.boolean(t, "normals", path + ".normals", d.normals);
   if (const toml::table* p = r.table(t, "procedural", path + ".procedural")) {
     const std::string pp = path + ".procedural";

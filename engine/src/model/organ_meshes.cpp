@@ -30,6 +30,10 @@ constexpr std::size_t kChunkBlocks = 64;  // 512 vertices per skinning task
 // A jump in place along the rod across a wall that cuts it into two (organ radii): more than the
 // inner side of a bend turns through (π radii at a hairpin), far less than loops apart (issue 35).
 constexpr double kFusedJumpRadii = 4.0;
+// The cage's one localization rule (decision 0048, kept by 0120): at least 4 rings a vertex, more
+// while over 2 % of its weight mass is left out (folded onto the kept rings, decision 0083).
+constexpr int kCageRingsAtLeast = 4;
+constexpr double kCageWeightLeftOut = 0.02;
 
 // Decision 0049: a mesh from a file binds by the harmonic place unless the scene says otherwise; a
 // procedural one, made around the rod, by its closest points.
@@ -272,25 +276,6 @@ std::pair<std::size_t, std::size_t> piece_beads(const WorldModel& m, const Segme
 void check_mesh_fields(const SegmentDesc& sd, const SegmentModel& seg, std::size_t first_bead, std::size_t end_bead,
                        const std::string& where) {
   const OrganMeshDesc& d = sd.mesh;
-  if (!std::isfinite(d.weight_left_out) || d.weight_left_out < 0.0 || d.weight_left_out >= 1.0)
-    fail(ErrorCode::invalid_argument, where + ".weight_left_out",
-         fmt::format("expected a fraction in [0, 1) of each vertex's weight, got {}", d.weight_left_out));
-  if (d.max_rings_per_vertex < 0 || d.max_rings_per_vertex > 4096 ||
-      (d.max_rings_per_vertex > 0 && d.max_rings_per_vertex < d.rings_per_vertex))
-    fail(ErrorCode::invalid_argument, where + ".max_rings_per_vertex",
-         fmt::format("expected 0 (no bound) or a count from rings_per_vertex ({}) up to 4096, got {}",
-                     d.rings_per_vertex, d.max_rings_per_vertex));
-  if (!std::isfinite(d.skin_cost_limit) || (d.skin_cost_limit != 0.0 && !(d.skin_cost_limit >= 1.0)) ||
-      d.skin_cost_limit > 4096.0)
-    fail(ErrorCode::invalid_argument, where + ".skin_cost_limit",
-         fmt::format("expected 0 (no limit) or a factor from 1 to 4096 on the cost of rings_per_vertex rings, got {}",
-                     d.skin_cost_limit));
-  if (!std::isfinite(d.mean_rings_per_vertex) || d.mean_rings_per_vertex < 0.0 || d.mean_rings_per_vertex > 4096.0)
-    fail(ErrorCode::invalid_argument, where + ".mean_rings_per_vertex",
-         fmt::format("expected 0 (no budget) or a mean number of rings up to 4096, got {}", d.mean_rings_per_vertex));
-  if (d.rings_per_vertex < 0 || d.rings_per_vertex > 4096)
-    fail(ErrorCode::invalid_argument, where + ".rings_per_vertex",
-         fmt::format("expected 0 (all rings) or a count up to 4096, got {}", d.rings_per_vertex));
   if (!std::isfinite(d.cage.clearance) || d.cage.clearance < 0.0 || d.cage.clearance > sd.cross_section.radius)
     fail(ErrorCode::invalid_argument, where + ".cage.clearance",
          fmt::format("expected a clearance in [0, {}] m (0: 5 % of the radius), got {}", sd.cross_section.radius,
@@ -379,10 +364,10 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
       throw FieldError(e.code(), e.field(), fmt::format("{} (mesh {})", e.detail(), d.file));
     }
     switch (d.skinning) {
-      case SkinningMethod::mean_value:
-        out.binding = bind_mean_value(out.cage, meshes[pi], d.rings_per_vertex, d.weight_left_out, out.info.skin,
-                                      nullptr, d.max_rings_per_vertex, d.mean_rings_per_vertex, d.skin_cost_limit);
+      case SkinningMethod::cage:
+        out.binding = bind_mean_value(out.cage, meshes[pi], kCageRingsAtLeast, kCageWeightLeftOut, out.info.skin);
         break;
+      case SkinningMethod::cage_full: out.binding = bind_mean_value(out.cage, meshes[pi], 0, 0.0, out.info.skin); break;
       case SkinningMethod::linear_blend: out.binding = bind_linear_blend(out.cage, meshes[pi], out.info.skin); break;
       case SkinningMethod::along_rod:  // the rod's own frames at every station, then the vertices on them
         add_station_rings(out.cage, in.rest, in.section_length);

@@ -117,15 +117,6 @@ SkinBinding pack(const TriangleMesh& mesh, const Slots& slots, std::size_t max_r
   return b;
 }
 
-// The slots pack would give these ring sets (each ascending): the cost of a binding before it is made.
-std::size_t slots_of(const std::vector<std::vector<std::uint32_t>>& sets, std::size_t max_rings) {
-  std::size_t slots = 0;
-  for_each_block(sets, max_rings,
-                 [&](const std::vector<std::uint32_t>&, std::size_t, std::size_t,
-                     const std::vector<std::uint32_t>& set) { slots += set.size() * kSkinLanes; });
-  return slots;
-}
-
 double rest_error(const SkinBinding& b, const TriangleMesh& mesh) {
   double worst = 0.0;
   for (std::size_t i = 0; i < b.vertex.size(); ++i)
@@ -148,22 +139,11 @@ struct VertexStats {
   kernels::MvcLocation location = kernels::MvcLocation::general;
 };
 
-// The rings a vertex keeps (decision 0083): the `at_least` of largest weight mass (ties: lower
-// ring first), then, while the mass left out exceeds `weight_left_out` of the total and fewer than
-// `at_most` are kept, the left-out ring whose mass times its distance along the rod from the
-// nearest kept ring is largest (what folding it would cost: a ring next to a kept one moves almost
-// as it does), or of largest mass when arc is empty (no bound: decision 0048); then in ring order.
-// arc: per ring, or empty. Returns how many rings `order` starts with and
-// the weight mass the others carry.
-// values: when given, the worth of each ring kept past `at_least`, in the order kept: its mass times
-// its gap when kept, made non-increasing (each the least so far), so that keeping the rings worth
-// more than a threshold keeps a prefix (decision 0090's budget). ranked: when given, the kept rings
-// in the order chosen (the `at_least` by mass, then by worth), before they are sorted.
-std::pair<std::size_t, double> choose_rings(const std::vector<double>& mass, std::span<const double> arc,
-                                            std::size_t at_least, std::size_t at_most, double weight_left_out,
-                                            std::vector<std::uint32_t>& order, std::vector<double>& gap,
-                                            std::vector<double>* values = nullptr,
-                                            std::vector<std::uint32_t>* ranked = nullptr) {
+// The rings a vertex keeps (decision 0048): the `at_least` of largest weight mass (ties: lower ring
+// first), then more by mass while the mass left out exceeds `weight_left_out` of the total; then in
+// ring order. Returns how many rings `order` starts with and the weight mass the others carry.
+std::pair<std::size_t, double> choose_rings(const std::vector<double>& mass, std::size_t at_least,
+                                            double weight_left_out, std::vector<std::uint32_t>& order) {
   const std::size_t rings = mass.size();
   std::iota(order.begin(), order.end(), 0U);
   std::sort(order.begin(), order.end(),
@@ -172,32 +152,8 @@ std::pair<std::size_t, double> choose_rings(const std::vector<double>& mass, std
   for (std::size_t g = 0; g < rings; ++g) total_mass += mass[g];
   for (std::size_t k = at_least; k < rings; ++k) dropped += mass[order[k]];
   std::size_t keep = at_least;
-  if (arc.empty()) {
-    while (weight_left_out > 0.0 && keep < std::min(rings, at_most) && dropped > weight_left_out * total_mass)
-      dropped -= mass[order[keep++]];
-  } else if (weight_left_out > 0.0 && keep < at_most && dropped > weight_left_out * total_mass) {
-    // gap[k]: the distance along the rod from order[k] (left out) to the nearest kept ring.
-    for (std::size_t k = keep; k < rings; ++k) {
-      gap[k] = std::numeric_limits<double>::infinity();
-      for (std::size_t i = 0; i < keep; ++i) gap[k] = std::min(gap[k], std::abs(arc[order[k]] - arc[order[i]]));
-    }
-    while (keep < at_most && dropped > weight_left_out * total_mass) {
-      std::size_t best = keep;
-      for (std::size_t k = keep + 1; k < rings; ++k)
-        if (mass[order[k]] * gap[k] > mass[order[best]] * gap[best]) best = k;
-      std::swap(order[keep], order[best]);
-      std::swap(gap[keep], gap[best]);
-      if (values != nullptr) {
-        const double worth = mass[order[keep]] * gap[keep];
-        values->push_back(values->empty() ? worth : std::min(values->back(), worth));
-      }
-      dropped -= mass[order[keep]];
-      for (std::size_t k = keep + 1; k < rings; ++k)
-        gap[k] = std::min(gap[k], std::abs(arc[order[k]] - arc[order[keep]]));
-      ++keep;
-    }
-  }
-  if (ranked != nullptr) ranked->assign(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep));
+  while (weight_left_out > 0.0 && keep < rings && dropped > weight_left_out * total_mass)
+    dropped -= mass[order[keep++]];
   std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep));
   return {keep, dropped};
 }
@@ -244,7 +200,6 @@ void fold_left_out(const CageModel& cage, std::span<const std::uint32_t> kept, s
 // The binding's report from each vertex's statistics: the worst and the mean.
 SkinReport skin_report_of(const std::vector<VertexStats>& stats) {
   SkinReport report;
-  report.method = SkinningMethod::mean_value;
   double negative_sum = 0.0, dropped_sum = 0.0, kept_sum = 0.0;
   for (const VertexStats& s : stats) {
     report.rings_per_vertex = std::max(report.rings_per_vertex, s.kept);
@@ -279,77 +234,9 @@ void pack_rows(const std::vector<std::vector<std::pair<std::uint32_t, double>>>&
   }
 }
 
-// How many rings past `at_least` each vertex keeps under a budget of `budget` rings in all: those
-// worth more than the threshold that leaves at most that many (worth: per vertex, non-increasing).
-std::vector<std::size_t> extra_rings_within(const std::vector<std::vector<double>>& worth, std::size_t budget,
-                                            std::size_t at_least) {
-  std::vector<std::size_t> extra(worth.size(), 0);
-  const std::size_t base = at_least * worth.size();
-  const std::size_t room = budget > base ? budget - base : 0;
-  std::vector<double> all;
-  for (const auto& w : worth) all.insert(all.end(), w.begin(), w.end());
-  double threshold = -1.0;  // every extra ring fits
-  if (all.size() > room) {
-    std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(room), all.end(), std::greater<>());
-    threshold = all[room];  // the first left out: keep only what is worth more
-  }
-  for (std::size_t v = 0; v < worth.size(); ++v)
-    while (extra[v] < worth[v].size() && worth[v][extra[v]] > threshold) ++extra[v];
-  return extra;
-}
-
-// Each vertex's first keep(v) rings of `ranked` (its rings in the order chosen), ascending: the ring
-// sets a binding keeping those would pack.
-template <class Keep>
-void ranked_prefixes(const std::vector<std::vector<std::uint32_t>>& ranked, Keep keep,
-                     std::vector<std::vector<std::uint32_t>>& sets) {
-  sets.resize(ranked.size());
-  for (std::size_t v = 0; v < ranked.size(); ++v) {
-    const std::size_t k = std::min(ranked[v].size(), keep(v));
-    sets[v].assign(ranked[v].begin(), ranked[v].begin() + static_cast<std::ptrdiff_t>(k));
-    std::sort(sets[v].begin(), sets[v].end());
-  }
-}
-
-// Decision 0092's allowance: `limit` times the slots of each vertex's `at_least` rings of largest
-// mass (the first of `ranked`), packed as fixed K packs them.
-double slots_allowed(const std::vector<std::vector<std::uint32_t>>& ranked, std::size_t at_least, double limit) {
-  std::vector<std::vector<std::uint32_t>> sets;
-  ranked_prefixes(
-      ranked, [&](std::size_t) { return at_least; }, sets);
-  return limit * static_cast<double>(slots_of(sets, at_least));
-}
-
-// The most rings in all, up to `most` (a budget for extra_rings_within), whose binding packs into at
-// most `allowed` slots (decision 0092): bisected on the slots the ring sets would pack into. The
-// least, at_least a vertex, is taken to fit: it is the fixed binding `allowed` was measured on,
-// which the caller then packs as fixed K packs (at most at_least rings a block).
-std::size_t rings_within_cost(const std::vector<std::vector<double>>& worth,
-                              const std::vector<std::vector<std::uint32_t>>& ranked, std::size_t at_least,
-                              std::size_t pack_rings, double allowed, std::size_t most) {
-  const std::size_t n = ranked.size();
-  std::vector<std::vector<std::uint32_t>> sets;
-  const auto fits = [&](std::size_t budget) {
-    const std::vector<std::size_t> extra = extra_rings_within(worth, budget, at_least);
-    ranked_prefixes(
-        ranked, [&](std::size_t v) { return at_least + extra[v]; }, sets);
-    return static_cast<double>(slots_of(sets, pack_rings)) <= allowed;
-  };
-  std::size_t lo = at_least * n, hi = 0;
-  for (const auto& r : ranked) hi += r.size();
-  hi = std::min(hi, most);
-  if (hi <= lo) return lo;
-  if (fits(hi)) return hi;
-  while (hi - lo > std::max<std::size_t>(1, n / 100)) {  // to 1 % of a ring a vertex
-    const std::size_t mid = lo + (hi - lo) / 2;
-    (fits(mid) ? lo : hi) = mid;
-  }
-  return lo;
-}
-
 // Per thread: a vertex's MVC weights and its rings' sums.
 struct VertexScratch {
-  std::vector<double> mvc, w, mass, weight, gap;
+  std::vector<double> mvc, w, mass, weight;
   std::vector<Eigen::Vector3d> moment;
   std::vector<std::uint32_t> order;
   std::vector<std::uint8_t> is_kept;
@@ -358,16 +245,13 @@ struct VertexScratch {
         w(cage_vertices),
         mass(rings),
         weight(rings),
-        gap(rings),
         moment(rings),
         order(rings),
         is_kept(rings) {}
 };
 
-// Binds the mesh's vertices to the cage: each vertex's mean value coordinates, the rings it keeps
-// (at most rings_at_most(v)), the weight of the others folded onto them, its slots, statistics and,
-// when wanted, CSR row. worth: when given, each vertex's rings past at_least and their worth
-// (choose_rings). Every pass overwrites what a vertex had.
+// Binds the mesh's vertices to the cage: each vertex's mean value coordinates, the rings it keeps,
+// the weight of the others folded onto them, its slots, statistics and, when wanted, CSR row.
 struct VertexBinder {
   const CageModel& cage;
   const TriangleMesh& mesh;
@@ -377,23 +261,18 @@ struct VertexBinder {
   std::vector<VertexStats>& stats;
   std::vector<std::vector<std::pair<std::uint32_t, double>>>& rows;
 
-  template <class RingsAtMost>
-  void run(std::span<const double> arc, RingsAtMost rings_at_most, std::vector<std::vector<double>>* worth = nullptr,
-           std::vector<std::vector<std::uint32_t>>* ranked = nullptr) const {
+  void run() const {
     // Weights in the binding pose, where the cage embeds the mesh without folds.
     const kernels::CageView view{cage.binding_vertices, cage.triangles};
     const kernels::CageFrame frame = kernels::cage_frame(cage.binding_vertices);
     parallel_blocks(mesh.vertices.size(), 64, [&](std::size_t first, std::size_t last) {
       VertexScratch x(cage.rest_vertices.size(), cage.ring_station.size());
-      for (std::size_t v = first; v != last; ++v)
-        bind_vertex(v, view, frame, arc, rings_at_most(v), worth != nullptr ? &(*worth)[v] : nullptr,
-                    ranked != nullptr ? &(*ranked)[v] : nullptr, x);
+      for (std::size_t v = first; v != last; ++v) bind_vertex(v, view, frame, x);
     });
   }
 
   void bind_vertex(std::size_t v, const kernels::CageView& view, const kernels::CageFrame& frame,
-                   std::span<const double> arc, std::size_t at_most, std::vector<double>* worth,
-                   std::vector<std::uint32_t>* ranked, VertexScratch& x) const {
+                   VertexScratch& x) const {
     const std::size_t rings = cage.ring_station.size();
     const std::size_t n = cage.rest_vertices.size();
     const kernels::MvcResult r = kernels::mean_value_coordinates(cage.mesh_binding[v], view, frame, x.mvc, x.w);
@@ -406,8 +285,7 @@ struct VertexBinder {
       x.weight[g] += x.w[j];
       x.moment[g] += x.w[j] * cage.offset[j];
     }
-    const auto [keep, dropped] =
-        choose_rings(x.mass, arc, at_least, at_most, weight_left_out, x.order, x.gap, worth, ranked);
+    const auto [keep, dropped] = choose_rings(x.mass, at_least, weight_left_out, x.order);
     if (keep < rings) fold_left_out(cage, std::span(x.order).first(keep), x.weight, x.moment, x.is_kept);
     double kept = 0.0;
     for (std::size_t k = 0; k < keep; ++k) kept += x.weight[x.order[k]];
@@ -446,79 +324,21 @@ struct VertexBinder {
 }  // namespace
 
 SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int rings_per_vertex,
-                            double weight_left_out, SkinReport& report, CageWeights* csr, int max_rings_per_vertex,
-                            double mean_rings_per_vertex, double skin_cost_limit) {
+                            double weight_left_out, SkinReport& report, CageWeights* csr) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t rings = cage.ring_station.size();
   const std::size_t vertices = mesh.vertices.size();
   const std::size_t at_least =
       rings_per_vertex <= 0 ? rings : std::min(rings, static_cast<std::size_t>(rings_per_vertex));
-  // At most max_rings_per_vertex (decision 0083): what a vertex's weight would want beyond them is
-  // folded onto the kept rings nearest along the rod.
-  const std::size_t at_most = max_rings_per_vertex <= 0
-                                  ? rings
-                                  : std::max(at_least, std::min(rings, static_cast<std::size_t>(max_rings_per_vertex)));
-  const std::size_t pack_rings = weight_left_out > 0.0 ? at_most : at_least;
-  std::vector<double> arc(rings);  // along the rod: the binding pose is straight along z
-  for (std::size_t g = 0; g < rings; ++g) arc[g] = cage.ring_binding[g].centre.z();
   Slots slots;
   slots.resize(vertices);
   std::vector<VertexStats> stats(vertices);
   std::vector<std::vector<std::pair<std::uint32_t, double>>> rows(csr != nullptr ? vertices : 0);
   const VertexBinder binder{cage, mesh, at_least, weight_left_out, slots, stats, rows};
-
-  // By weight and distance when bounded, by weight alone otherwise (decision 0048). Ordered by
-  // distance, this pass also records each vertex's worth for a budget (decisions 0090, 0092).
-  const std::span<const double> by_distance(arc);
-  const bool bounded = at_most < rings;
-  const bool costed = skin_cost_limit > 0.0;
-  const bool budgeted = (mean_rings_per_vertex > 0.0 || costed) && weight_left_out > 0.0 && at_least < rings;
-  std::vector<std::vector<double>> worth(budgeted && bounded ? vertices : 0);
-  std::vector<std::vector<std::uint32_t>> ranked(budgeted && costed ? vertices : 0);
-  binder.run(
-      bounded ? by_distance : std::span<const double>(), [&](std::size_t) { return at_most; },
-      worth.empty() ? nullptr : &worth, ranked.empty() ? nullptr : &ranked);
-  std::size_t kept_total = 0;
-  for (const VertexStats& st : stats) kept_total += st.kept;
-  const std::size_t floor = at_least * vertices;
-  // A budget on the mean (decision 0090): where the vertices keep more rings than it allows, the
-  // rings past `at_least` are kept by their worth (weight × distance along the rod) across the
-  // whole mesh: a threshold on worth, so a vertex whose weight lies far along the rod keeps its
-  // rings and one whose left-out rings are next to its kept ones folds them.
-  std::size_t budget = mean_rings_per_vertex > 0.0
-                           ? static_cast<std::size_t>(mean_rings_per_vertex * static_cast<double>(vertices))
-                           : kept_total;
-  const std::size_t mean_budget = budget;
-  const bool over_mean = mean_rings_per_vertex > 0.0 && kept_total > budget;
-  // A limit on the cost (decision 0092): the same choice by worth, with as many rings as the slots
-  // allow (and the mean budget, if it is less); a binding within both stays as it is.
-  const bool limited = budgeted && costed;
-  const double allowed = limited ? slots_allowed(ranked, at_least, skin_cost_limit) : 0.0;
-  const bool over_cost = limited && static_cast<double>(slots_of(slots.ring, pack_rings)) > allowed;
-  double bounded_by = 0.0;
-  std::size_t packed_as = pack_rings;
-  if (budgeted && (over_mean || over_cost)) {
-    if ((costed || budget > floor) && worth.empty()) {  // ordered by weight alone so far
-      worth.assign(vertices, {});
-      binder.run(
-          by_distance, [&](std::size_t) { return at_most; }, &worth, costed ? &ranked : nullptr);
-    }
-    if (costed) {
-      const std::size_t most = over_mean ? budget : std::numeric_limits<std::size_t>::max();
-      budget = rings_within_cost(worth, ranked, at_least, pack_rings, allowed, most);
-      if (budget <= floor) packed_as = at_least;  // the fixed binding the limit was measured on
-    }
-    std::vector<std::size_t> extra(vertices, 0);  // a budget below at_least keeps at_least
-    if (budget > floor) extra = extra_rings_within(worth, budget, at_least);
-    binder.run(by_distance, [&](std::size_t v) { return at_least + extra[v]; });
-    bounded_by = budget < mean_budget || mean_rings_per_vertex <= 0.0
-                     ? static_cast<double>(budget) / static_cast<double>(std::max<std::size_t>(vertices, 1))
-                     : mean_rings_per_vertex;
-  }
-
+  binder.run();
   report = skin_report_of(stats);
-  report.mean_rings_budget = bounded_by;
-  SkinBinding b = pack(mesh, slots, packed_as);
+  report.method = rings_per_vertex <= 0 ? SkinningMethod::cage_full : SkinningMethod::cage;
+  SkinBinding b = pack(mesh, slots, weight_left_out > 0.0 ? rings : at_least);
   report.rest_error = rest_error(b, mesh);
   report.slots_per_vertex = slots_per_vertex(b);
   if (csr != nullptr) pack_rows(rows, *csr);

@@ -36,15 +36,12 @@ struct CageWeights {
 
 // rings_per_vertex: rings kept at least (0: every ring, full MVC); weight_left_out: more rings are
 // kept, per vertex, while the weight mass left out exceeds this fraction of the vertex's total
-// (0: exactly rings_per_vertex), up to max_rings_per_vertex (0: no bound); the weight of the rings
-// left out is folded onto the kept rings nearest along the rod (decision 0083), and on average at
-// most mean_rings_per_vertex (0: no budget; decision 0090), and within skin_cost_limit times the
-// cost of rings_per_vertex rings a vertex (0: no limit; decision 0092). csr: when given, filled with the kept
-// MVC weights, renormalized (the binding itself when every ring is kept).
+// (0: exactly rings_per_vertex; decision 0048); the weight of the rings left out is folded onto the
+// kept rings nearest along the rod (decision 0083). The scene's "cage" is 4 and 0.02, "cage-full" 0
+// (decision 0120). csr: when given, filled with the kept MVC weights, renormalized (the binding
+// itself when every ring is kept).
 SkinBinding bind_mean_value(const CageModel& cage, const TriangleMesh& mesh, int rings_per_vertex,
-                            double weight_left_out, SkinReport& report, CageWeights* csr = nullptr,
-                            int max_rings_per_vertex = 0, double mean_rings_per_vertex = 0.0,
-                            double skin_cost_limit = 0.0);
+                            double weight_left_out, SkinReport& report, CageWeights* csr = nullptr);
 
 // Linear-blend skinning on the bead rings: each vertex on the two beads whose centre segment is
 // nearest, weights by its position along that segment.

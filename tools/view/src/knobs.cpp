@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <sstream>
@@ -31,6 +32,10 @@ double beads_per_node(const WorldDesc& desc) {
   return 0.0;
 }
 
+std::string skin_name(SkinningMethod m) {
+  return std::string(kSkinNames[static_cast<std::size_t>(std::find(kSkins.begin(), kSkins.end(), m) - kSkins.begin())]);
+}
+
 std::string knob_value(const WorldDesc& d, std::string_view name) {
   if (name == "mode") return solver_mode_name(d.solver.mode);
   if (name == "iterations") return std::to_string(d.solver.iterations);
@@ -38,9 +43,7 @@ std::string knob_value(const WorldDesc& d, std::string_view name) {
   if (name == "law")
     return !d.segments.empty() && d.segments[0].material.response == TissueResponse::exp2 ? "exp2" : "hooke";
   if (name == "beads_per_node") return fmt::format("{:.3g}", beads_per_node(d));
-  if (name == "rings") return d.segments.empty() ? "0" : std::to_string(d.segments[0].mesh.rings_per_vertex);
-  if (name == "skin")
-    return !d.segments.empty() && d.segments[0].mesh.skinning == SkinningMethod::along_rod ? "along-rod" : "mvc";
+  if (name == "skin") return d.segments.empty() ? "along-rod" : skin_name(d.segments[0].mesh.skinning);
   if (name == "gravity") return fmt::format("{} {} {}", d.gravity.x(), d.gravity.y(), d.gravity.z());
   if (name == "contact") return fmt::format("{:.4g}", d.contact.coefficient);
   if (name == "rate") return std::abs(d.dt - 1e-3) < 1e-12 ? "1khz" : fmt::format("{:.4g} s", d.dt);
@@ -80,14 +83,10 @@ KnobChange set_knob(const WorldDesc& now, std::string_view name, std::string_vie
       s.beads.spacing = 0.0;
       s.beads.nodes.clear();
     }
-  } else if (name == "rings") {
-    const double n = number(name, value);
-    if (n < 0 || n > 64 || n != std::floor(n)) refuse(name, value, "a whole number from 0 (all rings) to 64");
-    for (SegmentDesc& s : d.segments) s.mesh.rings_per_vertex = static_cast<int>(n);
-  } else if (name == "skin") {  // decision 0117: the cage, or the rod's own frames at each vertex's place
-    if (value != "mvc" && value != "along-rod") refuse(name, value, "mvc or along-rod");
-    for (SegmentDesc& s : d.segments)
-      s.mesh.skinning = value == "along-rod" ? SkinningMethod::along_rod : SkinningMethod::mean_value;
+  } else if (name == "skin") {  // decision 0120: the scene's mesh.skinning
+    const auto it = std::find(kSkinNames.begin(), kSkinNames.end(), value);
+    if (it == kSkinNames.end()) refuse(name, value, "along-rod, cage, cage-full or linear-blend");
+    for (SegmentDesc& s : d.segments) s.mesh.skinning = kSkins[static_cast<std::size_t>(it - kSkinNames.begin())];
   } else if (name == "gravity") {
     std::istringstream in{std::string(value)};
     double x = 0, y = 0, z = 0;

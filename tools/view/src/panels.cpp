@@ -122,12 +122,10 @@ void knobs(ViewerState& v) {
   if (!ImGui::IsAnyItemActive()) per_node = static_cast<float>(beads_per_node(d));
   ImGui::SliderFloat("beads per node", &per_node, 0.05f, 1.0f, "%.2f");
   if (ImGui::IsItemDeactivatedAfterEdit()) turn_knob(v, "beads_per_node", fmt::format("{}", per_node));
-  static int rings = 0;
-  if (!ImGui::IsAnyItemActive()) rings = d.segments.empty() ? 0 : d.segments[0].mesh.rings_per_vertex;
-  ImGui::SliderInt("MVC rings (0: all)", &rings, 0, 8);
-  if (ImGui::IsItemDeactivatedAfterEdit()) turn_knob(v, "rings", std::to_string(rings));
-  int skin = !d.segments.empty() && d.segments[0].mesh.skinning == SkinningMethod::along_rod ? 1 : 0;
-  if (ImGui::Combo("skin", &skin, "cage (MVC)\0along the rod\0")) turn_knob(v, "skin", skin == 1 ? "along-rod" : "mvc");
+  const SkinningMethod now = d.segments.empty() ? SkinningMethod::along_rod : d.segments[0].mesh.skinning;
+  int skin = static_cast<int>(std::find(kSkins.begin(), kSkins.end(), now) - kSkins.begin());
+  if (ImGui::Combo("skin", &skin, "along the rod\0cage (MVC)\0cage, every ring\0linear blend\0"))
+    turn_knob(v, "skin", std::string(kSkinNames[static_cast<std::size_t>(skin)]));
   static float gravity[3] = {0, 0, 0};
   if (!ImGui::IsAnyItemActive())
     for (int i = 0; i < 3; ++i) gravity[i] = static_cast<float>(d.gravity[i]);

@@ -1,9 +1,8 @@
 #pragma once
 // Skinning quality on real anatomy (docs/skinning.md): every real segment and procedural organs
 // imported as a user would (`haustra import`), deformed (rest, a 90° bend, a grasp-and-lift, a
-// rigid motion), skinned with K = 4 rings per vertex and with the per-vertex localization (at
-// least 4 rings, more until no more than 2 % of the weight is left out), each against full mean
-// value coordinates of the same cage and against rigid cross-sections.
+// rigid motion), skinned along the rod and with the cage (decision 0120's choices), each against
+// full mean value coordinates of the same cage ("cage-full") and against rigid cross-sections.
 #include <filesystem>
 #include <string>
 #include <utility>
@@ -14,9 +13,10 @@
 namespace haustra::import {
 
 struct AnatomyRow {
-  std::string organ, localization;
+  std::string organ, skin;
   std::size_t vertices = 0, rings = 0;
-  double mean_rings = 0.0, max_rings = 0.0;      // kept per vertex
+  double slots_per_vertex = 0.0;                 // what skinning reads (blocks' padding included)
+  double worst_edge_stretch = 0.0;               // the longest edge over its rest length, over the deformations
   double skin_us = 0.0;                          // the skin stage on one thread, median
   std::vector<double> max_error, p99_error;      // m against full MVC, per deformation
   double rigid_max = 0.0, rigid_p99 = 0.0;       // m against rigid cross-sections, over the deformations

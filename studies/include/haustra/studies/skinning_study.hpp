@@ -1,7 +1,7 @@
 #pragma once
-// The localization study of docs/skinning.md: how many rings each mesh vertex keeps (K) against
-// what it costs and how far the mesh lands from full mean value coordinates, over extreme rod
-// poses, with linear-blend skinning beside it (the paper's Fig. 6b: the collapsing joint).
+// The skin choice of docs/skinning.md (decision 0120): each of mesh.skinning's values against what
+// it costs and how far the mesh lands from rigid cross-sections and from full mean value
+// coordinates, over extreme rod poses, with linear-blend skinning beside it (the paper's Fig. 6b).
 #include <string>
 #include <vector>
 
@@ -12,9 +12,10 @@
 namespace haustra::validation {
 
 struct SkinningStudyRow {
-  std::string method;        // "MVC, K = 4", "MVC, all rings", "linear blend"
-  int rings_per_vertex = 0;  // 0: all
-  double slots = 0.0;        // rings per vertex actually stored (mean over the vertices)
+  std::string method;  // the scene's value and what it is
+  SkinningMethod skinning = SkinningMethod::along_rod;
+  double slots = 0.0;             // rings per vertex actually stored (mean over the vertices)
+  double slots_per_vertex = 0.0;  // what skinning reads: blocks' slots, padding included (the cost)
   double bytes_per_vertex = 0.0;
   double skin_us = 0.0;     // median skinning time per frame, µs
   double rest_error = 0.0;  // m, max over vertices
@@ -26,6 +27,7 @@ struct SkinningStudyRow {
   double bend_volume_change = 0.0;   // relative, 90° bend
   double twist_volume_change = 0.0;  // relative, 90° twist
   double mean_dropped_mass = 0.0;
+  double worst_edge_stretch = 0.0;  // the longest edge over its rest length, over the poses (the rod does not stretch)
 };
 
 struct SkinningStudy {
@@ -35,14 +37,14 @@ struct SkinningStudy {
   std::vector<std::string> poses;
   std::vector<SkinningStudyRow> rows;
   double transport_bend_volume_change = 0.0, transport_twist_volume_change = 0.0;
+  double transport_worst_edge = 0.0;  // the rigid cross-sections' own: the outer wall of a tight bend stretches
 };
 
 SkinningStudy run_skinning_study();
 
 // The study's organ (a straight procedural rectum, 30 cm, 11 beads, 10,000 vertices) with the
 // given skinning, and its poses (node strains, 4 per node; the first is the 90° bend).
-// weight_left_out: 0 keeps exactly rings_per_vertex (the K sweep).
-WorldDesc study_organ(SkinningMethod method, int rings_per_vertex, double weight_left_out = 0.0);
+WorldDesc study_organ(SkinningMethod method);
 struct StudyPose {
   std::string name;
   std::vector<double> strain;
@@ -58,5 +60,8 @@ double skinning_seconds(const World& w);
 // The first segment's organ mesh as it is now, and with its vertices at x (its own triangles).
 std::vector<Eigen::Vector3d> organ_points(const World& w);
 TriangleMesh organ_mesh(const World& w, const std::vector<Eigen::Vector3d>& x);
+
+// The longest edge of `mesh` at positions x over its length at mesh's own positions (1: none stretched).
+double worst_edge_stretch(const TriangleMesh& mesh, const std::vector<Eigen::Vector3d>& x);
 
 }  // namespace haustra::validation
