@@ -52,7 +52,10 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (workload == "skin-10k") {
-    WorldDesc d = validation::study_organ(SkinningMethod::cage);
+    // A second argument "along-rod" skins the same organ along the rod (decision 0122's comparison;
+    // the gate itself counts the default).
+    const bool along_rod = argc > 2 && std::string(argv[2]) == "along-rod";
+    WorldDesc d = validation::study_organ(along_rod ? SkinningMethod::along_rod : SkinningMethod::cage);
     d.threads = 1;
     d.mesh_update = MeshUpdate::every_frame;  // pose_rod skins at once (decision 0060)
     std::unique_ptr<World> w = World::create(d);
@@ -93,6 +96,7 @@ int main(int argc, char** argv) {
   }
   std::fprintf(
       stderr,
-      "usage: haustra_gate drop-frame|drop-fast-frame|ropes-sleeping-frame|skin-10k|reader-cpu-10k|reader-gpu-10k\n");
+      "usage: haustra_gate drop-frame|drop-fast-frame|ropes-sleeping-frame|skin-10k [along-rod]|reader-cpu-10k|"
+      "reader-gpu-10k\n");
   return 2;
 }

@@ -1,6 +1,8 @@
-// Skinning the organ mesh from the cage rings: rigid groups (SIMD and scalar reference) and sparse rows.
+// Skinning the organ mesh from the cage rings: rigid groups and the along-rod screw (SIMD and scalar references),
+// sparse rows.
 #include "haustra/kernels/skinning.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <cstring>
 
@@ -21,7 +23,130 @@ inline Lanes load(const float* p) {
   return v;
 }
 
+// sin φ / φ and (1 − cos φ) / φ² as Taylor polynomials in φ² through φ¹⁴: no division, so no
+// branch at φ = 0; within 1e-6 of the functions up to φ = π (the largest turn a screw takes).
+template <class T>
+T sinc_of_square(T x) {
+  T r = T{} + -1.0f / 1307674368000.0f;
+  r = r * x + 1.0f / 6227020800.0f;
+  r = r * x + -1.0f / 39916800.0f;
+  r = r * x + 1.0f / 362880.0f;
+  r = r * x + -1.0f / 5040.0f;
+  r = r * x + 1.0f / 120.0f;
+  r = r * x + -1.0f / 6.0f;
+  return r * x + 1.0f;
+}
+template <class T>
+T cosc_of_square(T x) {
+  T r = T{} + -1.0f / 20922789888000.0f;
+  r = r * x + 1.0f / 87178291200.0f;
+  r = r * x + -1.0f / 479001600.0f;
+  r = r * x + 1.0f / 3628800.0f;
+  r = r * x + -1.0f / 40320.0f;
+  r = r * x + 1.0f / 720.0f;
+  r = r * x + -1.0f / 24.0f;
+  return r * x + 0.5f;
+}
+
+// The same in double by the functions themselves, with their series below 1e-3.
+double sinc(double x) { return std::abs(x) < 1e-3 ? 1.0 - x * x / 6.0 + x * x * x * x / 120.0 : std::sin(x) / x; }
+double cosc(double x) {
+  return std::abs(x) < 1e-3 ? 0.5 - x * x / 24.0 + x * x * x * x / 720.0 : (1.0 - std::cos(x)) / (x * x);
+}
+
 }  // namespace
+
+Screw screw_between(const RingPose& a, const RingPose& b) {
+  Screw s;
+  s.rotation = a.rotation;
+  s.centre = a.centre;
+  Eigen::Quaterniond q(Eigen::Matrix3d(a.rotation.transpose() * b.rotation));
+  q.normalize();
+  if (q.w() < 0.0) q.coeffs() = -q.coeffs();  // the shorter way round: θ ≤ π
+  const double sn = q.vec().norm(), cs = q.w(), half = std::atan2(sn, cs);
+  s.angle = 2.0 * half;
+  if (sn > 0.0) s.axis = q.vec() / sn;
+  s.cot = half < 1e-4 ? 1.0 - half * half / 3.0 : half * cs / sn;
+  const Eigen::Vector3d moved = a.rotation.transpose() * (b.centre - a.centre);
+  s.along = s.axis.dot(moved);
+  s.across = moved - s.along * s.axis;
+  s.turned = s.axis.cross(s.across);
+  return s;
+}
+
+RingPose screw_pose(const Screw& s, double t) {
+  const double phi = t * s.angle;
+  const double kp = 0.5 * phi * phi * cosc(phi) + t * s.cot * sinc(phi);
+  const double kq = phi * (t * s.cot * cosc(phi) - 0.5 * sinc(phi));
+  RingPose p;
+  p.rotation = s.rotation * Eigen::AngleAxisd(phi, s.axis).toRotationMatrix();
+  p.centre = s.centre + s.rotation * (kp * s.across + kq * s.turned + t * s.along * s.axis);
+  return p;
+}
+
+void screw_frame(std::span<const RingPose> station, std::span<float> out) {
+  for (std::size_t g = 0; g < station.size(); ++g) {
+    const Screw s = screw_between(station[g], station[std::min(g + 1, station.size() - 1)]);
+    float* f = out.data() + kScrewFloats * g;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) f[4 * r + c] = static_cast<float>(s.rotation(r, c));
+      f[4 * r + 3] = static_cast<float>(s.centre[r]);
+    }
+    const Eigen::Vector3d* rows[3] = {&s.axis, &s.across, &s.turned};
+    const double last[3] = {s.angle, s.cot, s.along};
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) f[12 + 4 * r + c] = static_cast<float>((*rows[r])[c]);
+      f[12 + 4 * r + 3] = static_cast<float>(last[r]);
+    }
+  }
+}
+
+void skin_screw(const SkinBindingView& binding, std::span<const float> screw, std::size_t first, std::size_t count,
+                const FloatVec3Out& out) {
+  for (std::size_t block = first; block < first + count; ++block) {
+    const std::size_t base = block * kSkinLanes, slot = binding.slot_start[block];
+    const float* f = screw.data() + kScrewFloats * binding.ring[slot];
+    const float* coef = binding.coefficient.data() + slot * kSkinCoefficients * kSkinLanes;
+    const Lanes t = load(coef), ox = load(coef + kSkinLanes), oy = load(coef + 2 * kSkinLanes),
+                oz = load(coef + 3 * kSkinLanes);
+    const float wx = f[12], wy = f[13], wz = f[14];
+    const Lanes phi = t * f[15], phi2 = phi * phi;
+    const Lanes sc = sinc_of_square(phi2), cc = cosc_of_square(phi2);
+    const Lanes sn = phi * sc, omc = phi2 * cc, tc = t * f[19], td = t * f[23];
+    const Lanes kp = 0.5f * omc + tc * sc, kq = phi * (tc * cc - 0.5f * sc);
+    // Rodrigues: o + sin φ ω×o + (1 − cos φ) ω×(ω×o), then the screw's translation.
+    const Lanes ax = wy * oz - wz * oy, ay = wz * ox - wx * oz, az = wx * oy - wy * ox;
+    const Lanes bx = wy * az - wz * ay, by = wz * ax - wx * az, bz = wx * ay - wy * ax;
+    const Lanes yx = ox + sn * ax + omc * bx + kp * f[16] + kq * f[20] + td * wx;
+    const Lanes yy = oy + sn * ay + omc * by + kp * f[17] + kq * f[21] + td * wy;
+    const Lanes yz = oz + sn * az + omc * bz + kp * f[18] + kq * f[22] + td * wz;
+    const Lanes x = f[0] * yx + f[1] * yy + f[2] * yz + f[3];
+    const Lanes y = f[4] * yx + f[5] * yy + f[6] * yz + f[7];
+    const Lanes z = f[8] * yx + f[9] * yy + f[10] * yz + f[11];
+    for (std::size_t l = 0; l < kSkinLanes; ++l) {
+      const std::uint32_t v = binding.vertex[base + l];
+      if (v == kNoVertex) continue;
+      out.x[v] = x[l];
+      out.y[v] = y[l];
+      out.z[v] = z[l];
+    }
+  }
+}
+
+void skin_screw_reference(const SkinBindingView& binding, std::span<const float> screw, const FloatVec3Out& out) {
+  for (std::size_t i = 0; i < binding.rest_x.size(); ++i) {
+    const std::uint32_t v = binding.vertex[i];
+    if (v == kNoVertex) continue;
+    const std::size_t block = i / kSkinLanes, lane = i % kSkinLanes, slot = binding.slot_start[block];
+    const float* f = screw.data() + kScrewFloats * binding.ring[slot];
+    const float* coef = binding.coefficient.data() + slot * kSkinCoefficients * kSkinLanes + lane;
+    const Eigen::Vector3d o(coef[kSkinLanes], coef[2 * kSkinLanes], coef[3 * kSkinLanes]);
+    const Eigen::Vector3d x = screw_point(f, coef[0], o, Eigen::Vector3d::Zero()).position;
+    out.x[v] = static_cast<float>(x.x());
+    out.y[v] = static_cast<float>(x.y());
+    out.z[v] = static_cast<float>(x.z());
+  }
+}
 
 void skin_rigid_groups(const SkinBindingView& binding, std::span<const float> ring_delta, std::size_t first,
                        std::size_t count, const FloatVec3Out& out) {

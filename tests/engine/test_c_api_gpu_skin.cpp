@@ -1,6 +1,7 @@
-// Skinning on the host's GPU through the C API (decision 0110): the binding's buffers and a frame's
-// ring data give the library's own mesh by the shader's sum; a double-buffered world whose host
-// skins on its GPU hands the render thread rings, not a mesh; refusals name their field.
+// Skinning on the host's GPU through the C API (decisions 0110, 0122): the binding's buffers and a
+// frame's ring data give the library's own mesh by the shader's sum (along the rod: its screws; a
+// host before ABI 17: the linear form); a double-buffered world whose host skins on its GPU hands
+// the render thread rings, not a mesh; refusals name their field.
 #include <doctest/doctest.h>
 #include <haustra/haustra.h>
 
@@ -18,17 +19,63 @@ namespace {
 
 bool gpu_says(const char* words) { return std::strstr(haustra_last_error(), words) != nullptr; }
 
+void cross(const double a[3], const double b[3], double out[3]) {
+  out[0] = a[1] * b[2] - a[2] * b[1], out[1] = a[2] * b[0] - a[0] * b[2], out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+// A screw slot (HAUSTRA_GPU_SCREW_SLOT) at rows r, fraction t, rest offset o: R y + c with
+// y = Rot(axis, t angle) o + kP P + kQ Q + t d axis, from the header's words.
+void screw_sum(const float* r, double t, const double o[3], double out[3]) {
+  const double w[3] = {r[12], r[13], r[14]}, theta = r[15], c = r[19], d = r[23], phi = t * theta;
+  const double kp = theta > 1e-6 ? 0.5 * (1 - std::cos(phi)) + std::sin(phi) * c / theta : t;
+  const double kq = theta > 1e-6 ? (1 - std::cos(phi)) * c / theta - 0.5 * std::sin(phi) : 0.0;
+  double a[3], b[3], y[3];
+  cross(w, o, a);
+  cross(w, a, b);
+  for (int k = 0; k < 3; ++k)
+    y[k] = o[k] + std::sin(phi) * a[k] + (1 - std::cos(phi)) * b[k] + kp * r[16 + k] + kq * r[20 + k] + t * d * w[k];
+  for (int row = 0; row < 3; ++row)
+    out[row] = r[4 * row] * y[0] + r[4 * row + 1] * y[1] + r[4 * row + 2] * y[2] + double(r[4 * row + 3]);
+}
+
 // The shader's sum, written out plainly from the header's words (an oracle apart from the library).
 void shader_sum(const haustra_gpu_skin& g, const std::vector<float>& rings, size_t v, double out[3]) {
-  double d[3] = {0, 0, 0};
+  double d[3] = {0, 0, 0}, screw[3] = {0, 0, 0};
+  bool screwed = false;
   for (uint32_t s = g.vertex_slots[2 * v]; s < g.vertex_slots[2 * v] + g.vertex_slots[2 * v + 1]; ++s) {
-    const float* r = rings.data() + HAUSTRA_GPU_RING_FLOATS * g.slot_rings[s];
     const float* c = g.slot_coefficients + 4 * static_cast<size_t>(s);
+    if ((g.slot_rings[s] & HAUSTRA_GPU_SCREW_SLOT) != 0) {
+      const double o[3] = {c[1], c[2], c[3]};
+      double x[3];
+      screw_sum(rings.data() + HAUSTRA_GPU_RING_FLOATS * (g.slot_rings[s] & ~HAUSTRA_GPU_SCREW_SLOT), c[0], o, x);
+      for (int k = 0; k < 3; ++k) screw[k] += c[4] * x[k];  // the next slot's first: the weight
+      screwed = true;
+      ++s;
+      continue;
+    }
+    const float* r = rings.data() + HAUSTRA_GPU_RING_FLOATS * g.slot_rings[s];
     for (int row = 0; row < 3; ++row)
       d[row] += double(r[4 * row]) * c[1] + double(r[4 * row + 1]) * c[2] + double(r[4 * row + 2]) * c[3] +
                 double(r[4 * row + 3]) * c[0];
   }
-  for (int k = 0; k < 3; ++k) out[k] = g.rest_positions[3 * v + k] + d[k];
+  for (int k = 0; k < 3; ++k) out[k] = screwed ? screw[k] : g.rest_positions[3 * v + k] + d[k];
+}
+
+// The largest distance of the shader's sum from the library's mesh, and how far the mesh moved.
+std::pair<double, double> sum_against_mesh(haustra_world* w, const haustra_gpu_skin& g,
+                                           const std::vector<float>& rings) {
+  haustra_vec3f_view p;
+  REQUIRE(haustra_world_mesh_positions(w, &p) == HAUSTRA_OK);
+  REQUIRE(p.count == g.vertices);
+  double worst = 0.0, moved = 0.0;
+  for (size_t v = 0; v < g.vertices; ++v) {
+    double x[3];
+    shader_sum(g, rings, v, x);
+    worst = std::max(worst, std::hypot(x[0] - p.x[v], x[1] - p.y[v], x[2] - p.z[v]));
+    moved = std::max(moved, double(std::hypot(p.x[v] - g.rest_positions[3 * v], p.y[v] - g.rest_positions[3 * v + 1],
+                                              p.z[v] - g.rest_positions[3 * v + 2])));
+  }
+  return {worst, moved};
 }
 
 // A chain of four pieces with procedural meshes, held at its base and sagging (as test_c_api.cpp's).
@@ -68,21 +115,12 @@ TEST_CASE("C API: the GPU binding and a frame's rings give the library's mesh to
   CHECK(g.rings > 0);
   CHECK(g.slots >= 4 * g.vertices);  // the cage (skinning 0): at least 4 rings each
   CHECK(g.max_slots >= 4);
-  std::vector<float> rings(HAUSTRA_GPU_RING_FLOATS * g.rings);
+  CHECK(g.ring_data_floats == 2 * HAUSTRA_GPU_RING_FLOATS * g.rings);
+  std::vector<float> rings(g.ring_data_floats);
   CHECK(haustra_world_gpu_rings(w, rings.data(), rings.size() - 1) == HAUSTRA_INVALID_ARGUMENT);
   CHECK(gpu_says("count"));
   REQUIRE(haustra_world_gpu_rings(w, rings.data(), rings.size()) == HAUSTRA_OK);
-  haustra_vec3f_view p;
-  REQUIRE(haustra_world_mesh_positions(w, &p) == HAUSTRA_OK);
-  REQUIRE(p.count == g.vertices);
-  double worst = 0.0, moved = 0.0;
-  for (size_t v = 0; v < g.vertices; ++v) {
-    double x[3];
-    shader_sum(g, rings, v, x);
-    worst = std::max(worst, std::hypot(x[0] - p.x[v], x[1] - p.y[v], x[2] - p.z[v]));
-    moved = std::max(moved, double(std::hypot(p.x[v] - g.rest_positions[3 * v], p.y[v] - g.rest_positions[3 * v + 1],
-                                              p.z[v] - g.rest_positions[3 * v + 2])));
-  }
+  const auto [worst, moved] = sum_against_mesh(w, g, rings);
   MESSAGE("the sagging chain moved up to " << moved << " m; the sum is " << worst << " m from the library's mesh");
   CHECK(moved > 0.02);
   CHECK(worst <= 1e-6);
@@ -96,29 +134,37 @@ TEST_CASE("C API: the GPU binding and a frame's rings give the library's mesh to
   REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
 }
 
-// Decision 0117 through the C API (ABI 16): the skin along the rod, each vertex on the rod's own
-// frames either side of its place, is the same rigid-group sum for the host's shader.
-TEST_CASE("C API: skinning = 1 (along the rod): two slots a vertex, and the shader's sum is the library's mesh") {
+// Decisions 0117, 0122 through the C API: the skin along the rod, each vertex on the screw between
+// the rod's frames either side of its place; a host of ABI 16 (its smaller haustra_gpu_skin) gets
+// the linear rigid-group form it knows, and the rings' rows alone.
+TEST_CASE("C API: skinning = 1 (along the rod): a screw a vertex, the shader's sum is the library's mesh") {
   haustra_world* w = sagging_chain(0, 0, 1);
   haustra_gpu_skin g = sized<haustra_gpu_skin>();
   REQUIRE(haustra_world_gpu_skin(w, &g) == HAUSTRA_OK);
-  CHECK(g.max_slots == 2);
-  CHECK(g.slots <= 2 * g.vertices);
-  std::vector<float> rings(HAUSTRA_GPU_RING_FLOATS * g.rings);
+  CHECK(g.max_slots == 2);  // a screw takes two slots (procedural pieces: no vertex on a cut)
+  CHECK(g.slots == 2 * g.vertices);
+  std::vector<float> rings(g.ring_data_floats);
   REQUIRE(haustra_world_gpu_rings(w, rings.data(), rings.size()) == HAUSTRA_OK);
-  haustra_vec3f_view p;
-  REQUIRE(haustra_world_mesh_positions(w, &p) == HAUSTRA_OK);
-  double worst = 0.0, moved = 0.0;
-  for (size_t v = 0; v < g.vertices; ++v) {
-    double x[3];
-    shader_sum(g, rings, v, x);
-    worst = std::max(worst, std::hypot(x[0] - p.x[v], x[1] - p.y[v], x[2] - p.z[v]));
-    moved = std::max(moved, double(std::hypot(p.x[v] - g.rest_positions[3 * v], p.y[v] - g.rest_positions[3 * v + 1],
-                                              p.z[v] - g.rest_positions[3 * v + 2])));
-  }
+  const auto [worst, moved] = sum_against_mesh(w, g, rings);
   MESSAGE("along the rod: moved up to " << moved << " m; the sum is " << worst << " m from the library's mesh");
   CHECK(moved > 0.02);
   CHECK(worst <= 1e-6);
+
+  haustra_gpu_skin old = sized<haustra_gpu_skin>();
+  old.struct_size = offsetof(haustra_gpu_skin, ring_data_floats);  // ABI 16's
+  REQUIRE(haustra_world_gpu_skin(w, &old) == HAUSTRA_OK);
+  CHECK(old.max_slots == 2);  // its two stations
+  size_t screws = 0;
+  for (size_t s = 0; s < old.slots; ++s) screws += (old.slot_rings[s] & HAUSTRA_GPU_SCREW_SLOT) != 0 ? 1 : 0;
+  CHECK(screws == 0);
+  std::vector<float> rows(HAUSTRA_GPU_RING_FLOATS * old.rings);
+  REQUIRE(haustra_world_gpu_rings(w, rows.data(), rows.size()) == HAUSTRA_OK);  // the rows alone
+  CHECK(std::memcmp(rows.data(), rings.data(), rows.size() * sizeof(float)) == 0);
+  const auto [linear, moved_too] = sum_against_mesh(w, old, rows);
+  MESSAGE("a host of ABI 16 (linear along the stations): " << linear << " m from the library's screws");
+  CHECK(moved_too == moved);
+  CHECK(linear > 1e-6);  // not the screws (measured 1.06e-4 m)
+  CHECK(linear <= 1e-3);
   REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
 
   haustra_world_def def;
@@ -139,7 +185,7 @@ TEST_CASE("C API: a double-buffered world whose host skins on its GPU hands the 
   haustra_world* w = sagging_chain(1, 1);
   haustra_gpu_skin g = sized<haustra_gpu_skin>();
   REQUIRE(haustra_world_gpu_skin(w, &g) == HAUSTRA_OK);
-  std::vector<float> rings(HAUSTRA_GPU_RING_FLOATS * g.rings);
+  std::vector<float> rings(g.ring_data_floats);
   REQUIRE(haustra_world_gpu_rings(w, rings.data(), rings.size()) == HAUSTRA_OK);
   haustra_frame fr = sized<haustra_frame>();
   REQUIRE(haustra_world_acquire_frame(w, &fr) == HAUSTRA_OK);  // lockstep: the frame just stepped
@@ -170,7 +216,8 @@ TEST_CASE("C API: a double-buffered world whose host skins on its GPU hands the 
         continue;
       }
       bool ok = f.gpu_ring_count == rings_expected && f.mesh_positions.count == 0;
-      for (size_t k = 0; ok && k < HAUSTRA_GPU_RING_FLOATS * f.gpu_ring_count; ++k) ok = std::isfinite(f.gpu_rings[k]);
+      for (size_t k = 0; ok && k < 2 * HAUSTRA_GPU_RING_FLOATS * f.gpu_ring_count; ++k)
+        ok = std::isfinite(f.gpu_rings[k]);
       bad += ok ? 0 : 1;
       reads += 1;
       if (haustra_world_release_frame(w) != HAUSTRA_OK) bad += 1;
@@ -223,5 +270,5 @@ TEST_CASE("C API: mesh_on_host_gpu is checked, and a world_def without it (a sho
   CHECK(haustra_abi_version() == HAUSTRA_ABI_VERSION);
   CHECK(haustra_check_abi(14) == HAUSTRA_ABI_MISMATCH);  // ABI 15 also changed haustra_profile (decision 0108)
   CHECK(haustra_check_abi(15) == HAUSTRA_OK);            // ABI 16 added haustra_segment_def.skinning at its end
-  CHECK(haustra_check_abi(16) == HAUSTRA_OK);            // ABI 17 kept the layout (decision 0120)
+  CHECK(haustra_check_abi(16) == HAUSTRA_OK);            // ABI 17: the same segment def (0120), ring_data_floats added (0122)
 }

@@ -138,7 +138,7 @@ TEST_CASE(
     auto w = test::scene_world("demo", threads, {"segment.mesh.procedural.vertices=2000"});
     FramePublisher frames(*w);
     frames.skin_on_gpu(true);
-    std::vector<float> own(kGpuRingFloats * w->ring_count());
+    std::vector<float> own(kGpuRingDataFloats * w->ring_count());
     for (int f = 0; f < 12; ++f) {
       w->step();
       frames.publish(*w);

@@ -31,7 +31,8 @@
  *   structs all carry their size; 15 took a stage and a counter out of haustra_profile; 16 added
  *   nodes_asleep at the end of haustra_profile and skinning at the end of haustra_segment_def; 17
  *   made the skin along the rod the default and retired the five localization fields of
- *   haustra_segment_def, same layout: decision 0120).
+ *   haustra_segment_def, same layout: decision 0120; and added ring_data_floats at the end of
+ *   haustra_gpu_skin: the along-rod skin's screws, decision 0122).
  * - Units: metres, seconds, newtons, radians; world frame.
  */
 #ifndef HAUSTRA_H
@@ -483,8 +484,23 @@ HAUSTRA_API haustra_status haustra_world_node_velocities(const haustra_world* wo
  * haustra_world_gpu_rings copies the current frame's ring data into out[0..count), count =
  * HAUSTRA_GPU_RING_FLOATS x rings: per ring six rows of four floats, [dR_g | dc_g] (3 rows) and
  * [(R'_g - R_g) R_g^T | 0] (3 rows); it makes the rings alone (no vertex is skinned). A render thread
- * of a double-buffered world reads the same from haustra_frame.gpu_rings (mesh_on_host_gpu = 1). */
+ * of a double-buffered world reads the same from haustra_frame.gpu_rings (mesh_on_host_gpu = 1).
+ * Since ABI 17 (decision 0122) a vertex of a mesh skinned along the rod (skinning = 1) is a screw
+ * instead. After the rings' rows the ring data has HAUSTRA_GPU_RING_FLOATS floats a ring more: for
+ * each station of an along-rod mesh the screw to the next station, [R | c] of the station (3 rows),
+ * [axis | angle], [P | c], [Q | d] (axis, P and Q in the station's frame); zeros for other rings. A
+ * screw slot has the top bit (HAUSTRA_GPU_SCREW_SLOT) of its ring set; the low bits are rings + the
+ * station's ring, so ring x HAUSTRA_GPU_RING_FLOATS finds its screw as it finds a ring's rows. It
+ * takes two slots' coefficients, (t, ox, oy, oz) and (w, nx, ny, nz), and the vertex is
+ *     x' = sum w (R y + c),  y = Rot(axis, f) o + kP P + kQ Q + t d axis,  f = t angle,
+ *     kP = (1 - cos f)/2 + t c sin(f)/f,  kQ = t c (1 - cos f)/f - sin(f)/2
+ * (their limits t and 0 as f -> 0), its normal sum w R Rot(axis, f) n, normalized. Such a host
+ * passes count = 2 x HAUSTRA_GPU_RING_FLOATS x rings (haustra_gpu_skin.ring_data_floats) to
+ * haustra_world_gpu_rings and reads as many from haustra_frame.gpu_rings. A host built before ABI 17
+ * (its smaller haustra_gpu_skin) is given every vertex in the rigid-group form (an along-rod vertex
+ * on its two stations, linear along them, as in ABI 16) and reads the rings' rows alone. */
 #define HAUSTRA_GPU_RING_FLOATS 24
+#define HAUSTRA_GPU_SCREW_SLOT 0x80000000u
 typedef struct haustra_gpu_skin {
   size_t struct_size;
   size_t vertices; /* haustra_counts.mesh_vertices */
@@ -494,8 +510,11 @@ typedef struct haustra_gpu_skin {
   const float* rest_positions;    /* 3 a vertex: x y z (m), the curved rest pose */
   const float* rest_normals;      /* 3 a vertex: unit, the CPU's normals at rest (0 0 0: none) */
   const uint32_t* vertex_slots;   /* 2 a vertex: its first slot and how many */
-  const uint32_t* slot_rings;     /* 1 a slot: the ring, 0 .. rings - 1 */
-  const float* slot_coefficients; /* 4 a slot: b, Ax, Ay, Az */
+  const uint32_t* slot_rings;     /* 1 a slot: the ring, 0 .. rings - 1 (a screw: see above) */
+  const float* slot_coefficients; /* 4 a slot: b, Ax, Ay, Az (a screw: see above) */
+  /* Floats of a frame's ring data: 2 x HAUSTRA_GPU_RING_FLOATS x rings (the rings' rows, then the
+   * screws). Since ABI 17. */
+  size_t ring_data_floats;
 } haustra_gpu_skin;
 HAUSTRA_API haustra_status haustra_world_gpu_skin(const haustra_world* world, haustra_gpu_skin* out);
 HAUSTRA_API haustra_status haustra_world_gpu_rings(const haustra_world* world, float* out, size_t count);

@@ -199,16 +199,17 @@ class World {
   // reads only the model and may run while the world steps): the same bits either way.
   [[nodiscard]] std::size_t ring_count() const;  // all segments' cage rings
   void current_rings(std::span<kernels::RingPose> out) const;
-  // ring_delta: kRingDeltaFloats × ring_count() floats of scratch; positions and normals:
+  // ring_delta: kRingScratchFloats × ring_count() floats of scratch; positions and normals:
   // mesh_buffer_size() each.
   void mesh_from_rings(std::span<const kernels::RingPose> rings, std::span<float> ring_delta,
                        kernels::Vec3View<float> positions, kernels::Vec3View<float> normals) const;
   [[nodiscard]] MeshUpdate mesh_update() const;
   // Skinning on the host's GPU (decision 0110): the binding as GPU-ready buffers (built on the first
   // call, in the caller's thread; kept until the world is rebuilt), and a frame's ring data,
-  // kGpuRingFloats × ring_count() floats: gpu_ring_frame makes the current frame's rings alone (no
-  // vertex is skinned); gpu_ring_frame_from makes them from poses another thread published
-  // (current_rings), reading only the model, so it may run while the world steps.
+  // kGpuRingDataFloats × ring_count() floats (the rings' rows, then the along-rod screws, decision
+  // 0122; kGpuRingFloats × ring_count(): the rows alone, what a host before ABI 17 reads): gpu_ring_frame makes the
+  // current frame's rings alone (no vertex is skinned); gpu_ring_frame_from makes them from poses another thread
+  // published (current_rings), reading only the model, so it may run while the world steps.
   [[nodiscard]] const GpuSkinBinding& gpu_skin_binding() const;
   void gpu_ring_frame(std::span<float> out) const;
   void gpu_ring_frame_from(std::span<const kernels::RingPose> rings, std::span<float> out) const;

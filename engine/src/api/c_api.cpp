@@ -119,7 +119,7 @@ Eigen::Vector3d finite_vec3(const double* v, const char* name) {
 // The sizes a struct has had since it carried its size: its own, and for the two defs the sizes
 // before ABI 13 (frame limits), ABI 15 (mesh_on_host_gpu), ABI 11 / 12 / 16 (the ring fields, the
 // anchors, the skin) added fields at their end; the frame's before ABI 15 (gpu_rings); the profile's
-// before ABI 16 (nodes_asleep).
+// before ABI 16 (nodes_asleep); the GPU skin's before ABI 17 (ring_data_floats).
 template <class T>
 std::span<const std::size_t> sizes_of() {
   if constexpr (std::is_same_v<T, haustra_world_def>) {
@@ -133,6 +133,9 @@ std::span<const std::size_t> sizes_of() {
     return sizes;
   } else if constexpr (std::is_same_v<T, haustra_profile>) {
     static constexpr std::size_t sizes[] = {offsetof(haustra_profile, nodes_asleep), sizeof(T)};
+    return sizes;
+  } else if constexpr (std::is_same_v<T, haustra_gpu_skin>) {
+    static constexpr std::size_t sizes[] = {offsetof(haustra_gpu_skin, ring_data_floats), sizeof(T)};
     return sizes;
   } else if constexpr (std::is_same_v<T, haustra_frame>) {
     static constexpr std::size_t sizes[] = {offsetof(haustra_frame, gpu_rings), sizeof(T)};
@@ -925,16 +928,25 @@ haustra_status haustra_world_mesh_normals(const haustra_world* world, haustra_ve
 }
 
 static_assert(HAUSTRA_GPU_RING_FLOATS == haustra::kGpuRingFloats);
+static_assert(HAUSTRA_GPU_SCREW_SLOT == haustra::kGpuScrewSlot);
 
 haustra_status haustra_world_gpu_skin(const haustra_world* world, haustra_gpu_skin* out) {
   try {
     const Held held(world);
-    (void)known_size<haustra_gpu_skin>(required(out, "out").struct_size, "out");
+    const std::size_t size = known_size<haustra_gpu_skin>(required(out, "out").struct_size, "out");
     const haustra::GpuSkinBinding& g = held.world().gpu_skin_binding();
+    // A host before ABI 17 (its struct ends before ring_data_floats) has no screw in its shader: the
+    // rigid-group form, the along-rod vertices linear on their stations.
+    const bool linear = size < sizeof(haustra_gpu_skin) && !g.linear_slot_ring.empty();
     write_out(
         out,
-        haustra_gpu_skin{sizeof(haustra_gpu_skin), g.vertices, g.rings, g.slots(), g.max_slots, g.rest_position.data(),
-                         g.rest_normal.data(), g.slot_range.data(), g.slot_ring.data(), g.slot_coefficient.data()},
+        linear ? haustra_gpu_skin{sizeof(haustra_gpu_skin), g.vertices, g.rings, g.linear_slot_ring.size(),
+                                  g.linear_max_slots, g.rest_position.data(), g.rest_normal.data(),
+                                  g.linear_slot_range.data(), g.linear_slot_ring.data(),
+                                  g.linear_slot_coefficient.data(), 0}
+               : haustra_gpu_skin{sizeof(haustra_gpu_skin), g.vertices, g.rings, g.slots(), g.max_slots,
+                                  g.rest_position.data(), g.rest_normal.data(), g.slot_range.data(), g.slot_ring.data(),
+                                  g.slot_coefficient.data(), haustra::kGpuRingDataFloats * g.rings},
         "out");
   } catch (...) {
     return failed("haustra_world_gpu_skin");
@@ -946,11 +958,13 @@ haustra_status haustra_world_gpu_rings(const haustra_world* world, float* out, s
   try {
     const Held held(world);
     const haustra::World& w = held.world();
-    const std::size_t want = HAUSTRA_GPU_RING_FLOATS * w.ring_count();
-    if (count != want)
-      throw Error(
-          ErrorCode::invalid_argument,
-          fmt::format("count = {}: expected {} (HAUSTRA_GPU_RING_FLOATS x {} rings)", count, want, w.ring_count()));
+    const std::size_t want = 2 * HAUSTRA_GPU_RING_FLOATS * w.ring_count(),
+                      rows = HAUSTRA_GPU_RING_FLOATS * w.ring_count();
+    if (count != want && count != rows)  // the rings' rows alone: a host before ABI 17
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("count = {}: expected {} (2 x HAUSTRA_GPU_RING_FLOATS x {} rings: "
+                              "haustra_gpu_skin.ring_data_floats), or {} from a host before ABI 17",
+                              count, want, w.ring_count(), rows));
     if (want > 0) required(out, "out");
     w.gpu_ring_frame(std::span<float>(out, count));
   } catch (...) {

@@ -18,8 +18,8 @@ void FramePublisher::size_slot(Slot& s, const World& w) const {
   for (auto* v : {&s.x, &s.y, &s.z}) v->resize(w.node_count());
   for (auto* v : {&s.px, &s.py, &s.pz, &s.nx, &s.ny, &s.nz}) v->resize(w.mesh_buffer_size());
   s.rings.resize(w.ring_count());
-  s.ring_delta.resize(kernels::kRingDeltaFloats * w.ring_count());
-  s.gpu_rings.resize(kGpuRingFloats * w.ring_count());
+  s.ring_delta.resize(kernels::kRingScratchFloats * w.ring_count());
+  s.gpu_rings.resize(kGpuRingDataFloats * w.ring_count());
   s.mesh_pending = s.gpu_pending = s.mesh_made = false;
   if (!details_) return;
   s.details.strain.resize(4 * w.node_count());

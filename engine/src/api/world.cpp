@@ -290,11 +290,11 @@ void World::current_rings(std::span<kernels::RingPose> out) const {
 void World::mesh_from_rings(std::span<const kernels::RingPose> rings, std::span<float> ring_delta,
                             kernels::Vec3View<float> positions, kernels::Vec3View<float> normals) const {
   const detail::WorldModel& m = impl_->model;
-  if (rings.size() != m.ring_total || ring_delta.size() != kernels::kRingDeltaFloats * m.ring_total ||
+  if (rings.size() != m.ring_total || ring_delta.size() != kernels::kRingScratchFloats * m.ring_total ||
       positions.size() != m.mesh_vertex_total || normals.size() != m.mesh_vertex_total)
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("mesh_from_rings: expected {} rings, {} floats of scratch and {} vertices", m.ring_total,
-                            kernels::kRingDeltaFloats * m.ring_total, m.mesh_vertex_total));
+                            kernels::kRingScratchFloats * m.ring_total, m.mesh_vertex_total));
   impl_->mesh_from_rings(
       {rings, ring_delta, {positions.x, positions.y, positions.z}, {normals.x, normals.y, normals.z}});
 }

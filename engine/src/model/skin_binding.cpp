@@ -380,7 +380,7 @@ SkinBinding bind_linear_blend(const CageModel& cage, const TriangleMesh& mesh, S
   report.method = SkinningMethod::linear_blend;
   report.rings_per_vertex = 2;
   report.mean_rings_per_vertex = 2.0;
-  report.slots_per_vertex = slots_per_vertex(b);
+  report.slots_per_vertex = 2.0 * slots_per_vertex(b);  // two stations a lane, padding included
   report.rest_error = rest_error(b, mesh);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return b;
@@ -397,30 +397,6 @@ double ring_parameter(std::span<const double> arc, double s) {
   const auto g = static_cast<std::size_t>(std::upper_bound(arc.begin(), arc.end(), s) - arc.begin()) - 1;
   const double span = arc[g + 1] - arc[g];
   return static_cast<double>(g) + (span > 0.0 ? (s - arc[g]) / span : 0.0);
-}
-
-// The stations either side of place s (one past an end) and their weights, linear in s: how many.
-std::size_t station_weights(std::span<const double> arc, std::size_t first, double s,
-                            std::array<std::uint32_t, 2>& ring, std::array<double, 2>& weight) {
-  const double t = ring_parameter(arc, s);
-  const double base = std::floor(t);
-  const double u = t - base;
-  const std::array<double, 2> w = {1 - u, u};
-  const auto last = static_cast<std::ptrdiff_t>(arc.size()) - 1;
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < 2; ++i) {
-    const std::ptrdiff_t at =
-        std::clamp(static_cast<std::ptrdiff_t>(base) + static_cast<std::ptrdiff_t>(i), std::ptrdiff_t{0}, last);
-    const auto g = static_cast<std::uint32_t>(first + static_cast<std::size_t>(at));
-    if (w[i] == 0.0) continue;
-    if (kept > 0 && ring[kept - 1] == g) {  // past an end: both on the end station
-      weight[kept - 1] += w[i];
-    } else {
-      ring[kept] = g;
-      weight[kept++] = w[i];
-    }
-  }
-  return kept;
 }
 
 }  // namespace
@@ -449,30 +425,27 @@ SkinBinding bind_along_rod(const CageModel& cage, const TriangleMesh& mesh, Skin
   const std::size_t rings = cage.ring_station.size() - first;
   std::vector<double> arc(rings);
   for (std::size_t g = 0; g < rings; ++g) arc[g] = cage.ring_binding[first + g].centre.z();
+  std::vector<kernels::Screw> rest(rings - 1);  // the rest screw of each station pair
+  for (std::size_t g = 0; g + 1 < rings; ++g)
+    rest[g] = kernels::screw_between(cage.ring_rest[first + g], cage.ring_rest[first + g + 1]);
   Slots slots;
   slots.resize(mesh.vertices.size());
   parallel_each(mesh.vertices.size(), [&](std::size_t v) {
-    std::array<std::uint32_t, 2> gr{};
-    std::array<double, 2> wr{};
-    const std::size_t kept = station_weights(arc, first, cage.mesh_place[v], gr, wr);
-    const Eigen::Vector3d& x = mesh.vertices[v];
-    for (std::size_t i = 0; i < kept; ++i) {
-      const kernels::RingPose& r = cage.ring_rest[gr[i]];
-      slots.set(v, i, gr[i], wr[i], wr[i] * (r.rotation.transpose() * (x - r.centre)));
-    }
+    // The pair either side of the place (past an end: the end pair at t = 0 or 1, the end
+    // station's frame carried on rigidly).
+    const double u = ring_parameter(arc, cage.mesh_place[v]);
+    const std::size_t g = std::min(static_cast<std::size_t>(u), rings - 2);
+    const double t = std::clamp(u - static_cast<double>(g), 0.0, 1.0);
+    const kernels::RingPose at = kernels::screw_pose(rest[g], t);
+    slots.set(v, 0, static_cast<std::uint32_t>(first + g), t, at.rotation.transpose() * (mesh.vertices[v] - at.centre));
   });
-  SkinBinding b = pack(mesh, slots, 2);
+  SkinBinding b = pack(mesh, slots, 1);
+  b.screw = true;
   report = SkinReport{};
   report.method = SkinningMethod::along_rod;
-  std::size_t most = 0, total = 0;
-  for (const auto& r : slots.ring) {
-    most = std::max(most, r.size());
-    total += r.size();
-  }
-  report.rings_per_vertex = most;
-  report.mean_rings_per_vertex =
-      static_cast<double>(total) / static_cast<double>(std::max<std::size_t>(1, slots.ring.size()));
-  report.slots_per_vertex = slots_per_vertex(b);
+  report.rings_per_vertex = 2;  // the two stations of its pair
+  report.mean_rings_per_vertex = 2.0;
+  report.slots_per_vertex = 2.0 * slots_per_vertex(b);  // two stations a lane, padding included
   report.rest_error = rest_error(b, mesh);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return b;

@@ -154,7 +154,7 @@ void init_world_state(const WorldModel& model, WorldState& state) {
   }
   state.frame_start.copy_from(state.now);
   state.mesh.ring_pose.assign(model.ring_total, kernels::RingPose{});
-  state.mesh.ring_delta.assign(kernels::kRingDeltaFloats * model.ring_total, 0.0f);
+  state.mesh.ring_delta.assign(kernels::kRingScratchFloats * model.ring_total, 0.0f);
   state.mesh.position.resize(model.mesh_vertex_total);
   state.mesh.normal.resize(model.mesh_vertex_total);
 }

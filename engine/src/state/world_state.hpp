@@ -349,7 +349,7 @@ struct CollisionState {
 // The organ meshes' per-frame state: ring poses and how they moved, skinned vertices and normals.
 struct MeshState {
   std::vector<kernels::RingPose> ring_pose;  // model.ring_total
-  std::vector<float> ring_delta;             // kRingDeltaFloats per ring
+  std::vector<float> ring_delta;             // kRingScratchFloats per ring: deltas, then screws
   FloatVec3Buffer position, normal;          // model.mesh_vertex_total
 };
 

@@ -6,6 +6,15 @@
 
 namespace haustra::detail {
 
+namespace {
+
+// The scratch's second run: kScrewFloats a ring, after every ring's delta.
+std::span<float> screws(const WorldModel& model, std::span<float> scratch) {
+  return scratch.subspan(kernels::kRingDeltaFloats * model.ring_total, kernels::kScrewFloats * model.ring_total);
+}
+
+}  // namespace
+
 MeshTarget own_mesh(WorldState& state) {
   return {state.mesh.ring_pose, state.mesh.ring_delta, state.mesh.position.out(), state.mesh.normal.out()};
 }
@@ -23,6 +32,14 @@ void stage_ring_deltas(const WorldModel& model, const MeshTarget& target, std::s
   const SegmentMesh& mesh = model.meshes_of[piece];
   if (!mesh.enabled) return;
   const std::size_t rings = mesh.cage.ring_station.size();
+  if (mesh.binding.screw) {  // the along-rod skin reads its stations' screws alone
+    const std::size_t first = mesh.ring_offset + mesh.cage.first_station_ring;
+    const std::size_t stations = rings - mesh.cage.first_station_ring;
+    kernels::screw_frame(
+        target.ring_pose.subspan(first, stations),
+        screws(model, target.ring_delta).subspan(kernels::kScrewFloats * first, kernels::kScrewFloats * stations));
+    return;
+  }
   kernels::ring_deltas(
       mesh.cage.ring_rest, target.ring_pose.subspan(mesh.ring_offset, rings),
       target.ring_delta.subspan(kernels::kRingDeltaFloats * mesh.ring_offset, kernels::kRingDeltaFloats * rings));
@@ -34,11 +51,19 @@ void stage_skin(const WorldModel& model, const MeshTarget& target, std::size_t c
   const std::size_t n = mesh.binding.vertices;
   auto part = [&](std::span<float> v) { return v.subspan(mesh.vertex_offset, n); };
   const std::size_t rings = mesh.cage.ring_station.size();
+  const kernels::FloatVec3Out out{part(target.position.x), part(target.position.y), part(target.position.z)};
+  if (mesh.binding.screw) {
+    kernels::skin_screw(mesh.binding.view(),
+                        screws(model, target.ring_delta)
+                            .subspan(kernels::kScrewFloats * mesh.ring_offset, kernels::kScrewFloats * rings),
+                        c.first_block, c.blocks, out);
+    return;
+  }
   kernels::skin_rigid_groups(
       mesh.binding.view(),
       std::span<const float>(target.ring_delta)
           .subspan(kernels::kRingDeltaFloats * mesh.ring_offset, kernels::kRingDeltaFloats * rings),
-      c.first_block, c.blocks, {part(target.position.x), part(target.position.y), part(target.position.z)});
+      c.first_block, c.blocks, out);
 }
 
 void stage_weld_seams(const WorldModel& model, const MeshTarget& target) {

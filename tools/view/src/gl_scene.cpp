@@ -324,7 +324,7 @@ void GlScene::build_organ(const FramePublisher::Slot& f, const ModelInfo& m, con
     skin_fits_ = gpu_skinning_supported(*m.gpu_skin);
   }
   organ_on_gpu_ = wants_gpu_skinning(o) && !f.mesh_made && m.gpu_skin && !f.gpu_pending &&
-                  f.gpu_rings.size() == kGpuRingFloats * m.gpu_skin->rings && !lod_.chunks.empty();
+                  f.gpu_rings.size() == kGpuRingDataFloats * m.gpu_skin->rings && !lod_.chunks.empty();
   if (organ_on_gpu_) {
     prepare_gpu_skin(m);
     skin_.upload_rings(f.gpu_rings);

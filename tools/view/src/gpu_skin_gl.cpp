@@ -29,7 +29,7 @@ bool gpu_skinning_supported(const GpuSkinBinding& b) {
   glGetIntegerv(GL_MAJOR_VERSION, &major);
   glGetIntegerv(GL_MINOR_VERSION, &minor);
   glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &texels);
-  const std::size_t need = std::max(b.slots(), 6 * b.rings);
+  const std::size_t need = std::max(b.slots(), 12 * b.rings);  // the rings' rows and screws, 6 texels each
   return (major > 3 || (major == 3 && minor >= 3)) && std::size_t(texels) >= need;
 }
 
@@ -57,7 +57,8 @@ void GpuSkinBuffers::upload_binding(const GpuSkinBinding& b) {
     glBindTexture(GL_TEXTURE_BUFFER, textures_[i]);
     glTexBuffer(GL_TEXTURE_BUFFER, format, buffers_[i]);
   };
-  texture(0, GL_RGBA32F, nullptr, std::max<std::size_t>(b.rings, 1) * kGpuRingFloats * sizeof(float));  // each frame's
+  texture(0, GL_RGBA32F, nullptr,
+          std::max<std::size_t>(b.rings, 1) * kGpuRingDataFloats * sizeof(float));  // each frame's
   texture(1, GL_RGBA32F, b.slot_coefficient.data(), b.slot_coefficient.size() * sizeof(float));
   texture(2, GL_R32UI, b.slot_ring.data(), b.slot_ring.size() * sizeof(std::uint32_t));
   glBindBuffer(GL_TEXTURE_BUFFER, 0);

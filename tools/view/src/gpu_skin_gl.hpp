@@ -37,7 +37,7 @@ class GpuSkinBuffers {
 
   // The binding's slots (once per model) and room for its rings.
   void upload_binding(const GpuSkinBinding& b);
-  // A frame's ring data: kGpuRingFloats × rings floats.
+  // A frame's ring data: kGpuRingDataFloats × rings floats.
   void upload_rings(std::span<const float> ring_frame);
   // The three buffers on texture units first..first+2, and the program's samplers pointed at them.
   void bind(unsigned program, int first_unit) const;
