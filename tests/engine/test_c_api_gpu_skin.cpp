@@ -270,5 +270,5 @@ TEST_CASE("C API: mesh_on_host_gpu is checked, and a world_def without it (a sho
   CHECK(haustra_abi_version() == HAUSTRA_ABI_VERSION);
   CHECK(haustra_check_abi(14) == HAUSTRA_ABI_MISMATCH);  // ABI 15 also changed haustra_profile (decision 0108)
   CHECK(haustra_check_abi(15) == HAUSTRA_OK);            // ABI 16 added haustra_segment_def.skinning at its end
-  CHECK(haustra_check_abi(16) == HAUSTRA_OK);            // ABI 17: the same segment def (0120), ring_data_floats added (0122)
+  CHECK(haustra_check_abi(16) == HAUSTRA_OK);  // ABI 17: the same segment def (0120), ring_data_floats added (0122)
 }

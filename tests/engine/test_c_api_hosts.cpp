@@ -246,6 +246,35 @@ TEST_CASE("C API: a checkpoint keeps gravity, dt, the material and the frame lim
   std::filesystem::remove(file);
 }
 
+// Decision 0119 through the C API (ABI 17's def.sleep): a rod at rest (no gravity) sleeps after
+// sleep_time, every node; without sleep none does.
+TEST_CASE("C API: def.sleep puts a rod at rest to sleep; off by default") {
+  auto asleep_after = [](int sleep) {
+    haustra_world_def def;
+    REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
+    CHECK(def.sleep == 0);
+    CHECK(def.sleep_speed == 1e-3);
+    CHECK(def.sleep_time == 0.1);
+    def.sleep = sleep;
+    def.threads = 1;
+    def.gravity[2] = 0.0;
+    haustra_segment_def seg;
+    REQUIRE(haustra_segment_def_default(&seg) == HAUSTRA_OK);
+    seg.nodes = 21;
+    seg.length = 0.3;
+    haustra_world* w = nullptr;
+    REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
+    for (int f = 0; f < 12; ++f) REQUIRE(haustra_world_step(w) == HAUSTRA_OK);  // 0.2 s at 60 Hz
+    haustra_profile p;
+    p.struct_size = sizeof p;
+    REQUIRE(haustra_world_profile(w, &p) == HAUSTRA_OK);
+    haustra_world_destroy(w);
+    return p.nodes_asleep;
+  };
+  CHECK(asleep_after(1) == 21);
+  CHECK(asleep_after(0) == 0);
+}
+
 TEST_CASE("C API: a scene's world takes the def's dt, gravity and limits when changed, the scene's otherwise") {
   haustra_world_def def;
   REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);
@@ -309,6 +338,9 @@ TEST_CASE("C API: flags are 0 or 1, a NaN drag and out-of-range loads and values
        "segment[0].youngs_modulus: 1e-300 Pa is below the plausible minimum 1 Pa"},
       {[](auto&, auto& s) { s.length = 1e-300; }, "segment[0].rest.length"},
       {[](auto& d, auto&) { d.max_retries = 65; }, "solver.max_retries"},
+      {[](auto& d, auto&) { d.sleep = 2; }, "def.sleep = 2: expected 0 or 1"},
+      {[](auto& d, auto&) { d.sleep_speed = -1.0; }, "sleep.speed"},
+      {[](auto& d, auto&) { d.sleep_time = 1e9; }, "sleep.time"},
   };
   for (const Refused& c : cases) {
     haustra_world_def d = def;

@@ -197,6 +197,12 @@ typedef struct haustra_world_def {
    * nothing, so the frame's mesh work is the cage alone; not with mesh_every_frame = 1. 0 (default):
    * acquire skins the mesh on the CPU. Since ABI 15. */
   int mesh_on_host_gpu;
+  /* Rods at rest sleep (the scene's [sleep], decision 0119): 1 on, 0 off (default). A rod whose
+   * nodes all move slower than sleep_speed (m/s; default 0.001) for sleep_time (s; default 0.1),
+   * with no instrument holding it, is not solved until something wakes it. Since ABI 17. */
+  int sleep;
+  double sleep_speed;
+  double sleep_time;
 } haustra_world_def;
 
 /* One segment: a rod along a centreline (or straight), its beads, and its organ mesh. */

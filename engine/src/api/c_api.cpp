@@ -117,14 +117,15 @@ Eigen::Vector3d finite_vec3(const double* v, const char* name) {
 }
 
 // The sizes a struct has had since it carried its size: its own, and for the two defs the sizes
-// before ABI 13 (frame limits), ABI 15 (mesh_on_host_gpu), ABI 11 / 12 / 16 (the ring fields, the
-// anchors, the skin) added fields at their end; the frame's before ABI 15 (gpu_rings); the profile's
+// before ABI 13 (frame limits), ABI 15 (mesh_on_host_gpu), ABI 17 (sleep), ABI 11 / 12 / 16 (the
+// ring fields, the anchors, the skin) added fields at their end; the frame's before ABI 15 (gpu_rings); the profile's
 // before ABI 16 (nodes_asleep); the GPU skin's before ABI 17 (ring_data_floats).
 template <class T>
 std::span<const std::size_t> sizes_of() {
   if constexpr (std::is_same_v<T, haustra_world_def>) {
     static constexpr std::size_t sizes[] = {offsetof(haustra_world_def, max_substeps),
-                                            offsetof(haustra_world_def, mesh_on_host_gpu), sizeof(T)};
+                                            offsetof(haustra_world_def, mesh_on_host_gpu),
+                                            offsetof(haustra_world_def, sleep), sizeof(T)};
     return sizes;
   } else if constexpr (std::is_same_v<T, haustra_segment_def>) {
     static constexpr std::size_t sizes[] = {offsetof(haustra_segment_def, max_rings_per_vertex),
@@ -258,6 +259,7 @@ haustra_world_def checked_def(const haustra_world_def& host) {
                 "def.mesh_on_host_gpu = 1 with def.mesh_every_frame = 1: a host that skins on its GPU wants the "
                 "step not to skin; set mesh_every_frame = 0");
   (void)flag(d.double_buffered, "def.double_buffered");
+  (void)flag(d.sleep, "def.sleep");
   return d;
 }
 
@@ -284,6 +286,9 @@ void apply_world_fields(const haustra_world_def& d, bool only_changed, haustra::
   if (changed(d.max_substeps, base.max_substeps)) w.solver.max_substeps = d.max_substeps;
   if (changed(d.max_retries, base.max_retries)) w.solver.max_retries = d.max_retries;
   if (changed(d.calm_frames, base.calm_frames)) w.solver.calm_frames = d.calm_frames;
+  if (changed(d.sleep, base.sleep)) w.sleep.enabled = d.sleep == 1;
+  if (changed(d.sleep_speed, base.sleep_speed)) w.sleep.speed = d.sleep_speed;  // checked with the description
+  if (changed(d.sleep_time, base.sleep_time)) w.sleep.time = d.sleep_time;
   if (d.floor == 1) {
     haustra::PlaneDesc floor;
     floor.name = "floor";
@@ -703,6 +708,9 @@ haustra_status haustra_world_def_default(haustra_world_def* def) {
     d.max_substeps = w.solver.max_substeps;
     d.max_retries = w.solver.max_retries;
     d.calm_frames = w.solver.calm_frames;
+    d.sleep = w.sleep.enabled ? 1 : 0;
+    d.sleep_speed = w.sleep.speed;
+    d.sleep_time = w.sleep.time;
   } catch (...) {
     return failed("haustra_world_def_default");
   }
