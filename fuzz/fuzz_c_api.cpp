@@ -8,7 +8,10 @@
 // every buffer a host reads must be finite.
 #include <haustra/haustra.h>
 
+#include "gpu_skin_sum.hpp"
+
 #include <unistd.h>
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -48,9 +51,9 @@ struct Input {
 
 void require(bool ok, const char* what) {
   if (!ok) {
+    std::fprintf(stderr, "finding: %s\n", what);
     __builtin_trap();  // a finding: make libFuzzer keep the input
   }
-  (void)what;
 }
 
 void check_finite(haustra_world* w) {
@@ -417,23 +420,25 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         // The GPU binding (decision 0110): its rings in range, and its sum the library's mesh.
         haustra_gpu_skin g = sized<haustra_gpu_skin>();
         require(haustra_world_gpu_skin(w, &g) == HAUSTRA_OK && g.vertices == c.mesh_vertices, "gpu skin");
-        std::vector<float> rings(HAUSTRA_GPU_RING_FLOATS * g.rings);
+        require(g.ring_data_floats == 2 * HAUSTRA_GPU_RING_FLOATS * g.rings, "gpu ring data size");
+        std::vector<float> rings(g.ring_data_floats);
         require(haustra_world_gpu_rings(w, rings.data(), rings.size()) == HAUSTRA_OK, "gpu rings");
         haustra_vec3f_view mesh{};
         require(haustra_world_mesh_positions(w, &mesh) == HAUSTRA_OK, "mesh view");
         for (std::size_t i = 0; i < g.vertices; ++i) {
-          double d[3] = {0, 0, 0};
-          for (std::uint32_t k = g.vertex_slots[2 * i]; k < g.vertex_slots[2 * i] + g.vertex_slots[2 * i + 1]; ++k) {
-            require(k < g.slots && g.slot_rings[k] < g.rings, "gpu slot range");
-            const float* r = rings.data() + HAUSTRA_GPU_RING_FLOATS * g.slot_rings[k];
-            const float* co = g.slot_coefficients + 4 * std::size_t{k};
-            for (int row = 0; row < 3; ++row)
-              d[row] += double(r[4 * row]) * co[1] + double(r[4 * row + 1]) * co[2] + double(r[4 * row + 2]) * co[3] +
-                        double(r[4 * row + 3]) * co[0];
+          const std::uint32_t first = g.vertex_slots[2 * i], count = g.vertex_slots[2 * i + 1];
+          for (std::uint32_t k = first; k < first + count; ++k) {
+            // A screw takes the next slot too (its weight), and names its screw past the rings' rows.
+            const bool screw = (g.slot_rings[k] & HAUSTRA_GPU_SCREW_SLOT) != 0;
+            const std::size_t at = g.slot_rings[k] & ~HAUSTRA_GPU_SCREW_SLOT;
+            require(k + (screw ? 1U : 0U) < std::min<std::size_t>(g.slots, first + count) &&
+                        (screw ? at >= g.rings && at < 2 * g.rings : at < g.rings),
+                    "gpu slot range");
+            k += screw ? 1U : 0U;
           }
-          const double off =
-              std::hypot(g.rest_positions[3 * i] + d[0] - mesh.x[i], g.rest_positions[3 * i + 1] + d[1] - mesh.y[i],
-                         g.rest_positions[3 * i + 2] + d[2] - mesh.z[i]);
+          double x[3];
+          haustra::test::shader_sum(g, rings, i, x);
+          const double off = std::hypot(x[0] - mesh.x[i], x[1] - mesh.y[i], x[2] - mesh.z[i]);
           require(off <= 1e-5 * (1.0 + std::abs(mesh.x[i]) + std::abs(mesh.y[i]) + std::abs(mesh.z[i])), "gpu sum");
         }
         break;

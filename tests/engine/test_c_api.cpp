@@ -955,7 +955,7 @@ TEST_CASE("C API: an EXP2 segment pulled at its tip stretches to A sigma(eps) = 
 }
 
 TEST_CASE(
-    "C API: skinning 1, 0, 2 give the scene's along-rod, cage, cage-full; the retired fields are refused if set") {
+    "C API: skinning 1, 0, 2 give the scene's along-rod, cage, cage-full - the retired fields are refused if set") {
   // Decision 0120: one choice of skin. A cantilever with beads 2 cm apart and a procedural organ,
   // bending under gravity, from definitions and from a scene file with the same skin.
   haustra_world_def def;

@@ -465,7 +465,7 @@ TEST_CASE("the along-rod skin: rest, rigid motions, pure bend, twist and a helix
   }
 }
 
-TEST_CASE("a scene chooses the skin by name: along-rod (the default), cage, cage-full; an unknown name refused") {
+TEST_CASE("a scene chooses the skin by name: along-rod (the default), cage, cage-full - an unknown name refused") {
   const auto skin = [](std::vector<std::string> sets) {
     return test::scene_desc("demo", sets).world.segments[0].mesh.skinning;
   };
