@@ -71,14 +71,15 @@ void BM_SmallIntestine(benchmark::State& state) {
 }
 
 // The render thread's share of a frame of the 6 m small intestine (decision 0110): a reader that
-// draws the CPU's mesh (gpu:0: acquire skins 300k vertices and their normals) or skins on its GPU
-// (gpu:1: acquire makes the rings' data for the shader alone), or draws the CPU's mesh skinned
-// along the rod (gpu:2, decision 0117: the ratio to gpu:0 in one run is that skin's cost against the
-// cage's). Each iteration steps and publishes a frame untimed, then times the acquire.
+// draws the CPU's mesh (gpu:0: acquire skins 300k vertices and their normals, along the rod, the
+// default) or skins on its GPU (gpu:1: acquire makes the rings' data for the shader alone), or draws
+// the CPU's mesh skinned by the cage (gpu:2, decision 0120: the ratio of gpu:0 to it in one run is
+// the default skin's cost against the cage's). Each iteration steps and publishes a frame untimed,
+// then times the acquire.
 void BM_SmallIntestineReader(benchmark::State& state) {
   const bool gpu = state.range(0) == 1;
   std::vector<std::string> sets{"world.threads=2"};
-  if (state.range(0) == 2) sets.emplace_back("segment.mesh.skinning=along-rod");
+  if (state.range(0) == 2) sets.emplace_back("segment.mesh.skinning=cage");
   SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/small-intestine.toml", sets);
   std::unique_ptr<World> w = create_world(scene);
   FramePublisher frames(*w);
