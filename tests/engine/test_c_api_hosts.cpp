@@ -248,7 +248,7 @@ TEST_CASE("C API: a checkpoint keeps gravity, dt, the material and the frame lim
 
 // Decision 0119 through the C API (ABI 17's def.sleep): a rod at rest (no gravity) sleeps after
 // sleep_time, every node; without sleep none does.
-TEST_CASE("C API: def.sleep puts a rod at rest to sleep; off by default") {
+TEST_CASE("C API: def.sleep puts a rod at rest to sleep, off by default") {
   auto asleep_after = [](int sleep) {
     haustra_world_def def;
     REQUIRE(haustra_world_def_default(&def) == HAUSTRA_OK);

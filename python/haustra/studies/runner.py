@@ -232,19 +232,22 @@ def run_cells(study, todo, out, writer, progress, serial, scheduler, workers, ce
         _stop_cells(client, cluster, futures + list(import_futures.values()))
         raise
     finally:
-        # Dask's nanny logs a traceback for each worker process it finds killed: here they were killed on
-        # purpose, so its logger is quiet while the cluster closes (and as it was afterwards).
-        dask_log = logging.getLogger("distributed")
-        level = dask_log.level
+        # Dask's nanny logs a traceback for each worker process it finds killed, and its client's event loop
+        # may log one for a comm the kill cut mid-call (asyncio's "Exception in callback"): here they were
+        # killed on purpose, so both loggers are quiet while the cluster closes (and as they were afterwards).
+        quiet = [logging.getLogger("distributed"), logging.getLogger("asyncio")]
+        levels = [log.level for log in quiet]
         if stopped:
-            dask_log.setLevel(logging.CRITICAL + 1)
+            for log in quiet:
+                log.setLevel(logging.CRITICAL + 1)
         # A second Ctrl-C while closing is not a reason to leave the cluster behind.
         with contextlib.suppress(Exception, Stopped):
             client.close(timeout=10)
         if cluster is not None:
             with contextlib.suppress(Exception, Stopped):
                 cluster.close(timeout=10)
-        dask_log.setLevel(level)
+        for log, level in zip(quiet, levels):
+            log.setLevel(level)
 
 
 def run_study(study, out, serial=False, scheduler=None, workers=None, cell_runner=run_cell, show_progress=True,
