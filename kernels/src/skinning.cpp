@@ -3,6 +3,7 @@
 #include "haustra/kernels/skinning.hpp"
 
 #include <Eigen/Geometry>
+#include <array>
 #include <cmath>
 #include <cstring>
 
@@ -23,29 +24,28 @@ inline Lanes load(const float* p) {
   return v;
 }
 
-// sin φ / φ and (1 − cos φ) / φ² as Taylor polynomials in φ² through φ¹⁴: no division, so no
-// branch at φ = 0; within 1e-6 of the functions up to φ = π (the largest turn a screw takes).
+// sin φ / φ and (1 − cos φ) / φ² as Taylor polynomials in x = φ² through φ¹⁴ (coefficients from the
+// highest power down): no division, so no branch at φ = 0; within 1e-6 of the functions up to φ = π
+// (the largest turn a screw takes).
+constexpr std::array<float, 8> kSincOfSquare = {
+    -1.0f / 1307674368000.0f, 1.0f / 6227020800.0f, -1.0f / 39916800.0f, 1.0f / 362880.0f,
+    -1.0f / 5040.0f,          1.0f / 120.0f,        -1.0f / 6.0f,        1.0f};
+constexpr std::array<float, 8> kCoscOfSquare = {
+    -1.0f / 20922789888000.0f, 1.0f / 87178291200.0f, -1.0f / 479001600.0f, 1.0f / 3628800.0f,
+    -1.0f / 40320.0f,          1.0f / 720.0f,         -1.0f / 24.0f,        0.5f};
+template <class T>
+T horner(T x, const std::array<float, 8>& c) {
+  T r = T{} + c[0];
+  for (std::size_t i = 1; i < c.size(); ++i) r = r * x + c[i];
+  return r;
+}
 template <class T>
 T sinc_of_square(T x) {
-  T r = T{} + -1.0f / 1307674368000.0f;
-  r = r * x + 1.0f / 6227020800.0f;
-  r = r * x + -1.0f / 39916800.0f;
-  r = r * x + 1.0f / 362880.0f;
-  r = r * x + -1.0f / 5040.0f;
-  r = r * x + 1.0f / 120.0f;
-  r = r * x + -1.0f / 6.0f;
-  return r * x + 1.0f;
+  return horner(x, kSincOfSquare);
 }
 template <class T>
 T cosc_of_square(T x) {
-  T r = T{} + -1.0f / 20922789888000.0f;
-  r = r * x + 1.0f / 87178291200.0f;
-  r = r * x + -1.0f / 479001600.0f;
-  r = r * x + 1.0f / 3628800.0f;
-  r = r * x + -1.0f / 40320.0f;
-  r = r * x + 1.0f / 720.0f;
-  r = r * x + -1.0f / 24.0f;
-  return r * x + 0.5f;
+  return horner(x, kCoscOfSquare);
 }
 
 // The same in double by the functions themselves, with their series below 1e-3.
