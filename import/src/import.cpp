@@ -192,7 +192,7 @@ std::string ImportReport::text() const {
         "correction up to {:.2f} mm\n",
         build_seconds, cage_rings, dropped_rings, binding_pieces, binding_pieces == 1 ? "" : "s",
         fused_copies > 0
-            ? fmt::format(", the surface cut apart where it fuses loops ({} vertices copied)", fused_copies)
+            ? fmt::format(", the surface cut apart where it fuses loops ({} copies of its vertices)", fused_copies)
             : "",
         rest_pose_outside, max_dropped_mass, 1e3 * max_rest_correction);
   t += fmt::format("import took {:.1f} s\n", seconds);

@@ -1,6 +1,7 @@
 // A tube's axis pieces on shapes whose answer is known: the path through the level contours
-// (parallel contours, a handle with a longer branch), boundary loops that touch at a pinch, and a
-// tube whose loop is fused where it starts (the axis follows the loop round).
+// (parallel contours, a handle with a longer branch), boundary loops that touch at a pinch, a tube
+// whose loop is fused where it starts (the axis follows the loop round); and the cut of fused loops
+// (decision 0118) on a coarse tube and a jump.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include "fused_hairpin.hpp"
 #include "haustra/tube_axis.hpp"
 #include "model/binding_arcs.hpp"
+#include "model/fused_contacts.hpp"
 
 using namespace haustra;
 
@@ -138,4 +140,50 @@ TEST_CASE("tube axis: a tube whose loop is fused where it starts is followed rou
   CHECK(median < 1.1 * r);  // 1.00 r measured
   CHECK(p90 < 1.5 * r);     // 1.06 r
   CHECK(p99 < 4.0 * r);     // 2.14 r: the sleeve across the fusion, placed on one leg or the other
+}
+
+// Decision 0118's cut is for a neck, not a coarse mesh: a tube of two rings (a CAD cylinder's eight
+// long triangles) has places 0 and L at its ends, L more than 4 radii, but no edge is cut — the jump
+// is no longer than the triangles. A sleeve whose places jump by 60 edge lengths is cut.
+TEST_CASE("the fused cut leaves a coarse tube whole and cuts a jump of many edge lengths") {
+  const double r = 0.01, length = 0.1;
+  TriangleMesh tube;
+  for (int ring = 0; ring < 2; ++ring)
+    for (int j = 0; j < 8; ++j) {
+      const double a = 2.0 * std::numbers::pi * j / 8.0;
+      tube.vertices.emplace_back(r * std::cos(a), r * std::sin(a), ring * length);
+    }
+  for (std::uint32_t j = 0; j < 8; ++j) {
+    const std::uint32_t k = (j + 1) % 8;
+    tube.triangles.push_back({j, k, 8 + k});
+    tube.triangles.push_back({j, 8 + k, 8 + j});
+  }
+  std::vector<Eigen::Vector3d> samples;
+  for (int i = 0; i <= 200; ++i) samples.emplace_back(0.0, 0.0, length * i / 200.0);
+  std::vector<double> place(16);
+  for (std::size_t v = 0; v < 16; ++v) place[v] = v < 8 ? 0.0 : length;
+  TriangleMesh coarse = tube;
+  const detail::FusedCut none = detail::cut_fused_contacts(coarse, place, 4.0 * r, samples, length);
+  CHECK(none.copies == 0);
+  CHECK(coarse.vertices.size() == 16);
+  // The same tube 2 mm across and 1 mm long: its edges are at most 1.2 mm, its places still jump by
+  // 0.1 m across every triangle: every vertex is cut once (its triangles of the other ring's place
+  // take a copy), each triangle's corners then share its place, and nothing moves.
+  TriangleMesh fine = tube;
+  for (auto& x : fine.vertices) x = Eigen::Vector3d(0.1 * x.x(), 0.1 * x.y(), x.z() < 0.5 * length ? 0.0 : 0.001);
+  std::vector<double> fine_place(place);
+  const detail::FusedCut cut = detail::cut_fused_contacts(fine, fine_place, 4.0 * r, samples, length);
+  CHECK(cut.vertices_cut == 16);
+  CHECK(cut.copies == 16);
+  REQUIRE(fine.vertices.size() == 32);
+  REQUIRE(fine_place.size() == 32);
+  for (const auto& t : fine.triangles) {
+    const auto [lo, hi] = std::minmax({fine_place[t[0]], fine_place[t[1]], fine_place[t[2]]});
+    CHECK(hi - lo <= 4.0 * r + 1e-12);  // a copy is placed within the jump of its group's place
+  }
+  for (std::size_t v = 16; v < 32; ++v) {
+    bool twin = false;
+    for (std::size_t u = 0; u < 16; ++u) twin = twin || fine.vertices[u] == fine.vertices[v];
+    CHECK(twin);
+  }
 }

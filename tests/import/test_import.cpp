@@ -357,11 +357,19 @@ TEST_CASE("a hairpin whose legs are fused, opened 10 cm: the surface is cut into
   const import::ImportReport report = import::import_surface(options(dir / "fused.obj", {}, dir / "fused.toml"));
   double fusion = 0.0;  // the fusion's place on the first leg (x = 0), and on the second, the tube's length less it
   for (std::size_t k = 1; k < truth.size() && truth[k].x() < 0.0; ++k) fusion += (truth[k] - truth[k - 1]).norm();
-  auto stretch_with = [&](CageBinding binding) {
+  // One piece, or a chain of two whose cut runs between the legs' fusions (their copies welded, the
+  // fused cut's copies not).
+  auto stretch_with = [&](CageBinding binding, std::size_t pieces) {
     SceneDesc scene = load_scene(report.scene);
     scene.world.threads = 1;
-    scene.world.segments[0].mesh.cage.binding = binding;
-    scene.world.segments[0].mesh.skinning = SkinningMethod::along_rod;
+    SegmentDesc& seg = scene.world.segments[0];
+    seg.mesh.cage.binding = binding;
+    seg.mesh.skinning = SkinningMethod::along_rod;
+    if (pieces > 1) {
+      seg.chain_pieces = static_cast<int>(pieces);
+      seg.nodes = (seg.nodes - 1) / static_cast<int>(pieces) + 1;
+      seg.beads.count = seg.beads.count / static_cast<int>(pieces);
+    }
     auto world = create_world(scene);
     const auto nodes = world->node_positions();
     const std::size_t n = nodes.size();
@@ -374,15 +382,17 @@ TEST_CASE("a hairpin whose legs are fused, opened 10 cm: the surface is cut into
     const auto [skin, rod] = skin_and_rod_stretch(*world, pulled);
     return std::tuple{skin, rod, world->mesh_positions().size()};
   };
-  const auto [cut, rod, vertices_cut] = stretch_with(CageBinding::harmonic);
-  const auto [closest, rod_closest, vertices_closest] = stretch_with(CageBinding::closest);
+  const auto [cut, rod, vertices_cut] = stretch_with(CageBinding::harmonic, 1);
+  const auto [chain, rod_chain, vertices_chain] = stretch_with(CageBinding::harmonic, 2);
+  const auto [closest, rod_closest, vertices_closest] = stretch_with(CageBinding::closest, 1);
   MESSAGE("fused at " << fusion * 1e3 << " mm of " << report.length * 1e3 << " mm; rod stretched " << rod
-                      << "x; skin: cut " << cut << "x (" << vertices_cut << " vertices), closest point " << closest
-                      << "x (" << vertices_closest << ")");
+                      << "x; skin: cut " << cut << "x (" << vertices_cut << " vertices), a chain of two " << chain
+                      << "x (" << vertices_chain << "), closest point " << closest << "x (" << vertices_closest << ")");
   CHECK(rod < 1.1);
   CHECK(rod_closest == rod);
   CHECK(vertices_cut > vertices_closest);  // the cut's copies
   CHECK(cut < 1.5);
+  CHECK(chain < 1.5);
   CHECK(closest > 3.0);  // the counter-case: the sleeve tears
 }
 

@@ -130,6 +130,8 @@ std::vector<Eigen::Vector3d> binding_pose(const RodCurve& curve, const TriangleM
   std::vector<double> s(n, 0.0);
   report.binding = harmonic ? "harmonic" : "closest";
   if (!given.empty()) {  // the whole organ's, on this piece's stretch of it (a vertex past a cut on its end)
+    if (given.size() != n)
+      throw Error(ErrorCode::internal, fmt::format("{} places for {} mesh vertices", given.size(), n));
     for (std::size_t v = 0; v < n; ++v) s[v] = std::clamp(given[v], 0.0, length);
   } else if (harmonic) {
     BindingArcs arcs = harmonic_binding_arcs(mesh, point, length);

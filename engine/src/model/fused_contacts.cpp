@@ -1,6 +1,8 @@
 // Where a segmentation fused two loops of an organ into one wall, the surface cut back into two walls.
 #include "model/fused_contacts.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <limits>
 #include <numeric>
@@ -10,6 +12,10 @@
 
 namespace haustra::detail {
 namespace {
+
+// A jump in place is a cut only when it is this many times the longest edge round the vertex (the
+// HuBMAP ileum's necks: over 10×, and no edge between 5× and 10×; decision 0118).
+constexpr double kJumpEdges = 10.0;
 
 // The triangles round each vertex (CSR), each list in the triangles' order.
 void triangles_round(const TriangleMesh& mesh, std::vector<std::uint32_t>& start, std::vector<std::uint32_t>& list) {
@@ -25,10 +31,9 @@ void triangles_round(const TriangleMesh& mesh, std::vector<std::uint32_t>& start
 
 }  // namespace
 
-FusedCut cut_fused_contacts(TriangleMesh& mesh, std::vector<double>& place, std::vector<std::uint32_t>& wall,
-                            double jump, std::span<const Eigen::Vector3d> samples, double length) {
+FusedCut cut_fused_contacts(TriangleMesh& mesh, std::vector<double>& place, double jump,
+                            std::span<const Eigen::Vector3d> samples, double length) {
   const std::size_t n = mesh.vertices.size();
-  wall.assign(n, 0);
   // A triangle's place: its corners' median (one corner across a cut does not move it).
   std::vector<double> at(mesh.triangles.size());
   for (std::size_t t = 0; t < at.size(); ++t) {
@@ -44,10 +49,18 @@ FusedCut cut_fused_contacts(TriangleMesh& mesh, std::vector<double>& place, std:
     here.assign(round.begin() + start[v], round.begin() + start[v + 1]);
     std::stable_sort(here.begin(), here.end(), [&](std::uint32_t a, std::uint32_t b) { return at[a] < at[b]; });
     // Groups of triangles whose places run on without a jump; the vertex stays with the group
-    // nearest its own place, each other group takes a copy.
+    // nearest its own place, each other group takes a copy. A jump is also far longer than the
+    // triangles round the vertex (a neck's places jump by hundreds of edge lengths across one edge):
+    // a coarse tube whose triangles span more than `jump` along it is one wall, not two.
+    double longest = 0.0;
+    for (const std::uint32_t t : here)
+      for (std::size_t c = 0; c < 3; ++c)
+        longest = std::max(
+            longest, (mesh.vertices[mesh.triangles[t][c]] - mesh.vertices[mesh.triangles[t][(c + 1) % 3]]).norm());
+    const double apart = std::max(jump, kJumpEdges * longest);
     std::vector<std::size_t> group_start = {0};
     for (std::size_t i = 1; i < here.size(); ++i)
-      if (at[here[i]] - at[here[i - 1]] > jump) group_start.push_back(i);
+      if (at[here[i]] - at[here[i - 1]] > apart) group_start.push_back(i);
     if (group_start.size() < 2) continue;
     group_start.push_back(here.size());
     std::size_t own = 0;
@@ -60,11 +73,12 @@ FusedCut cut_fused_contacts(TriangleMesh& mesh, std::vector<double>& place, std:
       const auto copy = static_cast<std::uint32_t>(mesh.vertices.size());
       if (mesh.vertices.size() >= kMaxMeshVertices)
         throw Error(ErrorCode::invalid_geometry,
-                    "cutting the surface where loops are fused would pass the largest mesh the engine takes");
+                    fmt::format("cutting the surface where loops are fused would pass the largest mesh the engine "
+                                "takes ({} vertices)",
+                                kMaxMeshVertices));
       const double middle = at[here[(group_start[g] + group_start[g + 1]) / 2]];
       mesh.vertices.push_back(mesh.vertices[v]);
       place.push_back(closest_arc_within(samples, length, mesh.vertices[v], middle - jump, middle + jump));
-      wall.push_back(copy);
       for (std::size_t i = group_start[g]; i < group_start[g + 1]; ++i)
         for (std::uint32_t& corner : mesh.triangles[here[i]])
           if (corner == v) corner = copy;

@@ -2,13 +2,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <map>
 #include <numbers>
 #include <numeric>
 #include <optional>
-#include <tuple>
+#include <utility>
 
 #include "haustra/error.hpp"
 #include "haustra/kernels/mesh_normals.hpp"
@@ -42,17 +41,15 @@ bool harmonic_binding(const OrganMeshDesc& d) {
          (d.cage.binding == CageBinding::automatic && d.source == MeshSource::file);
 }
 
-// The vertices a chain's cut copied into two pieces (or more): one point, bit for bit, at rest, and
-// one wall (the copies a cut of fused loops made stay apart).
+// The vertices a chain's cut copied into two pieces (or more): one vertex of the organ's whole mesh
+// (not one point: where a repair split a pinched point, or a cut of fused loops copied one, the
+// copies stay apart).
 class SeamFinder {
  public:
-  void add(std::size_t rod, std::size_t vertex_offset, const std::vector<Eigen::Vector3d>& vertices,
-           std::span<const std::uint32_t> wall) {
-    for (std::size_t v = 0; v < vertices.size(); ++v) {
-      const Key key{rod, std::bit_cast<std::uint64_t>(vertices[v].x()), std::bit_cast<std::uint64_t>(vertices[v].y()),
-                    std::bit_cast<std::uint64_t>(vertices[v].z()), wall.empty() ? 0U : wall[v]};
+  void add(std::size_t rod, std::size_t vertex_offset, std::span<const std::uint32_t> origin) {
+    for (std::size_t v = 0; v < origin.size(); ++v) {
       const auto world = static_cast<std::uint32_t>(vertex_offset + v);
-      const auto [at, first] = point_.try_emplace(key, world);
+      const auto [at, first] = point_.try_emplace(Key{rod, origin[v]}, world);
       if (!first) copies_.emplace_back(at->second, world);
     }
   }
@@ -72,7 +69,7 @@ class SeamFinder {
   }
 
  private:
-  using Key = std::tuple<std::size_t, std::uint64_t, std::uint64_t, std::uint64_t, std::uint32_t>;
+  using Key = std::pair<std::size_t, std::uint32_t>;  // the rod, the vertex of its whole mesh
   std::map<Key, std::uint32_t> point_;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> copies_;  // (first, copy)
 };
@@ -147,13 +144,13 @@ WholePlaces whole_places(const TriangleMesh& mesh, const WorldModel& m, const Se
 }
 
 // A chain's mesh from a file, cut into its pieces: each triangle goes to the piece whose stretch of
-// the rod holds its vertices' mean place along the rod (the whole mesh's places; each piece's cage
-// then places its own part afresh, which near a cut may differ by a little: the end rings past a
-// piece's rim take that up), each piece with its own copy of the vertices it uses (welded back
-// together after skinning), and each copy's wall (which copy of a fused cut it is: one weld each).
-void split_into_pieces(const TriangleMesh& mesh, const std::vector<std::uint32_t>& wall, const WorldModel& m,
-                       const SegmentModel& seg, const std::vector<double>& arc, const std::string& where,
-                       std::vector<TriangleMesh>& meshes, std::vector<PiecePlaces>& placed) {
+// the rod holds its vertices' mean place along the rod (the whole mesh's places, which a harmonic
+// binding keeps for every piece: the copies of a cut vertex have one place; a closest-point binding
+// places each piece afresh), each piece with its own copy of the vertices it uses (welded back
+// together after skinning: each piece vertex's index in the whole mesh says which are one).
+void split_into_pieces(const TriangleMesh& mesh, const WorldModel& m, const SegmentModel& seg,
+                       const std::vector<double>& arc, const std::string& where, std::vector<TriangleMesh>& meshes,
+                       std::vector<PiecePlaces>& placed) {
   const std::size_t off = seg.node_offset;
   // Each piece's first node's place along the rod.
   std::vector<double> starts;
@@ -176,7 +173,7 @@ void split_into_pieces(const TriangleMesh& mesh, const std::vector<std::uint32_t
     PiecePlaces& out = placed[seg.first_piece + p];
     for (std::uint32_t v : kept) {
       out.place.push_back(arc[v] - starts[p]);
-      out.wall.push_back(wall[v]);
+      out.origin.push_back(v);
     }
     if (meshes[seg.first_piece + p].triangles.empty())
       fail(ErrorCode::invalid_geometry, where + ".file",
@@ -232,22 +229,23 @@ std::vector<TriangleMesh> load_organ_meshes(const WorldDesc& desc, const std::ve
       const bool harmonic = harmonic_binding(d);
       if (seg.piece_count == 1 && !harmonic) continue;
       WholePlaces whole = whole_places(mesh, m, seg, rest_poses[si].view(), harmonic);
-      std::vector<std::uint32_t> wall(mesh.vertices.size(), 0);
       // Loops the segmentation fused into one wall (the places jump by more than a stretch of the
       // organ a tight bend could turn through): cut apart, so neither drags the other's skin.
       FusedCut cut;
-      if (harmonic)
-        cut = cut_fused_contacts(mesh, whole.place, wall, kFusedJumpRadii * desc.segments[si].cross_section.radius,
-                                 whole.samples, whole.length);
+      if (harmonic) try {
+          cut = cut_fused_contacts(mesh, whole.place, kFusedJumpRadii * desc.segments[si].cross_section.radius,
+                                   whole.samples, whole.length);
+        } catch (const Error& e) {
+          fail(e.code(), where + ".file", fmt::format("{}: {}", d.file, e.what()));
+        }
       if (seg.piece_count > 1) {
         const TriangleMesh whole_mesh = std::move(mesh);
         mesh = TriangleMesh{};
-        split_into_pieces(whole_mesh, wall, m, seg, whole.place, where, meshes, placed);
+        split_into_pieces(whole_mesh, m, seg, whole.place, where, meshes, placed);
         if (!harmonic)  // closest points: each piece places its own afresh (with its neighbours' medians)
           for (std::size_t p = 0; p < seg.piece_count; ++p) placed[seg.first_piece + p].place.clear();
       } else {
         placed[pi].place = std::move(whole.place);
-        placed[pi].wall = std::move(wall);
       }
       // The whole surface's report goes with the organ's first piece.
       placed[pi].surface_pieces = whole.harmonic.pieces;
@@ -377,8 +375,7 @@ void bind_organ_meshes(const WorldDesc& desc, const std::vector<RodPoseBuffer>& 
 
     append_mesh_buffers(pi, meshes[pi], d.normals, out, m);
     m.any_mesh = true;
-    if (seg.piece_count > 1 && d.source == MeshSource::file)
-      seams.add(si, out.vertex_offset, meshes[pi].vertices, placed[pi].wall);
+    if (seg.piece_count > 1 && d.source == MeshSource::file) seams.add(si, out.vertex_offset, placed[pi].origin);
     meshes[pi] = TriangleMesh{};  // the binding keeps what stepping needs
   }
   seams.groups(m.seam_group_start, m.seam_group_members);

@@ -341,11 +341,11 @@ InstrumentModel instrument_model(const InstrumentDesc& d);
 // Organ meshes: loaded or generated around each segment's rest pose before the beads (a bead may
 // take its radius from the mesh), then caged and bound once the beads exist.
 // A piece's mesh vertices placed along its rod once for the whole organ's surface (a mesh from a
-// file; empty otherwise): each one's place (m from the piece's first node) and its wall (0, or
-// which copy it is of a vertex where fused loops were cut apart: copies of one wall are welded).
+// file; empty otherwise): each one's place (m from the piece's first node) and, in a chain, its index
+// in the organ's whole mesh (the copies of one index, in two pieces, are welded after skinning).
 struct PiecePlaces {
   std::vector<double> place;
-  std::vector<std::uint32_t> wall;
+  std::vector<std::uint32_t> origin;
   // The whole surface's placing (on the organ's first piece; 0 on the others): CageReport's.
   std::size_t surface_pieces = 0, closest_pieces = 0, followed = 0, fused_copies = 0;
 };
