@@ -106,6 +106,9 @@ TEST_CASE("C API: skinning = 1 (along the rod): a screw a vertex, the shader's s
   CHECK(g.slots == 2 * g.vertices);
   std::vector<float> rings(g.ring_data_floats);
   REQUIRE(haustra_world_gpu_rings(w, rings.data(), rings.size()) == HAUSTRA_OK);
+  // Given the screws, the rows alone would leave the shader reading past the host's buffer: refused.
+  CHECK(haustra_world_gpu_rings(w, rings.data(), rings.size() / 2) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(gpu_says("gave this host the along-rod screws"));
   const auto [worst, moved] = sum_against_mesh(w, g, rings);
   MESSAGE("along the rod: moved up to " << moved << " m; the sum is " << worst << " m from the library's mesh");
   CHECK(moved > 0.02);

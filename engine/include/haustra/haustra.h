@@ -502,7 +502,8 @@ HAUSTRA_API haustra_status haustra_world_node_velocities(const haustra_world* wo
  *     kP = (1 - cos f)/2 + t c sin(f)/f,  kQ = t c (1 - cos f)/f - sin(f)/2
  * (their limits t and 0 as f -> 0), its normal sum w R Rot(axis, f) n, normalized. Such a host
  * passes count = 2 x HAUSTRA_GPU_RING_FLOATS x rings (haustra_gpu_skin.ring_data_floats) to
- * haustra_world_gpu_rings and reads as many from haustra_frame.gpu_rings. A host built before ABI 17
+ * haustra_world_gpu_rings (the rows alone are refused once the world has handed it the screws) and
+ * reads as many from haustra_frame.gpu_rings. A host built before ABI 17
  * (its smaller haustra_gpu_skin) is given every vertex in the rigid-group form (an along-rod vertex
  * on its two stations, linear along them, as in ABI 16) and reads the rings' rows alone. */
 #define HAUSTRA_GPU_RING_FLOATS 24

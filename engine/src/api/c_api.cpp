@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -28,6 +29,9 @@
 struct haustra_world {
   std::unique_ptr<haustra::World> world;
   std::unique_ptr<haustra::FramePublisher> frames;  // double-buffered worlds only
+  // haustra_world_gpu_skin last handed out the along-rod screws (ABI 17's form): a ring data count of
+  // the rings' rows alone would leave the host's shader reading past its buffer, so it is refused.
+  mutable std::atomic<bool> gave_screws{false};
 };
 
 namespace {
@@ -946,6 +950,7 @@ haustra_status haustra_world_gpu_skin(const haustra_world* world, haustra_gpu_sk
     // A host before ABI 17 (its struct ends before ring_data_floats) has no screw in its shader: the
     // rigid-group form, the along-rod vertices linear on their stations.
     const bool linear = size < sizeof(haustra_gpu_skin) && !g.linear_slot_ring.empty();
+    held.handle().gave_screws.store(!linear && !g.linear_slot_ring.empty());
     write_out(
         out,
         linear ? haustra_gpu_skin{sizeof(haustra_gpu_skin), g.vertices, g.rings, g.linear_slot_ring.size(),
@@ -973,6 +978,11 @@ haustra_status haustra_world_gpu_rings(const haustra_world* world, float* out, s
                   fmt::format("count = {}: expected {} (2 x HAUSTRA_GPU_RING_FLOATS x {} rings: "
                               "haustra_gpu_skin.ring_data_floats), or {} from a host before ABI 17",
                               count, want, w.ring_count(), rows));
+    if (count != want && held.handle().gave_screws.load())
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("count = {}: haustra_world_gpu_skin gave this host the along-rod screws (ABI 17), "
+                              "whose data follow the rings' rows: expected haustra_gpu_skin.ring_data_floats = {}",
+                              count, want));
     if (want > 0) required(out, "out");
     w.gpu_ring_frame(std::span<float>(out, count));
   } catch (...) {
