@@ -24,6 +24,18 @@ inline Lanes load(const float* p) {
   return v;
 }
 
+// A block's 8 lanes to their vertices (a padding lane has none).
+inline void scatter(const SkinBindingView& binding, std::size_t base, const Lanes& x, const Lanes& y, const Lanes& z,
+                    const FloatVec3Out& out) {
+  for (std::size_t l = 0; l < kSkinLanes; ++l) {
+    const std::uint32_t v = binding.vertex[base + l];
+    if (v == kNoVertex) continue;
+    out.x[v] = x[l];
+    out.y[v] = y[l];
+    out.z[v] = z[l];
+  }
+}
+
 // sin φ / φ and (1 − cos φ) / φ² as Taylor polynomials in x = φ² through φ¹⁴ (coefficients from the
 // highest power down): no division, so no branch at φ = 0; within 1e-6 of the functions up to φ = π
 // (the largest turn a screw takes).
@@ -123,13 +135,7 @@ void skin_screw(const SkinBindingView& binding, std::span<const float> screw, st
     const Lanes x = f[0] * yx + f[1] * yy + f[2] * yz + f[3];
     const Lanes y = f[4] * yx + f[5] * yy + f[6] * yz + f[7];
     const Lanes z = f[8] * yx + f[9] * yy + f[10] * yz + f[11];
-    for (std::size_t l = 0; l < kSkinLanes; ++l) {
-      const std::uint32_t v = binding.vertex[base + l];
-      if (v == kNoVertex) continue;
-      out.x[v] = x[l];
-      out.y[v] = y[l];
-      out.z[v] = z[l];
-    }
+    scatter(binding, base, x, y, z, out);
   }
 }
 
@@ -168,13 +174,7 @@ void skin_rigid_groups(const SkinBindingView& binding, std::span<const float> ri
       y += t[4] * ax + t[5] * ay + t[6] * az + t[7] * b;
       z += t[8] * ax + t[9] * ay + t[10] * az + t[11] * b;
     }
-    for (std::size_t l = 0; l < kSkinLanes; ++l) {
-      const std::uint32_t v = binding.vertex[base + l];
-      if (v == kNoVertex) continue;
-      out.x[v] = x[l];
-      out.y[v] = y[l];
-      out.z[v] = z[l];
-    }
+    scatter(binding, base, x, y, z, out);
   }
 }
 
