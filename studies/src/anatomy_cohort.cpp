@@ -54,8 +54,9 @@ double percentile(std::vector<double> v, double p) {
   return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5))];
 }
 
-// The mesh's edges, each once, their rest lengths, and each vertex's nearest node at rest (whose
-// stretch the skin there may follow).
+// The mesh's edges, each once, their rest lengths, and each vertex's node: the one at its place along
+// the rod, whose stretch the skin there follows (not the nearest in space: on the inside of a bend
+// that is another cross-section's, beside another loop another loop's).
 struct Edges {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;
   std::vector<double> rest;
@@ -75,19 +76,13 @@ Edges edges_of(const World& w, const Points& rest) {
       }
     }
   e.torn.assign(e.ends.size(), 0);
-  const auto nodes = w.node_positions();
-  e.node.resize(rest.size());
-  for (std::size_t v = 0; v < rest.size(); ++v) {
-    double best = 1e300;
-    for (std::size_t k = 0; k < nodes.size(); ++k)
-      if (const double d = (nodes.get(k) - rest[v]).squaredNorm(); d < best)
-        best = d, e.node[v] = static_cast<std::uint32_t>(k);
-  }
+  e.node = w.mesh_vertex_nodes();
   return e;
 }
 
 // Each edge's length over its rest length, over the stretch of the rod where it is (the larger
-// axial strain of its vertices' nodes): the skin tearing, not the tissue stretching (issue 35).
+// axial strain of its vertices' nodes, at their places along the rod): the skin tearing, not the tissue stretching
+// (issue 35).
 void measure_stretch(Edges& e, const World& world, const Points& now, bool resting, CohortRow& row) {
   const auto strain = world.strains().data;
   auto stretch = [&](std::uint32_t v) { return 1.0 + std::max(0.0, strain[4 * e.node[v] + 3]); };
@@ -421,7 +416,8 @@ std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::files
        "together); **pulled** how far the grasped node went by the end of the hold; **after release** the "
        "vertices' distance from rest at the end; **torn** anchors of connective tissue torn; **skin at rest** "
        "and **skin** the largest ratio of a mesh edge's length to its rest length, over the rod's own stretch "
-       "where it is, while left alone and over the whole run (the grasp pull included), and how many edges "
+       "where it is (at each vertex's place along the rod, decision 0121), while left alone and over the whole run "
+       "(the grasp pull included), and how many edges "
        "passed twice that (the "
        "skin tearing, not the tissue stretching: issue 35); **skin slots per vertex** what skinning reads per "
        "mesh vertex (ring slots of its binding, padding included: the cost per vertex, decision 0117); **frame ms** "

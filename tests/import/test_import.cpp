@@ -396,6 +396,64 @@ TEST_CASE("a hairpin whose legs are fused, opened 10 cm: the surface is cut into
   CHECK(closest > 3.0);  // the counter-case: the sleeve tears
 }
 
+// World::mesh_vertex_nodes: each vertex's node is the one at its place along the organ, whole or in a
+// chain of two pieces, on the fused hairpin whose surface the import cut. The oracle: the along-rod
+// skin's own binding (its GPU rows: a vertex's station pair and fraction), the node nearest that
+// point of the rod's axis. Near the fusion and in the hairpin's turn the harmonic places are not the
+// nearest node in space: the test counts those vertices, so it tells the two apart.
+TEST_CASE("each mesh vertex's node is the one at its place along the organ, not the nearest in space") {
+  const fs::path dir = scratch("vertex-nodes");
+  std::vector<Eigen::Vector3d> axis;
+  save_mesh(dir / "fused.obj", test::fused_hairpin(0.01, 0.024, 70, axis));
+  const import::ImportReport report = import::import_surface(options(dir / "fused.obj", {}, dir / "fused.toml"));
+  for (int pieces : {1, 2}) {
+    SceneDesc scene = load_scene(report.scene);
+    scene.world.threads = 1;
+    SegmentDesc& seg = scene.world.segments[0];
+    seg.mesh.skinning = SkinningMethod::along_rod;
+    if (pieces > 1) {
+      seg.chain_pieces = pieces;
+      seg.nodes = (seg.nodes - 1) / pieces + 1;
+      seg.beads.count = seg.beads.count / pieces;
+    }
+    auto world = create_world(scene);
+    const auto nodes = world->node_positions();
+    auto nearest_node = [&](const Eigen::Vector3d& p) {
+      std::size_t best = 0;
+      for (std::size_t k = 1; k < nodes.size(); ++k)
+        if ((p - nodes.get(k)).squaredNorm() < (p - nodes.get(best)).squaredNorm()) best = k;
+      return best;
+    };
+    const std::vector<std::uint32_t> node_of = world->mesh_vertex_nodes();
+    REQUIRE(node_of.size() == world->mesh_buffer_size());
+    const GpuSkinBinding& b = world->gpu_skin_binding();
+    const auto x = world->mesh_positions();
+    std::size_t same = 0, off_by_one = 0, elsewhere = 0, not_nearest = 0, ring_offset = 0;
+    for (std::size_t p = 0; p < world->segment_count(); ++p) {
+      const auto rings = world->ring_poses(p);
+      const Range vertices = world->mesh(p).vertices;
+      for (std::size_t v = vertices.offset; v < vertices.offset + vertices.count; ++v) {
+        const std::uint32_t slot = b.slot_range[2 * v];
+        REQUIRE((b.slot_ring[slot] & kGpuScrewSlot) != 0);
+        const std::size_t g = (b.slot_ring[slot] & ~kGpuScrewSlot) - world->ring_count() - ring_offset;
+        const double t = b.slot_coefficient[4 * slot];
+        const std::size_t oracle = nearest_node((1.0 - t) * rings[g].centre + t * rings[g + 1].centre);
+        const std::size_t gap = node_of[v] > oracle ? node_of[v] - oracle : oracle - node_of[v];
+        (gap == 0 ? same : gap == 1 ? off_by_one : elsewhere) += 1;
+        const std::size_t near = nearest_node(x.get(v).cast<double>());
+        not_nearest += (node_of[v] > near ? node_of[v] - near : near - node_of[v]) > 1 ? 1 : 0;
+      }
+      ring_offset += rings.size();
+    }
+    MESSAGE(pieces << " piece(s): " << same << " vertices on the skin's own node, " << off_by_one
+                   << " on its neighbour (a place halfway), " << elsewhere << " elsewhere; " << not_nearest
+                   << " whose nearest node in space is two or more away");
+    CHECK(elsewhere == 0);
+    CHECK(off_by_one * 100 < node_of.size());
+    CHECK(not_nearest > 0);
+  }
+}
+
 TEST_CASE("haustra import: a CT segment with edges of three triangles is repaired and runs") {
   const import::CohortRow row = organ_protocol("EdinGCA-00020-large-intestine-SF--SF");
   CHECK(row.report.repairs.find("edges of three or more triangles split") != std::string::npos);

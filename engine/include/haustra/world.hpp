@@ -185,6 +185,10 @@ class World {
   [[nodiscard]] kernels::Vec3View<const float> mesh_positions() const;
   [[nodiscard]] kernels::Vec3View<const float> mesh_normals() const;
   [[nodiscard]] std::span<const std::array<std::uint32_t, 3>> mesh_triangles() const;
+  // Per mesh vertex (indexed as mesh_positions), the node (into node_positions) at its place along
+  // its rod: the stretch of organ it moves with (decision 0117), for measures and picking. Not the
+  // node nearest in space, which on the inside of a bend or beside another loop is another stretch's.
+  [[nodiscard]] std::vector<std::uint32_t> mesh_vertex_nodes() const;
   // A segment's cage at the current pose (for drawing and checks) and its ring poses.
   [[nodiscard]] std::vector<Eigen::Vector3d> cage_vertices(std::size_t segment) const;
   [[nodiscard]] std::span<const std::array<std::uint32_t, 3>> cage_triangles(std::size_t segment) const;

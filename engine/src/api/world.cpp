@@ -3,6 +3,9 @@
 // adding and removing segments state_carry_over.cpp.
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <vector>
+
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "model/field_checks.hpp"
 #include "step/collision.hpp"
@@ -343,6 +346,27 @@ Energy World::energy() const {
     e.tissue += es.tissue;
   }
   return e;
+}
+
+std::vector<std::uint32_t> World::mesh_vertex_nodes() const {
+  const detail::WorldModel& m = impl_->model;
+  std::vector<std::uint32_t> out(m.mesh_vertex_total, 0);
+  for (std::size_t p = 0; p < m.pieces.size(); ++p) {
+    const detail::SegmentMesh& mesh = m.meshes_of[p];
+    if (!mesh.enabled) continue;
+    // The piece's nodes' places along it (its mesh's places are from its first node).
+    const std::size_t first = m.pieces[p].info.nodes.offset, count = m.pieces[p].info.nodes.count;
+    std::vector<double> at(count, 0.0);
+    for (std::size_t k = 1; k < count; ++k) at[k] = at[k - 1] + m.section_length[first + k - 1];
+    for (std::size_t v = 0; v < mesh.cage.mesh_place.size(); ++v) {
+      const double s = mesh.cage.mesh_place[v];
+      const auto above = static_cast<std::size_t>(std::lower_bound(at.begin(), at.end(), s) - at.begin());
+      std::size_t k = std::min(above, count - 1);
+      if (k > 0 && s - at[k - 1] < at[k] - s) --k;
+      out[mesh.vertex_offset + v] = static_cast<std::uint32_t>(first + k);
+    }
+  }
+  return out;
 }
 
 std::span<const std::uint32_t> World::cage_vertex_rings(std::size_t segment) const {
