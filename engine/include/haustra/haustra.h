@@ -258,7 +258,8 @@ typedef struct haustra_segment_def {
   /* The skin (the scene's mesh.skinning, decisions 0117 and 0120): 1 (default since ABI 17) along
    * the rod, each mesh vertex on the rod's own frames either side of its place; 0 the cage's mean
    * value coordinates, localized by decision 0048's rule ("cage"); 2 the cage with every ring
-   * ("cage-full", full MVC; since ABI 17). A struct zeroed by the host has 0: the cage. Since ABI 16. */
+   * ("cage-full", full MVC; since ABI 17); 3 linear blend on the bead rings ("linear-blend", for
+   * comparison; decision 0124). A struct zeroed by the host has 0: the cage. Since ABI 16. */
   int skinning;
 } haustra_segment_def;
 

@@ -334,7 +334,7 @@ void refuse_retired_fields(const haustra_segment_def& d, const std::string& wher
   const auto refuse = [&](const char* field, double value) {
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("{}.{} = {}: retired in ABI 17 (decision 0120); use skinning: 1 along the rod, "
-                            "0 the cage, 2 the cage with every ring",
+                            "0 the cage, 2 the cage with every ring, 3 linear blend",
                             where, field, value));
   };
   if (d.rings_per_vertex != kRetiredRingsPerVertex) refuse("rings_per_vertex", d.rings_per_vertex);
@@ -406,9 +406,11 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& host, std::size_t i
     case 0: s.mesh.skinning = haustra::SkinningMethod::cage; break;
     case 1: s.mesh.skinning = haustra::SkinningMethod::along_rod; break;
     case 2: s.mesh.skinning = haustra::SkinningMethod::cage_full; break;
+    case 3: s.mesh.skinning = haustra::SkinningMethod::linear_blend; break;
     default:
       throw Error(ErrorCode::invalid_argument,
-                  fmt::format("{}.skinning = {}: expected 1 (along the rod), 0 (the cage) or 2 (the cage, every ring)",
+                  fmt::format("{}.skinning = {}: expected 1 (along the rod), 0 (the cage), 2 (the cage, every ring) "
+                              "or 3 (linear blend)",
                               where, d.skinning));
   }
   s.chain_pieces = d.chain_pieces;
