@@ -1027,6 +1027,27 @@ TEST_CASE(
     CHECK(says((std::string("segment[0].mesh.") + r.key).c_str()));
     CHECK(says("decision 0120"));
   }
+  // A struct the host zeroed itself and filled with what it needs (decision 0124): the retired
+  // fields all 0, never set, are ignored; skinning 0 is the cage, as the header says.
+  haustra_segment_def zeroed = plain;
+  zeroed.rings_per_vertex = 0;
+  zeroed.max_rings_per_vertex = 0;
+  zeroed.mean_rings_per_vertex = 0.0;
+  zeroed.weight_left_out = 0.0;
+  zeroed.skin_cost_limit = 0.0;
+  zeroed.skinning = 0;
+  REQUIRE(haustra_world_create(&def, &zeroed, 1, &w) == HAUSTRA_OK);
+  CHECK(stepped(w) == skins[1]);
+  zeroed.skin_cost_limit = 2.0;  // one of them set: the host meant it, refused naming it
+  CHECK(haustra_world_create(&def, &zeroed, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("segments[0].skin_cost_limit = 2"));
+  haustra_segment_def blank;  // zeroed and nothing else set: refused for its nodes, not a retired field
+  std::memset(&blank, 0, sizeof blank);
+  blank.struct_size = sizeof blank;
+  blank.mesh = 1;
+  CHECK(haustra_world_create(&def, &blank, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK_FALSE(says("rings_per_vertex"));
+  CHECK(says("nodes"));
   haustra_segment_def bad = plain;
   bad.skinning = 4;
   CHECK(haustra_world_create(&def, &bad, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
