@@ -45,15 +45,16 @@ TEST_CASE("the memory estimate is what building and stepping a world allocates, 
     std::vector<std::string> sets;
   };
   for (const Case& c :
-       {Case{"drop", {}}, Case{"drop", {"segment.nodes=100000"}}, Case{"drop", {"segment.mesh.source=procedural", "segment.mesh.skinning=along-rod"}},
+       {Case{"drop", {}}, Case{"drop", {"segment.nodes=100000"}},
+        Case{"drop", {"segment.mesh.source=procedural", "segment.mesh.skinning=along-rod"}},
         Case{"drop", {"solver.mode=fast", "segment.nodes=2000"}}, Case{"demo", {}}, Case{"bowel", {}}, Case{"sag", {}},
         // Each skin of a procedural organ (decision 0120): its binding's slots and rings.
-        Case{"drop", {"segment.mesh.source=procedural", "segment.mesh.skinning=cage",
-                      "segment.mesh.procedural.vertices=5000"}},
-        Case{"drop", {"segment.mesh.source=procedural", "segment.mesh.skinning=cage-full",
-                      "segment.mesh.procedural.vertices=5000"}},
-        Case{"drop", {"segment.mesh.source=procedural", "segment.mesh.skinning=linear-blend"}},
-        Case{"grasp-pull", {}},
+        Case{"drop",
+             {"segment.mesh.source=procedural", "segment.mesh.skinning=cage", "segment.mesh.procedural.vertices=5000"}},
+        Case{"drop",
+             {"segment.mesh.source=procedural", "segment.mesh.skinning=cage-full",
+              "segment.mesh.procedural.vertices=5000"}},
+        Case{"drop", {"segment.mesh.source=procedural", "segment.mesh.skinning=linear-blend"}}, Case{"grasp-pull", {}},
         // Beads packed so close that each is within reach of hundreds of others (decision 0106):
         // 120,000 and 750,000 pairs of beads listed by the first step's broad phase.
         Case{"drop", {"segment.nodes=20000", "segment.beads.count=2000"}},

@@ -64,12 +64,12 @@ constexpr std::size_t kPerStepPair = 64;
 
 // Seconds on one core of the reference machine (2 vCPU, measured on 2026-11-28 with the C API's
 // defaults, decision 0106): building a rod, a rest-pose pair; binding a procedural mesh vertex by
-// its skin (marginal, drop at 5,000 and 20,000 vertices, 55 and 110 beads): along the rod 2.0e-5 to
-// 2.3e-5 s (no mean value coordinates), the linear blend 2.2e-5 s, the cage and the cage with every
-// ring alike (mean value coordinates over every cage vertex, then kept or not): 1.3e-6 to 1.9e-6 s a
-// ring in two runs, 1.4e-4 to 2.1e-4 s at 109 rings and 2.7e-4 to 4.1e-4 s at 219; a frame's Newton iteration per node (0.8 µs), the
-// lagged scheme's (0.2 µs) and fast mode's chord (0.3 µs), a pair in the broad phase, a mesh vertex
-// skinned.
+// its skin (marginal, drop at 5,000 and 20,000 vertices, 55 and 110 beads, two runs): along the rod
+// 1.4e-5 to 2.3e-5 s (no mean value coordinates), the linear blend 1.5e-5 to 2.3e-5 s, the cage and
+// the cage with every ring alike (mean value coordinates over every cage vertex, then kept or not)
+// 1.3e-6 to 1.9e-6 s a cage ring (1.4e-4 to 2.1e-4 s at 109 rings, 2.7e-4 to 4.1e-4 s at 219); a
+// frame's Newton iteration per node (0.8 µs), the lagged scheme's (0.2 µs) and fast mode's chord
+// (0.3 µs), a pair in the broad phase, a mesh vertex skinned.
 constexpr double kBuildSecondsPerNode = 1.0e-6;
 constexpr double kBuildPerRestPair = 2.0e-8;
 constexpr double kBuildPerVertexAlongRod = 2.0e-5;
