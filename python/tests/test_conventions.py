@@ -171,5 +171,5 @@ def test_a_removed_localization_key_is_refused_naming_the_key_to_use(key, value)
     with pytest.raises(haustra.ParseError) as error:
         haustra.World(skinned_organ(key, value))
     assert f"segment[0].mesh.{key}: this key was removed (decision 0120): " \
-           'choose mesh.skinning = "along-rod" | "cage" | "cage-full"' in str(error.value)
+           'choose mesh.skinning = "along-rod" | "cage" | "cage-full" | "linear-blend"' in str(error.value)
     assert error.value.field == f"segment[0].mesh.{key}"

@@ -14,27 +14,17 @@ uniform samplerBuffer haustra_rings;
 uniform samplerBuffer haustra_coefficients;
 uniform usamplerBuffer haustra_slot_rings;
 
-// sin(p) / p and (1 - cos(p)) / p^2 of x = p^2 (Taylor through p^14, as the CPU's kernel): no
-// division, so no branch as the screw's angle goes to zero.
-float haustra_sinc2(float x) {
-  float r = -1.0 / 1307674368000.0;
-  r = r * x + 1.0 / 6227020800.0;
-  r = r * x - 1.0 / 39916800.0;
-  r = r * x + 1.0 / 362880.0;
-  r = r * x - 1.0 / 5040.0;
-  r = r * x + 1.0 / 120.0;
-  r = r * x - 1.0 / 6.0;
-  return r * x + 1.0;
-}
-float haustra_cosc2(float x) {
-  float r = -1.0 / 20922789888000.0;
-  r = r * x + 1.0 / 87178291200.0;
-  r = r * x - 1.0 / 479001600.0;
-  r = r * x + 1.0 / 3628800.0;
-  r = r * x - 1.0 / 40320.0;
-  r = r * x + 1.0 / 720.0;
-  r = r * x - 1.0 / 24.0;
-  return r * x + 0.5;
+// sin(p) / p and (1 - cos(p)) / p^2 of x = p^2: Taylor polynomials through p^14, coefficients from
+// the highest power down, summed by one Horner rule (as the CPU's kernel): no division, so no
+// branch as the screw's angle goes to zero.
+const float haustra_sinc_terms[8] = float[8](-1.0 / 1307674368000.0, 1.0 / 6227020800.0, -1.0 / 39916800.0,
+                                             1.0 / 362880.0, -1.0 / 5040.0, 1.0 / 120.0, -1.0 / 6.0, 1.0);
+const float haustra_cosc_terms[8] = float[8](-1.0 / 20922789888000.0, 1.0 / 87178291200.0, -1.0 / 479001600.0,
+                                             1.0 / 3628800.0, -1.0 / 40320.0, 1.0 / 720.0, -1.0 / 24.0, 0.5);
+float haustra_horner(float x, const float c[8]) {
+  float r = c[0];
+  for (int i = 1; i < 8; ++i) r = r * x + c[i];
+  return r;
 }
 
 // The screw at texel g at fraction t: o (a point in its rest frame) to position, n to normal.
@@ -42,7 +32,7 @@ void haustra_screw(int g, float t, vec3 o, vec3 n, out vec3 position, out vec3 n
   vec4 r0 = texelFetch(haustra_rings, g), r1 = texelFetch(haustra_rings, g + 1), r2 = texelFetch(haustra_rings, g + 2);
   vec4 w = texelFetch(haustra_rings, g + 3), p = texelFetch(haustra_rings, g + 4), q = texelFetch(haustra_rings, g + 5);
   float phi = t * w.w, phi2 = phi * phi;
-  float sc = haustra_sinc2(phi2), cc = haustra_cosc2(phi2);
+  float sc = haustra_horner(phi2, haustra_sinc_terms), cc = haustra_horner(phi2, haustra_cosc_terms);
   float sn = phi * sc, omc = phi2 * cc, tc = t * p.w;
   float kp = 0.5 * omc + tc * sc, kq = phi * (tc * cc - 0.5 * sc);
   vec3 a = cross(w.xyz, o), b = cross(w.xyz, n);

@@ -955,7 +955,8 @@ TEST_CASE("C API: an EXP2 segment pulled at its tip stretches to A sigma(eps) = 
 }
 
 TEST_CASE(
-    "C API: skinning 1, 0, 2 give the scene's along-rod, cage, cage-full - the retired fields are refused if set") {
+    "C API: skinning 1, 0, 2, 3 give the scene's along-rod, cage, cage-full, linear-blend - the retired fields are "
+    "refused if set") {
   // Decision 0120: one choice of skin. A cantilever with beads 2 cm apart and a procedural organ,
   // bending under gravity, from definitions and from a scene file with the same skin.
   haustra_world_def def;
@@ -982,7 +983,7 @@ TEST_CASE(
   haustra_world* w = nullptr;
   std::vector<std::vector<unsigned char>> skins;
   for (const auto& [value, name] :
-       std::vector<std::pair<int, std::string>>{{1, "along-rod"}, {0, "cage"}, {2, "cage-full"}}) {
+       std::vector<std::pair<int, std::string>>{{1, "along-rod"}, {0, "cage"}, {2, "cage-full"}, {3, "linear-blend"}}) {
     CAPTURE(name);
     haustra_segment_def seg = plain;
     seg.skinning = value;
@@ -994,6 +995,7 @@ TEST_CASE(
   }
   CHECK(skins[0] != skins[1]);  // each skin is its own mesh
   CHECK(skins[1] != skins[2]);
+  CHECK(skins[3] != skins[0]);
   REQUIRE(haustra_world_create(&def, &plain, 1, &w) == HAUSTRA_OK);
   CHECK(stepped(w) == skins[0]);
 
@@ -1016,7 +1018,7 @@ TEST_CASE(
     r.set(seg);
     CHECK(haustra_world_create(&def, &seg, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
     CHECK(says((std::string("segments[0].") + r.key).c_str()));
-    CHECK(says("use skinning"));
+    CHECK(says("use skinning: 1 along the rod, 0 the cage, 2 the cage with every ring, 3 linear blend"));
     seg.mesh = 0;  // no mesh: nothing to skin, the field is not read
     REQUIRE(haustra_world_create(&def, &seg, 1, &w) == HAUSTRA_OK);
     REQUIRE(haustra_world_destroy(w) == HAUSTRA_OK);
@@ -1025,10 +1027,32 @@ TEST_CASE(
     CHECK(says((std::string("segment[0].mesh.") + r.key).c_str()));
     CHECK(says("decision 0120"));
   }
+  // A struct the host zeroed itself and filled with what it needs (decision 0124): the retired
+  // fields all 0, never set, are ignored; skinning 0 is the cage, as the header says.
+  haustra_segment_def zeroed = plain;
+  zeroed.rings_per_vertex = 0;
+  zeroed.max_rings_per_vertex = 0;
+  zeroed.mean_rings_per_vertex = 0.0;
+  zeroed.weight_left_out = 0.0;
+  zeroed.skin_cost_limit = 0.0;
+  zeroed.skinning = 0;
+  REQUIRE(haustra_world_create(&def, &zeroed, 1, &w) == HAUSTRA_OK);
+  CHECK(stepped(w) == skins[1]);
+  zeroed.skin_cost_limit = 2.0;  // one of them set: the host meant it, refused naming it
+  CHECK(haustra_world_create(&def, &zeroed, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK(says("segments[0].skin_cost_limit = 2"));
+  haustra_segment_def blank;  // zeroed and nothing else set: refused for its nodes, not a retired field
+  std::memset(&blank, 0, sizeof blank);
+  blank.struct_size = sizeof blank;
+  blank.mesh = 1;
+  CHECK(haustra_world_create(&def, &blank, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
+  CHECK_FALSE(says("rings_per_vertex"));
+  CHECK(says("nodes"));
   haustra_segment_def bad = plain;
-  bad.skinning = 3;
+  bad.skinning = 4;
   CHECK(haustra_world_create(&def, &bad, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
-  CHECK(says("skinning = 3"));
+  CHECK(says("skinning = 4"));
+  CHECK(says("or 3 (linear blend)"));
   CHECK(none == nullptr);
 }
 

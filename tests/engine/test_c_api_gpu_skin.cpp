@@ -138,10 +138,11 @@ TEST_CASE("C API: skinning = 1 (along the rod): a screw a vertex, the shader's s
   CHECK(seg.skinning == 1);  // along the rod, the default since ABI 17 (decision 0120)
   seg.mesh = 1;
   seg.beads = 4;
-  seg.skinning = 3;
+  seg.skinning = 4;
   haustra_world* none = nullptr;
   CHECK(haustra_world_create(&def, &seg, 1, &none) == HAUSTRA_INVALID_ARGUMENT);
-  CHECK(gpu_says("skinning = 3: expected 1 (along the rod), 0 (the cage) or 2 (the cage, every ring)"));
+  CHECK(
+      gpu_says("skinning = 4: expected 1 (along the rod), 0 (the cage), 2 (the cage, every ring) or 3 (linear blend)"));
   CHECK(none == nullptr);
 }
 

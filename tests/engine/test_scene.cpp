@@ -3,6 +3,10 @@
 #include <doctest/doctest.h>
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <set>
+#include <string>
 
 #include "haustra/error.hpp"
 #include "haustra/scene.hpp"
@@ -246,4 +250,28 @@ TEST_CASE("--set overrides any value, everywhere or in one segment, and is check
   CHECK(error_of(two, {"nodes"}).find("expected key=value") != std::string::npos);
   CHECK(error_of(two, {"segment=3"}).find("is a table") != std::string::npos);
   CHECK(error_of(two, {"segment.nodes=1"}).find("segment[0].nodes") != std::string::npos);
+}
+
+TEST_CASE("the scene fuzz corpus: one entry keeps a removed skin key, each of the four skins is read past it") {
+  // Decision 0120 refuses the five localization keys before the rest of the mesh is read, so a
+  // corpus entry holding one exercises only that refusal: one such entry is kept on purpose, the
+  // others say `skinning`, and a small organ with each skin is a seed the fuzzer builds and steps.
+  const std::string folder = std::string(HAUSTRA_SOURCE_DIR) + "/fuzz/corpus/scene";
+  int removed = 0, entries = 0;
+  std::set<SkinningMethod> chosen;
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+    std::ifstream in(entry.path(), std::ios::binary);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ++entries;
+    try {
+      const SceneDesc s = parse_scene(text, kSceneFolder + "/fuzz.toml");
+      for (const SegmentDesc& d : s.world.segments)
+        if (d.mesh.enabled && text.find("\nskinning = ") != std::string::npos) chosen.insert(d.mesh.skinning);
+    } catch (const Error& e) {
+      if (std::string(e.what()).find("removed (decision 0120)") != std::string::npos) ++removed;
+    }
+  }
+  CHECK(entries > 100);
+  CHECK(removed == 1);
+  CHECK(chosen.size() == 4);  // along-rod, cage, cage-full and linear-blend each parsed by an entry
 }

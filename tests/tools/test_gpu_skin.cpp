@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "gpu_skin_gl.hpp"
@@ -176,15 +177,12 @@ Errors check_frame(const World& w, const std::string& what, double moved_at_leas
   return e;
 }
 
-}  // namespace
-
-TEST_CASE("the skinning shader gives the CPU's mesh to 1e-6 m on a lifted, bent and twisted organ") {
-  const Context gl;
-  auto w = test::scene_world("demo", 1, {"segment.mesh.procedural.vertices=4000", "segment.mesh.skinning=cage"});
-  // The scene's grasper closes on the middle and lifts it (1.7 s).
+// The demo organ (4,000 vertices) with `skin`, checked twice: lifted by the scene's grasper (100
+// frames, 1.7 s), then bent through 90° and twisted through 90° over the middle fifth of its 1 m rod.
+std::pair<Errors, Errors> lifted_then_bent(const std::string& skin, const std::string& label) {
+  auto w = test::scene_world("demo", 1, {"segment.mesh.procedural.vertices=4000", "segment.mesh.skinning=" + skin});
   for (int f = 0; f < 100; ++f) w->step();
-  const Errors lifted = check_frame(*w, "lifted");
-  // Then bent through 90° and twisted through 90° over the middle fifth.
+  const Errors lifted = check_frame(*w, label + "lifted");
   const auto rest = w->rest_strains();
   std::vector<double> strains(rest.data.begin(), rest.data.end());
   const std::size_t n = w->node_count();
@@ -194,7 +192,31 @@ TEST_CASE("the skinning shader gives the CPU's mesh to 1e-6 m on a lifted, bent 
     strains[4 * k + 2] += (M_PI / 2) / span;
   }
   w->pose_rod(0, w->base_pose(0), strains);
-  const Errors bent = check_frame(*w, "bent and twisted");
+  return {lifted, check_frame(*w, label + "bent and twisted")};
+}
+
+// The CT colon (a mesh file) cut into a chain of three pieces with `skin`, grasped and pulled for
+// 40 frames so the pieces bend apart at their cuts: the vertices on a cut are copies in two pieces,
+// each skinned on its own and welded to their mean (decision 0060's weld); the shader sums the
+// copies' slots, each at 1/n.
+Errors colon_in_three_pieces(const std::string& skin, const std::string& label) {
+  SceneDesc scene = test::scene_desc("anatomy-grasp", {"segment.mesh.skinning=" + skin});
+  SegmentDesc& seg = scene.world.segments[0];
+  seg.nodes = 55;
+  seg.chain_pieces = 3;
+  seg.beads.count = 18;
+  seg.beads.radius_from_mesh = false;
+  seg.beads.radius = 0.018;
+  auto w = create_world(scene);
+  for (int f = 0; f < 40; ++f) w->step();
+  return check_frame(*w, label + "CT colon, 3 pieces", 0.03);
+}
+
+}  // namespace
+
+TEST_CASE("the skinning shader gives the CPU's mesh to 1e-6 m on a lifted, bent and twisted organ") {
+  const Context gl;
+  const auto [lifted, bent] = lifted_then_bent("cage", "");
   // Normals: the shader turns the rest normal by the rings' blended rotation; the CPU's come from
   // the skinned neighbours. Measured 2.4° (99th percentile) and 4.8° at most (docs/skinning.md).
   CHECK(std::max(lifted.normal_p99, bent.normal_p99) <= 5.0);
@@ -203,19 +225,7 @@ TEST_CASE("the skinning shader gives the CPU's mesh to 1e-6 m on a lifted, bent 
 
 TEST_CASE("the skinning shader closes a chain's cut as the CPU's weld does (the CT colon in three pieces)") {
   const Context gl;
-  // A mesh file cut into a chain's pieces: the vertices on a cut are copies in two pieces, each
-  // skinned on its own cage and welded to their mean (decision 0060's weld); the shader sums the
-  // copies' slots, each at 1/n.
-  SceneDesc scene = test::scene_desc("anatomy-grasp");
-  SegmentDesc& seg = scene.world.segments[0];
-  seg.nodes = 55;
-  seg.chain_pieces = 3;
-  seg.beads.count = 18;
-  seg.beads.radius_from_mesh = false;
-  seg.beads.radius = 0.018;
-  auto w = create_world(scene);
-  for (int f = 0; f < 40; ++f) w->step();  // grasped and pulled: the pieces bend apart at their cuts
-  const Errors e = check_frame(*w, "CT colon, 3 pieces", 0.03);
+  const Errors e = colon_in_three_pieces("cage", "");
   // Its normals are further from the CPU's than the procedural organ's: rings 7 mm apart on a
   // 15–20 mm colon, so a vertex's weights change fast along the rod and the pull stretches the wall,
   // which the rings' blended rotation does not see. Measured 10.5° (99th percentile), 24.6° at most.
@@ -227,34 +237,13 @@ TEST_CASE("the skinning shader closes a chain's cut as the CPU's weld does (the 
 // normal turned by the screw's rotation (exact for a rigid cross-section).
 TEST_CASE("the skinning shader follows the along-rod screws: an organ lifted, bent and twisted; a chain's cut") {
   const Context gl;
-  auto w = test::scene_world("demo", 1, {"segment.mesh.procedural.vertices=4000", "segment.mesh.skinning=along-rod"});
-  for (int f = 0; f < 100; ++f) w->step();
-  const Errors lifted = check_frame(*w, "along the rod, lifted");
-  const auto rest = w->rest_strains();
-  std::vector<double> strains(rest.data.begin(), rest.data.end());
-  const std::size_t n = w->node_count();
-  for (std::size_t k = 2 * n / 5; k < 3 * n / 5; ++k) {
-    strains[4 * k] += (M_PI / 2) / 0.2;
-    strains[4 * k + 2] += (M_PI / 2) / 0.2;
-  }
-  w->pose_rod(0, w->base_pose(0), strains);
-  const Errors bent = check_frame(*w, "along the rod, bent and twisted");
+  const auto [lifted, bent] = lifted_then_bent("along-rod", "along the rod, ");
   // The screw turns the rest normal with the cross-section; the CPU's come from the skinned
   // neighbours, which also see the wall stretched by the grasp. Measured 4.0° (99th percentile)
   // and 10.7° at most, lifted.
   CHECK(std::max(lifted.normal_p99, bent.normal_p99) <= 5.0);
   CHECK(std::max(lifted.normal_max, bent.normal_max) <= 20.0);
-
-  SceneDesc scene = test::scene_desc("anatomy-grasp", {"segment.mesh.skinning=along-rod"});
-  SegmentDesc& seg = scene.world.segments[0];
-  seg.nodes = 55;
-  seg.chain_pieces = 3;
-  seg.beads.count = 18;
-  seg.beads.radius_from_mesh = false;
-  seg.beads.radius = 0.018;
-  auto colon = create_world(scene);
-  for (int f = 0; f < 40; ++f) colon->step();
-  const Errors cut = check_frame(*colon, "along the rod, CT colon, 3 pieces", 0.03);
+  const Errors cut = colon_in_three_pieces("along-rod", "along the rod, ");
   CHECK(cut.normal_p99 <= 20.0);
   CHECK(cut.normal_max <= 45.0);
 }

@@ -228,7 +228,8 @@ typedef struct haustra_segment_def {
   const char* mesh_file;   /* .obj .stl .off .gltf .glb, at the rod's rest pose */
   double mesh_scale;       /* file units to metres; default 1 */
   int rings_per_vertex;    /* retired in ABI 17 (decision 0120): ignored at its old default 4 (or
-                              without a mesh), refused otherwise; choose `skinning` instead */
+                              without a mesh, or with all five retired fields 0: a zeroed struct,
+                              decision 0124), refused otherwise; choose `skinning` instead */
   int chain_pieces;        /* 1 (default); K > 1: the rod runs as K chained segments "<name>-1".."<name>-K"
                               of `nodes` nodes, `beads` beads and a procedural mesh each, sharing their
                               joint nodes (position and frame) and solved as one rod; centreline or
@@ -240,8 +241,9 @@ typedef struct haustra_segment_def {
   double exp2_beta;        /* Pa; default 6700 */
   double exp2_gamma;       /* Pa; default 20000 */
   /* Four more localization fields of the cage (ABI 11 to 16), retired in ABI 17 (decision 0120):
-   * each is ignored at its old default (0, 0, 0.02, 0; or without a mesh) and refused otherwise,
-   * naming the field; choose `skinning` instead. Kept so the struct's layout stays. */
+   * each is ignored at its old default (0, 0, 0.02, 0; or without a mesh; or at 0 in a struct the
+   * host zeroed, decision 0124) and refused otherwise, naming the field; choose `skinning`
+   * instead. Kept so the struct's layout stays. */
   int max_rings_per_vertex;
   double mean_rings_per_vertex;
   double weight_left_out;
@@ -258,7 +260,8 @@ typedef struct haustra_segment_def {
   /* The skin (the scene's mesh.skinning, decisions 0117 and 0120): 1 (default since ABI 17) along
    * the rod, each mesh vertex on the rod's own frames either side of its place; 0 the cage's mean
    * value coordinates, localized by decision 0048's rule ("cage"); 2 the cage with every ring
-   * ("cage-full", full MVC; since ABI 17). A struct zeroed by the host has 0: the cage. Since ABI 16. */
+   * ("cage-full", full MVC; since ABI 17); 3 linear blend on the bead rings ("linear-blend", for
+   * comparison; decision 0124). A struct zeroed by the host has 0: the cage. Since ABI 16. */
   int skinning;
 } haustra_segment_def;
 

@@ -329,18 +329,21 @@ constexpr int kRetiredRingsPerVertex = 4;
 constexpr double kRetiredWeightLeftOut = 0.02;
 
 // A host that still sets a retired field to anything but its old default is refused, naming it:
-// the skin is one choice now, `skinning` (a silent default would change its mesh unseen).
+// the skin is one choice now, `skinning` (a silent default would change its mesh unseen). A struct
+// the host zeroed itself (rings_per_vertex and weight_left_out both 0, which no def made by
+// _default() has) never set them: there every field is ignored at 0 (decision 0124).
 void refuse_retired_fields(const haustra_segment_def& d, const std::string& where) {
+  const bool zeroed = d.rings_per_vertex == 0 && d.weight_left_out == 0.0;
   const auto refuse = [&](const char* field, double value) {
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("{}.{} = {}: retired in ABI 17 (decision 0120); use skinning: 1 along the rod, "
-                            "0 the cage, 2 the cage with every ring",
+                            "0 the cage, 2 the cage with every ring, 3 linear blend",
                             where, field, value));
   };
-  if (d.rings_per_vertex != kRetiredRingsPerVertex) refuse("rings_per_vertex", d.rings_per_vertex);
+  if (!zeroed && d.rings_per_vertex != kRetiredRingsPerVertex) refuse("rings_per_vertex", d.rings_per_vertex);
   if (d.max_rings_per_vertex != 0) refuse("max_rings_per_vertex", d.max_rings_per_vertex);
   if (d.mean_rings_per_vertex != 0.0) refuse("mean_rings_per_vertex", d.mean_rings_per_vertex);
-  if (d.weight_left_out != kRetiredWeightLeftOut) refuse("weight_left_out", d.weight_left_out);
+  if (!zeroed && d.weight_left_out != kRetiredWeightLeftOut) refuse("weight_left_out", d.weight_left_out);
   if (d.skin_cost_limit != 0.0) refuse("skin_cost_limit", d.skin_cost_limit);
 }
 
@@ -406,9 +409,11 @@ haustra::SegmentDesc segment_desc(const haustra_segment_def& host, std::size_t i
     case 0: s.mesh.skinning = haustra::SkinningMethod::cage; break;
     case 1: s.mesh.skinning = haustra::SkinningMethod::along_rod; break;
     case 2: s.mesh.skinning = haustra::SkinningMethod::cage_full; break;
+    case 3: s.mesh.skinning = haustra::SkinningMethod::linear_blend; break;
     default:
       throw Error(ErrorCode::invalid_argument,
-                  fmt::format("{}.skinning = {}: expected 1 (along the rod), 0 (the cage) or 2 (the cage, every ring)",
+                  fmt::format("{}.skinning = {}: expected 1 (along the rod), 0 (the cage), 2 (the cage, every ring) "
+                              "or 3 (linear blend)",
                               where, d.skinning));
   }
   s.chain_pieces = d.chain_pieces;

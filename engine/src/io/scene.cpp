@@ -38,7 +38,8 @@ OrganMeshDesc read_organ_mesh(const Reader& r, const toml::table& t, const std::
   r.refuse_removed(
       t, path,
       {"rings_per_vertex", "weight_left_out", "max_rings_per_vertex", "mean_rings_per_vertex", "skin_cost_limit"},
-      "removed (decision 0120): choose mesh.skinning = \"along-rod\" | \"cage\" | \"cage-full\"");
+      "removed (decision 0120): choose mesh.skinning = \"along-rod\" | \"cage\" | \"cage-full\" | "
+      "\"linear-blend\"");
   r.check_keys(t, path, {"source", "file", "scale", "translate", "procedural", "cage", "skinning", "normals"});
   OrganMeshDesc d;
   d.enabled = true;

@@ -1,6 +1,6 @@
 // What a world will hold, estimated from its description before anything is built (decision
 // 0038): the model's and the state's arrays per node, the Newton solve's workspace per node, the
-// beads, and the procedural organ meshes per vertex. World::create refuses a world whose estimate
+// beads, and the procedural organ meshes per vertex by their skin. World::create refuses a world whose estimate
 // exceeds the memory the machine has available (or the host's world.memory_limit).
 #include <unistd.h>
 #include <algorithm>
@@ -35,10 +35,24 @@ constexpr std::size_t kNewtonPerNode = detail::kNewtonBytesPerNode;
 constexpr std::size_t kBandPerNode = detail::kBandBytesPerNode;
 // Per bead: its model, collision state and candidate lists (measured on drop and bowel).
 constexpr std::size_t kPerBead = 640;
-// Per procedural mesh vertex: its skinning binding (rest position, output index, 4 rings' 4
-// coefficients), its position and normal, its corner pairs and normal slots, its triangles'
-// indices, and the cage binding's share while it is built (measured: 326 bytes on drop's 10k).
-constexpr std::size_t kPerMeshVertex = 330;
+// A procedural organ mesh by its skin (measured on drop, 5,000 and 20,000 vertices, 55 and 110
+// beads: the heap a world holds after its first step less the same world's without a mesh; the
+// marginal bytes a vertex). Per vertex: its position and normal, corner pairs and normal slots,
+// triangles' indices and the binding's slots — along the rod 240 bytes (2.05 to 2.5 slots), the
+// linear blend 267 (4 slots); the cage 169 and 34 a slot, the slots decision 0048's rule keeps
+// growing as the rings crowd the radius: 4.5 (321 bytes) with rings 15 mm apart on drop's 20 mm,
+// 7.6 (426) 7.6 mm apart, so 1.45 + 2.33 r / spacing; the cage with every ring 215 bytes and 27 a
+// ring (3,158 at 109 rings, 6,130 at 219). Per cage ring (2 a bead less one) its vertices, poses and
+// GPU rows, about 1.9 kB; along the rod, per station (a node or a section's midpoint) 440 bytes more.
+constexpr std::size_t kPerMeshVertexAlongRod = 240;
+constexpr std::size_t kPerMeshVertexLinearBlend = 267;
+constexpr double kPerMeshVertexCage = 169.0;
+constexpr double kPerCageSlot = 34.0;
+constexpr double kCageSlots = 1.45, kCageSlotsPerRadius = 2.33;
+constexpr std::size_t kPerMeshVertexCageFull = 215;
+constexpr std::size_t kPerMeshVertexRing = 27;
+constexpr std::size_t kPerCageRing = 1900;
+constexpr std::size_t kPerStation = 440;
 // Whatever the size: the events' reserved room, the collision chunks', the scheduler's arena.
 constexpr std::size_t kFixed = 1'000'000;
 // Per pair of one segment's beads within reach at rest (decision 0106): its rest-pose exclusion (a
@@ -49,12 +63,18 @@ constexpr std::size_t kPerRestPair = 4;
 constexpr std::size_t kPerStepPair = 64;
 
 // Seconds on one core of the reference machine (2 vCPU, measured on 2026-11-28 with the C API's
-// defaults, decision 0106): building a rod, a rest-pose pair, a procedural mesh vertex (its MVC
-// binding: 145 s for a million); a frame's Newton iteration per node (0.8 µs), the lagged scheme's
-// (0.2 µs) and fast mode's chord (0.3 µs), a pair in the broad phase, a mesh vertex skinned.
+// defaults, decision 0106): building a rod, a rest-pose pair; binding a procedural mesh vertex by
+// its skin (marginal, drop at 5,000 and 20,000 vertices, 55 and 110 beads, two runs): along the rod
+// 1.4e-5 to 2.3e-5 s (no mean value coordinates), the linear blend 1.5e-5 to 2.3e-5 s, the cage and
+// the cage with every ring alike (mean value coordinates over every cage vertex, then kept or not)
+// 1.3e-6 to 1.9e-6 s a cage ring (1.4e-4 to 2.1e-4 s at 109 rings, 2.7e-4 to 4.1e-4 s at 219); a
+// frame's Newton iteration per node (0.8 µs), the lagged scheme's (0.2 µs) and fast mode's chord
+// (0.3 µs), a pair in the broad phase, a mesh vertex skinned.
 constexpr double kBuildSecondsPerNode = 1.0e-6;
 constexpr double kBuildPerRestPair = 2.0e-8;
-constexpr double kBuildPerMeshVertex = 1.5e-4;
+constexpr double kBuildPerVertexAlongRod = 2.0e-5;
+constexpr double kBuildPerVertexLinearBlend = 2.2e-5;
+constexpr double kBuildPerVertexRing = 1.6e-6;
 constexpr double kNewtonSecondsPerNode = 0.8e-6;
 constexpr double kLaggedSecondsPerNode = 0.2e-6;
 constexpr double kChordSecondsPerNode = 0.3e-6;
@@ -110,6 +130,39 @@ std::size_t pairs_within(std::size_t beads, double spacing, double reach) {
   return pairs < 1e18 ? static_cast<std::size_t>(pairs) : static_cast<std::size_t>(1e18);
 }
 
+// A procedural mesh of `vertices` on a piece with `beads` beads and `nodes` nodes, `length` m long
+// with a wall `radius` m from the rod: the bytes its skin holds and the seconds binding it takes.
+struct MeshCost {
+  std::size_t bytes = 0;
+  double seconds = 0.0;
+};
+MeshCost mesh_cost(SkinningMethod skin, std::size_t vertices, std::size_t beads, std::size_t nodes, double length,
+                   double radius) {
+  const std::size_t rings = std::max<std::size_t>(2 * beads, 2) - 1;
+  const auto v = static_cast<double>(vertices);
+  MeshCost c{rings * kPerCageRing, kBuildPerVertexRing * static_cast<double>(rings) * v};
+  switch (skin) {
+    case SkinningMethod::along_rod:
+      c.bytes += vertices * kPerMeshVertexAlongRod + (2 * nodes - 1) * kPerStation;
+      c.seconds = kBuildPerVertexAlongRod * v;
+      break;
+    case SkinningMethod::cage: {
+      const double spacing = length / static_cast<double>(rings);
+      const double slots = spacing > 0.0 && std::isfinite(radius / spacing)
+                               ? std::min(kCageSlots + kCageSlotsPerRadius * radius / spacing, 1.0 * rings)
+                               : 1.0 * rings;
+      c.bytes += static_cast<std::size_t>(v * (kPerMeshVertexCage + kPerCageSlot * slots));
+      break;
+    }
+    case SkinningMethod::cage_full: c.bytes += vertices * (kPerMeshVertexCageFull + rings * kPerMeshVertexRing); break;
+    case SkinningMethod::linear_blend:
+      c.bytes += vertices * kPerMeshVertexLinearBlend;
+      c.seconds = kBuildPerVertexLinearBlend * v;
+      break;
+  }
+  return c;
+}
+
 }  // namespace
 
 MemoryEstimate estimate_memory(const WorldDesc& desc) {
@@ -130,6 +183,7 @@ MemoryEstimate estimate_memory(const WorldDesc& desc) {
                           : desc.solver.mode == SolverMode::fast ? kChordSecondsPerNode
                                                                  : kNewtonSecondsPerNode;
   std::size_t rest_pairs = 0, step_pairs = 0, mesh_vertices = 0;
+  double mesh_seconds = 0.0;
   for (const SegmentDesc& s : desc.segments) {
     const std::size_t pieces = static_cast<std::size_t>(std::clamp(s.chain_pieces, 1, 4096));
     const std::size_t piece_nodes = static_cast<std::size_t>(std::clamp(s.nodes, 2, 10'000'000));
@@ -161,9 +215,14 @@ MemoryEstimate estimate_memory(const WorldDesc& desc) {
     }
     std::size_t mesh = 0;
     if (s.mesh.enabled && s.mesh.source == MeshSource::procedural) {
-      const std::size_t vertices = pieces * static_cast<std::size_t>(std::max(s.mesh.procedural.vertices, 0));
-      mesh = vertices * kPerMeshVertex;
-      mesh_vertices += vertices;
+      const auto vertices = static_cast<std::size_t>(std::clamp(s.mesh.procedural.vertices, 0, 100'000'000));
+      const double piece_length = length / static_cast<double>(pieces);
+      const double radius = s.mesh.procedural.radius > 0.0 ? s.mesh.procedural.radius : s.cross_section.radius;
+      const MeshCost c = mesh_cost(s.mesh.skinning, vertices, piece_beads(s.beads, piece_nodes, piece_length),
+                                   piece_nodes, piece_length, radius);
+      mesh = pieces * c.bytes;
+      mesh_seconds += static_cast<double>(pieces) * c.seconds;
+      mesh_vertices += pieces * vertices;
     }
     e.nodes += n;
     e.rod_bytes += rod;
@@ -175,8 +234,7 @@ MemoryEstimate estimate_memory(const WorldDesc& desc) {
   e.pair_bytes = rest_pairs * kPerRestPair + step_pairs * kPerStepPair;
   e.total = kFixed + e.rod_bytes + e.solver_bytes + e.bead_bytes + e.mesh_bytes + e.pair_bytes;
   const auto nodes = static_cast<double>(e.nodes);
-  e.build_seconds = kBuildSecondsPerNode * nodes + kBuildPerRestPair * static_cast<double>(rest_pairs) +
-                    kBuildPerMeshVertex * static_cast<double>(mesh_vertices);
+  e.build_seconds = kBuildSecondsPerNode * nodes + kBuildPerRestPair * static_cast<double>(rest_pairs) + mesh_seconds;
   e.step_seconds = substeps * (iterations * per_node * nodes + kStepPerPair * static_cast<double>(step_pairs)) +
                    kSkinPerMeshVertex * static_cast<double>(mesh_vertices);
   return e;
