@@ -11,10 +11,10 @@
 #include <cmath>
 #include <ctime>
 #include <fstream>
-#include <map>
 #include <utility>
 
 #include "haustra/error.hpp"
+#include "haustra/studies/skin_stretch.hpp"
 #include "haustra/world.hpp"
 
 namespace haustra::import {
@@ -52,55 +52,6 @@ double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
   return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5))];
-}
-
-// The mesh's edges, each once, their rest lengths, and each vertex's node: the one at its place along
-// the rod, whose stretch the skin there follows (not the nearest in space: on the inside of a bend
-// that is another cross-section's, beside another loop another loop's).
-struct Edges {
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;
-  std::vector<double> rest;
-  std::vector<std::uint8_t> torn;   // passed twice its rest length, over the rod's own stretch: 1 ever, 2 at rest
-  std::vector<std::uint32_t> node;  // per vertex
-};
-
-Edges edges_of(const World& w, const Points& rest) {
-  std::map<std::pair<std::uint32_t, std::uint32_t>, int> seen;
-  Edges e;
-  for (const auto& t : w.mesh_triangles())
-    for (int i = 0; i < 3; ++i) {
-      const auto key = std::minmax(t[static_cast<std::size_t>(i)], t[static_cast<std::size_t>((i + 1) % 3)]);
-      if (seen.emplace(key, 0).second) {
-        e.ends.push_back(key);
-        e.rest.push_back((rest[key.first] - rest[key.second]).norm());
-      }
-    }
-  e.torn.assign(e.ends.size(), 0);
-  e.node = w.mesh_vertex_nodes();
-  return e;
-}
-
-// Each edge's length over its rest length, over the stretch of the rod where it is (the larger
-// axial strain of its vertices' nodes, at their places along the rod): the skin tearing, not the tissue stretching
-// (issue 35).
-void measure_stretch(Edges& e, const World& world, const Points& now, bool resting, CohortRow& row) {
-  const auto strain = world.strains().data;
-  auto stretch = [&](std::uint32_t v) { return 1.0 + std::max(0.0, strain[4 * e.node[v] + 3]); };
-  for (std::size_t i = 0; i < e.ends.size(); ++i) {
-    if (e.rest[i] <= 0.0) continue;
-    const auto [a, b] = e.ends[i];
-    const double ratio = (now[a] - now[b]).norm() / e.rest[i] / std::max(stretch(a), stretch(b));
-    row.stretch_worst = std::max(row.stretch_worst, ratio);
-    if (resting) row.stretch_rest_worst = std::max(row.stretch_rest_worst, ratio);
-    if (ratio > 2.0 && (e.torn[i] & 1) == 0) {
-      e.torn[i] |= 1;
-      row.stretch_edges += 1;
-    }
-    if (resting && ratio > 2.0 && (e.torn[i] & 2) == 0) {
-      e.torn[i] |= 2;
-      row.stretch_rest_edges += 1;
-    }
-  }
 }
 
 // The node `along` (a fraction of its nodes from its base) the world's longest organ (a rod: a
@@ -152,7 +103,7 @@ InstrumentDesc grasper(const World& rest, const Eigen::Vector3d& gravity, const 
 // Steps the world through the protocol, measuring as it goes; an unstable frame ends it (thrown).
 void run_phases(World& world, const OrganProtocol& p, CohortRow& row) {
   const Points rest = mesh_points(world);
-  Edges edges = edges_of(world, rest);
+  studies::SkinStretch skin(world);
   const double dt = world.dt();
   const int rest_frames = static_cast<int>(std::lround(p.rest / dt));
   const int total = static_cast<int>(std::lround((p.rest + kDescent + p.pull + p.hold + p.after) / dt));
@@ -185,8 +136,12 @@ void run_phases(World& world, const OrganProtocol& p, CohortRow& row) {
       row.rest_median = std::max(row.rest_median, median);
       row.rest_max = std::max(row.rest_max, largest);
     }
-    measure_stretch(edges, world, now, f <= rest_frames, row);
+    skin.measure(world, f <= rest_frames);
   }
+  row.stretch_worst = skin.worst;
+  row.stretch_edges = skin.edges_past;
+  row.stretch_rest_worst = skin.worst_rest;
+  row.stretch_rest_edges = skin.rest_edges_past;
   std::tie(row.after_median, row.after_max) = drift(mesh_points(world), rest);
   row.frame_median = percentile(seconds, 0.5);
   row.frame_p99 = percentile(seconds, 0.99);

@@ -308,6 +308,14 @@ TEST_CASE("haustra run grasps and pulls the CT colon and writes its deformed mes
   CHECK(r.out.find("along the rod: each vertex on the rod's frames either side of its own place") != std::string::npos);
   CHECK(r.out.find(" slots per vertex; rest error ") != std::string::npos);
   CHECK(r.out.find("grasping segment 0") != std::string::npos);
+  // The skin's stretch over the rod's own at each vertex's place (decision 0121), measured at frames
+  // 15, 30 and 40: 1.32x as the grasp starts lifting, no edge torn.
+  CHECK(r.out.find("skin: worst edge ") != std::string::npos);
+  const nlohmann::json skin = summary(dir)["skin"];
+  CHECK(skin["measures"] == 3);
+  CHECK(skin["worst_edge_stretch"].get<double>() > 1.05);
+  CHECK(skin["worst_edge_stretch"].get<double>() < 2.0);
+  CHECK(skin["edges_past_2x"] == 0);
   for (const char* f : {"frame_00000.ply", "frame_00020.ply", "frame_00040.ply"}) CHECK(fs::exists(dir / "mesh" / f));
   // The centreline and the beads of the same frames as CSV: a header, then 3 frames × 167 nodes
   // and 3 frames × 55 beads.

@@ -149,6 +149,7 @@ int run(const RunOptions& o) {
   print_run_header(scene, *world);
 
   cli::RunRecord record;
+  record.watch_skin(*world);
   // Deformed organ meshes: every mesh_every frames (and the first and last) as files, and all of
   // them as one animated glTF.
   std::unique_ptr<cli::MeshRecorder> meshes;
@@ -176,6 +177,7 @@ int run(const RunOptions& o) {
       break;
     }
     record.add(world->last_profile(), *world);
+    record.measure_skin(*world, f + 1, f + 1 == scene.frames);
     const bool keep = o.mesh_every > 0 && ((f + 1) % o.mesh_every == 0 || f + 1 == scene.frames);
     if (meshes && keep) meshes->record(*world);
     if (tracks && keep) tracks->record(*world);
@@ -184,6 +186,7 @@ int run(const RunOptions& o) {
   if (!o.quiet) {
     record.print_stage_table(stdout);
     record.print_contacts(stdout, *world);
+    record.print_skin(stdout);
   }
   for (const Event& e : world->events())
     if (e.kind != Event::Kind::unstable) fmt::print("  event: {}\n", e.message());

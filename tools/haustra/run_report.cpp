@@ -165,6 +165,26 @@ void RunRecord::print_contacts(std::FILE* out, const World& world) const {
     }
 }
 
+void RunRecord::watch_skin(const World& world) {
+  bool any_mesh = false;
+  for (std::size_t s = 0; s < world.segment_count(); ++s) any_mesh = any_mesh || world.mesh(s).enabled;
+  if (any_mesh) skin_.emplace(world);
+}
+
+void RunRecord::measure_skin(const World& world, int frame, bool last) {
+  if (!skin_ || (frame % kSkinEvery != 0 && !last)) return;
+  skin_->measure(world, false);
+  ++skin_measures_;
+}
+
+void RunRecord::print_skin(std::FILE* out) const {
+  if (!skin_ || skin_measures_ == 0) return;
+  fmt::print(out,
+             "skin: worst edge {:.2f}x its rest length over the rod's own stretch at its place, {} edges past 2x "
+             "(the skin tearing; {} measures, every {} frames and the last)\n",
+             skin_->worst, skin_->edges_past, skin_measures_, kSkinEvery);
+}
+
 RunRecord::StageStats RunRecord::stats(std::size_t s) const {
   StageStats st;
   const auto& v = stage_seconds_[s];
@@ -250,6 +270,13 @@ void RunRecord::write_summary(const std::filesystem::path& file, const SceneDesc
   j["segments"] = segments_json(world);
   if (has_beads_) j["contacts"] = contacts_json(contacts_, world.bead_count());
   if (world.instrument_count() > 0) j["instruments"] = instruments_json(instruments_, world.instrument_count());
+  if (skin_ && skin_measures_ > 0)
+    j["skin"] = {{"worst_edge_stretch", skin_->worst},
+                 {"edges_past_2x", skin_->edges_past},
+                 {"measures", skin_measures_},
+                 {"meaning",
+                  "each mesh edge's length over its rest length, over the rod's axial stretch at its "
+                  "vertices' places along the rod; past 2x is the skin tearing (decision 0121)"}};
   j["events"] = events_json(world);
   std::ofstream out(file);
   if (!out) throw Error(ErrorCode::io, fmt::format("{}: cannot write", file.string()));

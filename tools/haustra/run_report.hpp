@@ -4,6 +4,7 @@
 #include <array>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,7 @@
 #include "haustra/mesh_io.hpp"
 #include "haustra/profile.hpp"
 #include "haustra/scene.hpp"
+#include "haustra/studies/skin_stretch.hpp"
 #include "haustra/world.hpp"
 
 namespace haustra::cli {
@@ -22,6 +24,12 @@ class RunRecord {
   void print_stage_table(std::FILE* out) const;
   // The deepest penetrations and where they happened; each instrument's last force.
   void print_contacts(std::FILE* out, const World& world) const;
+  // The organ meshes' skin stretch over the rod's own (decision 0121): watch_skin before the first
+  // step, measure_skin after each (it reads the mesh every kSkinEvery frames and at the last).
+  static constexpr int kSkinEvery = 15;
+  void watch_skin(const World& world);
+  void measure_skin(const World& world, int frame, bool last);
+  void print_skin(std::FILE* out) const;
   void write_summary(const std::filesystem::path& file, const SceneDesc& scene, const World& world,
                      int requested_frames, const std::string& status, const std::string& error) const;
   void write_frames_csv(const std::filesystem::path& file) const;
@@ -48,6 +56,8 @@ class RunRecord {
   std::vector<Energy> energy_;
   std::vector<std::vector<InstrumentReading>> instruments_;
   bool has_beads_ = false;
+  std::optional<studies::SkinStretch> skin_;
+  int skin_measures_ = 0;
 };
 
 void write_nodes_csv(const std::filesystem::path& file, const World& world);
