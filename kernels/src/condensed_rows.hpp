@@ -559,7 +559,7 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
   // column is zero distal to its node and the columns are numbered in the order the sweep meets
   // them, so at each node only a prefix of them is live.
   const int stride = W > 0 ? W : condensed_width(sys[0].columns);
-  int w = W > 0 ? W : condensed_width(1);
+  int w = condensed_width(1);
   const int S = W > 0 ? W : stride;  // a compile-time stride where there is one
   const std::size_t last = range.last;
   const std::size_t first = range.first;
@@ -594,7 +594,7 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
       for (int j = 0; j < 4; ++j) pi[(6 + c) * S + QK + j] = -m * t.at(c, j);
       pi[(6 + c) * S + RHS + 7 + c] = 1.0;
     }
-    if constexpr (W == 0) w = std::max(w, condensed_width(1 + kJointColumns));
+    w = std::max(w, condensed_width(1 + kJointColumns));
     const std::size_t n = rod0.poses.node_count();
     const V3<T> rm = rods.node(last);
     for (std::size_t j = last + 1; j < n; ++j) {
@@ -619,7 +619,7 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
     // unknowns unchanged, so it can join w_{k+1} before it.)
     for (; next_load < loads.size() && loads[next_load].node == k + 1; ++next_load) {
       const UnitLoad& u = loads[next_load];
-      if constexpr (W == 0) w = std::max(w, condensed_width(static_cast<int>(u.column) + 1));
+      w = std::max(w, condensed_width(static_cast<int>(u.column) + 1));
       T* rows = pi + (u.is_moment ? 0 : 3) * S;
       for (int i = 0; i < 3; ++i) rows[i * S + RHS + static_cast<int>(u.column)] += u.load[i];
     }
