@@ -606,6 +606,9 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
   std::size_t next_load = 0;
   while (next_load < loads.size() && loads[next_load].node > last) ++next_load;
   Tangent<T> t_next = tangent_of(rods, last);
+  // The transport rows' lanes that no node writes (every node writes the same ones).
+  for (int i = 0; i < 6; ++i)
+    for (int c = 0; c < nc; ++c) chunks(xr + i * S)[c] = zero_pack(xr);
   for (std::size_t k = last; k-- > first;) {
     const SectionFrame<T> g = section_frame(rods, k);
     const T h = g.h;
@@ -626,9 +629,7 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
     // The 16 lanes of the unknowns (and the first two right-hand sides) first; one rod's remaining
     // right-hand sides in one replay pass below, with the scalars this pass leaves.
 
-    // δφ_{k+1}, δr_{k+1} over z.
-    for (int i = 0; i < 6; ++i)
-      for (int c = 0; c < nc; ++c) chunks(xr + i * S)[c] = zero_pack(xr);
+    // δφ_{k+1}, δr_{k+1} over z (the lanes written below; the others stay the zeros set before the loop).
     const T half = 0.5 * h;
     for (int i = 0; i < 3; ++i) {
       T* xp = xr + i * S;
@@ -778,7 +779,12 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
       auto* u = chunks(gain + r * S);
       const auto* row = chunks(cr + r * S);
       for (int j = 0; j < nc; ++j) u[j] = -row[j];
-      for (int j = w / per; j < S / per; ++j) u[j] = zero_pack(gain);
+      if constexpr (W > 0) {
+        for (int j = nc; j < S / per; ++j)  // unrolled: the chunks past the 16 lanes that are not live
+          if (j >= w / per) u[j] = zero_pack(gain);
+      } else {
+        for (int j = w / per; j < S / per; ++j) u[j] = zero_pack(gain);
+      }
       for (int j = 0; j < 4; ++j) gain[r * S + QN + j] = T{};
     }
     // The interface of node k: w_k, and c_k = ½ δs_k − A_kk δq_k − A_{k,k+1} δq_{k+1} + ρ_k, with
