@@ -220,6 +220,9 @@ struct Tangent {
     if (r == c) return diag[r];
     return (r + c == 1) ? bend : T{};
   }
+  // Whether entry (r, c) can be other than zero. A row less m · (a structural zero) is the row
+  // itself, bit for bit, for a finite m ≥ 0 (a mass: h/6, (h_prev + h)/3): those are skipped.
+  [[nodiscard]] static constexpr bool coupled(int r, int c) { return r == c || r + c == 1; }
 };
 
 inline Tangent<double> tangent_of(const RodLinearization& rod, std::size_t k) {
@@ -673,21 +676,19 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
       const auto* f0 = chunks(fr);
       const auto* f1 = chunks(fr + S);
       const auto* f2 = chunks(fr + 2 * S);
-      for (int j = 0; j < nc; ++j) {
-        const auto a0 = f0[j], a1 = f1[j], a2 = f2[j];
-        m0[j] = fmadd(coefficient(c.y), a2, fmadd(coefficient(-c.z), a1, m0[j]));
-        m1[j] = fmadd(coefficient(c.z), a0, fmadd(coefficient(-c.x), a2, m1[j]));
-        m2[j] = fmadd(coefficient(c.x), a1, fmadd(coefficient(-c.y), a0, m2[j]));
-      }
       const V3<T> f = force;
       const auto* r0 = chunks(xr + 3 * S);
       const auto* r1 = chunks(xr + 4 * S);
       const auto* r2 = chunks(xr + 5 * S);
-      for (int j = 0; j < nc; ++j) {
-        const auto a0 = r0[j], a1 = r1[j], a2 = r2[j];
-        m0[j] = fmadd(coefficient(-f.y), a2, fmadd(coefficient(f.z), a1, m0[j]));
-        m1[j] = fmadd(coefficient(-f.z), a0, fmadd(coefficient(f.x), a2, m1[j]));
-        m2[j] = fmadd(coefficient(-f.x), a1, fmadd(coefficient(f.y), a0, m2[j]));
+      for (int j = 0; j < nc; ++j) {  // chord × δF_k, then − F_k × δr_{k+1}, in one pass
+        const auto a0 = f0[j], a1 = f1[j], a2 = f2[j];
+        auto n0 = fmadd(coefficient(c.y), a2, fmadd(coefficient(-c.z), a1, m0[j]));
+        auto n1 = fmadd(coefficient(c.z), a0, fmadd(coefficient(-c.x), a2, m1[j]));
+        auto n2 = fmadd(coefficient(c.x), a1, fmadd(coefficient(-c.y), a0, m2[j]));
+        const auto b0 = r0[j], b1 = r1[j], b2 = r2[j];
+        m0[j] = fmadd(coefficient(-f.y), b2, fmadd(coefficient(f.z), b1, n0));
+        m1[j] = fmadd(coefficient(-f.z), b0, fmadd(coefficient(f.x), b2, n1));
+        m2[j] = fmadd(coefficient(-f.x), b1, fmadd(coefficient(f.y), b0, n2));
       }
       // ... and + F_k × δr_k (the unit lanes of δr_k that δr_{k+1} carries, taken back).
       mr[POS + 1] -= f.z;
@@ -757,7 +758,8 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
     for (int c = 0; c < 4; ++c) {
       T* row = cr + c * S;
       axpy(broadcast<T>(0.5), sr + c * S, row, nc);
-      for (int j = 0; j < 4; ++j) row[QK + j] -= m_side * t_k.at(c, j);
+      for (int j = 0; j < 4; ++j)
+        if (Tangent<T>::coupled(c, j)) row[QK + j] -= m_side * t_k.at(c, j);
     }
     // δq_{k+1} = U_k (y_k, 1).
     Elimination el;
@@ -795,6 +797,7 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
       const auto* srow = chunks(sr + c * S);
       for (int j = 0; j < nc; ++j) chunks(row)[j] = 0.5 * srow[j];
       for (int j = 0; j < 4; ++j) {
+        if (!Tangent<T>::coupled(c, j)) continue;
         row[QK + j] -= m_self * t_k.at(c, j);
         row[QN + j] -= m_side * t_next.at(c, j);
       }
