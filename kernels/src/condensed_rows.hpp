@@ -296,6 +296,7 @@ inline T gauss_jordan(T* rows, int count_, int first, int stride, int w_, Elimin
     e.order[r] = r;
   }
   T smallest = broadcast<T>(std::numeric_limits<double>::infinity());
+#pragma GCC unroll 4
   for (int j = 0; j < count; ++j) {
     T best = broadcast<T>(-1.0);
     auto p = row_number<T>(j);  // the pivot row: a number, or four rods' numbers as doubles
