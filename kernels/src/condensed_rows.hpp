@@ -220,6 +220,9 @@ struct Tangent {
     if (r == c) return diag[r];
     return (r + c == 1) ? bend : T{};
   }
+  // Whether entry (r, c) can be other than zero. A row less m · (a structural zero) is the row
+  // itself, bit for bit, for a finite m ≥ 0 (a mass: h/6, (h_prev + h)/3): those are skipped.
+  [[nodiscard]] static constexpr bool coupled(int r, int c) { return r == c || r + c == 1; }
 };
 
 inline Tangent<double> tangent_of(const RodLinearization& rod, std::size_t k) {
@@ -268,7 +271,8 @@ struct Elimination {
 // blends for four rods). Afterwards row i has 1 at lane first + i and 0 at the other eliminated
 // lanes. Returns the smallest pivot relative to its row's scale (0 when a row is all zero or a
 // pivot is not finite). Count and W, where not 0, fix count and w at compile time (the sweep's
-// 4 × 4 over 16 lanes: its loops unrolled, the same operations).
+// 4 × 4 over 16 lanes: its loops unrolled, the same operations). Factors false: e.factor is not
+// written (nothing will replay the elimination: ≈ 70 instructions of a sweep's step).
 template <class T>
 inline auto row_number(int r) {
   if constexpr (kOne<T>)
@@ -277,7 +281,7 @@ inline auto row_number(int r) {
     return broadcast<T>(r);
 }
 
-template <class T, int Count = 0, int W = 0>
+template <class T, int Count = 0, int W = 0, bool Factors = true>
 inline T gauss_jordan(T* rows, int count_, int first, int stride, int w_, Elimination& e) {
   const int count = Count > 0 ? Count : count_;
   const int np = (W > 0 ? W : w_) / kPer<T>;
@@ -292,6 +296,7 @@ inline T gauss_jordan(T* rows, int count_, int first, int stride, int w_, Elimin
     e.order[r] = r;
   }
   T smallest = broadcast<T>(std::numeric_limits<double>::infinity());
+#pragma GCC unroll 4
   for (int j = 0; j < count; ++j) {
     T best = broadcast<T>(-1.0);
     auto p = row_number<T>(j);  // the pivot row: a number, or four rods' numbers as doubles
@@ -313,7 +318,7 @@ inline T gauss_jordan(T* rows, int count_, int first, int stride, int w_, Elimin
     for (int r = 0; r < count; ++r) {
       T* rr = rows + r * stride;
       const T f = r == j ? T{} : rr[first + j];
-      if constexpr (kOne<T>) e.factor[j][e.order[r]] = f;
+      if constexpr (kOne<T> && Factors) e.factor[j][e.order[r]] = f;
       if (r == j || !nonzero(f)) continue;
       axpy(-f, pr, rr, np);
       rr[first + j] = T{};
@@ -559,7 +564,7 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
   // column is zero distal to its node and the columns are numbered in the order the sweep meets
   // them, so at each node only a prefix of them is live.
   const int stride = W > 0 ? W : condensed_width(sys[0].columns);
-  int w = W > 0 ? W : condensed_width(1);
+  int w = condensed_width(1);
   const int S = W > 0 ? W : stride;  // a compile-time stride where there is one
   const std::size_t last = range.last;
   const std::size_t first = range.first;
@@ -594,7 +599,7 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
       for (int j = 0; j < 4; ++j) pi[(6 + c) * S + QK + j] = -m * t.at(c, j);
       pi[(6 + c) * S + RHS + 7 + c] = 1.0;
     }
-    if constexpr (W == 0) w = std::max(w, condensed_width(1 + kJointColumns));
+    w = std::max(w, condensed_width(1 + kJointColumns));
     const std::size_t n = rod0.poses.node_count();
     const V3<T> rm = rods.node(last);
     for (std::size_t j = last + 1; j < n; ++j) {
@@ -606,6 +611,9 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
   std::size_t next_load = 0;
   while (next_load < loads.size() && loads[next_load].node > last) ++next_load;
   Tangent<T> t_next = tangent_of(rods, last);
+  // The transport rows' lanes that no node writes (every node writes the same ones).
+  for (int i = 0; i < 6; ++i)
+    for (int c = 0; c < nc; ++c) chunks(xr + i * S)[c] = zero_pack(xr);
   for (std::size_t k = last; k-- > first;) {
     const SectionFrame<T> g = section_frame(rods, k);
     const T h = g.h;
@@ -619,16 +627,14 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
     // unknowns unchanged, so it can join w_{k+1} before it.)
     for (; next_load < loads.size() && loads[next_load].node == k + 1; ++next_load) {
       const UnitLoad& u = loads[next_load];
-      if constexpr (W == 0) w = std::max(w, condensed_width(static_cast<int>(u.column) + 1));
+      w = std::max(w, condensed_width(static_cast<int>(u.column) + 1));
       T* rows = pi + (u.is_moment ? 0 : 3) * S;
       for (int i = 0; i < 3; ++i) rows[i * S + RHS + static_cast<int>(u.column)] += u.load[i];
     }
     // The 16 lanes of the unknowns (and the first two right-hand sides) first; one rod's remaining
     // right-hand sides in one replay pass below, with the scalars this pass leaves.
 
-    // δφ_{k+1}, δr_{k+1} over z.
-    for (int i = 0; i < 6; ++i)
-      for (int c = 0; c < nc; ++c) chunks(xr + i * S)[c] = zero_pack(xr);
+    // δφ_{k+1}, δr_{k+1} over z (the lanes written below; the others stay the zeros set before the loop).
     const T half = 0.5 * h;
     for (int i = 0; i < 3; ++i) {
       T* xp = xr + i * S;
@@ -672,21 +678,19 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
       const auto* f0 = chunks(fr);
       const auto* f1 = chunks(fr + S);
       const auto* f2 = chunks(fr + 2 * S);
-      for (int j = 0; j < nc; ++j) {
-        const auto a0 = f0[j], a1 = f1[j], a2 = f2[j];
-        m0[j] = fmadd(coefficient(c.y), a2, fmadd(coefficient(-c.z), a1, m0[j]));
-        m1[j] = fmadd(coefficient(c.z), a0, fmadd(coefficient(-c.x), a2, m1[j]));
-        m2[j] = fmadd(coefficient(c.x), a1, fmadd(coefficient(-c.y), a0, m2[j]));
-      }
       const V3<T> f = force;
       const auto* r0 = chunks(xr + 3 * S);
       const auto* r1 = chunks(xr + 4 * S);
       const auto* r2 = chunks(xr + 5 * S);
-      for (int j = 0; j < nc; ++j) {
-        const auto a0 = r0[j], a1 = r1[j], a2 = r2[j];
-        m0[j] = fmadd(coefficient(-f.y), a2, fmadd(coefficient(f.z), a1, m0[j]));
-        m1[j] = fmadd(coefficient(-f.z), a0, fmadd(coefficient(f.x), a2, m1[j]));
-        m2[j] = fmadd(coefficient(-f.x), a1, fmadd(coefficient(f.y), a0, m2[j]));
+      for (int j = 0; j < nc; ++j) {  // chord × δF_k, then − F_k × δr_{k+1}, in one pass
+        const auto a0 = f0[j], a1 = f1[j], a2 = f2[j];
+        auto n0 = fmadd(coefficient(c.y), a2, fmadd(coefficient(-c.z), a1, m0[j]));
+        auto n1 = fmadd(coefficient(c.z), a0, fmadd(coefficient(-c.x), a2, m1[j]));
+        auto n2 = fmadd(coefficient(c.x), a1, fmadd(coefficient(-c.y), a0, m2[j]));
+        const auto b0 = r0[j], b1 = r1[j], b2 = r2[j];
+        m0[j] = fmadd(coefficient(-f.y), b2, fmadd(coefficient(f.z), b1, n0));
+        m1[j] = fmadd(coefficient(-f.z), b0, fmadd(coefficient(f.x), b2, n1));
+        m2[j] = fmadd(coefficient(-f.x), b1, fmadd(coefficient(f.y), b0, n2));
       }
       // ... and + F_k × δr_k (the unit lanes of δr_k that δr_{k+1} carries, taken back).
       mr[POS + 1] -= f.z;
@@ -756,11 +760,14 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
     for (int c = 0; c < 4; ++c) {
       T* row = cr + c * S;
       axpy(broadcast<T>(0.5), sr + c * S, row, nc);
-      for (int j = 0; j < 4; ++j) row[QK + j] -= m_side * t_k.at(c, j);
+      for (int j = 0; j < 4; ++j)
+        if (Tangent<T>::coupled(c, j)) row[QK + j] -= m_side * t_k.at(c, j);
     }
     // δq_{k+1} = U_k (y_k, 1).
     Elimination el;
-    const T pivot = gauss_jordan<T, 4, kZ>(cr, 4, QN, S, kZ, el);
+    // The factors only where a replay needs them: right-hand sides past the 16 lanes, or a record.
+    const T pivot = kOne<T> && (w > kZ || !sys[0].record.empty()) ? gauss_jordan<T, 4, kZ>(cr, 4, QN, S, kZ, el)
+                                                                   : gauss_jordan<T, 4, kZ, false>(cr, 4, QN, S, kZ, el);
     const auto lower = pivot < smallest;
     smallest = select(lower, pivot, smallest);
     at = select(lower, broadcast<T>(static_cast<double>(k + 1)), at);
@@ -778,7 +785,12 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
       auto* u = chunks(gain + r * S);
       const auto* row = chunks(cr + r * S);
       for (int j = 0; j < nc; ++j) u[j] = -row[j];
-      for (int j = w / per; j < S / per; ++j) u[j] = zero_pack(gain);
+      if constexpr (W > 0) {
+        for (int j = nc; j < S / per; ++j)  // unrolled: the chunks past the 16 lanes that are not live
+          if (j >= w / per) u[j] = zero_pack(gain);
+      } else {
+        for (int j = w / per; j < S / per; ++j) u[j] = zero_pack(gain);
+      }
       for (int j = 0; j < 4; ++j) gain[r * S + QN + j] = T{};
     }
     // The interface of node k: w_k, and c_k = ½ δs_k − A_kk δq_k − A_{k,k+1} δq_{k+1} + ρ_k, with
@@ -789,6 +801,7 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
       const auto* srow = chunks(sr + c * S);
       for (int j = 0; j < nc; ++j) chunks(row)[j] = 0.5 * srow[j];
       for (int j = 0; j < 4; ++j) {
+        if (!Tangent<T>::coupled(c, j)) continue;
         row[QK + j] -= m_self * t_k.at(c, j);
         row[QN + j] -= m_side * t_next.at(c, j);
       }

@@ -18,10 +18,19 @@ CondenseReport rod_condense_range(const RodLinearization& rod, StrainView<const 
   assert(!range.joint || sys.columns > kJointColumns);
   std::array<CondenseReport, 1> report;
   const condensed::Rods<double> rods{{&rod}, {residual}};
-  if (condensed_width(sys.columns) == 16)
-    condensed::sweep<double, 16>(rods, loads, {sys}, range, sys.scratch.data(), report);
-  else
-    condensed::sweep<double, 0>(rods, loads, {sys}, range, sys.scratch.data(), report);
+  // A compile-time row stride for the common widths (the residual alone: 16; a pin's or a few
+  // contacts' unit loads: up to 40): every row is then a constant offset from the scratch. A
+  // run-time stride spills the row pointers (≈ 300 stack reloads per node; the gate counts them).
+  using Sweep = void (*)(const condensed::Rods<double>&, std::span<const UnitLoad>,
+                         const std::array<CondensedSystem, 1>&, const CondensedRange&, double*,
+                         std::array<CondenseReport, 1>&);
+  static constexpr Sweep kByWidth[] = {condensed::sweep<double, 16>, condensed::sweep<double, 20>,
+                                       condensed::sweep<double, 24>, condensed::sweep<double, 28>,
+                                       condensed::sweep<double, 32>, condensed::sweep<double, 36>,
+                                       condensed::sweep<double, 40>};
+  const auto slot = static_cast<std::size_t>((condensed_width(sys.columns) - 16) / 4);
+  const Sweep sweep = slot < std::size(kByWidth) ? kByWidth[slot] : condensed::sweep<double, 0>;
+  sweep(rods, loads, {sys}, range, sys.scratch.data(), report);
   return report[0];
 }
 

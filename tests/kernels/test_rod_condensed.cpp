@@ -596,7 +596,7 @@ GainError sweep_against(const Solved& ref, std::span<const double> gain, std::sp
 
 TEST_CASE("the condensed sweep, one rod and four in lanes, against the plain reference: a dense LU of the system") {
   // One rod: clamped and free, with and without load stiffness, linear and nonlinear laws, the
-  // residual alone (16-lane rows) and with unit loads (run-time width), the law's rows scaled.
+  // residual alone (16-lane rows) and with unit loads (24-lane rows), the law's rows scaled.
   double worst = 0.0, worst_base = 0.0, worst_gain = 0.0;
   int cases = 0;
   for (std::uint32_t seed : {11u, 12u})
@@ -687,4 +687,49 @@ TEST_CASE("the condensed sweep, one rod and four in lanes, against the plain ref
   }
   MESSAGE("four rods in lanes against the dense reference: steps " << worst_lanes << ", y_0 and gains "
                                                                    << worst_lanes_own);
+}
+
+TEST_CASE("the condensed sweep's compile-time row strides give the run-time stride's bits") {
+  // rod_condense sweeps rows of 16 to 40 doubles with the stride fixed at compile time and wider
+  // rows with a run-time stride. The same rod and loads with 27 more columns that carry no load
+  // (zero columns: 44 doubles and more, the run-time form) must give the same bits in every gain
+  // and y_0 of the real columns — each column's arithmetic is its own.
+  int cases = 0;
+  for (bool free_base : {false, true})
+    for (std::size_t loads : {0, 3, 7, 11, 15, 19, 23}) {
+      Case c;
+      c.n = 29;
+      c.free_base = free_base;
+      c.stiffness = true;
+      c.nodal = !free_base;
+      c.unit_loads = loads;
+      c.seed = 21;
+      Problem p(c);
+      const RodLinearization lin = p.linearization();
+      const int cols = p.columns(), wide = cols + 27;
+      const auto s = static_cast<std::size_t>(condensed_width(cols));
+      const auto sw = static_cast<std::size_t>(condensed_width(wide));
+      CAPTURE(free_base);
+      CAPTURE(loads);
+      REQUIRE(sw > 40);
+      auto solve = [&](int columns) {
+        std::vector<double> gain(condensed_gain_size(c.n, columns)), scratch(condensed_scratch_size(columns)),
+            base(10 * static_cast<std::size_t>(columns));
+        const CondenseReport r = rod_condense(lin, StrainView<const double>{p.residual}, p.loads,
+                                              {gain, scratch, base, columns, {}});
+        REQUIRE(r.ok);
+        return std::pair{gain, base};
+      };
+      const auto [gain, base] = solve(cols);
+      const auto [gain_wide, base_wide] = solve(wide);
+      int differ = 0;
+      for (std::size_t k = 0; k + 1 < c.n; ++k)
+        for (std::size_t r = 0; r < 4; ++r)
+          for (std::size_t lane = 0; lane < static_cast<std::size_t>(kCondensedRhs + cols); ++lane)
+            differ += gain[(4 * k + r) * s + lane] != gain_wide[(4 * k + r) * sw + lane];
+      for (std::size_t i = 0; i < 10 * static_cast<std::size_t>(cols); ++i) differ += base[i] != base_wide[i];
+      CHECK(differ == 0);
+      ++cases;
+    }
+  MESSAGE("compile-time strides against the run-time stride: " << cases << " cases, same bits");
 }
