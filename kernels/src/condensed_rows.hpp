@@ -767,7 +767,7 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
     Elimination el;
     // The factors only where a replay needs them: right-hand sides past the 16 lanes, or a record.
     const T pivot = kOne<T> && (w > kZ || !sys[0].record.empty()) ? gauss_jordan<T, 4, kZ>(cr, 4, QN, S, kZ, el)
-                                                                   : gauss_jordan<T, 4, kZ, false>(cr, 4, QN, S, kZ, el);
+                                                                  : gauss_jordan<T, 4, kZ, false>(cr, 4, QN, S, kZ, el);
     const auto lower = pivot < smallest;
     smallest = select(lower, pivot, smallest);
     at = select(lower, broadcast<T>(static_cast<double>(k + 1)), at);

@@ -27,8 +27,7 @@ void SkinStretch::measure(const World& world, bool resting) {
   for (std::size_t i = 0; i < ends_.size(); ++i) {
     if (rest_[i] <= 0.0) continue;
     const auto [a, b] = ends_[i];
-    const double ratio =
-        (x.get(a) - x.get(b)).cast<double>().norm() / rest_[i] / std::max(stretch(a), stretch(b));
+    const double ratio = (x.get(a) - x.get(b)).cast<double>().norm() / rest_[i] / std::max(stretch(a), stretch(b));
     worst = std::max(worst, ratio);
     if (resting) worst_rest = std::max(worst_rest, ratio);
     if (ratio > 2.0 && (torn_[i] & 1) == 0) {

@@ -21,9 +21,9 @@ class SkinStretch {
   void measure(const World& world, bool resting);
 
   [[nodiscard]] bool empty() const { return ends_.empty(); }
-  double worst = 0.0;             // the largest ratio over every measure
-  std::size_t edges_past = 0;     // edges past 2× at some measure
-  double worst_rest = 0.0;        // the same over the measures while resting
+  double worst = 0.0;          // the largest ratio over every measure
+  std::size_t edges_past = 0;  // edges past 2× at some measure
+  double worst_rest = 0.0;     // the same over the measures while resting
   std::size_t rest_edges_past = 0;
 
  private:
