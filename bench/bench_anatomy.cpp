@@ -137,8 +137,8 @@ double sigmoid_along(const SceneDesc& scene) {
 // sideways until 1.55 s, held to 1.75 s; on 2 threads; solver 2 fast mode, 0 Newton. The mesh is
 // made when read (decision 0060). reader 0: never read; reader 1: a render thread that skins on its
 // GPU (decision 0110) acquires the newest frame's rings every 1/60 s of wall time while the physics
-// steps and publishes beside it. sleep 1: rods at rest and untouched sleep (decision 0119). Each iteration is one
-// physics frame with its publish, timed by hand; the counters are ms.
+// steps and publishes beside it. sleep 1: rods at rest and untouched sleep (decision 0119); sleep 2: ranges within them
+// too (decision 0127). Each iteration is one physics frame with its publish, timed by hand; the counters are ms.
 void BM_Abdomen(benchmark::State& state) {
   std::string why;
   const SceneDesc* imported = abdomen(why);
@@ -157,7 +157,8 @@ void BM_Abdomen(benchmark::State& state) {
   scene.world.threads = 2;
   scene.world.mesh_update = MeshUpdate::on_read;
   scene.world.solver.mode = state.range(0) == 2 ? SolverMode::fast : SolverMode::newton;
-  scene.world.sleep.enabled = state.range(2) == 1;
+  scene.world.sleep.enabled = state.range(2) >= 1;
+  scene.world.sleep.ranges = state.range(2) == 2;
   auto w = create_world(scene);
   FramePublisher frames(*w);
   frames.skin_on_gpu(true);
@@ -208,8 +209,10 @@ void BM_Abdomen(benchmark::State& state) {
 BENCHMARK(BM_Abdomen)
     ->Args({2, 0, 0})
     ->Args({2, 0, 1})
+    ->Args({2, 0, 2})
     ->Args({2, 1, 0})
     ->Args({2, 1, 1})
+    ->Args({2, 1, 2})
     ->Args({0, 0, 0})
     ->ArgNames({"solver", "reader", "sleep"})
     ->Iterations(1750)

@@ -41,7 +41,7 @@ PAGES = {
                                                  "tests/data/stability-map.csv"]),
     "docs/tradeoff.md": ("make study", ["studies/src/tradeoff_*.cpp", "studies/src/tradeoff_knobs.hpp",
                                         "studies/src/grasp_push.cpp", STUDIES + "tradeoff_study.hpp",
-                                        STUDIES + "grasp_push.hpp", "scenes/grasp-push.toml"]),
+                                        STUDIES + "grasp_push.hpp", "scenes/grasp-push.toml", "scenes/range-pull.toml"]),
     "docs/anatomy.md": ("make anatomy", ["studies/src/anatomy_cohort.cpp", STUDIES + "anatomy_cohort.hpp"]),
     "docs/studies-cohort.md": ("make studies-doc", ["python/studies/cohort.toml", "python/haustra/studies/*.py"]),
     "docs/skinning-table.md": ("make skinning-doc", ["studies/src/skinning_study.cpp", STUDIES + "skinning_study.hpp"]),

@@ -39,19 +39,31 @@ CondenseReport rod_condense(const RodLinearization& rod, StrainView<const double
   return rod_condense_range(rod, residual, loads, sys, {0, rod.poses.node_count() - 1, false, {}});
 }
 
-void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double> residual, CondensedSystem sys) {
+void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double> residual, CondensedSystem sys,
+                           std::size_t first, std::size_t joint) {
   using V3 = condensed::V3<double>;
   const std::size_t n = rod.poses.node_count(), last = n - 1;
   const auto S = static_cast<std::size_t>(condensed_width(sys.columns));
-  // The interface's residual column (10 numbers), from the tip: no wrench, node N's residual.
+  // The interface's residual column (10 numbers), from the tip: no wrench, node N's residual; from
+  // a joint: none (its unknowns are the unit columns), the loads beyond it in the wrench.
   double p[10] = {};
-  for (std::size_t c = 0; c < 4; ++c) p[6 + c] = residual.at(last, c);
+  if (joint == 0)
+    for (std::size_t c = 0; c < 4; ++c) p[6 + c] = residual.at(last, c);
   condensed::SectionFrame<double> g;
   double a[10][4];
   condensed::Elimination el;
   // The current loads' distal wrench, summed as the sweep sums it (for a free base's balance).
   V3 force{}, moment{};
-  for (std::size_t k = last; k-- > 0;) {
+  if (joint > 0) {
+    const V3 rm = condensed::load(rod.poses.node_position, joint);
+    for (std::size_t j = joint + 1; j < n; ++j) {
+      const V3 f = condensed::load(rod.node_force, j);
+      force = force + f;
+      moment =
+          moment + condensed::load(rod.node_moment, j) + cross(condensed::load(rod.poses.node_position, j) - rm, f);
+    }
+  }
+  for (std::size_t k = joint > 0 ? joint : last; k-- > first;) {
     condensed::read_step(sys.record.data() + k * kCondensedRecordPerStep, g, a, el);
     force = force + condensed::load(rod.node_force, k + 1);
     moment =
@@ -61,13 +73,14 @@ void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double>
     double rho[4], u[4];
     for (std::size_t c = 0; c < 4; ++c) rho[c] = residual.at(k, c);
     condensed::replay_step(g, a, el, p, u, rho);
-    double* gain = sys.gain.data() + k * 4 * S;
+    double* gain = sys.gain.data() + (k - first) * 4 * S;
     for (std::size_t r = 0; r < 4; ++r) gain[r * S + kCondensedRhs] = u[r];
   }
+  if (first > 0) return;  // a range held at node `first`: its y is given, no base system
   // The base system, as eliminated: a free base balances the current loads' total wrench.
   const double* rb = sys.record.data() + last * kCondensedRecordPerStep;
   const int unknowns = static_cast<int>(rb[0]);
-  const int first = unknowns == 10 ? 0 : kCondensedStrain;
+  const int solved = unknowns == 10 ? 0 : kCondensedStrain;
   const int equations = unknowns == 10 ? 0 : 6;
   if (unknowns == 10) {
     force = force + condensed::load(rod.node_force, 0);
@@ -86,7 +99,7 @@ void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double>
   }
   double* y = sys.base.data();
   for (int i = 0; i < 10; ++i) y[i] = 0.0;
-  for (int i = 0; i < unknowns; ++i) y[first + i] = -e[static_cast<int>(rb[1 + i])];
+  for (int i = 0; i < unknowns; ++i) y[solved + i] = -e[static_cast<int>(rb[1 + i])];
 }
 
 void rod_condensed_step_range(const RodLinearization& rod, CondensedSystem sys, std::size_t first, std::size_t last,

@@ -42,5 +42,6 @@ TradeoffKnob knob_integrator();
 TradeoffKnob knob_coupling();
 // Sleeping rods (tradeoff_sleep_knob.cpp).
 TradeoffKnob knob_sleep();
+TradeoffKnob knob_sleep_ranges();
 
 }  // namespace haustra::validation::tradeoff

@@ -90,7 +90,8 @@ const std::vector<std::pair<std::string, KnobFunction>>& knob_functions() {
       {"iterations per frame", knob_iterations}, {"inertia filter", knob_filter},
       {"Hooke against EXP2", knob_exp2},         {"the skin", knob_rings},
       {"float against double", knob_precision},  {"exponential against midpoint", knob_integrator},
-      {"grasp coupling", knob_coupling},         {"sleeping rods", knob_sleep}};
+      {"grasp coupling", knob_coupling},         {"sleeping rods", knob_sleep},
+      {"sleeping ranges", knob_sleep_ranges}};
   return knobs;
 }
 }  // namespace

@@ -338,7 +338,12 @@ TEST_CASE("C API: flags are 0 or 1, a NaN drag and out-of-range loads and values
        "segment[0].youngs_modulus: 1e-300 Pa is below the plausible minimum 1 Pa"},
       {[](auto&, auto& s) { s.length = 1e-300; }, "segment[0].rest.length"},
       {[](auto& d, auto&) { d.max_retries = 65; }, "solver.max_retries"},
-      {[](auto& d, auto&) { d.sleep = 2; }, "def.sleep = 2: expected 0 or 1"},
+      {[](auto& d, auto&) { d.sleep = 3; }, "def.sleep = 3: expected 0 (off), 1 (rods) or 2"},
+      {[](auto& d, auto&) {
+         d.sleep = 2;
+         d.newton = 0;
+       },
+       "sleep.ranges: needs solver.mode"},
       {[](auto& d, auto&) { d.sleep_speed = -1.0; }, "sleep.speed"},
       {[](auto& d, auto&) { d.sleep_time = 1e9; }, "sleep.time"},
   };

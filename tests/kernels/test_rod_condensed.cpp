@@ -502,6 +502,39 @@ TEST_CASE("a chord iteration's replay solves the recorded Jacobian with a new re
   CHECK(worst_new < 2.5e-13);  // measured: 2.3e-14
 }
 
+TEST_CASE("a range held at node m: the replay from m gives the range sweep's bits, and m does not move") {
+  // Decision 0127: a sleeping range ends the sweep at its last node m, whose y is 0.
+  for (bool free_base : {false, true})
+    for (std::size_t m : {std::size_t{1}, std::size_t{12}, std::size_t{31}}) {
+      CAPTURE(free_base);
+      CAPTURE(m);
+      const Case c = stiff_case(8u, free_base, false, 0, 33);
+      Problem p(c);
+      const std::size_t n = c.n;
+      std::vector<double> gain(condensed_gain_size(n, 1)), scratch(condensed_scratch_size(1)), base(10),
+          record(condensed_record_size(n)), interface(10 * static_cast<std::size_t>(condensed_width(1)));
+      CondensedSystem sys{gain, scratch, base, 1, record};
+      const RodLinearization lin = p.linearization();
+      REQUIRE(rod_condense_range(lin, StrainView<const double>{p.residual}, {}, sys, {m, n - 1, false, interface}).ok);
+      const double start[10] = {};
+      const std::vector<double> w{1.0};
+      auto step = [&] {
+        std::vector<double> dq(4 * n, 0.0), px(n), py(n), pz(n), rx(n), ry(n), rz(n);
+        rod_condensed_step_range(lin, sys, m, n - 1, start, w, StrainView<double>{dq}, {px, py, pz}, {rx, ry, rz});
+        for (std::size_t k = m; k < n; ++k) dq.push_back(px[k]), dq.push_back(rx[k]);
+        return dq;
+      };
+      const std::vector<double> swept = step();
+      CHECK(swept[4 * m] == 0.0);
+      CHECK(swept[4 * m + 3] == 0.0);
+      double moved = 0.0;
+      for (std::size_t i = 4 * (m + 1); i < 4 * n; ++i) moved = std::max(moved, std::abs(swept[i]));
+      CHECK(moved > 0.0);  // the range beyond m moves
+      rod_condensed_resweep(lin, StrainView<const double>{p.residual}, sys, m);
+      CHECK(step() == swept);
+    }
+}
+
 TEST_CASE("four rods condensed in SIMD lanes equal the one-rod sweep, rod by rod") {
   // Four rods of one node count, each its own: clamped and free bases, linear and nonlinear laws,
   // their own poses, loads and residuals (the lanes share only the node count).

@@ -199,7 +199,8 @@ typedef struct haustra_world_def {
   int mesh_on_host_gpu;
   /* Rods at rest sleep (the scene's [sleep], decision 0119): 1 on, 0 off (default). A rod whose
    * nodes all move slower than sleep_speed (m/s; default 0.001) for sleep_time (s; default 0.1),
-   * with no instrument holding it, is not solved until something wakes it. Since ABI 17. */
+   * with no instrument holding it, is not solved until something wakes it. Since ABI 17.
+   * 2: ranges within a rod sleep too (sleep.ranges, decision 0127; not with newton = 0). */
   int sleep;
   double sleep_speed;
   double sleep_time;

@@ -52,7 +52,7 @@
   X(int, stalls, 0, "Newton iterations whose line search took no part of a step that was not small (a guard failure)") \
   X(int, iterations, 0, "fixed-point iterations run, summed over substeps")                         \
   X(int, late, 0, "1 when the frame took longer than world.frame_budget (decision 0061)")                 \
-  X(int, nodes_asleep, 0, "nodes of the rods that slept through the frame, held where they were (decision 0119)")
+  X(int, nodes_asleep, 0, "nodes of the rods and ranges that slept through the frame, held where they were (decisions 0119, 0127)")
 #define HAUSTRA_PROFILE_COUNTERS(X) HAUSTRA_PROFILE_COUNTERS_BEFORE_NEWTON(X) HAUSTRA_PROFILE_COUNTERS_AFTER_NEWTON(X)
 /* A C struct's field from a list's entry (its meaning is the list's). */
 #define HAUSTRA_C_FIELD(type, name, initial, meaning) type name;

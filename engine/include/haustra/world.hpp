@@ -317,6 +317,10 @@ class World {
   [[nodiscard]] FrameLimits frame_limits() const;
 
   [[nodiscard]] const FrameProfile& last_profile() const;
+  // Whether the node (all segments' numbering) sleeps through the next frame, held where it is: its
+  // rod asleep (decision 0119) or within its rod's sleeping range (decision 0127). For a viewer to
+  // show what is not being solved, and for a host to know what will not move unless woken.
+  [[nodiscard]] bool node_asleep(std::size_t node) const;
   // The events recorded and not yet taken, oldest first (at most 1,024 wait; later ones are
   // dropped and counted until some are taken).
   [[nodiscard]] std::span<const Event> events() const;

@@ -399,10 +399,16 @@ enum class MeshUpdate : std::uint8_t { on_read, every_frame };
 // `speed` × dt a frame for `time` seconds is no longer solved — it is held where it is, a fixed
 // body for the others — until a moving rod or an instrument comes within the contact margin of its
 // beads, an instrument grasps it, one of its anchors tears, or the host changes the world.
+//
+// ranges (decision 0127): a rod's base-side range at rest sleeps too while the rest of the rod
+// moves — held where it is, the moving range clamped to its last node — in the Newton and fast
+// modes (the lagged scheme solves a rod whole). Woken node by node: a moving node wakes its
+// neighbours within kRangeBand nodes, a contact, grasp or torn anchor the nodes around it.
 struct SleepDesc {
   bool enabled = false;
   double speed = 1e-3;  // m/s: slower than this a node is at rest
   double time = 0.1;    // s at rest before the rod sleeps
+  bool ranges = false;  // also ranges within a rod (needs enabled and solver.mode newton or fast)
 };
 
 struct WorldDesc {

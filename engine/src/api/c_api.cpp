@@ -263,7 +263,9 @@ haustra_world_def checked_def(const haustra_world_def& host) {
                 "def.mesh_on_host_gpu = 1 with def.mesh_every_frame = 1: a host that skins on its GPU wants the "
                 "step not to skin; set mesh_every_frame = 0");
   (void)flag(d.double_buffered, "def.double_buffered");
-  (void)flag(d.sleep, "def.sleep");
+  if (d.sleep < 0 || d.sleep > 2)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("def.sleep = {}: expected 0 (off), 1 (rods) or 2 (rods and ranges within them)", d.sleep));
   return d;
 }
 
@@ -290,7 +292,10 @@ void apply_world_fields(const haustra_world_def& d, bool only_changed, haustra::
   if (changed(d.max_substeps, base.max_substeps)) w.solver.max_substeps = d.max_substeps;
   if (changed(d.max_retries, base.max_retries)) w.solver.max_retries = d.max_retries;
   if (changed(d.calm_frames, base.calm_frames)) w.solver.calm_frames = d.calm_frames;
-  if (changed(d.sleep, base.sleep)) w.sleep.enabled = d.sleep == 1;
+  if (changed(d.sleep, base.sleep)) {
+    w.sleep.enabled = d.sleep >= 1;
+    w.sleep.ranges = d.sleep == 2;
+  }
   if (changed(d.sleep_speed, base.sleep_speed)) w.sleep.speed = d.sleep_speed;  // checked with the description
   if (changed(d.sleep_time, base.sleep_time)) w.sleep.time = d.sleep_time;
   if (d.floor == 1) {
@@ -717,7 +722,7 @@ haustra_status haustra_world_def_default(haustra_world_def* def) {
     d.max_substeps = w.solver.max_substeps;
     d.max_retries = w.solver.max_retries;
     d.calm_frames = w.solver.calm_frames;
-    d.sleep = w.sleep.enabled ? 1 : 0;
+    d.sleep = w.sleep.enabled ? (w.sleep.ranges ? 2 : 1) : 0;
     d.sleep_speed = w.sleep.speed;
     d.sleep_time = w.sleep.time;
   } catch (...) {

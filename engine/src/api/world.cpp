@@ -374,6 +374,20 @@ std::span<const std::uint32_t> World::cage_vertex_rings(std::size_t segment) con
 }
 
 const FrameProfile& World::last_profile() const { return impl_->profile; }
+
+bool World::node_asleep(std::size_t node) const {
+  const detail::WorldModel& m = impl_->model;
+  const detail::WorldState& s = impl_->state;
+  if (node >= m.node_total) throw Error(ErrorCode::invalid_argument, fmt::format("node {} of {}", node, m.node_total));
+  for (std::size_t rod = 0; rod < m.segments.size(); ++rod) {
+    const detail::SegmentModel& seg = m.segments[rod];
+    if (node < seg.node_offset || node >= seg.node_offset + seg.node_count) continue;
+    const detail::HeldRange held = s.held_range(rod);
+    const std::size_t local = node - seg.node_offset;
+    return s.rod_asleep[rod] != 0 || (held.any() && local >= held.first && local <= held.last);
+  }
+  return false;
+}
 std::span<const Event> World::events() const { return impl_->events; }
 std::size_t World::take_events(std::span<Event> out, std::uint64_t* dropped) {
   const Use use(*this);

@@ -19,7 +19,7 @@ constexpr std::array<char, 8> kMagic = {'H', 'A', 'U', 'S', 'T', 'R', 'C', 'K'};
 // 2: fast mode's chord state; 3: the instruments' coupling; 4: fast mode's prefactor; 5: anchors
 // of connective tissue (which still hold), instruments' proxies and cutting; 6: the run-time
 // parameters (decision 0099), the time step no longer in the fingerprint.
-constexpr std::uint32_t kFormatVersion = 7;
+constexpr std::uint32_t kFormatVersion = 8;  // 8: sleeping ranges (decision 0127)
 
 std::uint64_t fnv1a(std::span<const std::byte> bytes, std::uint64_t h = 0xcbf29ce484222325ull) {
   for (std::byte b : bytes) {
@@ -304,6 +304,14 @@ void check_indices(const WorldModel& model, const WorldState& st, const Reader& 
       if (st.now.attachment[seg.attachment_offset + a].node >= seg.node_count)
         reader.fail(fmt::format("attaches node {} of segment '{}', which has {}",
                                 st.now.attachment[seg.attachment_offset + a].node, seg.info.name, seg.node_count));
+  for (std::size_t r = 0; r < model.segments.size(); ++r) {
+    const HeldRange h = st.held_range(r);
+    const std::size_t n = model.segments[r].node_count;
+    if ((h.any() || h.first != 0) && (!model.sleep.ranges || model.segments[r].split_node > 0 || h.last >= n ||
+                                      h.last < h.first + kMinSleepingRange - 1 || (h.first == 0 && h.last + 1 >= n)))
+      reader.fail(fmt::format("holds nodes {} to {} of segment '{}' asleep, which has {}", h.first, h.last,
+                              model.segments[r].info.name, n));
+  }
   for (const InstrumentState& in : st.instruments) {
     if (!in.grasping) continue;
     if (in.grasp_segment >= model.segments.size() || in.grasp_attachment >= model.attachment_total ||

@@ -414,10 +414,11 @@ SceneDesc read_scene(const Reader& r, const toml::table& root, const std::filesy
     w.frame_budget = r.number(*t, "frame_budget", "world.frame_budget", w.frame_budget);
   }
   if (const toml::table* t = r.table(root, "sleep", "sleep")) {
-    r.check_keys(*t, "sleep", {"enabled", "speed", "time"});
+    r.check_keys(*t, "sleep", {"enabled", "speed", "time", "ranges"});
     w.sleep.enabled = r.boolean(*t, "enabled", "sleep.enabled", w.sleep.enabled);
     w.sleep.speed = r.number(*t, "speed", "sleep.speed", w.sleep.speed);
     w.sleep.time = r.number(*t, "time", "sleep.time", w.sleep.time);
+    w.sleep.ranges = r.boolean(*t, "ranges", "sleep.ranges", w.sleep.ranges);
   }
   if (const toml::table* t = r.table(root, "solver", "solver")) {
     r.refuse_removed(*t, "solver",

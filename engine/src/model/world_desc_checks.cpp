@@ -158,6 +158,10 @@ void check_world_desc(const WorldDesc& desc) {
   check_solver(desc.solver);
   check_positive("sleep.speed", desc.sleep.speed, "m/s", 10.0);
   check_range("sleep.time", desc.sleep.time, 0.0, 3600.0, "seconds at rest before a rod sleeps");
+  if (desc.sleep.ranges && desc.solver.mode == SolverMode::lagged)
+    fail("sleep.ranges",
+         "needs solver.mode = \"newton\" or \"fast\": the lagged scheme solves a rod whole "
+         "(decision 0127)");
   check_range("filter.zeta_scale", desc.filter.zeta_scale, 0.0, 1e12, "a scale factor");
   std::set<std::string> names;
   for (std::size_t si = 0; si < desc.segments.size(); ++si)

@@ -346,7 +346,7 @@ WorldModel build_world_model_here(const WorldDesc& desc, const WorldModel* bindi
   m.dt = desc.dt;
   m.frame_budget = desc.frame_budget;
   m.mesh_update = desc.mesh_update;
-  m.sleep = {desc.sleep.enabled, desc.sleep.speed, desc.sleep.time};
+  m.sleep = {desc.sleep.enabled, desc.sleep.speed, desc.sleep.time, desc.sleep.ranges};
   const SolverDesc& sd = desc.solver;
   m.solver = {.mode = sd.mode,
               .iterations = sd.iterations,

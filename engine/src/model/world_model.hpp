@@ -264,9 +264,16 @@ struct NormalChunk {
 // Rods at rest sleep (decision 0119): what the frame reads of the scene's [sleep].
 struct SleepModel {
   bool enabled = false;
-  double speed = 0.0;  // m/s
-  double time = 0.0;   // s
+  double speed = 0.0;   // m/s
+  double time = 0.0;    // s
+  bool ranges = false;  // ranges within a rod too (decision 0127)
 };
+
+// A sleeping range (decision 0127) keeps this many calm nodes awake between itself and the first
+// node that moves, and sleeps only when it is at least kMinSleepingRange nodes long (a shorter one
+// saves less than its boundary costs).
+inline constexpr std::size_t kRangeBand = 8;
+inline constexpr std::size_t kMinSleepingRange = 16;
 
 struct WorldModel {
   Eigen::Vector3d gravity;

@@ -126,6 +126,15 @@ void init_world_state(const WorldModel& model, WorldState& state) {
       ws.pattern_now.reserve(pattern);
     }
     state.newton[s].bead_start.assign(seg.bead_count, Eigen::Vector3d::Zero());
+    if (model.sleep.ranges && seg.split_node == 0 && seg.node_count > kMinSleepingRange) {
+      // Decision 0127 (split rods keep their ranges awake): the tip side's interface and zero start;
+      // the base side's part, as a split rod's base part that may end at any node.
+      NewtonWorkspace& ws = state.newton[s];
+      ws.held_interface.assign(10 * static_cast<std::size_t>(kernels::condensed_width(cols)), 0.0);
+      ws.held_start.assign(10 * static_cast<std::size_t>(cols), 0.0);
+      ws.split.allocate(seg.node_count, seg.node_count - 1, cols);
+      ws.split.joint = 0;  // not a split rod: its base part ends where a range begins
+    }
   }
 
   std::copy(model.rest_strain.begin(), model.rest_strain.end(), state.now.strain.begin());

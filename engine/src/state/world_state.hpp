@@ -245,6 +245,10 @@ struct NewtonWorkspace {
   std::uint64_t chord_frame = 0;
   double chord_dt = 0.0;
   std::vector<std::uint32_t> chord_pattern, pattern_now;
+  std::size_t chord_from = 0, chord_first = 0;  // the sleeping range it was made around (decision 0127)
+  // A sleeping range (decision 0127): the sweep stops at the range's last node, held (y = 0 there):
+  // its interface rows (unused), and the zero start of every column's back-substitution.
+  std::vector<double> held_interface, held_start;
   NewtonSplit split;                          // joint == 0: the rod is solved whole
   bool ok = true;                             // the whole rod's sweep held its pivots
   std::vector<kernels::UnitLoad> loads;       // this iteration's unit loads, by node descending
@@ -383,8 +387,22 @@ struct CondenseTask {
   X(std::vector<std::uint8_t>, segment_solvable, segment, 1, 1, scratch, "Newton: 0 when this substep met an unsafe pivot it could not fall back from") \
   X(std::vector<double>, strain_before_update, node, 4, 0.0, kept, "lagged: the strains before the last update") \
   X(std::vector<double>, rod_calm, segment, 1, 0.0, kept, "s every node has been at rest (decision 0119)")     \
-  X(std::vector<std::uint8_t>, rod_asleep, segment, 1, 0, kept, "sleeps: held where it is, not solved")
+  X(std::vector<std::uint8_t>, rod_asleep, segment, 1, 0, kept, "sleeps: held where it is, not solved")       \
+  X(std::vector<double>, node_calm, node, 1, 0.0, kept, "s the node has been at rest (sleeping ranges, decision 0127)") \
+  X(std::vector<std::uint32_t>, range_first, segment, 1, 0u, kept, "its sleeping range's first node (decision 0127)") \
+  X(std::vector<std::uint32_t>, range_last, segment, 1, 0u, kept, "… and last node; 0: no range sleeps")     \
+  X(std::vector<kernels::Pose>, range_end, segment, 1, kernels::Pose{}, kept, "where the base side's strains put the range's first node")
 // clang-format on
+
+// A rod's sleeping range (decision 0127): nodes [first, last] held where they are; the nodes before
+// it (the base side, when first > 0) are solved with node `first` held, those after it with node
+// `last` held.
+struct HeldRange {
+  std::size_t first = 0, last = 0;
+  [[nodiscard]] bool any() const { return last > 0; }
+  [[nodiscard]] bool base_side() const { return any() && first > 0; }
+  [[nodiscard]] bool tip_side(std::size_t nodes) const { return any() && last + 1 < nodes; }
+};
 
 struct WorldState {
   PersistentState now;
@@ -408,6 +426,8 @@ struct WorldState {
 
   std::uint64_t frame = 0;
   double time = 0.0;
+
+  [[nodiscard]] HeldRange held_range(std::size_t rod) const { return {range_first[rod], range_last[rod]}; }
 };
 
 void init_world_state(const WorldModel& model, WorldState& state);

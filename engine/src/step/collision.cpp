@@ -277,6 +277,13 @@ void stage_contacts(const WorldModel& model, WorldState& state, Scheduler& sched
     if (!couple || k.kind != ContactKind::bead || k.depth <= 0.0) continue;
     const std::uint32_t sa = model.beads.segment[k.bead];
     if (sa != model.beads.segment[k.other] || cs.coupled_start[sa + 1] >= kMaxCoupledContacts) continue;
+    // A bead of a sleeping range is held (decision 0127): its pair is a contact on a fixed bead.
+    const HeldRange held = state.held_range(sa);
+    const std::size_t first = model.segments[sa].node_offset + held.first, last = first + held.last - held.first;
+    auto in_range = [&](std::uint32_t bead) {
+      return model.beads.node[bead] >= first && model.beads.node[bead] <= last;
+    };
+    if (held.any() && (in_range(k.bead) || in_range(k.other))) continue;
     k.coupled = true;
     k.stiffness *= 0.5;  // the pair's own stiffness: both beads are in the solve
     ++cs.coupled_start[sa + 1];

@@ -55,6 +55,34 @@ PartRange range_of(const WorldModel& model, const SolvePart& part) {
   return {};
 }
 
+// The rod's poses from its strains. A sleeping range is not swept again (decision 0127): its tip
+// side sweeps from the pose its last node stands at, its base side from the base up to the range's
+// first node, whose pose stays; where the base side's strains put that node is kept for the hold.
+void sweep_awake(const WorldModel& model, WorldState& state, std::size_t rod) {
+  const SegmentViews v = segment_views(model, state, rod);
+  const HeldRange held = state.held_range(rod);
+  const std::size_t n = v.poses.node_count();
+  if (!held.any()) {
+    kernels::rod_forward_sweep(state.now.base[rod], v.section_length, v.strain, v.poses);
+    return;
+  }
+  if (held.tip_side(n)) {
+    const kernels::Pose start{v.poses.node_rotation.get(held.last), v.poses.node_position.get(held.last)};
+    const std::size_t count = n - held.last;
+    kernels::rod_forward_sweep(start, v.section_length.subspan(held.last, count - 1),
+                               v.strain.subview(held.last, count), v.poses.subview(held.last, count));
+  }
+  if (held.base_side()) {
+    const std::size_t m = held.first;
+    const kernels::Pose stands{v.poses.node_rotation.get(m), v.poses.node_position.get(m)};
+    kernels::rod_forward_sweep(state.now.base[rod], v.section_length.first(m), v.strain.subview(0, m + 1),
+                               v.poses.subview(0, m + 1));
+    state.range_end[rod] = {v.poses.node_rotation.get(m), v.poses.node_position.get(m)};
+    v.poses.node_rotation.set(m, stands.rotation);
+    v.poses.node_position.set(m, stands.position);
+  }
+}
+
 // The part's share of the frame's incremental potential at the current strains and poses: the
 // law's energy (elastic and viscous: ½ Δqᵀ A Δq about its target) over its sections, and at its
 // nodes weight and host forces, the medium's drag (c/2Δt |r − r_start|², s/2Δt |turn|²), the
@@ -238,7 +266,8 @@ void set_trial(const WorldModel& model, WorldState& state, std::size_t rod, doub
   NewtonWorkspace& ws = state.newton[rod];
   double* q = state.now.strain.data() + 4 * seg.node_offset;
   for (std::size_t i = 0; i < 4 * seg.node_count; ++i) q[i] = ws.strain_before[i] + alpha * ws.step_q[i];
-  if (seg.base_mode == BaseMode::free) {
+  // A range asleep at the base holds the base (decision 0127).
+  if (seg.base_mode == BaseMode::free && !(state.held_range(rod).any() && state.range_first[rod] == 0)) {
     kernels::Pose& base = state.now.base[rod];
     base.rotation = (kernels::rotation_exp(alpha * ws.step_phi.view().get(0)) * ws.base_before.rotation).normalized();
     base.position = ws.base_before.position + alpha * ws.step_r.view().get(0);
@@ -255,8 +284,7 @@ bool stiffen(const WorldModel& model, WorldState& state, std::size_t rod, const 
   do {
     if (ls.stiffened == kMaxStiffenings) return true;  // the last direction is searched as it is
     set_trial(model, state, rod, 0.0);
-    const SegmentViews v = segment_views(model, state, rod);
-    kernels::rod_forward_sweep(state.now.base[rod], v.section_length, v.strain, v.poses);
+    sweep_awake(model, state, rod);
     ++ls.stiffened;
     ++ws.stiffenings;
     if (!newton::resolve(model, state, rod, p, ws.law_scale * kStiffening)) return false;
@@ -293,8 +321,7 @@ void finish(const WorldModel& model, WorldState& state, std::size_t rod, const C
       ++ws.stalls;
     }
     set_trial(model, state, rod, 0.0);
-    const SegmentViews v = segment_views(model, state, rod);
-    kernels::rod_forward_sweep(state.now.base[rod], v.section_length, v.strain, v.poses);
+    sweep_awake(model, state, rod);
   }
   state.segment_step_cut[rod] = alpha < 1.0 ? 1 : 0;
   // Fast mode: a chord step that had to be cut says the factorization no longer fits.
@@ -378,9 +405,7 @@ void stage_newton_search_sweep(const WorldModel& model, WorldState& state, const
   NewtonSplit& sp = state.newton[rod].split;
   const std::size_t m = sp.joint;
   switch (part.kind) {
-    case SolvePartKind::whole:
-      kernels::rod_forward_sweep(state.now.base[rod], v.section_length, v.strain, v.poses);
-      break;
+    case SolvePartKind::whole: sweep_awake(model, state, rod); break;
     case SolvePartKind::base:
       kernels::rod_forward_sweep(state.now.base[rod], v.section_length.first(m), v.strain.subview(0, m + 1),
                                  v.poses.subview(0, m + 1));

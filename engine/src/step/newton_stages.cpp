@@ -16,6 +16,7 @@
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
 #include "step/segment_law.hpp"
+#include "step/sleep.hpp"
 
 namespace haustra::detail {
 namespace newton {
@@ -29,6 +30,13 @@ Coupled coupled_unknowns(const WorldModel& model, const WorldState& state, std::
   const SegmentModel& seg = model.segments[segment];
   Coupled c;
   c.m = seg.constraint_rows > 0 ? active_constraint_rows(seg, state, c.rows) : 0;
+  if (const HeldRange held = state.held_range(segment); held.any()) {
+    // A sleeping range's attachments hold nodes that do not move (decision 0127): no rows of theirs.
+    std::size_t kept = 0;
+    for (std::size_t j = 0; j < c.m; ++j)
+      if (c.rows[j].node < held.first || c.rows[j].node > held.last) c.rows[kept++] = c.rows[j];
+    c.m = kept;
+  }
   const CollisionState& cs = state.collision;
   const std::size_t p0 = cs.coupled_start.empty() ? 0 : cs.coupled_start[segment];
   c.pc = cs.coupled_start.empty() ? 0 : cs.coupled_start[segment + 1] - p0;
@@ -318,6 +326,134 @@ kernels::RodLinearization linearization_at(const WorldModel& model, WorldState& 
   return lin;
 }
 
+// ---- A rod around its sleeping range (decision 0127) ----
+// Nodes [first, last] are held. The tip side (after `last`) sweeps from the tip to `last` and starts
+// its back-substitutions there from y = 0; the base side (before `first`) is a split rod's base
+// part ending at `first`: its 10 interface columns λ are fixed by y_first = the gap between where
+// its strains put node `first` and where the range holds it (0 for the unit loads' columns).
+
+void condense_around_range(WorldState& state, std::size_t rod, const kernels::RodLinearization& lin, int cols,
+                           double dt) {
+  NewtonWorkspace& ws = state.newton[rod];
+  NewtonSplit& sp = ws.split;
+  const HeldRange held = state.held_range(rod);
+  const std::size_t last = lin.poses.node_count() - 1;
+  const kernels::StrainView<const double> residual{ws.residual};
+  const bool chord = ws.chord && ws.law_scale == 1.0;
+  // Fast mode's record serves both sides: the tip side's steps lie after the range, the base
+  // side's before it (and its base system in the record's last slot, which the tip side leaves).
+  kernels::CondensedSystem base = base_system(ws);
+  base.record = ws.record;
+  ws.ok = sp.base_ok = true;
+  if (held.tip_side(last + 1)) {
+    if (chord)
+      kernels::rod_condensed_resweep(lin, residual, whole_system(ws, cols), held.last);
+    else
+      ws.ok = kernels::rod_condense_range(lin, residual, std::span(ws.loads).first(sp.tip_loads),
+                                          whole_system(ws, cols), {held.last, last, false, ws.held_interface})
+                  .ok;
+  }
+  if (held.base_side()) {
+    const std::span<const std::uint32_t> nodes = std::span(ws.response_nodes).first(sp.base_nodes);
+    if (chord) {  // the residual's column anew; the unit and joint columns stand
+      kernels::rod_condensed_resweep(lin, residual, base, 0, held.first);
+      kernels::rod_condensed_responses_range(lin, base, 0, held.first, sp.base_solution, nodes, sp.raw, sp.at_joint, 0,
+                                             1);
+    } else {
+      const std::span<const kernels::UnitLoad> loads = std::span(sp.base_loads).first(sp.base_load_count);
+      sp.base_ok = kernels::rod_condense_range(lin, residual, loads, base, {0, held.first, true, {}}).ok;
+      if (sp.base_ok)
+        kernels::rod_condensed_responses_range(lin, base, 0, held.first, sp.base_solution, nodes, sp.raw, sp.at_joint);
+    }
+  }
+  if (chord) {
+    ++ws.chords;
+    return;
+  }
+  ws.chord_ready = !ws.record.empty() && ws.ok && sp.base_ok && ws.law_scale == 1.0;
+  if (ws.chord_ready) {
+    ws.chord_frame = state.frame;
+    ws.chord_dt = dt;
+    ws.chord_pattern = ws.pattern_now;
+    ws.chord_from = held.last;
+    ws.chord_first = held.first;
+  }
+}
+
+// The base side's 10 interface unknowns per column: y_first = target (column 0: the gap to the held
+// node; the unit loads' columns: 0). False when the base side cannot hold its end (singular).
+bool hold_base_side(const WorldModel& model, WorldState& state, std::size_t rod, int cols) {
+  NewtonSplit& sp = state.newton[rod].split;
+  using Matrix10 = Eigen::Matrix<double, 10, 10>;
+  using Vector10 = Eigen::Matrix<double, 10, 1>;
+  Matrix10 a;
+  for (Eigen::Index j = 0; j < 10; ++j)
+    for (Eigen::Index i = 0; i < 10; ++i) a(i, j) = sp.at_joint[static_cast<std::size_t>(10 * (1 + j) + i)];
+  const Eigen::FullPivLU<Matrix10> lu(a);
+  if (lu.rank() < 10) return false;
+  const std::size_t g = model.segments[rod].node_offset + state.range_first[rod];
+  const kernels::Pose& end = state.range_end[rod];
+  const Eigen::AngleAxisd turn(state.now.rotation.view().get(g) * end.rotation.conjugate());
+  Vector10 gap = Vector10::Zero();
+  gap.head<3>() = turn.angle() * turn.axis();
+  gap.segment<3>(3) = state.now.position.view().get(g) - end.position;
+  for (std::size_t col = 0; col < static_cast<std::size_t>(cols); ++col) {
+    Vector10 rhs = col == 0 ? gap : Vector10::Zero();
+    if (const int b = sp.base_column[col]; b >= 0)
+      for (Eigen::Index i = 0; i < 10; ++i)
+        rhs[i] -= sp.at_joint[10 * static_cast<std::size_t>(b) + static_cast<std::size_t>(i)];
+    const Vector10 lambda = lu.solve(rhs);
+    for (std::size_t i = 0; i < 10; ++i) {
+      sp.lambda[10 * col + i] = lambda[static_cast<Eigen::Index>(i)];
+      sp.y_joint[10 * col + i] = 0.0;
+    }
+  }
+  return true;
+}
+
+// The coupled unknowns' responses: the tip side's back-substituted from y = 0 at `last` (half 0),
+// the base side's folded with λ (half 1).
+void responses_around_range(WorldState& state, std::size_t rod, const kernels::RodLinearization& lin, int cols,
+                            int half) {
+  NewtonWorkspace& ws = state.newton[rod];
+  NewtonSplit& sp = ws.split;
+  const auto c = static_cast<std::size_t>(cols);
+  if (half == 0 && ws.response_nodes.size() > sp.base_nodes)
+    kernels::rod_condensed_responses_range(lin, whole_system(ws, cols), state.range_last[rod], ws.response_nodes.back(),
+                                           ws.held_start, std::span(ws.response_nodes).subspan(sp.base_nodes),
+                                           std::span(ws.responses).subspan(sp.base_nodes * 6 * c), {});
+  if (half == 1 && sp.base_nodes > 0)
+    kernels::rod_condensed_base_responses(sp.raw, sp.base_columns, std::span(sp.base_column).first(c),
+                                          std::span(sp.lambda).first(10 * c), sp.base_nodes, ws.responses);
+}
+
+// The step: none over the range; the tip side's from y = 0 at `last`, the base side's from its
+// base with λ folded into its start and weights.
+void step_around_range(const WorldModel& model, WorldState& state, std::size_t rod,
+                       const kernels::RodLinearization& lin, int cols) {
+  NewtonWorkspace& ws = state.newton[rod];
+  NewtonSplit& sp = ws.split;
+  const HeldRange held = state.held_range(rod);
+  const std::size_t last = model.segments[rod].node_count - 1;
+  const kernels::StrainView<double> dq{ws.step_q};
+  for (std::size_t k = held.base_side() ? held.first : 0; k <= held.last; ++k) {
+    dq.set(k, Eigen::Vector4d::Zero());
+    ws.step_phi.view().set(k, Eigen::Vector3d::Zero());
+    ws.step_r.view().set(k, Eigen::Vector3d::Zero());
+  }
+  if (held.tip_side(last + 1))
+    kernels::rod_condensed_step_range(lin, whole_system(ws, cols), held.last, last, ws.held_start.data(), ws.weights,
+                                      dq, ws.step_phi.view(), ws.step_r.view());
+  if (held.base_side()) {
+    const auto c = static_cast<std::size_t>(cols);
+    kernels::rod_condensed_split_step(std::span(ws.weights).first(c), sp.lambda, sp.y_joint,
+                                      std::span(sp.base_column).first(c), sp.base_solution, sp.base_columns,
+                                      sp.base_start.data(), sp.base_weights, sp.tip_start.data());
+    kernels::rod_condensed_step_range(lin, base_system(ws), 0, held.first - 1, sp.base_start.data(), sp.base_weights,
+                                      dq, ws.step_phi.view(), ws.step_r.view());
+  }
+}
+
 // Step 3, one part: condensed (the whole rod; the tip part to its interface at the joint; the
 // base part from the joint, then back-substituted to it for the join).
 void condense_part(const WorldModel& model, WorldState& state, const SolvePart& part, const SubstepParameters& p) {
@@ -330,7 +466,9 @@ void condense_part(const WorldModel& model, WorldState& state, const SolvePart& 
   const std::size_t last = model.segments[rod].node_count - 1;
   switch (part.kind) {
     case SolvePartKind::whole:
-      if (ws.chord && ws.law_scale == 1.0) {
+      if (state.held_range(rod).any()) {
+        condense_around_range(state, rod, lin, cols, p.dt);
+      } else if (ws.chord && ws.law_scale == 1.0) {
         kernels::rod_condensed_resweep(lin, residual, whole_system(ws, cols));
         ws.ok = true;
         ++ws.chords;
@@ -343,6 +481,7 @@ void condense_part(const WorldModel& model, WorldState& state, const SolvePart& 
           ws.chord_frame = state.frame;
           ws.chord_dt = p.dt;
           ws.chord_pattern = ws.pattern_now;
+          ws.chord_from = ws.chord_first = 0;
         }
       }
       break;
@@ -376,6 +515,20 @@ bool join(const WorldModel& model, WorldState& state, std::size_t rod, const Sub
   const SegmentModel& seg = model.segments[rod];
   NewtonWorkspace& ws = state.newton[rod];
   NewtonSplit& sp = ws.split;
+  if (state.held_range(rod).any()) {
+    const bool held = ws.ok && sp.base_ok &&
+                      (!state.held_range(rod).base_side() ||
+                       hold_base_side(model, state, rod, coupled_unknowns(model, state, rod).columns()));
+    if (held) {
+      ws.band = false;
+      return true;
+    }
+    // A side of a sleeping range met an unsafe pivot: the range wakes and the whole rod is solved
+    // afresh (the banded fallback solves whole rods; decision 0127).
+    wake_rod(model, state, rod);
+    stage_newton_linearize(model, state, rod, p);
+    condense_part(model, state, parts_of(model, rod).front(), p);
+  }
   const Coupled c = coupled_unknowns(model, state, rod);
   bool ok = sp.joint > 0 ? sp.tip_ok && sp.base_ok : ws.ok;
   if (ok && sp.joint > 0) {
@@ -410,6 +563,10 @@ void responses_half(const WorldModel& model, WorldState& state, std::size_t rod,
     if (ws.chord && ws.law_scale == 1.0) {  // the unit loads' responses stand: the residual's alone
       first = 0;
       end = half == 0 ? 1 : 0;
+    }
+    if (state.held_range(rod).any()) {
+      responses_around_range(state, rod, lin, cols, half);
+      return;
     }
     kernels::CondensedSystem sys = whole_system(ws, cols);
     sys.scratch = half == 0 ? std::span<double>(ws.scratch) : std::span<double>(ws.scratch_second);
@@ -465,7 +622,11 @@ void step_part(const WorldModel& model, WorldState& state, const SolvePart& part
   const kernels::StrainView<double> dq{ws.step_q};
   switch (part.kind) {
     case SolvePartKind::whole:
-      kernels::rod_condensed_step(lin, whole_system(ws, cols), ws.weights, dq, ws.step_phi.view(), ws.step_r.view());
+      if (state.held_range(rod).any()) {
+        step_around_range(model, state, rod, lin, cols);
+      } else {
+        kernels::rod_condensed_step(lin, whole_system(ws, cols), ws.weights, dq, ws.step_phi.view(), ws.step_r.view());
+      }
       break;
     case SolvePartKind::tip:
       kernels::rod_condensed_step_range(lin, tip_system(ws, cols), sp.joint, model.segments[rod].node_count - 1,
@@ -533,20 +694,26 @@ void stage_newton_linearize(const WorldModel& model, WorldState& state, std::siz
     for (std::size_t i = 0; same && i < ws.pattern_now.size(); ++i)
       same = i < seg.attachments.size() ? ws.pattern_now[i] == ws.chord_pattern[i]
                                         : ws.pattern_now[i] <= ws.chord_pattern[i];
-    ws.chord =
-        p.chord && ws.chord_ready && state.frame - ws.chord_frame < kRefactorFrames && ws.chord_dt == p.dt && same;
+    ws.chord = p.chord && ws.chord_ready && state.frame - ws.chord_frame < kRefactorFrames && ws.chord_dt == p.dt &&
+               same && ws.chord_from == state.held_range(rod).last && ws.chord_first == state.held_range(rod).first;
   }
   NewtonSplit& sp = ws.split;
-  if (sp.joint == 0) return;
+  const HeldRange held = state.held_range(rod);
+  if (sp.joint == 0 && !held.base_side()) {
+    sp.tip_loads = ws.loads.size();  // a range's tip side takes every load (none sits on the range)
+    sp.base_nodes = 0;
+    return;
+  }
+  const std::size_t joint = sp.joint > 0 ? sp.joint : held.first;
   const auto cols = static_cast<std::size_t>(c.columns());
   const auto [tip_loads, base_columns] =
-      kernels::rod_condensed_split_loads(ws.loads, c.columns(), sp.joint, sp.base_loads,
+      kernels::rod_condensed_split_loads(ws.loads, c.columns(), joint, sp.base_loads,
                                          std::span(sp.tip_column).first(cols), std::span(sp.base_column).first(cols));
   sp.tip_loads = tip_loads;
   sp.base_load_count = ws.loads.size() - tip_loads;
   sp.base_columns = base_columns;
   sp.base_nodes = static_cast<std::size_t>(
-      std::upper_bound(ws.response_nodes.begin(), ws.response_nodes.end(), static_cast<std::uint32_t>(sp.joint)) -
+      std::upper_bound(ws.response_nodes.begin(), ws.response_nodes.end(), static_cast<std::uint32_t>(joint)) -
       ws.response_nodes.begin());
 }
 
@@ -569,7 +736,8 @@ void plan_newton_condense(const WorldModel& model, WorldState& state, std::span<
     const NewtonWorkspace& ws = state.newton[part.rod];
     // The lanes take whole rods with the residual column alone, neither reusing a factorization
     // nor recording one (fast mode's).
-    const bool lanes = part.kind == SolvePartKind::whole && ws.loads.empty() && ws.record.empty();
+    const bool lanes =
+        part.kind == SolvePartKind::whole && ws.loads.empty() && ws.record.empty() && !state.held_range(part.rod).any();
     if (!lanes) {
       tasks.push_back({{static_cast<std::uint32_t>(i), 0, 0, 0}, 1});
       continue;

@@ -247,6 +247,9 @@ void stage_filter(const WorldModel& model, WorldState& state, std::size_t segmen
   const std::span<std::uint8_t> exempt = std::span(state.filter_exempt).subspan(seg.node_offset, seg.node_count);
   std::fill(exempt.begin(), exempt.end(), std::uint8_t{0});
   if (seg.base_mode == BaseMode::clamped) exempt[0] = 1;
+  if (const HeldRange held = state.held_range(segment); held.any())  // a sleeping range (decision 0127)
+    std::fill(exempt.begin() + static_cast<std::ptrdiff_t>(held.first),
+              exempt.begin() + static_cast<std::ptrdiff_t>(held.last + 1), std::uint8_t{1});
   for (std::size_t a = 0; a < seg.attachments.size(); ++a)
     if (state.now.attachment[seg.attachment_offset + a].active)
       exempt[state.now.attachment[seg.attachment_offset + a].node] = 1;

@@ -119,8 +119,11 @@ void rod_condense_lanes(const std::array<const RodLinearization*, kCondensedLane
 // A chord iteration: the residual column (column 0) solved anew with the Jacobian a recorded
 // rod_condense factored (the whole rod; sys.record filled then). Rewrites column 0 of the gains and
 // of the base solutions; the other columns (unit loads) stand. The free base's unbalanced wrench
-// is the current loads'.
-void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double> residual, CondensedSystem sys);
+// is the current loads'. first > 0: a range swept to node `first` (rod_condense_range without a
+// joint), whose y there is given: its gains alone, no base system. joint > 0: a base part swept
+// from a joint at node `joint` (rod_condense_range from 0 with a joint), its base system included.
+void rod_condensed_resweep(const RodLinearization& rod, StrainView<const double> residual, CondensedSystem sys,
+                           std::size_t first = 0, std::size_t joint = 0);
 
 // Base → tip: the step Σ_c weight_c · (column c's solution) at every node: δq (4 per node), δφ and
 // δr (world frame). weights: one per column (weight 1 on column 0 alone: the plain Newton step).
