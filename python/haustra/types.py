@@ -26,7 +26,7 @@ class Profile(TypedDict):
     chords: int  # fast mode: Newton iterations that reused the last factorization
     stalls: int  # line searches that took no part of a step that was not small
     late: int  # 1 when the frame took longer than world.frame_budget
-    nodes_asleep: int  # nodes of the rods that slept through the frame (scene [sleep], decision 0119)
+    nodes_asleep: int  # nodes of rods and ranges that slept through the frame (decisions 0119, 0127)
     newton: bool  # the frame that was kept ran Newton iterations
 
 

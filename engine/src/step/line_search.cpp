@@ -150,8 +150,10 @@ double part_potential(const WorldModel& model, const WorldState& state, std::siz
     loads +=
         grasp_coupling(model.instruments[i], state.instruments[i], pos.get(node), r0.get(node), p.dt, model.dt).energy;
   });
+  const HeldRange held = state.held_range(rod);  // a sleeping range's tissue stores what it did (0127)
   for_each_intact_anchor(model, state, rod, [&](std::size_t anchor, std::size_t node) {
     if (node < off + r.first || node >= off + r.end) return;
+    if (held.any() && node - off >= held.first && node - off <= held.last) return;
     loads += anchor_response(model, state, anchor, p.dt).energy;
     if (model.anchors.turn_stiffness[anchor] > 0.0) loads += anchor_turn(model, state, anchor, p.dt).energy;
   });

@@ -88,7 +88,9 @@ void linearize(const WorldModel& model, WorldState& state, std::size_t segment, 
           grasp_coupling(model.instruments[i], state.instruments[i], pos.get(node), start.get(node), p.dt, model.dt)
               .stiffness;
     });
+    const HeldRange held = state.held_range(segment);  // a sleeping range's tissue enters no solve (0127)
     for_each_intact_anchor(model, state, segment, [&](std::size_t a, std::size_t node) {
+      if (held.any() && node - seg.node_offset >= held.first && node - seg.node_offset <= held.last) return;
       ws.force_stiffness[node - seg.node_offset] += anchor_response(model, state, a, p.dt).stiffness;
       ws.drag_moment_rate[node - seg.node_offset] += anchor_turn(model, state, a, p.dt).stiffness;
     });

@@ -79,9 +79,13 @@ void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment
     const std::size_t k = node - seg.node_offset;
     v.force.set(k, v.force.get(k) + c.force);
   });
-  // Connective tissue pulls its nodes towards where the anatomy holds them (likewise).
+  // Connective tissue pulls its nodes towards where the anatomy holds them (likewise). A sleeping
+  // range's nodes are held: their tissue and drag enter no solve (decision 0127).
+  const HeldRange held = state.held_range(segment);
+  auto asleep = [&](std::size_t k) { return held.any() && k >= held.first && k <= held.last; };
   for_each_intact_anchor(model, state, segment, [&](std::size_t a, std::size_t node) {
     const std::size_t k = node - seg.node_offset;
+    if (asleep(k)) return;
     v.force.set(k, v.force.get(k) + anchor_response(model, state, a, p.dt).force);
     if (model.anchors.turn_stiffness[a] > 0.0)
       v.moment.set(k, v.moment.get(k) + anchor_turn(model, state, a, p.dt).moment);
@@ -95,6 +99,8 @@ void stage_loads(const WorldModel& model, WorldState& state, std::size_t segment
   const std::span<const double> c = drag_of(model, seg);
   const std::span<const double> sd = spin_drag_of(model, seg);
   for (std::size_t k = 0; k < seg.node_count; ++k) {
+    if (asleep(k)) k = held.last + 1;
+    if (k == seg.node_count) break;
     v.force.set(k, v.force.get(k) - (c[k] / p.dt) * (v.poses.node_position.get(k) - r0.get(k)));
     const Eigen::Vector3d turn = kernels::rotation_log(v.poses.node_rotation.get(k) * q0.get(k).conjugate());
     v.moment.set(k, v.moment.get(k) - (sd[k] / p.dt) * turn);
