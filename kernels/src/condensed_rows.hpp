@@ -257,6 +257,17 @@ inline void axpy(T a, const T* x, T* y, int n) {
   for (int c = 0; c < n; ++c) yv[c] = fmadd(av, xv[c], yv[c]);
 }
 
+// Pack c of a row with its lane `lane` (of the row) set to v where the pack holds it.
+template <class T, class P>
+inline P with_lane(P p, int c, int lane, double v) {
+  if constexpr (kOne<T>) {
+    if (lane / 4 == c) p[lane % 4] = v;
+    return p;
+  } else {
+    return c == lane ? broadcast<P>(v) : p;
+  }
+}
+
 // What an elimination did, to replay on more columns (one rod): step j scales row order[j] (its
 // rows numbered as they were before any swap) by inv[j], then subtracts factor[j][r] times it from
 // row r (0 for the pivot row).
@@ -282,7 +293,7 @@ inline auto row_number(int r) {
 }
 
 template <class T, int Count = 0, int W = 0, bool Factors = true>
-inline T gauss_jordan(T* rows, int count_, int first, int stride, int w_, Elimination& e) {
+[[gnu::always_inline]] inline T gauss_jordan(T* rows, int count_, int first, int stride, int w_, Elimination& e) {
   const int count = Count > 0 ? Count : count_;
   const int np = (W > 0 ? W : w_) / kPer<T>;
   T inv_scale[10];  // 1 / each row's largest entry in the eliminated lanes (0: an empty row)
@@ -313,15 +324,17 @@ inline T gauss_jordan(T* rows, int count_, int first, int stride, int w_, Elimin
     const T inv = 1.0 / pr[first + j];
     if constexpr (kOne<T>) e.inv[j] = inv;
     const auto iv = coefficient(inv);
-    for (int c = 0; c < np; ++c) chunks(pr)[c] *= iv;
-    pr[first + j] = broadcast<T>(1.0);
+    // The pivot's lane set to 1 and the other rows' to 0 in the packs as they are stored (a scalar
+    // store into a pack that the next step loads whole would stall the load).
+    for (int c = 0; c < np; ++c) chunks(pr)[c] = with_lane<T>(chunks(pr)[c] * iv, c, first + j, 1.0);
     for (int r = 0; r < count; ++r) {
       T* rr = rows + r * stride;
       const T f = r == j ? T{} : rr[first + j];
       if constexpr (kOne<T> && Factors) e.factor[j][e.order[r]] = f;
       if (r == j || !nonzero(f)) continue;
-      axpy(-f, pr, rr, np);
-      rr[first + j] = T{};
+      const auto fv = coefficient(-f);
+      for (int c = 0; c < np; ++c)
+        chunks(rr)[c] = with_lane<T>(fmadd(fv, chunks(pr)[c], chunks(rr)[c]), c, first + j, 0.0);
     }
   }
   return smallest;
@@ -543,6 +556,34 @@ inline void interface_over_z(const L* pi, const L* xr, L* wr, L* cr, int S) {
   }
 }
 
+// A pack of the values lane(l) of its lanes l: pack j of a row (one rod: lanes 4j..4j+3; four
+// rods: lane j, one value per rod).
+template <class T, class F>
+inline auto lane_pack(int j, F&& lane) {
+  if constexpr (kOne<T>)
+    return v4{lane(4 * j), lane(4 * j + 1), lane(4 * j + 2), lane(4 * j + 3)};
+  else
+    return lane(j);
+}
+
+// Pack j of a row with δq_{k+1}'s lanes set to +0 (one blend, not scalar stores a pack would reload).
+template <class T, class P>
+inline P without_next_strain(P v, int j) {
+  static_assert(QN == 10, "one rod: δq_{k+1} is the upper half of chunk 2 and the lower of chunk 3");
+  if constexpr (kOne<T>) {
+#if defined(__AVX__)
+    if (j == 2) return std::bit_cast<P>(_mm256_blend_pd(std::bit_cast<__m256d>(v), _mm256_setzero_pd(), 12));
+    if (j == 3) return std::bit_cast<P>(_mm256_blend_pd(std::bit_cast<__m256d>(v), _mm256_setzero_pd(), 3));
+#else
+    if (j == 2) return P{v[0], v[1], 0.0, 0.0};
+    if (j == 3) return P{0.0, 0.0, v[2], v[3]};
+#endif
+    return v;
+  } else {
+    return j >= QN && j < QN + 4 ? P{} : v;
+  }
+}
+
 // ---- The sweep ----
 
 // One function of ~300 lines on purpose: it is one recurrence from the tip to the base whose state
@@ -552,7 +593,7 @@ inline void interface_over_z(const L* pi, const L* xr, L* wr, L* cr, int S) {
 // split rod, a record for chord iterations: W = 0 for more than the residual column). T = L: four
 // rods of one node count, the residual column alone (W = 16), the same operations lane by lane —
 // so a rod gives the same bits alone or in a lane (decision 0041). Each rod's gains go to its
-// system, its report to `reports`; scratch: 30 rows of S values of T.
+// system, its report to `reports`; scratch: 26 rows of S values of T (room for 30).
 template <class T, int W>
 void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
            const std::array<CondensedSystem, Rods<T>::kLanes>& sys, const CondensedRange& range, T* scratch,
@@ -574,8 +615,7 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
   T* pi = scratch;                                           // 10 rows: the interface (w 0–5: δM, δF; c 6–9)
   T* wr = pi + 10 * S;                                       // 6 rows: δM_k, δF_k over z
   T* cr = wr + 6 * S;                                        // 4 rows: node k+1's strain equations over z
-  T* sr = cr + 4 * S;                                        // 4 rows: section k's generalized force over z
-  T* xr = sr + 4 * S;                                        // 6 rows: δφ_{k+1}, δr_{k+1} over z (16 lanes)
+  T* xr = cr + 4 * S;                                        // 6 rows: δφ_{k+1}, δr_{k+1} over z (16 lanes)
   T smallest = broadcast<T>(1.0), at{}, failed{};            // per rod: the smallest pivot, its node, a failure
   T lane_gain[kOne<T> ? 1 : 4 * kZ];                         // four rods' gains of a step, before each goes to its rod
 
@@ -636,27 +676,50 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
 
     // δφ_{k+1}, δr_{k+1} over z (the lanes written below; the others stay the zeros set before the loop).
     const T half = 0.5 * h;
-    for (int i = 0; i < 3; ++i) {
-      T* xp = xr + i * S;
-      T* xq = xr + (3 + i) * S;
-      xp[PHI + i] = broadcast<T>(1.0);
-      xq[POS + i] = broadcast<T>(1.0);
-      for (int j = 0; j < 3; ++j) {
-        const T theta = half * g.d[j][i];
+    if constexpr (kOne<T>) {
+      // One rod: each row's four packs built in registers and stored whole (the loads of them below
+      // would stall on scalar stores); lanes not named are 0, as set before the loop.
+      const V3<T> cz = g.chord;
+      const T chord_rows[3][3] = {{0.0, cz.z, -cz.y}, {-cz.z, 0.0, cz.x}, {cz.y, -cz.x, 0.0}};
+      for (int i = 0; i < 3; ++i) {
+        v4* xp = chunks(xr + i * S);
+        v4* xq = chunks(xr + (3 + i) * S);
+        const T th0 = half * g.d[0][i], th1 = half * g.d[1][i], th2 = half * g.d[2][i];
         // θ × lever: column j of −skew(lever) Θ = ½h d_j × lever.
-        const T arm = half * cross(g.d[j], g.lever)[i];
-        xp[QK + j] = xp[QN + j] = theta;
-        xq[QK + j] = xq[QN + j] = arm;
+        const T arm0 = half * cross(g.d[0], g.lever)[i], arm1 = half * cross(g.d[1], g.lever)[i];
+        const T arm2 = half * cross(g.d[2], g.lever)[i], e = half * g.d[2][i];
+        static_assert(PHI == 0 && POS == 3 && QK == 6 && QN == 10, "the packs below follow this layout");
+        xp[0] = v4{i == 0 ? 1.0 : 0.0, i == 1 ? 1.0 : 0.0, i == 2 ? 1.0 : 0.0, 0.0};
+        xp[1] = v4{0.0, 0.0, th0, th1};
+        xp[2] = v4{th2, 0.0, th0, th1};
+        xp[3] = v4{th2, 0.0, 0.0, 0.0};
+        xq[0] = v4{chord_rows[i][0], chord_rows[i][1], chord_rows[i][2], i == 0 ? 1.0 : 0.0};
+        xq[1] = v4{i == 1 ? 1.0 : 0.0, i == 2 ? 1.0 : 0.0, arm0, arm1};
+        xq[2] = v4{arm2, e, arm0, arm1};
+        xq[3] = v4{arm2, e, 0.0, 0.0};
       }
-      xq[QK + 3] = xq[QN + 3] = half * g.d[2][i];
+    } else {
+      for (int i = 0; i < 3; ++i) {
+        T* xp = xr + i * S;
+        T* xq = xr + (3 + i) * S;
+        xp[PHI + i] = broadcast<T>(1.0);
+        xq[POS + i] = broadcast<T>(1.0);
+        for (int j = 0; j < 3; ++j) {
+          const T theta = half * g.d[j][i];
+          const T arm = half * cross(g.d[j], g.lever)[i];
+          xp[QK + j] = xp[QN + j] = theta;
+          xq[QK + j] = xq[QN + j] = arm;
+        }
+        xq[QK + 3] = xq[QN + 3] = half * g.d[2][i];
+      }
+      // δφ_k × chord.
+      xr[3 * S + PHI + 1] = g.chord.z;
+      xr[3 * S + PHI + 2] = -g.chord.y;
+      xr[4 * S + PHI + 0] = -g.chord.z;
+      xr[4 * S + PHI + 2] = g.chord.x;
+      xr[5 * S + PHI + 0] = g.chord.y;
+      xr[5 * S + PHI + 1] = -g.chord.x;
     }
-    // δφ_k × chord.
-    xr[3 * S + PHI + 1] = g.chord.z;
-    xr[3 * S + PHI + 2] = -g.chord.y;
-    xr[4 * S + PHI + 0] = -g.chord.z;
-    xr[4 * S + PHI + 2] = g.chord.x;
-    xr[5 * S + PHI + 0] = g.chord.y;
-    xr[5 * S + PHI + 1] = -g.chord.x;
 
     interface_over_z(pi, xr, wr, cr, S);
     // δF_k = δF_{k+1} − K_{k+1} δr_{k+1}.
@@ -669,105 +732,98 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
           if (nonzero(kk)) axpy(-kk, xr + (3 + j) * S, fr + i * S, nc);
         }
     }
-    // δM_k = δM_{k+1} + chord × δF_k − F_k × (δr_{k+1} − δr_k) − s δφ_{k+1}.
+    // The rest of the step's rows in one pass over the 16 lanes, each pack loaded once: δM_k, section
+    // k's generalized force s_k (kept in registers), node k+1's strain rows and node k's interface
+    // rows c_k. The terms that sit in single lanes (F_k × δr_k's unit lanes, s_k's own rotation and
+    // strain terms, the laws' tangents, ρ_k) are added as whole packs with −0 in the other lanes
+    // (x + (−0) = x for every x, −0 included): each lane's operations and their order are the
+    // previous separate passes', so the same bits, without a scalar store that a pack reloads.
+    //   δM_k = δM_{k+1} + chord × δF_k − F_k × (δr_{k+1} − δr_k) − s δφ_{k+1};
+    //   s_k = (h Rᵀ (δM_k + (r_k − p) × δF_k), h d3·δF_k) + P (its own rotation) + X (its strain);
+    //   node k+1's strain rows: ½ s_k − A_{k+1,k} δq_k + c_{k+1} = 0;
+    //   c_k = ½ s_k − A_kk δq_k − A_{k,k+1} δq_{k+1} + ρ_k (δq_{k+1} substituted below).
     {
-      const V3<T> c = g.chord;
-      auto* m0 = chunks(mr);
-      auto* m1 = chunks(mr + S);
-      auto* m2 = chunks(mr + 2 * S);
-      const auto* f0 = chunks(fr);
-      const auto* f1 = chunks(fr + S);
-      const auto* f2 = chunks(fr + 2 * S);
-      const V3<T> f = force;
-      const auto* r0 = chunks(xr + 3 * S);
-      const auto* r1 = chunks(xr + 4 * S);
-      const auto* r2 = chunks(xr + 5 * S);
-      for (int j = 0; j < nc; ++j) {  // chord × δF_k, then − F_k × δr_{k+1}, in one pass
-        const auto a0 = f0[j], a1 = f1[j], a2 = f2[j];
-        auto n0 = fmadd(coefficient(c.y), a2, fmadd(coefficient(-c.z), a1, m0[j]));
-        auto n1 = fmadd(coefficient(c.z), a0, fmadd(coefficient(-c.x), a2, m1[j]));
-        auto n2 = fmadd(coefficient(c.x), a1, fmadd(coefficient(-c.y), a0, m2[j]));
-        const auto b0 = r0[j], b1 = r1[j], b2 = r2[j];
-        m0[j] = fmadd(coefficient(-f.y), b2, fmadd(coefficient(f.z), b1, n0));
-        m1[j] = fmadd(coefficient(-f.z), b0, fmadd(coefficient(f.x), b2, n1));
-        m2[j] = fmadd(coefficient(-f.x), b1, fmadd(coefficient(f.y), b0, n2));
-      }
-      // ... and + F_k × δr_k (the unit lanes of δr_k that δr_{k+1} carries, taken back).
-      mr[POS + 1] -= f.z;
-      mr[POS + 2] += f.y;
-      mr[S + POS] += f.z;
-      mr[S + POS + 2] -= f.x;
-      mr[2 * S + POS] -= f.y;
-      mr[2 * S + POS + 1] += f.x;
-      if (has_stiffness && !rod0.stiffness.moment.empty()) {
-        const T sp = rods.get([&](const RodLinearization& r) { return r.stiffness.moment[k + 1]; });
-        if (nonzero(sp))
-          for (int i = 0; i < 3; ++i) axpy(-sp, xr + i * S, mr + i * S, nc);
-      }
-    }
-    // Section k's generalized force: h Rᵀ (δM_k + (r_k − p) × δF_k), h d3·δF_k, plus the terms of
-    // its own rotation (P) and strain (X).
-    {
+      const V3<T> c = g.chord, f = force;
       const V3<T> b = broadcast<T>(-1.0) * g.mid;  // r_k − p
-      const auto* m0 = chunks(mr);
-      const auto* m1 = chunks(mr + S);
-      const auto* m2 = chunks(mr + 2 * S);
-      const auto* f0 = chunks(fr);
-      const auto* f1 = chunks(fr + S);
-      const auto* f2 = chunks(fr + 2 * S);
       const V3<T> d0 = h * g.d[0], d1 = h * g.d[1], d2 = h * g.d[2];
-      auto* s0 = chunks(sr);
-      auto* s1 = chunks(sr + S);
-      auto* s2 = chunks(sr + 2 * S);
-      auto* s3 = chunks(sr + 3 * S);
-      const auto cf = [](T s) { return coefficient(s); };
-      for (int j = 0; j < nc; ++j) {
-        const auto a0 = f0[j], a1 = f1[j], a2 = f2[j];
-        const auto x0 = fmadd(cf(b.y), a2, fmadd(cf(-b.z), a1, m0[j]));
-        const auto x1 = fmadd(cf(b.z), a0, fmadd(cf(-b.x), a2, m1[j]));
-        const auto x2 = fmadd(cf(b.x), a1, fmadd(cf(-b.y), a0, m2[j]));
-        s0[j] = fmadd(cf(d0.z), x2, fmadd(cf(d0.y), x1, d0.x * x0));
-        s1[j] = fmadd(cf(d1.z), x2, fmadd(cf(d1.y), x1, d1.x * x0));
-        s2[j] = fmadd(cf(d2.z), x2, fmadd(cf(d2.y), x1, d2.x * x0));
-        s3[j] = fmadd(cf(d2.z), a2, fmadd(cf(d2.y), a1, d2.x * a0));
-      }
       const V3<T> m_mid = moment + cross(b, force);
       const V3<T> fm{dot(g.d[0], force), dot(g.d[1], force), dot(g.d[2], force)};
       const V3<T> mmat{dot(g.d[0], m_mid), dot(g.d[1], m_mid), dot(g.d[2], m_mid)};
-      for (int c = 0; c < 3; ++c) {
-        const V3<T> p = h * (cross(g.d[c], m_mid) - cross(cross(g.d[c], force), g.mid));
-        sr[c * S + PHI] += p.x;
-        sr[c * S + PHI + 1] += p.y;
-        sr[c * S + PHI + 2] += p.z;
-      }
-      const V3<T> p3 = h * cross(g.d[2], force);
-      sr[3 * S + PHI] += p3.x;
-      sr[3 * S + PHI + 1] += p3.y;
-      sr[3 * S + PHI + 2] += p3.z;
+      V3<T> p[4];
+      for (int i = 0; i < 3; ++i) p[i] = h * (cross(g.d[i], m_mid) - cross(cross(g.d[i], force), g.mid));
+      p[3] = h * cross(g.d[2], force);
       const T xq = 0.25 * h * h;
       const T x[4][4] = {{T{}, -xq * mmat.z, xq * mmat.y, xq * fm.y},
                          {xq * mmat.z, T{}, -xq * mmat.x, -xq * fm.x},
                          {-xq * mmat.y, xq * mmat.x, T{}, T{}},
                          {-xq * fm.y, xq * fm.x, T{}, T{}}};
-      for (int c = 0; c < 4; ++c)
-        for (int j = 0; j < 4; ++j) {
-          sr[c * S + QK + j] += x[c][j];
-          sr[c * S + QN + j] += x[c][j];
+      const T m_side = h / 6.0, m_self = (h_prev + h) / 3.0;
+      const T sp = has_stiffness && !rod0.stiffness.moment.empty()
+                       ? rods.get([&](const RodLinearization& r) { return r.stiffness.moment[k + 1]; })
+                       : T{};
+      const bool with_sp = has_stiffness && !rod0.stiffness.moment.empty() && nonzero(sp);
+      const T nz = broadcast<T>(-0.0);
+      // Lane l's single-lane term of each row (−0: none).
+      const auto moment_lane = [&](int i, int l) {  // + F_k × δr_k
+        const T v[3][3] = {{nz, -f.z, f.y}, {f.z, nz, -f.x}, {-f.y, f.x, nz}};
+        return l >= POS && l < POS + 3 ? v[i][l - POS] : nz;
+      };
+      const auto force_lane = [&](int i, int l) {  // P and X
+        if (l < PHI + 3) return p[i][l - PHI];
+        if (l >= QK && l < QK + 4) return x[i][l - QK];
+        if (l >= QN && l < QN + 4) return x[i][l - QN];
+        return nz;
+      };
+      const auto strain_lane = [&](int i, int l) {  // − A_{k+1,k}
+        return l >= QK && l < QK + 4 && Tangent<T>::coupled(i, l - QK) ? -(m_side * t_k.at(i, l - QK)) : nz;
+      };
+      const auto interface_lane = [&](int i, int l) {  // − A_kk, − A_{k,k+1}, ρ_k
+        if (l >= QK && l < QK + 4 && Tangent<T>::coupled(i, l - QK)) return -(m_self * t_k.at(i, l - QK));
+        if (l >= QN && l < QN + 4 && Tangent<T>::coupled(i, l - QN)) return -(m_side * t_next.at(i, l - QN));
+        if (l == RHS) return rods.rho(k, static_cast<std::size_t>(i));
+        return nz;
+      };
+      const auto cf = [](T s) { return coefficient(s); };
+#pragma GCC unroll 16
+      for (int j = 0; j < nc; ++j) {
+        const auto a0 = chunks(fr)[j], a1 = chunks(fr + S)[j], a2 = chunks(fr + 2 * S)[j];
+        const auto r0 = chunks(xr + 3 * S)[j], r1 = chunks(xr + 4 * S)[j], r2 = chunks(xr + 5 * S)[j];
+        auto n0 = fmadd(cf(c.y), a2, fmadd(cf(-c.z), a1, chunks(mr)[j]));
+        auto n1 = fmadd(cf(c.z), a0, fmadd(cf(-c.x), a2, chunks(mr + S)[j]));
+        auto n2 = fmadd(cf(c.x), a1, fmadd(cf(-c.y), a0, chunks(mr + 2 * S)[j]));
+        decltype(n0) m[3] = {fmadd(cf(-f.y), r2, fmadd(cf(f.z), r1, n0)), fmadd(cf(-f.z), r0, fmadd(cf(f.x), r2, n1)),
+                             fmadd(cf(-f.x), r1, fmadd(cf(f.y), r0, n2))};
+        const bool transport_lanes = j * per < POS + 3 && (j + 1) * per > POS;
+        for (int i = 0; i < 3; ++i) {
+          if (transport_lanes) m[i] += lane_pack<T>(j, [&](int l) { return moment_lane(i, l); });
+          if (with_sp) m[i] = fmadd(cf(-sp), chunks(xr + i * S)[j], m[i]);
+          chunks(mr + i * S)[j] = m[i];
         }
-    }
-    // Node k+1's strain rows: ½ δs_k − A_{k+1,k} δq_k + c_{k+1} = 0.
-    const T m_side = h / 6.0;
-    for (int c = 0; c < 4; ++c) {
-      T* row = cr + c * S;
-      axpy(broadcast<T>(0.5), sr + c * S, row, nc);
-      for (int j = 0; j < 4; ++j)
-        if (Tangent<T>::coupled(c, j)) row[QK + j] -= m_side * t_k.at(c, j);
+        const auto x0 = fmadd(cf(b.y), a2, fmadd(cf(-b.z), a1, m[0]));
+        const auto x1 = fmadd(cf(b.z), a0, fmadd(cf(-b.x), a2, m[1]));
+        const auto x2 = fmadd(cf(b.x), a1, fmadd(cf(-b.y), a0, m[2]));
+        const decltype(n0) s[4] = {
+            fmadd(cf(d0.z), x2, fmadd(cf(d0.y), x1, d0.x * x0)), fmadd(cf(d1.z), x2, fmadd(cf(d1.y), x1, d1.x * x0)),
+            fmadd(cf(d2.z), x2, fmadd(cf(d2.y), x1, d2.x * x0)), fmadd(cf(d2.z), a2, fmadd(cf(d2.y), a1, d2.x * a0))};
+        const bool own_lanes = j * per < PHI + 3 || ((j + 1) * per > QK && j * per < QN + 4);
+        const bool strain_lanes = (j + 1) * per > QK && j * per < QK + 4;
+        const bool interface_lanes = own_lanes || (j * per <= RHS && (j + 1) * per > RHS);
+        for (int i = 0; i < 4; ++i) {
+          const auto si = own_lanes ? s[i] + lane_pack<T>(j, [&](int l) { return force_lane(i, l); }) : s[i];
+          auto cv = fmadd(coefficient(broadcast<T>(0.5)), si, chunks(cr + i * S)[j]);
+          if (strain_lanes) cv += lane_pack<T>(j, [&](int l) { return strain_lane(i, l); });
+          chunks(cr + i * S)[j] = cv;
+          auto pv = 0.5 * si;
+          if (interface_lanes) pv += lane_pack<T>(j, [&](int l) { return interface_lane(i, l); });
+          chunks(pi + (6 + i) * S)[j] = pv;
+        }
+      }
     }
     // δq_{k+1} = U_k (y_k, 1).
     Elimination el;
     // The factors only where a replay needs them: right-hand sides past the 16 lanes, or a record.
     const T pivot = kOne<T> && (w > kZ || !sys[0].record.empty()) ? gauss_jordan<T, 4, kZ>(cr, 4, QN, S, kZ, el)
-                                                                   : gauss_jordan<T, 4, kZ, false>(cr, 4, QN, S, kZ, el);
+                                                                  : gauss_jordan<T, 4, kZ, false>(cr, 4, QN, S, kZ, el);
     const auto lower = pivot < smallest;
     smallest = select(lower, pivot, smallest);
     at = select(lower, broadcast<T>(static_cast<double>(k + 1)), at);
@@ -784,29 +840,15 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
     for (int r = 0; r < 4; ++r) {
       auto* u = chunks(gain + r * S);
       const auto* row = chunks(cr + r * S);
-      for (int j = 0; j < nc; ++j) u[j] = -row[j];
+      for (int j = 0; j < nc; ++j) u[j] = without_next_strain<T>(-row[j], j);
       if constexpr (W > 0) {
         for (int j = nc; j < S / per; ++j)  // unrolled: the chunks past the 16 lanes that are not live
           if (j >= w / per) u[j] = zero_pack(gain);
       } else {
         for (int j = w / per; j < S / per; ++j) u[j] = zero_pack(gain);
       }
-      for (int j = 0; j < 4; ++j) gain[r * S + QN + j] = T{};
     }
-    // The interface of node k: w_k, and c_k = ½ δs_k − A_kk δq_k − A_{k,k+1} δq_{k+1} + ρ_k, with
-    // δq_{k+1} substituted.
-    const T m_self = (h_prev + h) / 3.0;
-    for (int c = 0; c < 4; ++c) {
-      T* row = pi + (6 + c) * S;
-      const auto* srow = chunks(sr + c * S);
-      for (int j = 0; j < nc; ++j) chunks(row)[j] = 0.5 * srow[j];
-      for (int j = 0; j < 4; ++j) {
-        if (!Tangent<T>::coupled(c, j)) continue;
-        row[QK + j] -= m_self * t_k.at(c, j);
-        row[QN + j] -= m_side * t_next.at(c, j);
-      }
-      row[RHS] += rods.rho(k, static_cast<std::size_t>(c));
-    }
+    // The interface of node k (w_k, and c_k from the pass above) with δq_{k+1} substituted.
     const auto* g0 = chunks(gain);
     const auto* g1 = chunks(gain + S);
     const auto* g2 = chunks(gain + 2 * S);
@@ -820,8 +862,8 @@ void sweep(const Rods<T>& rods_in, std::span<const UnitLoad> loads,
       const auto a0 = coefficient(a[r][0]), a1 = coefficient(a[r][1]);
       const auto a2 = coefficient(a[r][2]), a3 = coefficient(a[r][3]);
       for (int j = 0; j < nc; ++j)
-        out[j] = fmadd(a3, g3[j], fmadd(a2, g2[j], fmadd(a1, g1[j], fmadd(a0, g0[j], in[j]))));
-      for (int j = 0; j < 4; ++j) pi[r * S + QN + j] = T{};
+        out[j] =
+            without_next_strain<T>(fmadd(a3, g3[j], fmadd(a2, g2[j], fmadd(a1, g1[j], fmadd(a0, g0[j], in[j])))), j);
     }
     if constexpr (kOne<T>) {
       // The remaining right-hand sides, chunk by chunk, and the step's record.

@@ -21,9 +21,9 @@ CondenseReport rod_condense_range(const RodLinearization& rod, StrainView<const 
   // A compile-time row stride for the common widths (the residual alone: 16; a pin's or a few
   // contacts' unit loads: up to 40): every row is then a constant offset from the scratch. A
   // run-time stride spills the row pointers (≈ 300 stack reloads per node; the gate counts them).
-  using Sweep = void (*)(const condensed::Rods<double>&, std::span<const UnitLoad>,
-                         const std::array<CondensedSystem, 1>&, const CondensedRange&, double*,
-                         std::array<CondenseReport, 1>&);
+  using Sweep =
+      void (*)(const condensed::Rods<double>&, std::span<const UnitLoad>, const std::array<CondensedSystem, 1>&,
+               const CondensedRange&, double*, std::array<CondenseReport, 1>&);
   static constexpr Sweep kByWidth[] = {condensed::sweep<double, 16>, condensed::sweep<double, 20>,
                                        condensed::sweep<double, 24>, condensed::sweep<double, 28>,
                                        condensed::sweep<double, 32>, condensed::sweep<double, 36>,

@@ -139,6 +139,7 @@ void run_phases(World& world, const OrganProtocol& p, CohortRow& row) {
     skin.measure(world, f <= rest_frames);
   }
   row.stretch_worst = skin.worst;
+  row.stretch_raw = skin.worst_raw;
   row.stretch_edges = skin.edges_past;
   row.stretch_rest_worst = skin.worst_rest;
   row.stretch_rest_edges = skin.rest_edges_past;
@@ -346,7 +347,7 @@ std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::files
       p.pull, p.hold, p.after, ok, rows.size());
   t += "| surface | organ | length mm | nodes | beads | import s | at rest: median / farthest mm | force N | "
        "pulled mm | after release: median / farthest mm | torn | skin at rest: worst edge × (edges past 2×) | "
-       "skin: worst edge × (edges past 2×) | skin slots per vertex | frame ms "
+       "skin: worst edge × (edges past 2×), its own | skin slots per vertex | frame ms "
        "(p99) | late | outcome |\n";
   t += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : rows) {
@@ -357,12 +358,12 @@ std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::files
     const ImportReport& i = r.report;
     t += fmt::format(
         "| {} | {} | {:.0f} | {} | {} | {:.1f} | {:.2f} / {:.2f} | {:.2f} | {:.1f} | {:.2f} / {:.2f} | {} | {:.2f} "
-        "({}) | {:.2f} ({}) | {:.1f} | "
+        "({}) | {:.2f} ({}), {:.2f} own | {:.1f} | "
         "{:.2f} ({:.2f}) | {} | {} |\n",
         r.name, i.layout, 1e3 * i.length, i.nodes, i.beads, i.seconds, 1e3 * r.rest_median, 1e3 * r.rest_max,
         r.largest_force, 1e3 * r.pulled, 1e3 * r.after_median, 1e3 * r.after_max, r.torn, r.stretch_rest_worst,
-        r.stretch_rest_edges, r.stretch_worst, r.stretch_edges, r.skin_slots, 1e3 * r.frame_median, 1e3 * r.frame_p99,
-        r.frames_late, outcome(r));
+        r.stretch_rest_edges, r.stretch_worst, r.stretch_edges, r.stretch_raw, r.skin_slots, 1e3 * r.frame_median,
+        1e3 * r.frame_p99, r.frames_late, outcome(r));
   }
   t += "\nColumns: **organ** pieces, shells and left-out parts the import found; **length** of the computed "
        "centreline; **import s** the import's wall time; **at rest** how far the mesh's vertices went from where "
@@ -371,10 +372,12 @@ std::string cohort_markdown(const std::vector<CohortRow>& rows, const std::files
        "together); **pulled** how far the grasped node went by the end of the hold; **after release** the "
        "vertices' distance from rest at the end; **torn** anchors of connective tissue torn; **skin at rest** "
        "and **skin** the largest ratio of a mesh edge's length to its rest length, over the rod's own stretch "
-       "where it is (at each vertex's place along the rod, decision 0121), while left alone and over the whole run "
+       "where it is (at each vertex's place along the rod, in the edge's direction: decision 0121), while left alone "
+       "and over the whole run "
        "(the grasp pull included), and how many edges "
        "passed twice that (the "
-       "skin tearing, not the tissue stretching: issue 35); **skin slots per vertex** what skinning reads per "
+       "skin tearing, not the tissue stretching: issue 35), and for the run the largest ratio of an edge's own, not "
+       "divided by the rod's stretch; **skin slots per vertex** what skinning reads per "
        "mesh vertex (ring slots of its binding, padding included: the cost per vertex, decision 0117); **frame ms** "
        "the median (and 99th percentile) wall time of a frame with its mesh on this "
        "machine; **late** frames over 1/60 s.\n";

@@ -140,6 +140,45 @@ TEST_CASE("each piece of a chain carries its own mesh, which follows the piece")
   CHECK(worst > 0.015);  // the wall, not the centreline: the check measures something
 }
 
+// World::mesh_vertex_nodes (decision 0121) on procedural meshes: a chain's vertices each on a node of
+// their own piece, near it (the tube's radius, 2 cm, and its bulges); a world whose first segment has
+// no mesh gives the second's vertices the second's nodes (the buffers' offsets).
+TEST_CASE("each mesh vertex's node is on its own piece, beside it, and on its own segment") {
+  SceneDesc s = drop_as(true);
+  SegmentDesc& d = s.world.segments[0];
+  d.mesh.enabled = true;
+  d.mesh.procedural.vertices = 1000;
+  auto chain = create_world(s);
+  const std::vector<std::uint32_t> node_of = chain->mesh_vertex_nodes();
+  REQUIRE(node_of.size() == chain->mesh_buffer_size());
+  const auto x = chain->mesh_positions();
+  double farthest = 0.0;
+  for (std::size_t p = 0; p < chain->segment_count(); ++p) {
+    const Range nodes = chain->segment(p).nodes, vertices = chain->mesh(p).vertices;
+    for (std::size_t v = vertices.offset; v < vertices.offset + vertices.count; ++v) {
+      CHECK(node_of[v] >= nodes.offset);
+      CHECK(node_of[v] < nodes.offset + nodes.count);
+      farthest = std::max(farthest, (x.get(v) - chain->node_positions().get(node_of[v])).norm());
+    }
+  }
+  MESSAGE("farthest vertex from its node: " << farthest * 1e3 << " mm");
+  CHECK(farthest < 0.03);
+  CHECK(farthest > 0.015);  // the wall, not the centreline
+
+  SceneDesc two = drop_as(false);
+  two.world.segments.push_back(far_copy(two));
+  two.world.segments[1].mesh.enabled = true;
+  two.world.segments[1].mesh.procedural.vertices = 1000;
+  auto world = create_world(two);
+  const std::vector<std::uint32_t> second = world->mesh_vertex_nodes();
+  REQUIRE(second.size() == world->mesh(1).vertices.count);
+  const Range nodes = world->segment(1).nodes;
+  for (const std::uint32_t k : second) {
+    CHECK(k >= nodes.offset);
+    CHECK(k < nodes.offset + nodes.count);
+  }
+}
+
 TEST_CASE("a chain with a mesh file: each piece gets the part of the surface along it and its own cage") {
   // The CT colon as one segment, then as a chain of 3 pieces of the same 163 nodes.
   SceneDesc one = test::scene_desc("anatomy-grasp");

@@ -258,7 +258,7 @@ TEST_CASE("the scene fuzz corpus: one entry keeps a removed skin key, each of th
   // others say `skinning`, and a small organ with each skin is a seed the fuzzer builds and steps.
   const std::string folder = std::string(HAUSTRA_SOURCE_DIR) + "/fuzz/corpus/scene";
   int removed = 0, entries = 0;
-  std::set<SkinningMethod> chosen;
+  std::set<SkinningMethod> chosen, stepped;
   for (const auto& entry : std::filesystem::directory_iterator(folder)) {
     std::ifstream in(entry.path(), std::ios::binary);
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -267,11 +267,21 @@ TEST_CASE("the scene fuzz corpus: one entry keeps a removed skin key, each of th
       const SceneDesc s = parse_scene(text, kSceneFolder + "/fuzz.toml");
       for (const SegmentDesc& d : s.world.segments)
         if (d.mesh.enabled && text.find("\nskinning = ") != std::string::npos) chosen.insert(d.mesh.skinning);
+      // The seeds (one organ, a small procedural mesh): built and stepped, as the fuzzer does.
+      if (s.world.segments.size() == 1 && s.world.segments[0].mesh.enabled &&
+          s.world.segments[0].mesh.source == MeshSource::procedural && s.world.segments[0].nodes <= 400 &&
+          s.world.segments[0].mesh.procedural.vertices <= 3000 && text.find("\nskinning = ") != std::string::npos) {
+        auto world = create_world(s);
+        world->step();
+        world->step();
+        stepped.insert(s.world.segments[0].mesh.skinning);
+      }
     } catch (const Error& e) {
       if (std::string(e.what()).find("removed (decision 0120)") != std::string::npos) ++removed;
     }
   }
   CHECK(entries > 100);
   CHECK(removed == 1);
-  CHECK(chosen.size() == 4);  // along-rod, cage, cage-full and linear-blend each parsed by an entry
+  CHECK(chosen.size() == 4);   // along-rod, cage, cage-full and linear-blend each parsed by an entry
+  CHECK(stepped.size() == 4);  // and each built and stepped by a seed
 }

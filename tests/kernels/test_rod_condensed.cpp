@@ -715,8 +715,8 @@ TEST_CASE("the condensed sweep's compile-time row strides give the run-time stri
       auto solve = [&](int columns) {
         std::vector<double> gain(condensed_gain_size(c.n, columns)), scratch(condensed_scratch_size(columns)),
             base(10 * static_cast<std::size_t>(columns));
-        const CondenseReport r = rod_condense(lin, StrainView<const double>{p.residual}, p.loads,
-                                              {gain, scratch, base, columns, {}});
+        const CondenseReport r =
+            rod_condense(lin, StrainView<const double>{p.residual}, p.loads, {gain, scratch, base, columns, {}});
         REQUIRE(r.ok);
         return std::pair{gain, base};
       };

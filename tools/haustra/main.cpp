@@ -171,6 +171,7 @@ int run(const RunOptions& o) {
     } catch (const Error& e) {
       if (e.code() != ErrorCode::unstable) throw;
       record.add(world->last_profile(), *world);
+      record.measure_skin(*world, f, true);  // the last good frame (the failed one was restored)
       bar.abort();
       status = "unstable";
       error = e.what();

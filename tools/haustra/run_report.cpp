@@ -181,8 +181,8 @@ void RunRecord::print_skin(std::FILE* out) const {
   if (!skin_ || skin_measures_ == 0) return;
   fmt::print(out,
              "skin: worst edge {:.2f}x its rest length over the rod's own stretch at its place, {} edges past 2x "
-             "(the skin tearing; {} measures, every {} frames and the last)\n",
-             skin_->worst, skin_->edges_past, skin_measures_, kSkinEvery);
+             "(the skin tearing; {:.2f}x not divided by the rod's; {} measures, every {} frames and the last)\n",
+             skin_->worst, skin_->edges_past, skin_->worst_raw, skin_measures_, kSkinEvery);
 }
 
 RunRecord::StageStats RunRecord::stats(std::size_t s) const {
@@ -272,6 +272,7 @@ void RunRecord::write_summary(const std::filesystem::path& file, const SceneDesc
   if (world.instrument_count() > 0) j["instruments"] = instruments_json(instruments_, world.instrument_count());
   if (skin_ && skin_measures_ > 0)
     j["skin"] = {{"worst_edge_stretch", skin_->worst},
+                 {"worst_edge_stretch_own", skin_->worst_raw},
                  {"edges_past_2x", skin_->edges_past},
                  {"measures", skin_measures_},
                  {"meaning",

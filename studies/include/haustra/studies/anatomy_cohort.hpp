@@ -43,9 +43,10 @@ struct CohortRow {
   double pulled = 0.0;                         // m the grasped node moved sideways by the end of the hold
   double after_median = 0.0, after_max = 0.0;  // m from where the segmentation put them, at the end
   // The skin: the largest ratio of a mesh edge's length to its rest length, over the rod's own
-  // stretch where it is, over the run, and how many edges passed twice that at some measure; and
-  // the same while left alone (the rest phase).
+  // stretch where it is (decision 0121), over the run, and how many edges passed twice that at some
+  // measure; the same while left alone (the rest phase); and the largest ratio not divided by the rod's.
   double stretch_worst = 0.0;
+  double stretch_raw = 0.0;
   std::size_t stretch_edges = 0;
   double stretch_rest_worst = 0.0;
   std::size_t stretch_rest_edges = 0;
