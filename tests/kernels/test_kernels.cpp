@@ -4,8 +4,8 @@
 #include <array>
 #include <random>
 #include <string>
-#include <utility>
 #include <unsupported/Eigen/MatrixFunctions>
+#include <utility>
 
 #include "haustra/kernels/block_tridiagonal.hpp"
 #include "haustra/kernels/inertia_filter.hpp"
