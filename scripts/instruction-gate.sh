@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# The instruction-count gate: instructions executed by one step of `drop` (Newton, and fast mode),
-# one skinning of a 10,000-vertex mesh, and a render thread's acquire of it skinned on the CPU or as
-# rings for a GPU (bench/gate.cpp), counted by callgrind, against bench/baselines/instructions.txt.
+# The instruction-count gate: instructions executed by one step of `drop` (Newton; in fast mode, its
+# next step that factors afresh), one skinning of a 10,000-vertex mesh, and a render thread's acquire
+# of it skinned on the CPU or as rings for a GPU (bench/gate.cpp), counted by callgrind, against bench/baselines/instructions.txt.
 # Counts are repeatable for the same binary whatever else the machine is doing; the gate fails when
 # a workload executes more than TOLERANCE (3 %) over its baseline.
 #   scripts/instruction-gate.sh            check (part of `make test`)
