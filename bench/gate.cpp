@@ -46,6 +46,22 @@ int main(int argc, char** argv) {
                 w->contacts().touching, w->last_profile().chords);
     return 0;
   }
+  if (workload == "range-sleeping-frame") {
+    // scenes/range-pull.toml (decision 0127) at 2 s: the grasped tip pulled, the tissue-held base
+    // side asleep as a range; the frame's cost is what the range leaves.
+    SceneDesc scene = load_scene(std::string(HAUSTRA_SOURCE_DIR) + "/scenes/range-pull.toml");
+    scene.world.threads = 1;
+    std::unique_ptr<World> w = create_world(scene);
+    for (int f = 0; f < 120; ++f) w->step();
+    CALLGRIND_START_INSTRUMENTATION;
+    CALLGRIND_TOGGLE_COLLECT;
+    w->step();
+    CALLGRIND_TOGGLE_COLLECT;
+    CALLGRIND_STOP_INSTRUMENTATION;
+    std::printf("range-pull frame %llu, %d of %zu nodes asleep\n", static_cast<unsigned long long>(w->frame()),
+                w->last_profile().nodes_asleep, w->node_count());
+    return 0;
+  }
   if (workload == "ropes-sleeping-frame") {
     // `ropes` with sleeping rods (decision 0119) at 2.5 s: its elastic rods asleep, the viscous ones
     // solved; the frame's cost is what the sleeping leaves.
@@ -108,7 +124,7 @@ int main(int argc, char** argv) {
   }
   std::fprintf(
       stderr,
-      "usage: haustra_gate drop-frame|drop-fast-frame|ropes-sleeping-frame|skin-10k [along-rod]|reader-cpu-10k|"
+      "usage: haustra_gate drop-frame|drop-fast-frame|ropes-sleeping-frame|range-sleeping-frame|skin-10k [along-rod]|reader-cpu-10k|"
       "reader-gpu-10k\n");
   return 2;
 }

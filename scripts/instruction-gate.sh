@@ -11,7 +11,7 @@ cd "$(dirname "$0")/.."
 gate=build/release/bin/haustra_gate
 baseline=bench/baselines/instructions.txt
 tolerance_percent=3
-workloads=(drop-frame drop-fast-frame ropes-sleeping-frame skin-10k reader-cpu-10k reader-gpu-10k)
+workloads=(drop-frame drop-fast-frame ropes-sleeping-frame range-sleeping-frame skin-10k reader-cpu-10k reader-gpu-10k)
 [[ -x "$gate" ]] || { echo "instruction-gate: build first ($gate is missing)" >&2; exit 1; }
 command -v valgrind >/dev/null || { echo "instruction-gate: valgrind is missing (scripts/install-deps.sh installs it)" >&2; exit 1; }
 
