@@ -122,9 +122,9 @@ int main(int argc, char** argv) {
     frames.release();
     return 0;
   }
-  std::fprintf(
-      stderr,
-      "usage: haustra_gate drop-frame|drop-fast-frame|ropes-sleeping-frame|range-sleeping-frame|skin-10k [along-rod]|reader-cpu-10k|"
-      "reader-gpu-10k\n");
+  std::fprintf(stderr,
+               "usage: haustra_gate drop-frame|drop-fast-frame|ropes-sleeping-frame|range-sleeping-frame|skin-10k "
+               "[along-rod]|reader-cpu-10k|"
+               "reader-gpu-10k\n");
   return 2;
 }

@@ -12,6 +12,7 @@
 #include "haustra/profile.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
+#include "host_job_pool.hpp"
 #include "scene_fixtures.hpp"
 
 namespace haustra {
@@ -93,9 +94,11 @@ namespace {
 const std::string kRangePull = std::string(HAUSTRA_SOURCE_DIR) + "/scenes/range-pull.toml";
 const std::string kRangeMiddle = std::string(HAUSTRA_SOURCE_DIR) + "/tests/scenes/range-middle.toml";
 
-std::unique_ptr<World> range_world(const std::string& file, std::vector<std::string> sets = {}, int threads = 1) {
+std::unique_ptr<World> range_world(const std::string& file, std::vector<std::string> sets = {}, int threads = 1,
+                                   HostJobPool* pool = nullptr) {
   SceneDesc scene = load_scene(file, sets);
   scene.world.threads = threads;
+  if (pool != nullptr) scene.world.jobs = {&HostJobPool::enqueue, &HostJobPool::wait, pool, threads};
   return create_world(scene);
 }
 std::unique_ptr<World> range_pull(std::vector<std::string> sets = {}, int threads = 1) {
@@ -187,15 +190,19 @@ TEST_CASE("sleeping ranges: a probe touching the sleeping range wakes it, and th
   CHECK((w->node_positions().get(25) - touched).z() < -1e-4);  // pressed into the floor (measured 0.38 mm)
 }
 
-TEST_CASE("sleeping ranges: the same bits with 1 and 2 threads, and through a checkpoint") {
+TEST_CASE("sleeping ranges: the same bits with 1 and 2 threads, a host job system's, and through a checkpoint") {
   for (const std::string& file : {kRangePull, kRangeMiddle}) {
     CAPTURE(file);
+    HostJobPool pool(2);
     auto one = range_world(file, {}, 1);
     auto two = range_world(file, {}, 2);
+    auto jobs = range_world(file, {}, 2, &pool);
     test::step_both(*one, *two, 70);  // a range asleep (the middle one between its two sides)
+    for (int f = 0; f < 70; ++f) jobs->step();
     REQUIRE(one->last_profile().nodes_asleep > 0);
     CHECK(one->last_profile().nodes_asleep == two->last_profile().nodes_asleep);
     CHECK(test::positions(*one) == test::positions(*two));
+    CHECK(test::positions(*one) == test::positions(*jobs));
     const std::vector<std::byte> saved = one->save_checkpoint();
     for (int f = 0; f < 60; ++f) one->step();
     auto restored = range_world(file);
