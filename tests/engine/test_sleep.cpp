@@ -190,6 +190,23 @@ TEST_CASE("sleeping ranges: a probe touching the sleeping range wakes it, and th
   CHECK((w->node_positions().get(25) - touched).z() < -1e-4);  // pressed into the floor (measured 0.38 mm)
 }
 
+TEST_CASE("sleeping ranges: cutting the tissue of a sleeping node wakes the nodes round it; calm, they sleep again") {
+  auto w = range_pull();
+  for (int f = 0; f < 200; ++f) w->step();
+  REQUIRE(w->node_asleep(20));
+  const int before = w->last_profile().nodes_asleep;  // measured 51: nodes 0 to 50
+  REQUIRE(before >= 40);
+  CHECK(w->cut_tissue(w->node_positions().get(20), 0.005) > 0);  // 5 anchors, nodes 18 to 22
+  // Nodes 10 to 30 restart their calm: neither side left beside them is 16 nodes long with its band.
+  for (const std::size_t k : {0u, 20u, 40u}) CHECK_FALSE(w->node_asleep(k));
+  int again = -1;
+  for (int f = 0; f < 30 && again < 0; ++f) {
+    w->step();
+    if (w->node_asleep(20)) again = f;
+  }
+  CHECK(again >= 5);  // at rest for sleep.time (0.1 s, 6 frames) first: measured 6
+}
+
 TEST_CASE("sleeping ranges: the same bits with 1 and 2 threads, a host job system's, and through a checkpoint") {
   for (const std::string& file : {kRangePull, kRangeMiddle}) {
     CAPTURE(file);

@@ -29,6 +29,8 @@ void status(ViewerState& v) {
   }
   ImGui::Text("iterations %d  substeps %d  retries %d  fallbacks %d  contacts %zu", v.profile.iterations,
               v.profile.substeps, v.profile.retries, v.profile.fallbacks, v.contact_count);
+  if (v.profile.nodes_asleep > 0)  // the scene's [sleep]: rods and ranges held, not solved (0119, 0127)
+    ImGui::Text("nodes asleep %d", v.profile.nodes_asleep);
   if (s.unstable) {
     ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1, 0.3f, 0.2f, 1));
     ImGui::TextWrapped("stopped: %s", s.stop_reason.c_str());
