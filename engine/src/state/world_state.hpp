@@ -149,6 +149,7 @@ struct Identities {};  // a RotationBuffer's
   X(Vec3Buffer, mid_position, node, 1, Zeros{}, kept, "section midpoints (per node index, last unused)")     \
   X(RotationBuffer, mid_rotation, node, 1, Identities{}, kept, "section frames")                             \
   X(std::vector<kernels::Pose>, base, segment, 1, kernels::Pose{}, kept, "each rod's base")                  \
+  X(std::vector<kernels::Pose>, range_end, segment, 1, kernels::Pose{}, kept, "where a sleeping range's base side puts its first node (0127)") \
   X(std::vector<AttachmentState>, attachment, attachment, 1, AttachmentState{}, kept, "attachment slots")    \
   X(std::vector<std::uint8_t>, anchor_intact, anchor, 1, 1, kept, "1 while the anchor holds, 0 once torn or cut")
 // clang-format on
@@ -390,8 +391,7 @@ struct CondenseTask {
   X(std::vector<std::uint8_t>, rod_asleep, segment, 1, 0, kept, "sleeps: held where it is, not solved")       \
   X(std::vector<double>, node_calm, node, 1, 0.0, kept, "s the node has been at rest (sleeping ranges, decision 0127)") \
   X(std::vector<std::uint32_t>, range_first, segment, 1, 0u, kept, "its sleeping range's first node (decision 0127)") \
-  X(std::vector<std::uint32_t>, range_last, segment, 1, 0u, kept, "… and last node; 0: no range sleeps")     \
-  X(std::vector<kernels::Pose>, range_end, segment, 1, kernels::Pose{}, kept, "where the base side's strains put the range's first node")
+  X(std::vector<std::uint32_t>, range_last, segment, 1, 0u, kept, "… and last node; 0: no range sleeps")
 // clang-format on
 
 // A rod's sleeping range (decision 0127): nodes [first, last] held where they are; the nodes before
