@@ -55,6 +55,9 @@ TEST_CASE("the memory estimate is what building and stepping a world allocates, 
              {"segment.mesh.source=procedural", "segment.mesh.skinning=cage-full",
               "segment.mesh.procedural.vertices=5000"}},
         Case{"drop", {"segment.mesh.source=procedural", "segment.mesh.skinning=linear-blend"}}, Case{"grasp-pull", {}},
+        // Sleeping ranges (decision 0127): each rod's base side, a part that may end at any node.
+        Case{"range-pull", {}},
+        Case{"drop", {"solver.mode=fast", "segment.nodes=2000", "sleep.enabled=true", "sleep.ranges=true"}},
         // Beads packed so close that each is within reach of hundreds of others (decision 0106):
         // 120,000 and 750,000 pairs of beads listed by the first step's broad phase.
         Case{"drop", {"segment.nodes=20000", "segment.beads.count=2000"}},

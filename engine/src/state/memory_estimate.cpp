@@ -210,6 +210,11 @@ MemoryEstimate estimate_memory(const WorldDesc& desc) {
         solver += gain_bytes(n, cols);
         // Fast mode: the record the chord iterations replay.
         if (desc.solver.mode == SolverMode::fast) solver += kernels::condensed_record_size(n) * kDouble;
+        // Sleeping ranges (decision 0127): a base side that may end at any node, as a split rod's base part.
+        if (desc.sleep.ranges && n > detail::kMinSleepingRange)
+          solver += gain_bytes(n - 1, cols + kernels::kJointColumns) +
+                    2 * cols * (6 * (cols + kernels::kJointColumns) + 6 * cols + 60) * kDouble +  // raw, tip's
+                    20 * (cols + 14) * kDouble;  // the held interface and zero start
       }
       if (n <= detail::kBandFallbackNodes) solver += n * (kBandPerNode + 16 * cols * kDouble);
     }
