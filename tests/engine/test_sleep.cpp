@@ -213,4 +213,61 @@ TEST_CASE("sleeping ranges: the same bits with 1 and 2 threads, a host job syste
   }
 }
 
+namespace {
+
+// range-pull in fast mode, stepped until its range has slept for 5 frames and a factorization made
+// around it serves. (range-middle's middle does not come to rest under fast mode's one chord
+// iteration a frame.)
+std::unique_ptr<World> fast_range_pull() {
+  auto w = range_pull({"solver.mode=fast"});
+  int asleep_for = 0;
+  for (int f = 0; f < 300 && asleep_for < 5; ++f) {
+    w->step();
+    asleep_for = w->last_profile().nodes_asleep > 0 ? asleep_for + 1 : 0;
+  }
+  REQUIRE(asleep_for == 5);
+  REQUIRE(w->last_profile().chords > 0);
+  REQUIRE(!w->node_asleep(w->node_count() - 1));  // a tip side, awake
+  return w;
+}
+
+}  // namespace
+
+TEST_CASE("sleeping ranges in fast mode: the same bits through a checkpoint, with a range asleep or just woken") {
+  // The range a factorization was made around travels with it (decision 0127): a restored world
+  // replays it, or refactors, as the uninterrupted one does. A host's change wakes the range
+  // between frames: its factorization must not then serve the whole rod after a restore.
+  for (const bool host_change : {false, true}) {
+    CAPTURE(host_change);
+    auto one = fast_range_pull();
+    if (host_change) one->set_external_load(0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());  // wakes all
+    const std::vector<std::byte> saved = one->save_checkpoint();
+    auto restored = range_pull({"solver.mode=fast"});
+    restored->restore_checkpoint(saved);
+    for (int f = 0; f < 40; ++f) one->step(), restored->step();
+    CHECK(restored->last_profile().nodes_asleep == one->last_profile().nodes_asleep);
+    CHECK(test::positions(*restored) == test::positions(*one));
+  }
+}
+
+TEST_CASE("sleeping ranges in fast mode: a rebuild wakes the range and factors the whole rod afresh") {
+  // A segment added carries each kept rod's factorization over (decision 0037) and wakes every
+  // range: one made around a range holds no gains over it, so the next frame factors afresh.
+  auto w = fast_range_pull();
+  SegmentDesc extra = w->desc().segments[0];
+  extra.name = "far";
+  extra.anchors.clear();
+  extra.base_position += Eigen::Vector3d(0.0, 1.0, 0.0);
+  w->add_segment(extra);
+  w->step();
+  CHECK(w->last_profile().chords == 0);
+  // Against a rod that had no range: its factorization serves on after the same rebuild.
+  auto plain = range_pull({"solver.mode=fast", "sleep.ranges=false"});
+  for (int f = 0; f < 80; ++f) plain->step();
+  REQUIRE(plain->last_profile().chords > 0);
+  plain->add_segment(extra);
+  plain->step();
+  CHECK(plain->last_profile().chords > 0);
+}
+
 }  // namespace haustra

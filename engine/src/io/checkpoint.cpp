@@ -147,6 +147,10 @@ void visit_chords(Io& io, const WorldModel& model, State& st) {
     io(ws.chord_ready), io(ws.chord_frame), io(ws.chord_dt);
     io.list(ws.chord_pattern, model.segments[s].attachments.size() + model.segments[s].bead_count);
     io(ws.record), io(ws.gain), io(ws.base_solution), io(ws.responses);
+    // The sleeping range it was made around (decision 0127), and its base side's columns that a
+    // chord iteration leaves standing (none unless the rod may hold a range).
+    io(ws.chord_from), io(ws.chord_first);
+    io(ws.split.base_gain), io(ws.split.base_solution), io(ws.split.raw), io(ws.split.at_joint);
     // Format 4 to 6 hold here whether fast mode's prefactor (solver.prefactor, removed by decision
     // 0108) had a sweep in flight: always 0 now, and a file that had one is refused.
     bool prefactor_pending = false;
