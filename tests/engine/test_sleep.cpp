@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "haustra/error.hpp"
 #include "haustra/profile.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
@@ -268,6 +269,71 @@ TEST_CASE("sleeping ranges in fast mode: a rebuild wakes the range and factors t
   plain->add_segment(extra);
   plain->step();
   CHECK(plain->last_profile().chords > 0);
+}
+
+namespace {
+
+// The checkpoint with its rod's range (range_first, range_last: one 32-bit entry each after their
+// 64-bit lengths) set to [first, last], its checksum (FNV-1a over the payload after the 76-byte
+// header) made good again: a file a tool wrote wrong, not one damaged in transit.
+std::vector<std::byte> with_range(std::vector<std::byte> bytes, std::uint32_t first, std::uint32_t last,
+                                  std::uint32_t was_first, std::uint32_t was_last) {
+  std::byte pattern[24];
+  const std::uint64_t one = 1;
+  std::memcpy(pattern, &one, 8), std::memcpy(pattern + 8, &was_first, 4);
+  std::memcpy(pattern + 12, &one, 8), std::memcpy(pattern + 20, &was_last, 4);
+  const auto at = std::search(bytes.begin(), bytes.end(), std::begin(pattern), std::end(pattern));
+  REQUIRE(at != bytes.end());
+  REQUIRE(std::search(at + 1, bytes.end(), std::begin(pattern), std::end(pattern)) == bytes.end());
+  std::memcpy(&*at + 8, &first, 4), std::memcpy(&*at + 20, &last, 4);
+  constexpr std::size_t kHeader = 76;
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  for (std::size_t i = kHeader; i + 8 < bytes.size(); ++i)
+    h = (h ^ static_cast<std::uint64_t>(bytes[i])) * 0x100000001b3ull;
+  std::memcpy(bytes.data() + bytes.size() - 8, &h, 8);
+  return bytes;
+}
+
+}  // namespace
+
+TEST_CASE("sleeping ranges: a checkpoint holding a range its rod cannot hold is refused, the world left as it was") {
+  auto w = range_pull();
+  for (int f = 0; f < 70; ++f) w->step();
+  REQUIRE(w->node_asleep(0));  // range-pull's range: from the base
+  const std::uint32_t first = 0;
+  std::uint32_t last = 0;
+  while (w->node_asleep(last + 1)) ++last;
+  REQUIRE(first == 0);
+  REQUIRE(last >= 15);
+  const std::vector<std::byte> good = w->save_checkpoint();
+  auto target = range_pull();
+  target->restore_checkpoint(with_range(good, first, last, first, last));  // the tool's own bytes: accepted
+  CHECK(test::positions(*target) == test::positions(*w));
+  const auto n = static_cast<std::uint32_t>(w->node_count());
+  for (const auto& [f, l] : std::vector<std::pair<std::uint32_t, std::uint32_t>>{
+           {0, n}, {0, n - 1}, {40, 30}, {20, 30}, {5, 0}, {0xFFFFFFF0u, 0xFFFFFFFFu}}) {
+    CAPTURE(f);
+    CAPTURE(l);
+    auto fresh = range_pull();
+    const std::vector<double> before = test::positions(*fresh);
+    try {
+      fresh->restore_checkpoint(with_range(good, f, l, first, last), "bad.ckpt");
+      FAIL("restored a range its rod cannot hold");
+    } catch (const Error& e) {
+      CHECK(e.code() == ErrorCode::parse);
+      CHECK(std::string(e.what()).find("asleep") != std::string::npos);
+    }
+    CHECK(test::positions(*fresh) == before);
+    fresh->step();  // and it steps on
+  }
+  // A world without ranges refuses one that holds a range.
+  auto no_ranges = range_pull({"sleep.ranges=false"});
+  try {
+    no_ranges->restore_checkpoint(good);
+    FAIL("a world without ranges restored one");
+  } catch (const Error& e) {
+    CHECK(std::string(e.what()).find("sleep.ranges is off") != std::string::npos);
+  }
 }
 
 }  // namespace haustra

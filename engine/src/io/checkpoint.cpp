@@ -313,8 +313,11 @@ void check_indices(const WorldModel& model, const WorldState& st, const Reader& 
     const std::size_t n = model.segments[r].node_count;
     if ((h.any() || h.first != 0) && (!model.sleep.ranges || model.segments[r].split_node > 0 || h.last >= n ||
                                       h.last < h.first + kMinSleepingRange - 1 || (h.first == 0 && h.last + 1 >= n)))
-      reader.fail(fmt::format("holds nodes {} to {} of segment '{}' asleep, which has {}", h.first, h.last,
-                              model.segments[r].info.name, n));
+      reader.fail(fmt::format("holds nodes {} to {} of segment '{}' asleep, which has {}{}", h.first, h.last,
+                              model.segments[r].info.name, n,
+                              !model.sleep.ranges                ? " (this world's sleep.ranges is off)"
+                              : model.segments[r].split_node > 0 ? " (a split rod keeps its ranges awake)"
+                                                                 : ""));
   }
   for (const InstrumentState& in : st.instruments) {
     if (!in.grasping) continue;
