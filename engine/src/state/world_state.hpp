@@ -150,7 +150,8 @@ struct Identities {};  // a RotationBuffer's
   X(RotationBuffer, mid_rotation, node, 1, Identities{}, kept, "section frames")                             \
   X(std::vector<kernels::Pose>, base, segment, 1, kernels::Pose{}, kept, "each rod's base")                  \
   X(std::vector<AttachmentState>, attachment, attachment, 1, AttachmentState{}, kept, "attachment slots")    \
-  X(std::vector<std::uint8_t>, anchor_intact, anchor, 1, 1, kept, "1 while the anchor holds, 0 once torn or cut")
+  X(std::vector<std::uint8_t>, anchor_intact, anchor, 1, 1, kept, "1 while the anchor holds, 0 once torn or cut") \
+  X(std::vector<kernels::Pose>, range_end, segment, 1, kernels::Pose{}, kept, "the base side's end (decision 0127)")
 // clang-format on
 
 #define HAUSTRA_DECLARE_BUFFER(type, name, per, width, initial, role, meaning) type name;
@@ -390,8 +391,7 @@ struct CondenseTask {
   X(std::vector<std::uint8_t>, rod_asleep, segment, 1, 0, kept, "sleeps: held where it is, not solved")       \
   X(std::vector<double>, node_calm, node, 1, 0.0, kept, "s the node has been at rest (sleeping ranges, decision 0127)") \
   X(std::vector<std::uint32_t>, range_first, segment, 1, 0u, kept, "its sleeping range's first node (decision 0127)") \
-  X(std::vector<std::uint32_t>, range_last, segment, 1, 0u, kept, "… and last node; 0: no range sleeps")     \
-  X(std::vector<kernels::Pose>, range_end, segment, 1, kernels::Pose{}, kept, "where the base side's strains put the range's first node")
+  X(std::vector<std::uint32_t>, range_last, segment, 1, 0u, kept, "… and last node; 0: no range sleeps")
 // clang-format on
 
 // A rod's sleeping range (decision 0127): nodes [first, last] held where they are; the nodes before

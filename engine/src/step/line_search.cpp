@@ -77,7 +77,7 @@ void sweep_awake(const WorldModel& model, WorldState& state, std::size_t rod) {
     const kernels::Pose stands{v.poses.node_rotation.get(m), v.poses.node_position.get(m)};
     kernels::rod_forward_sweep(state.now.base[rod], v.section_length.first(m), v.strain.subview(0, m + 1),
                                v.poses.subview(0, m + 1));
-    state.range_end[rod] = {v.poses.node_rotation.get(m), v.poses.node_position.get(m)};
+    state.now.range_end[rod] = {v.poses.node_rotation.get(m), v.poses.node_position.get(m)};
     v.poses.node_rotation.set(m, stands.rotation);
     v.poses.node_position.set(m, stands.position);
   }

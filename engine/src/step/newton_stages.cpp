@@ -395,7 +395,7 @@ bool hold_base_side(const WorldModel& model, WorldState& state, std::size_t rod,
   const Eigen::FullPivLU<Matrix10> lu(a);
   if (lu.rank() < 10) return false;
   const std::size_t g = model.segments[rod].node_offset + state.range_first[rod];
-  const kernels::Pose& end = state.range_end[rod];
+  const kernels::Pose& end = state.now.range_end[rod];
   const Eigen::AngleAxisd turn(state.now.rotation.view().get(g) * end.rotation.conjugate());
   Vector10 gap = Vector10::Zero();
   gap.head<3>() = turn.angle() * turn.axis();

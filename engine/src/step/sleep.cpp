@@ -42,7 +42,7 @@ void set_range(const WorldModel& model, WorldState& state, std::size_t rod, Held
   // The base side's end starts where the range's first node stands (its own strains put it there).
   if (r.base_side() && (r.first != was.first || !was.any())) {
     const std::size_t g = model.segments[rod].node_offset + r.first;
-    state.range_end[rod] = {state.now.rotation.view().get(g), state.now.position.view().get(g)};
+    state.now.range_end[rod] = {state.now.rotation.view().get(g), state.now.position.view().get(g)};
   }
 }
 
