@@ -5,10 +5,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "haustra/error.hpp"
 #include "haustra/profile.hpp"
 #include "haustra/scene.hpp"
 #include "haustra/world.hpp"
@@ -228,6 +232,153 @@ TEST_CASE("sleeping ranges: the same bits with 1 and 2 threads, a host job syste
     CHECK(restored->last_profile().nodes_asleep == one->last_profile().nodes_asleep);
     CHECK(test::positions(*restored) == test::positions(*one));
   }
+}
+
+namespace {
+
+// range-pull in fast mode, stepped until its range has slept for 5 frames and a factorization made
+// around it serves. (range-middle's middle does not come to rest under fast mode's one chord
+// iteration a frame.)
+std::unique_ptr<World> fast_range_pull() {
+  auto w = range_pull({"solver.mode=fast"});
+  int asleep_for = 0;
+  for (int f = 0; f < 300 && asleep_for < 5; ++f) {
+    w->step();
+    asleep_for = w->last_profile().nodes_asleep > 0 ? asleep_for + 1 : 0;
+  }
+  REQUIRE(asleep_for == 5);
+  REQUIRE(w->last_profile().chords > 0);
+  REQUIRE(!w->node_asleep(w->node_count() - 1));  // a tip side, awake
+  return w;
+}
+
+}  // namespace
+
+TEST_CASE("sleeping ranges in fast mode: the same bits through a checkpoint, with a range asleep or just woken") {
+  // The range a factorization was made around travels with it (decision 0127): a restored world
+  // replays it, or refactors, as the uninterrupted one does. A host's change wakes the range
+  // between frames: its factorization must not then serve the whole rod after a restore.
+  for (const bool host_change : {false, true}) {
+    CAPTURE(host_change);
+    auto one = fast_range_pull();
+    if (host_change) one->set_external_load(0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());  // wakes all
+    const std::vector<std::byte> saved = one->save_checkpoint();
+    auto restored = range_pull({"solver.mode=fast"});
+    restored->restore_checkpoint(saved);
+    for (int f = 0; f < 40; ++f) one->step(), restored->step();
+    CHECK(restored->last_profile().nodes_asleep == one->last_profile().nodes_asleep);
+    CHECK(test::positions(*restored) == test::positions(*one));
+  }
+}
+
+TEST_CASE("sleeping ranges in fast mode: a rebuild wakes the range and factors the whole rod afresh") {
+  // A segment added carries each kept rod's factorization over (decision 0037) and wakes every
+  // range: one made around a range holds no gains over it, so the next frame factors afresh.
+  auto w = fast_range_pull();
+  SegmentDesc extra = w->desc().segments[0];
+  extra.name = "far";
+  extra.anchors.clear();
+  extra.base_position += Eigen::Vector3d(0.0, 1.0, 0.0);
+  w->add_segment(extra);
+  w->step();
+  CHECK(w->last_profile().chords == 0);
+  // Against a rod that had no range: its factorization serves on after the same rebuild.
+  auto plain = range_pull({"solver.mode=fast", "sleep.ranges=false"});
+  for (int f = 0; f < 80; ++f) plain->step();
+  REQUIRE(plain->last_profile().chords > 0);
+  plain->add_segment(extra);
+  plain->step();
+  CHECK(plain->last_profile().chords > 0);
+}
+
+namespace {
+
+// The checkpoint with its rod's range (range_first, range_last: one 32-bit entry each after their
+// 64-bit lengths) set to [first, last], its checksum (FNV-1a over the payload after the 76-byte
+// header) made good again: a file a tool wrote wrong, not one damaged in transit.
+std::vector<std::byte> with_range(std::vector<std::byte> bytes, std::uint32_t first, std::uint32_t last,
+                                  std::uint32_t was_first, std::uint32_t was_last) {
+  std::byte pattern[24];
+  const std::uint64_t one = 1;
+  std::memcpy(pattern, &one, 8), std::memcpy(pattern + 8, &was_first, 4);
+  std::memcpy(pattern + 12, &one, 8), std::memcpy(pattern + 20, &was_last, 4);
+  const auto at = std::search(bytes.begin(), bytes.end(), std::begin(pattern), std::end(pattern));
+  REQUIRE(at != bytes.end());
+  REQUIRE(std::search(at + 1, bytes.end(), std::begin(pattern), std::end(pattern)) == bytes.end());
+  std::memcpy(&*at + 8, &first, 4), std::memcpy(&*at + 20, &last, 4);
+  constexpr std::size_t kHeader = 76;
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  for (std::size_t i = kHeader; i + 8 < bytes.size(); ++i)
+    h = (h ^ static_cast<std::uint64_t>(bytes[i])) * 0x100000001b3ull;
+  std::memcpy(bytes.data() + bytes.size() - 8, &h, 8);
+  return bytes;
+}
+
+}  // namespace
+
+TEST_CASE("sleeping ranges: a checkpoint holding a range its rod cannot hold is refused, the world left as it was") {
+  auto w = range_pull();
+  for (int f = 0; f < 70; ++f) w->step();
+  REQUIRE(w->node_asleep(0));  // range-pull's range: from the base
+  const std::uint32_t first = 0;
+  std::uint32_t last = 0;
+  while (w->node_asleep(last + 1)) ++last;
+  REQUIRE(first == 0);
+  REQUIRE(last >= 15);
+  const std::vector<std::byte> good = w->save_checkpoint();
+  auto target = range_pull();
+  target->restore_checkpoint(with_range(good, first, last, first, last));  // the tool's own bytes: accepted
+  CHECK(test::positions(*target) == test::positions(*w));
+  const auto n = static_cast<std::uint32_t>(w->node_count());
+  for (const auto& [f, l] : std::vector<std::pair<std::uint32_t, std::uint32_t>>{
+           {0, n}, {0, n - 1}, {40, 30}, {20, 30}, {5, 0}, {0xFFFFFFF0u, 0xFFFFFFFFu}}) {
+    CAPTURE(f);
+    CAPTURE(l);
+    auto fresh = range_pull();
+    const std::vector<double> before = test::positions(*fresh);
+    try {
+      fresh->restore_checkpoint(with_range(good, f, l, first, last), "bad.ckpt");
+      FAIL("restored a range its rod cannot hold");
+    } catch (const Error& e) {
+      CHECK(e.code() == ErrorCode::parse);
+      CHECK(std::string(e.what()).find("asleep") != std::string::npos);
+    }
+    CHECK(test::positions(*fresh) == before);
+    fresh->step();  // and it steps on
+  }
+  // A world without ranges refuses one that holds a range.
+  auto no_ranges = range_pull({"sleep.ranges=false"});
+  try {
+    no_ranges->restore_checkpoint(good);
+    FAIL("a world without ranges restored one");
+  } catch (const Error& e) {
+    CHECK(std::string(e.what()).find("sleep.ranges is off") != std::string::npos);
+  }
+}
+
+TEST_CASE("sleeping ranges: a host moves the probe onto a node of the sleeping range and grasps it: awake, it lifts") {
+  auto w = range_pull();
+  for (int f = 0; f < 100; ++f) w->step();
+  const std::size_t node = 20;  // 0.2 m along the bowel, in the range asleep from its base
+  REQUIRE(w->node_asleep(node));
+  const Eigen::Vector3d at = w->node_positions().get(node);
+  const Eigen::Vector3d up(0.0, 0.0, 1.0);
+  w->set_instrument_pose(1, at + Eigen::Vector3d(0.0, 0.0, 0.024), up);  // the probe, just above its bead
+  for (int f = 0; f < 3; ++f) w->step();
+  w->set_instrument_grasp(1, true);
+  for (int f = 0; f < 3; ++f) w->step();
+  REQUIRE(w->instrument(1).grasping);
+  CHECK(w->instrument(1).grasped_node >= node - 2);
+  CHECK(w->instrument(1).grasped_node <= node + 2);
+  CHECK(!w->node_asleep(node));
+  for (int f = 1; f <= 30; ++f) {  // lifted 6 cm over half a second
+    w->set_instrument_pose(1, at + Eigen::Vector3d(0.0, 0.0, 0.024 + 0.002 * f), up);
+    w->step();
+  }
+  CHECK(!w->node_asleep(node));
+  const double lifted = w->node_positions().get(node).z() - at.z();
+  CHECK(lifted > 0.03);  // measured 4.8 cm: the grasped bead (node 21) follows the probe's 6 cm
+  CHECK(lifted < 0.065);
 }
 
 }  // namespace haustra

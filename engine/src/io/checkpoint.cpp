@@ -147,6 +147,10 @@ void visit_chords(Io& io, const WorldModel& model, State& st) {
     io(ws.chord_ready), io(ws.chord_frame), io(ws.chord_dt);
     io.list(ws.chord_pattern, model.segments[s].attachments.size() + model.segments[s].bead_count);
     io(ws.record), io(ws.gain), io(ws.base_solution), io(ws.responses);
+    // The sleeping range it was made around (decision 0127), and its base side's columns that a
+    // chord iteration leaves standing (none unless the rod may hold a range).
+    io(ws.chord_from), io(ws.chord_first);
+    io(ws.split.base_gain), io(ws.split.base_solution), io(ws.split.raw), io(ws.split.at_joint);
     // Format 4 to 6 hold here whether fast mode's prefactor (solver.prefactor, removed by decision
     // 0108) had a sweep in flight: always 0 now, and a file that had one is refused.
     bool prefactor_pending = false;
@@ -309,8 +313,11 @@ void check_indices(const WorldModel& model, const WorldState& st, const Reader& 
     const std::size_t n = model.segments[r].node_count;
     if ((h.any() || h.first != 0) && (!model.sleep.ranges || model.segments[r].split_node > 0 || h.last >= n ||
                                       h.last < h.first + kMinSleepingRange - 1 || (h.first == 0 && h.last + 1 >= n)))
-      reader.fail(fmt::format("holds nodes {} to {} of segment '{}' asleep, which has {}", h.first, h.last,
-                              model.segments[r].info.name, n));
+      reader.fail(fmt::format("holds nodes {} to {} of segment '{}' asleep, which has {}{}", h.first, h.last,
+                              model.segments[r].info.name, n,
+                              !model.sleep.ranges                ? " (this world's sleep.ranges is off)"
+                              : model.segments[r].split_node > 0 ? " (a split rod keeps its ranges awake)"
+                                                                 : ""));
   }
   for (const InstrumentState& in : st.instruments) {
     if (!in.grasping) continue;

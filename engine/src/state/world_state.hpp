@@ -151,7 +151,8 @@ struct Identities {};  // a RotationBuffer's
   X(std::vector<kernels::Pose>, base, segment, 1, kernels::Pose{}, kept, "each rod's base")                  \
   X(std::vector<kernels::Pose>, range_end, segment, 1, kernels::Pose{}, kept, "where a sleeping range's base side puts its first node (0127)") \
   X(std::vector<AttachmentState>, attachment, attachment, 1, AttachmentState{}, kept, "attachment slots")    \
-  X(std::vector<std::uint8_t>, anchor_intact, anchor, 1, 1, kept, "1 while the anchor holds, 0 once torn or cut")
+  X(std::vector<std::uint8_t>, anchor_intact, anchor, 1, 1, kept, "1 while the anchor holds, 0 once torn or cut") \
+  X(std::vector<kernels::Pose>, range_end, segment, 1, kernels::Pose{}, kept, "the base side's end (decision 0127)")
 // clang-format on
 
 #define HAUSTRA_DECLARE_BUFFER(type, name, per, width, initial, role, meaning) type name;

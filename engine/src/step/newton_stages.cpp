@@ -15,6 +15,7 @@
 #include "step/instruments.hpp"
 #include "step/newton_internal.hpp"
 #include "step/newton_stages.hpp"
+#include "step/rod_stages.hpp"
 #include "step/segment_law.hpp"
 #include "step/sleep.hpp"
 
@@ -526,8 +527,11 @@ bool join(const WorldModel& model, WorldState& state, std::size_t rod, const Sub
       return true;
     }
     // A side of a sleeping range met an unsafe pivot: the range wakes and the whole rod is solved
-    // afresh (the banded fallback solves whole rods; decision 0127).
+    // afresh (the banded fallback solves whole rods; decision 0127), with the loads the range's
+    // nodes left out while it slept (its tissue and drag) and the residual they make.
     wake_rod(model, state, rod);
+    stage_loads(model, state, rod, p);
+    stage_backward_sweep(model, state, rod);
     stage_newton_linearize(model, state, rod, p);
     condense_part(model, state, parts_of(model, rod).front(), p);
   }

@@ -47,7 +47,9 @@ void carry_chords(const std::vector<NewtonWorkspace>& from, std::size_t a, std::
   if (f.record.size() != t.record.size() || f.gain.size() != t.gain.size() || f.record.empty() ||
       f.responses.size() != t.responses.size() || f.chord_pattern.size() > t.chord_pattern.capacity())
     return;
-  t.chord_ready = f.chord_ready;
+  // Not one made around a sleeping range (decision 0127): a rebuild wakes every range, and that
+  // factorization holds no gains over its range (nor are its base side's columns carried).
+  t.chord_ready = f.chord_ready && f.chord_from == 0 && f.chord_first == 0;
   t.chord_frame = f.chord_frame;
   t.chord_dt = f.chord_dt;
   t.chord_pattern = f.chord_pattern;
