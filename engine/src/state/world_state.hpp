@@ -149,7 +149,6 @@ struct Identities {};  // a RotationBuffer's
   X(Vec3Buffer, mid_position, node, 1, Zeros{}, kept, "section midpoints (per node index, last unused)")     \
   X(RotationBuffer, mid_rotation, node, 1, Identities{}, kept, "section frames")                             \
   X(std::vector<kernels::Pose>, base, segment, 1, kernels::Pose{}, kept, "each rod's base")                  \
-  X(std::vector<kernels::Pose>, range_end, segment, 1, kernels::Pose{}, kept, "where a sleeping range's base side puts its first node (0127)") \
   X(std::vector<AttachmentState>, attachment, attachment, 1, AttachmentState{}, kept, "attachment slots")    \
   X(std::vector<std::uint8_t>, anchor_intact, anchor, 1, 1, kept, "1 while the anchor holds, 0 once torn or cut") \
   X(std::vector<kernels::Pose>, range_end, segment, 1, kernels::Pose{}, kept, "the base side's end (decision 0127)")
