@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The instruction-count gate: instructions executed by one step of `drop` (Newton; in fast mode, its
-# next step that factors afresh), one skinning of a 10,000-vertex mesh, and a render thread's acquire
-# of it skinned on the CPU or as rings for a GPU (bench/gate.cpp), counted by callgrind, against bench/baselines/instructions.txt.
+# next step that factors afresh), ten frames of bench-peers' rope (rope-frame), one skinning of a
+# 10,000-vertex mesh, and a render thread's acquire of it skinned on the CPU or as rings for a GPU
+# (bench/gate.cpp), counted by callgrind, against bench/baselines/instructions.txt.
 # Counts are repeatable for the same binary whatever else the machine is doing; the gate fails when
 # a workload executes more than TOLERANCE (3 %) over its baseline.
 #   scripts/instruction-gate.sh            check (part of `make test`)
@@ -11,7 +12,7 @@ cd "$(dirname "$0")/.."
 gate=build/release/bin/haustra_gate
 baseline=bench/baselines/instructions.txt
 tolerance_percent=3
-workloads=(drop-frame drop-fast-frame ropes-sleeping-frame range-sleeping-frame skin-10k reader-cpu-10k reader-gpu-10k)
+workloads=(drop-frame drop-fast-frame rope-frame ropes-sleeping-frame range-sleeping-frame skin-10k reader-cpu-10k reader-gpu-10k)
 [[ -x "$gate" ]] || { echo "instruction-gate: build first ($gate is missing)" >&2; exit 1; }
 command -v valgrind >/dev/null || { echo "instruction-gate: valgrind is missing (scripts/install-deps.sh installs it)" >&2; exit 1; }
 

@@ -28,7 +28,8 @@ constexpr std::size_t kModelPerNode = 16 * kDouble;
 constexpr std::size_t kStatePerNode = detail::kStateBytesPerNode;
 constexpr std::size_t kBuildPerNode = 17 * kDouble;
 // The Newton workspace besides its gains, from its list: the step, residual, law stress and
-// tangent, load stiffness (a 3×3 per node), the strains before a step (41 doubles); the banded
+// tangent, load stiffness (a 3×3 per node), the strains before a step (41 doubles), the last
+// sweep kept with its strains (18, decision 0128); the banded
 // fallback's 16×16 blocks (lower, diagonal, upper, fill), swaps and distal loads (its right-hand
 // sides, 16 doubles a column, below).
 constexpr std::size_t kNewtonPerNode = detail::kNewtonBytesPerNode;

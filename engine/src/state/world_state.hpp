@@ -227,7 +227,9 @@ enum class Allocated : std::uint8_t { always, with_band };
   X(std::vector<double>, bend_coupling, 1, 0.0, always, "… and its κ1–κ2 coupling")                         \
   X(std::vector<Eigen::Matrix3d>, force_stiffness, 1, Eigen::Matrix3d::Zero(), always, "−∂f/∂r of drag and contacts") \
   X(std::vector<double>, drag_moment_rate, 1, 0.0, always, "s/Δt")                                          \
-  X(std::vector<double>, strain_before, 4, 0.0, always, "the line search: the strains before the step")
+  X(std::vector<double>, strain_before, 4, 0.0, always, "the line search: the strains before the step")    \
+  X(std::vector<double>, swept_poses, 14, 0.0, always, "the last step's poses before the filter moved them") \
+  X(std::vector<double>, swept_strain, 4, 0.0, always, "… the strains they are the sweep of")
 // clang-format on
 #define HAUSTRA_DECLARE_NEWTON_BUFFER(type, name, width, initial, allocated, meaning) type name;
 
@@ -257,6 +259,7 @@ struct NewtonWorkspace {
   std::vector<double> responses;              // 6 × columns per response node (δφ, δr)
   std::vector<double> weights;                // per column: 1, then the coupled unknowns
   std::vector<std::uint32_t> column_of;       // an unknown's column (1 + its index) → the kernel's
+  int live_columns = 1;                       // this iteration's: 1 + the coupled unknowns (linearize's)
   HAUSTRA_NEWTON_NODE_BUFFERS(HAUSTRA_DECLARE_NEWTON_BUFFER)
   // The banded LU (the fallback when the sweep's pivots are unsafe) is allocated only for rods up to
   // kBandFallbackNodes: its blocks take ~8 KB a node.
@@ -268,6 +271,11 @@ struct NewtonWorkspace {
   kernels::Pose base_before;                                  // the line search: the base before the step
   double potential = 0.0;  // the incremental potential at the step the line search took
   bool potential_cached = false;
+  // The poses are the whole rod's sweep of its strains and base (a line search ended this substep
+  // with no range asleep); swept_poses holds such poses, of swept_strain and swept_base (the
+  // filter moves the positions; the next frame's start is their sweep again).
+  bool poses_swept = false, swept_kept = false;
+  kernels::Pose swept_base;
   int max_columns = 1;
   std::size_t singular_node = 0;  // where the condensed sweep's pivot was unsafe
   double law_scale = 1.0;         // the law's rows as condensed (stiffened where Newton's step is not a descent)

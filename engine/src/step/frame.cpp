@@ -271,7 +271,9 @@ bool World::Impl::all_converged(bool past_fixed_count) {
 void World::Impl::filter() {
   if (!model.filter.enabled) return;
   per_segment(Stage::filter, [&](std::size_t s) {
-    if (state.rod_asleep[s] == 0) detail::stage_filter(model, state, s);
+    if (state.rod_asleep[s] != 0) return;
+    detail::keep_swept_poses(model, state, s);
+    detail::stage_filter(model, state, s);
   });
 }
 

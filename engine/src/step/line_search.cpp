@@ -2,7 +2,9 @@
 // runs over all rods at once so that a split rod's parts sweep and weigh their trials in parallel:
 // begin (per rod), then per trial: sweep (per part), measure (per part), decide (per rod).
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstring>
 
 #include "haustra/kernels/rod_forward_sweep.hpp"
 #include "sched/scheduler.hpp"
@@ -83,6 +85,37 @@ void sweep_awake(const WorldModel& model, WorldState& state, std::size_t rod) {
   }
 }
 
+// A whole rod's poses as the sweep writes them, 14 arrays: node positions and rotations (n each),
+// section midpoints' positions and rotations (n − 1 each).
+std::array<std::span<double>, 14> pose_arrays(const kernels::RodPoses<double>& p) {
+  return {p.node_position.x, p.node_position.y, p.node_position.z, p.node_rotation.w, p.node_rotation.x,
+          p.node_rotation.y, p.node_rotation.z, p.mid_position.x,  p.mid_position.y,  p.mid_position.z,
+          p.mid_rotation.w,  p.mid_rotation.x,  p.mid_rotation.y,  p.mid_rotation.z};
+}
+
+bool same_bits(std::span<const double> a, std::span<const double> b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size_bytes()) == 0;
+}
+
+bool same_pose(const kernels::Pose& a, const kernels::Pose& b) {
+  return same_bits({a.rotation.coeffs().data(), 4}, {b.rotation.coeffs().data(), 4}) &&
+         same_bits({a.position.data(), 3}, {b.position.data(), 3});
+}
+
+// The start of a line search (α = 0) from the kept sweep where the strains and base are bit for bit
+// those it was made of: the same bits as sweeping them again. False: sweep.
+bool restore_swept(const WorldModel& model, WorldState& state, std::size_t rod) {
+  const NewtonWorkspace& ws = state.newton[rod];
+  if (!ws.swept_kept || state.held_range(rod).any() || model.segments[rod].split_node > 0) return false;
+  const SegmentViews v = segment_views(model, state, rod);
+  if (!same_bits(v.strain.data, ws.swept_strain) || !same_pose(state.now.base[rod], ws.swept_base)) return false;
+  const std::size_t n = v.poses.node_count();
+  const std::array<std::span<double>, 14> to = pose_arrays(v.poses);
+  for (std::size_t i = 0; i < to.size(); ++i)
+    std::copy_n(ws.swept_poses.begin() + static_cast<std::ptrdiff_t>(i * n), to[i].size(), to[i].begin());
+  return true;
+}
+
 // The part's share of the frame's incremental potential at the current strains and poses: the
 // law's energy (elastic and viscous: ½ Δqᵀ A Δq about its target) over its sections, and at its
 // nodes weight and host forces, the medium's drag (c/2Δt |r − r_start|², s/2Δt |turn|²), the
@@ -98,24 +131,28 @@ double part_potential(const WorldModel& model, const WorldState& state, std::siz
   const kernels::StrainLawCoefficients coefficients = law_of(seg, p.dt);
   const std::array<double, 4> a = law_total(seg, p.dt);
   const std::size_t section_end = std::min(r.end, n - 1);
+  // Hooke: ½ a (q − q*)ᵀ M (q − q*) per component; EXP2 bending and stretch: their viscous part
+  // here, the elastic part below. The four components in one pass over the sections, each node's
+  // q − q* taken once (each component's sum in the order of its sections, as one by one).
+  std::array<double, 4> weight{}, quad{}, x0{};
+  std::array<const double*, 4> centre{};
   for (std::size_t comp = 0; comp < 4; ++comp) {
     const bool exp2_elastic = seg.exp2 && comp != 2;
-    // Hooke: ½ a (q − q*)ᵀ M (q − q*); EXP2 bending and stretch: their viscous part here, the
-    // elastic part below.
-    const double weight = exp2_elastic ? coefficients.rate[comp] : a[comp];
-    if (weight == 0.0) continue;
-    auto dq = [&](std::size_t k) {
-      const double centre = exp2_elastic ? state.strain_substep_start[4 * (off + k) + comp] : ws.target[4 * k + comp];
-      return q[4 * k + comp] - centre;
-    };
-    double quad = 0.0;
-    for (std::size_t k = r.first; k < section_end; ++k) {
-      const double h = model.section_length[off + k];
-      const double x0 = dq(k), x1 = dq(k + 1);
-      quad += h / 3.0 * (x0 * x0 + x1 * x1 + x0 * x1);
-    }
-    law += 0.5 * weight * quad;
+    weight[comp] = exp2_elastic ? coefficients.rate[comp] : a[comp];
+    centre[comp] = exp2_elastic ? state.strain_substep_start.data() + 4 * off : ws.target.data();
   }
+  if (r.first < section_end)
+    for (std::size_t comp = 0; comp < 4; ++comp) x0[comp] = q[4 * r.first + comp] - centre[comp][4 * r.first + comp];
+  for (std::size_t k = r.first; k < section_end; ++k) {
+    const double third = model.section_length[off + k] / 3.0;
+    for (std::size_t comp = 0; comp < 4; ++comp) {
+      const double x1 = q[4 * (k + 1) + comp] - centre[comp][4 * (k + 1) + comp];
+      quad[comp] += third * (x0[comp] * x0[comp] + x1 * x1 + x0[comp] * x1);
+      x0[comp] = x1;
+    }
+  }
+  for (std::size_t comp = 0; comp < 4; ++comp)
+    if (weight[comp] != 0.0) law += 0.5 * weight[comp] * quad[comp];
   if (seg.exp2) {  // (torsion stays Hooke's: its elastic part is in the quadratic above)
     kernels::NodalLaw nl;
     nl.stiffness = seg.stiffness;
@@ -315,6 +352,7 @@ void finish(const WorldModel& model, WorldState& state, std::size_t rod, const C
   LineSearch& ls = ws.search;
   ls.active = false;
   ws.potential_cached = accepted;
+  ws.poses_swept = model.segments[rod].split_node == 0 && !state.held_range(rod).any();
   double alpha = ls.alpha;
   if (!accepted) {  // stay: with no change the segment counts as converged, so the guard is told
     alpha = 0.0;
@@ -407,7 +445,10 @@ void stage_newton_search_sweep(const WorldModel& model, WorldState& state, const
   NewtonSplit& sp = state.newton[rod].split;
   const std::size_t m = sp.joint;
   switch (part.kind) {
-    case SolvePartKind::whole: sweep_awake(model, state, rod); break;
+    case SolvePartKind::whole:
+      if (!state.newton[rod].search.measuring_start || !restore_swept(model, state, rod))
+        sweep_awake(model, state, rod);
+      break;
     case SolvePartKind::base:
       kernels::rod_forward_sweep(state.now.base[rod], v.section_length.first(m), v.strain.subview(0, m + 1),
                                  v.poses.subview(0, m + 1));
@@ -503,6 +544,20 @@ void stage_newton_search_decide(const WorldModel& model, WorldState& state, std:
     return;
   }
   first_trial(model, state, rod, false);
+}
+
+void keep_swept_poses(const WorldModel& model, WorldState& state, std::size_t rod) {
+  if (state.newton.empty()) return;
+  NewtonWorkspace& ws = state.newton[rod];
+  ws.swept_kept = ws.poses_swept;
+  if (!ws.swept_kept) return;
+  const SegmentViews v = segment_views(model, state, rod);
+  const std::size_t n = v.poses.node_count();
+  const std::array<std::span<double>, 14> from = pose_arrays(v.poses);
+  for (std::size_t i = 0; i < from.size(); ++i)
+    std::copy(from[i].begin(), from[i].end(), ws.swept_poses.begin() + static_cast<std::ptrdiff_t>(i * n));
+  std::copy(v.strain.data.begin(), v.strain.data.end(), ws.swept_strain.begin());
+  ws.swept_base = state.now.base[rod];
 }
 
 void stage_line_search(const WorldModel& model, WorldState& state, Scheduler& scheduler, const SubstepParameters& p) {

@@ -465,7 +465,7 @@ void condense_part(const WorldModel& model, WorldState& state, const SolvePart& 
   NewtonSplit& sp = ws.split;
   const kernels::RodLinearization lin = linearization_at(model, state, rod, p);
   const kernels::StrainView<const double> residual{ws.residual};
-  const int cols = coupled_unknowns(model, state, rod).columns();
+  const int cols = state.newton[rod].live_columns;
   const std::size_t last = model.segments[rod].node_count - 1;
   switch (part.kind) {
     case SolvePartKind::whole:
@@ -519,9 +519,9 @@ bool join(const WorldModel& model, WorldState& state, std::size_t rod, const Sub
   NewtonWorkspace& ws = state.newton[rod];
   NewtonSplit& sp = ws.split;
   if (state.held_range(rod).any()) {
-    const bool held = ws.ok && sp.base_ok &&
-                      (!state.held_range(rod).base_side() ||
-                       hold_base_side(model, state, rod, coupled_unknowns(model, state, rod).columns()));
+    const bool held =
+        ws.ok && sp.base_ok &&
+        (!state.held_range(rod).base_side() || hold_base_side(model, state, rod, state.newton[rod].live_columns));
     if (held) {
       ws.band = false;
       return true;
@@ -561,7 +561,7 @@ void responses_half(const WorldModel& model, WorldState& state, std::size_t rod,
   NewtonWorkspace& ws = state.newton[rod];
   NewtonSplit& sp = ws.split;
   if (ws.band || ws.response_nodes.empty()) return;
-  const int cols = coupled_unknowns(model, state, rod).columns();
+  const int cols = state.newton[rod].live_columns;
   const auto per_node = 6 * static_cast<std::size_t>(cols);
   if (sp.joint == 0) {
     const kernels::RodLinearization lin = linearization_at(model, state, rod, p);
@@ -624,7 +624,7 @@ void step_part(const WorldModel& model, WorldState& state, const SolvePart& part
   NewtonSplit& sp = ws.split;
   if (ws.band) return;
   const kernels::RodLinearization lin = linearization_at(model, state, rod, p);
-  const int cols = coupled_unknowns(model, state, rod).columns();
+  const int cols = state.newton[rod].live_columns;
   const kernels::StrainView<double> dq{ws.step_q};
   switch (part.kind) {
     case SolvePartKind::whole:
@@ -670,6 +670,7 @@ void stage_newton_linearize(const WorldModel& model, WorldState& state, std::siz
   ws.law_scale = 1.0;
   linearize(model, state, rod, p);
   const Coupled c = coupled_unknowns(model, state, rod);
+  ws.live_columns = c.columns();
   unit_loads(c, ws);
   ws.chord = false;
   if (!ws.record.empty()) {

@@ -16,6 +16,9 @@ void stage_line_search(const WorldModel& model, WorldState& state, Scheduler& sc
 // Rods that neither the condensed sweep nor the banded LU could solve end their iterations here:
 // the guard reports them.
 void end_unsolvable(const WorldModel& model, WorldState& state);
+// Before the filter moves a rod's positions: its poses kept where a line search left them as the
+// sweep of its strains, for the next line search's start to take instead of sweeping them again.
+void keep_swept_poses(const WorldModel& model, WorldState& state, std::size_t rod);
 
 // The condense stage. Per rod: the implicit law linearized at the current iterate, the coupled
 // unknowns' unit loads (and a split rod's parts' share of them). Per solve part: the system

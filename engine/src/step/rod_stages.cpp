@@ -624,6 +624,7 @@ void stage_snapshot(const WorldModel& model, WorldState& state, std::size_t segm
   state.base_substep_start[segment] = state.now.base[segment];
   state.segment_converged[segment] = state.rod_asleep[segment];  // a sleeping rod is not solved (0119)
   if (newton) state.newton[segment].stalled = false;
+  if (!state.newton.empty()) state.newton[segment].poses_swept = false;  // until a line search sweeps
   state.segment_solvable[segment] = 1;
 }
 
