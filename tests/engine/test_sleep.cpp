@@ -194,7 +194,8 @@ TEST_CASE("sleeping ranges: a probe touching the sleeping range wakes it, and th
   CHECK((w->node_positions().get(25) - touched).z() < -1e-4);  // pressed into the floor (measured 0.38 mm)
 }
 
-TEST_CASE("sleeping ranges: cutting the tissue of a sleeping node wakes the nodes round it, which sleep again once calm") {
+TEST_CASE(
+    "sleeping ranges: cutting the tissue of a sleeping node wakes the nodes round it, which sleep again once calm") {
   auto w = range_pull();
   for (int f = 0; f < 200; ++f) w->step();
   REQUIRE(w->node_asleep(20));
