@@ -5,10 +5,12 @@ Usage: haustra_bench_anatomy --benchmark_filter=BM_Abdomen --benchmark_out=abdom
            --benchmark_out_format=json
        scripts/abdomen-table.py abdomen.json
 Prints the tail table (median, p99, p99.9, max) and the stage table (each stage's own time, µs a
-frame on average), one column per run, in the order the benchmark ran them.
+frame on average), one column per run, in the order the benchmark ran them. With
+--benchmark_repetitions, each number is the median over the repetitions.
 """
 import json
 import re
+import statistics
 import sys
 
 SOLVER = {"0": "Newton, 2 iterations", "2": "fast mode"}
@@ -22,12 +24,16 @@ PIPELINE = ["instruments", "snapshot", "collide", "contacts", "proxy", "loads", 
 
 
 def main(path):
-    runs = []
+    repeats = {}
     for b in json.load(open(path))["benchmarks"]:
         m = re.search(r"solver:(\d)/reader:(\d)/sleep:(\d)", b["name"])
         if m is None or b.get("run_type") == "aggregate":
             continue
-        runs.append((m.groups(), b))
+        repeats.setdefault(m.groups(), []).append(b)
+    runs = []
+    for key, bs in repeats.items():
+        numbers = {k for b in bs for k, v in b.items() if isinstance(v, (int, float))}
+        runs.append((key, {k: statistics.median(b[k] for b in bs if k in b) for k in numbers}))
     print("| solver | reader | sleeping | median ms | p99 ms | p99.9 ms | max ms | nodes asleep at the end |")
     print("|---|---|---|---|---|---|---|---|")
     for (solver, reader, sleep), b in runs:
